@@ -1,0 +1,21 @@
+# Core tests link the ROS-free libraries only.
+set(CORE_TESTS
+  test_input_error
+  test_keyframe_selector
+  test_hog_descriptor
+  test_keyframe_database
+  test_temporal_consistency
+  test_loop_detector
+  test_loop_detector_sim
+  test_bounded_queue
+  test_shipped_config
+  test_sim)
+foreach(name ${CORE_TESTS})
+  catkin_add_gtest(${name} test/core/${name}.cpp)
+  target_link_libraries(${name} ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_sim
+    GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE
+    PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+endforeach()
+
+include(cmake/ros_tests.cmake OPTIONAL)

@@ -1,0 +1,58 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace landmark_loop_closure {
+
+/// What a descriptor extractor says about one image.
+struct ImageDescriptor {
+  /// Whole-image vector, L2-normalised; the database shortlists by its cosine similarity.
+  std::vector<float> global;
+  /// Optional per-landmark descriptors: one box (image pixels of the working resolution) and one
+  /// row of `landmark_features` (CV_32F, L2-normalised rows) per landmark.
+  std::vector<cv::Rect2f> landmark_boxes;
+  cv::Mat landmark_features;
+
+  bool empty() const { return global.empty(); }
+  /// Heap bytes held by this descriptor.
+  size_t bytes() const;
+};
+
+/// Cosine similarity of two L2-normalised vectors of equal length (their dot product).
+double cosineSimilarity(const std::vector<float>& a, const std::vector<float>& b);
+
+/// Turns an image into an ImageDescriptor and compares two of them.
+/// Implementations are immutable after construction: describe() and similarity() may run
+/// concurrently.
+class DescriptorExtractor {
+ public:
+  virtual ~DescriptorExtractor() = default;
+
+  virtual std::string name() const = 0;
+  /// Length of ImageDescriptor::global.
+  virtual int globalDimension() const = 0;
+  /// `image`: 8-bit grey (CV_8UC1), any size; implementations resize to their working size.
+  virtual ImageDescriptor describe(const cv::Mat& image) const = 0;
+  /// Final similarity, higher is more alike. The default is the cosine of the global vectors;
+  /// landmark descriptors override it to re-rank a shortlist.
+  virtual double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const;
+  /// True when similarity() is more than the global cosine, so re-ranking is worth its time.
+  virtual bool reranks() const { return false; }
+};
+
+/// Parameters that choose and shape the descriptor.
+struct DescriptorOptions {
+  std::string type = "hog";  ///< "hog": whole-image HOG with CALC's settings (3648 dims).
+
+  std::string validate() const;
+};
+
+/// Builds the extractor named by options.type; throws std::invalid_argument for an unknown type.
+std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
+    const DescriptorOptions& options);
+
+}  // namespace landmark_loop_closure

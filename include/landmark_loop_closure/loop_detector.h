@@ -1,0 +1,141 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/input_error.h"
+#include "landmark_loop_closure/keyframe_database.h"
+#include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/temporal_consistency.h"
+
+namespace landmark_loop_closure {
+
+struct AcceptanceOptions {
+  double min_score = 0.7;        ///< Final similarity a candidate needs (cosine, in [-1, 1]).
+  int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
+  int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
+
+  std::string validate() const;
+};
+
+struct LoopDetectorOptions {
+  InputLimits input;
+  KeyframeSelectorOptions keyframe;
+  DescriptorOptions descriptor;
+  DatabaseOptions database;
+  AcceptanceOptions acceptance;
+  bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
+
+  /// Empty when valid, otherwise every problem, one per line.
+  std::string validate() const;
+};
+
+/// Outcome of the cheap first step for every frame.
+struct FrameAdmission {
+  std::optional<InputError> error;  ///< Set: refused, nothing changed.
+  Selection selection{SelectionVerdict::kRedundant};
+  uint64_t keyframe_id = 0;  ///< Id reserved for this frame when it is a keyframe.
+
+  bool isKeyframe() const { return !error && selection.verdict == SelectionVerdict::kKeyframe; }
+};
+
+enum class CandidateVerdict {
+  kAccepted,
+  kBelowThreshold,       ///< score < min_score.
+  kAwaitingConsistency,  ///< Above the threshold, fewer than k consistent keyframes so far.
+  kOutscored,            ///< Consistent, but another candidate of this query scored higher.
+};
+
+const char* toString(CandidateVerdict verdict);
+
+struct CandidateReport {
+  uint64_t match_id = 0;
+  double match_stamp = 0.0;
+  double global_score = 0.0;  ///< Shortlist stage: cosine of the global descriptors.
+  double score = 0.0;         ///< Final stage: the extractor's similarity (re-ranked).
+  int consistent_keyframes = 0;
+  CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
+};
+
+struct LoopClosure {
+  uint64_t query_id = 0;
+  double query_stamp = 0.0;
+  Pose query_pose;
+  uint64_t match_id = 0;
+  double match_stamp = 0.0;
+  Pose match_pose;
+  double global_score = 0.0;
+  double score = 0.0;
+  int consistent_keyframes = 0;
+};
+
+struct StageTimes {
+  double describe_ms = 0.0;
+  double query_ms = 0.0;
+  double rerank_ms = 0.0;
+  double totalMs() const { return describe_ms + query_ms + rerank_ms; }
+};
+
+struct KeyframeResult {
+  std::optional<InputError> error;  ///< Set: the keyframe was refused and not stored.
+  uint64_t keyframe_id = 0;
+  QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
+  std::optional<LoopClosure> loop;          ///< The accepted loop, if any.
+  std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
+  StageTimes times;
+};
+
+struct FrameResult {
+  FrameAdmission admission;
+  std::optional<KeyframeResult> keyframe;  ///< Present when the frame was a keyframe.
+};
+
+/// Keyframe selection, description, database search and loop acceptance.
+///
+/// Threading: admit() is cheap and meant for the thread that receives frames; addKeyframe() does
+/// the heavy work and is meant for one worker thread. They touch disjoint state, so one thread
+/// may call admit() while another runs addKeyframe(). process() does both, for offline use.
+class LoopDetector {
+ public:
+  /// Throws std::invalid_argument when options.validate() reports problems.
+  LoopDetector(const LoopDetectorOptions& options,
+               std::shared_ptr<const DescriptorExtractor> extractor);
+
+  /// Validates stamp, pose and image shape, then applies the keyframe rule.
+  FrameAdmission admit(double stamp, const Pose& pose, int image_width, int image_height,
+                       int image_cv_type);
+
+  /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
+  /// `image` may be grey, BGR or BGRA, 8 or 16 bit.
+  KeyframeResult addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
+                             const cv::Mat& image);
+
+  FrameResult process(double stamp, const Pose& pose, const cv::Mat& image);
+
+  const KeyframeDatabase& database() const { return database_; }
+  const LoopDetectorOptions& options() const { return options_; }
+  const DescriptorExtractor& extractor() const { return *extractor_; }
+
+ private:
+  void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query);
+
+  LoopDetectorOptions options_;
+  std::shared_ptr<const DescriptorExtractor> extractor_;
+
+  // Admission state (receiving thread).
+  KeyframeSelector selector_;
+  std::optional<cv::Size> image_size_;
+  uint64_t next_keyframe_id_ = 0;
+
+  // Search state (worker thread).
+  KeyframeDatabase database_;
+  TemporalConsistency consistency_;
+};
+
+}  // namespace landmark_loop_closure

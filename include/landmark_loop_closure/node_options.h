@@ -1,0 +1,31 @@
+#pragma once
+
+#include <string>
+
+#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/parameter_source.h"
+
+namespace landmark_loop_closure {
+
+/// Everything the nodelet reads from its private parameters. Each key and default is documented
+/// once, in config/default.yaml; a test checks that file against these defaults.
+struct NodeOptions {
+  std::string pose_source = "odom";       ///< "odom": nav_msgs/Odometry synced with images; "tf".
+  std::string odom_frame = "odom";        ///< tf mode: fixed frame of the lookup.
+  std::string base_frame = "base_link";   ///< tf mode: robot frame whose pose is looked up.
+  double tf_timeout = 0.2;                ///< tf mode: seconds to wait for a transform, then drop.
+  int sync_queue_size = 30;               ///< odom mode: ApproximateTime queue per topic.
+  double sync_slop = 0.05;                ///< odom mode: seconds an image and odometry may differ.
+  int worker_queue_size = 8;              ///< Keyframes waiting for the worker thread.
+  double input_timeout = 5.0;             ///< Seconds without input before diagnostics warn.
+  bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
+  LoopDetectorOptions detector;
+
+  /// Empty when valid, otherwise every problem, one per line.
+  std::string validate() const;
+};
+
+/// Reads every option; absent keys keep their defaults.
+void readNodeOptions(OptionReader* reader, NodeOptions* options);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,78 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace landmark_loop_closure {
+namespace sim {
+
+/// A planar pose: x, y in metres, yaw in radians (x forward, y left, z up).
+struct Pose2D {
+  double x = 0.0;
+  double y = 0.0;
+  double yaw = 0.0;
+};
+
+struct CameraModel {
+  int width = 320;
+  int height = 240;
+  double focal_px = 200.0;  ///< Same in x and y; principal point at the image centre.
+  double height_m = 1.2;    ///< Camera height above the floor.
+};
+
+struct Lighting {
+  double gain = 1.0;
+  double offset = 0.0;
+  double noise_sigma = 2.0;  ///< Grey levels of Gaussian noise.
+};
+
+/// A closed corridor (a rounded rectangle) with procedurally textured walls, rendered by ray
+/// casting. Textures depend only on the seed, so a place looks the same on every lap up to the
+/// viewpoint and lighting, and different places look different (with a few repeated posters, so
+/// that false loops are possible).
+class CorridorWorld {
+ public:
+  struct Options {
+    double length = 24.0;  ///< Centre line: outer extent in x (metres).
+    double width = 14.0;   ///< Centre line: outer extent in y.
+    double corner_radius = 3.0;
+    double corridor_width = 3.0;
+    double wall_height = 2.6;
+    double pixels_per_metre = 80.0;
+    uint32_t seed = 7;
+  };
+
+  explicit CorridorWorld(const Options& options);
+  CorridorWorld() : CorridorWorld(Options{}) {}
+
+  /// Length of one lap along the centre line.
+  double lapLength() const { return centre_length_; }
+  /// Pose at arc length s (wrapped to one lap), moved `lateral` metres to the left of the centre
+  /// line, facing along it.
+  Pose2D poseAt(double s, double lateral) const;
+
+  /// Renders an 8-bit grey image from a camera at `pose` looking along its x axis.
+  cv::Mat render(const Pose2D& pose, const CameraModel& camera, const Lighting& lighting,
+                 uint32_t noise_seed) const;
+
+ private:
+  struct Segment {
+    Eigen::Vector2d a, b;
+    int wall = 0;          ///< Index into wall_textures_.
+    double u_start = 0.0;  ///< Texture coordinate (metres along the wall) at a.
+  };
+
+  Eigen::Vector2d centreAt(double s, Eigen::Vector2d* tangent) const;
+  void buildWall(int wall, double offset);
+
+  Options options_;
+  double centre_length_ = 0.0;
+  std::vector<Segment> segments_;
+  std::vector<cv::Mat> wall_textures_;
+};
+
+}  // namespace sim
+}  // namespace landmark_loop_closure

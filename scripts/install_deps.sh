@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages the package needs to build, test and run the demo.
+# Idempotent: does nothing when everything is present. Needs root (or sudo) only to install.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake catkin ros-core rosbash ros-message-generation ros-message-runtime
+  libroscpp-dev libnodeletlib-dev libnodeletlib-tools libpluginlib-dev
+  libcv-bridge-dev libimage-transport-dev libmessage-filters-dev
+  libtf2-ros-dev libtf2-eigen-dev libsensor-msgs-dev libnav-msgs-dev libvisualization-msgs-dev
+  libdiagnostic-updater-dev libdiagnostic-msgs-dev ros-diagnostic-msgs
+  ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
+  librosbag-dev rosbag librostest-dev python3-rostest python3-roslaunch
+  libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev
+)
+
+missing=()
+for package in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$package")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "install_deps: installing ${#missing[@]} packages: ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends -o DPkg::Lock::Timeout=900 "${missing[@]}"

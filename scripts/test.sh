@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds, and runs every test (gtest and rostest) with ctest.
+# Exits non-zero when any test fails.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install_deps.sh
+scripts/build.sh
+export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:11311
+# The devel space puts this package on ROS_PACKAGE_PATH for rostest and roslaunch checks.
+set +u
+source _build/devel/setup.bash
+set -u
+cd _build
+ctest --output-on-failure
+catkin_test_results test_results

@@ -1,0 +1,73 @@
+#include "landmark_loop_closure/node_options.h"
+
+#include <algorithm>
+#include <sstream>
+
+namespace landmark_loop_closure {
+
+bool OptionReader::isKnown(const std::string& key) const {
+  return std::any_of(records_.begin(), records_.end(),
+                     [&key](const ParameterRecord& record) { return record.key == key; });
+}
+
+std::string NodeOptions::validate() const {
+  std::ostringstream errors;
+  if (pose_source != "odom" && pose_source != "tf") {
+    errors << "pose_source must be 'odom' or 'tf' (got '" << pose_source << "')\n";
+  }
+  if (pose_source == "tf") {
+    if (odom_frame.empty()) errors << "odom_frame must not be empty when pose_source is tf\n";
+    if (base_frame.empty()) errors << "base_frame must not be empty when pose_source is tf\n";
+    if (odom_frame == base_frame && !odom_frame.empty()) {
+      errors << "odom_frame and base_frame are both '" << odom_frame << "'\n";
+    }
+  }
+  if (!(tf_timeout >= 0.0)) errors << "tf_timeout must be >= 0 (got " << tf_timeout << ")\n";
+  if (sync_queue_size < 1)
+    errors << "sync_queue_size must be >= 1 (got " << sync_queue_size << ")\n";
+  if (!(sync_slop > 0.0)) errors << "sync_slop must be > 0 (got " << sync_slop << ")\n";
+  if (worker_queue_size < 1) {
+    errors << "worker_queue_size must be >= 1 (got " << worker_queue_size << ")\n";
+  }
+  if (!(input_timeout > 0.0)) errors << "input_timeout must be > 0 (got " << input_timeout << ")\n";
+  errors << detector.validate();
+  return errors.str();
+}
+
+void readNodeOptions(OptionReader* reader, NodeOptions* options) {
+  reader->read("pose_source", &options->pose_source);
+  reader->read("odom_frame", &options->odom_frame);
+  reader->read("base_frame", &options->base_frame);
+  reader->read("tf_timeout", &options->tf_timeout);
+  reader->read("sync_queue_size", &options->sync_queue_size);
+  reader->read("sync_slop", &options->sync_slop);
+  reader->read("worker_queue_size", &options->worker_queue_size);
+  reader->read("input_timeout", &options->input_timeout);
+  reader->read("publish_rejected_markers", &options->publish_rejected_markers);
+
+  LoopDetectorOptions& detector = options->detector;
+  reader->read("input/min_image_side", &detector.input.min_image_side);
+  reader->read("input/max_image_pixels", &detector.input.max_image_pixels);
+  reader->read("input/quaternion_norm_tolerance", &detector.input.quaternion_norm_tolerance);
+
+  reader->read("keyframe/translation_weight", &detector.keyframe.translation_weight);
+  reader->read("keyframe/rotation_weight", &detector.keyframe.rotation_weight);
+  reader->read("keyframe/min_motion", &detector.keyframe.min_motion);
+  reader->read("keyframe/max_motion", &detector.keyframe.max_motion);
+  reader->read("keyframe/max_time_gap", &detector.keyframe.max_time_gap);
+  reader->read("keyframe/jump_reanchor_frames", &detector.keyframe.jump_reanchor_frames);
+
+  reader->read("descriptor/type", &detector.descriptor.type);
+  reader->read("descriptor/keep_thumbnails", &detector.keep_thumbnails);
+
+  reader->read("database/exclude_recent_keyframes", &detector.database.exclude_recent_keyframes);
+  reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);
+  reader->read("database/min_size", &detector.database.min_size);
+  reader->read("database/top_k", &detector.database.top_k);
+
+  reader->read("acceptance/min_score", &detector.acceptance.min_score);
+  reader->read("acceptance/consistent_keyframes", &detector.acceptance.consistent_keyframes);
+  reader->read("acceptance/index_window", &detector.acceptance.index_window);
+}
+
+}  // namespace landmark_loop_closure

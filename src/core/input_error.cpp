@@ -1,0 +1,83 @@
+#include "landmark_loop_closure/input_error.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace landmark_loop_closure {
+
+const char* toString(InputErrorCode code) {
+  switch (code) {
+    case InputErrorCode::kEmptyImage:
+      return "empty_image";
+    case InputErrorCode::kImageTooSmall:
+      return "image_too_small";
+    case InputErrorCode::kImageTooLarge:
+      return "image_too_large";
+    case InputErrorCode::kImageSizeChanged:
+      return "image_size_changed";
+    case InputErrorCode::kUnsupportedImageType:
+      return "unsupported_image_type";
+    case InputErrorCode::kNonFiniteStamp:
+      return "non_finite_stamp";
+    case InputErrorCode::kStampNotIncreasing:
+      return "stamp_not_increasing";
+    case InputErrorCode::kNonFinitePose:
+      return "non_finite_pose";
+    case InputErrorCode::kNonUnitQuaternion:
+      return "non_unit_quaternion";
+  }
+  return "unknown";
+}
+
+std::optional<InputError> checkImage(int width, int height, int cv_type,
+                                     const InputLimits& limits) {
+  std::ostringstream message;
+  if (width <= 0 || height <= 0) {
+    message << "image is empty (" << width << "x" << height << ")";
+    return InputError{InputErrorCode::kEmptyImage, message.str()};
+  }
+  if (width < limits.min_image_side || height < limits.min_image_side) {
+    message << "image " << width << "x" << height << " is smaller than the minimum side of "
+            << limits.min_image_side << " px";
+    return InputError{InputErrorCode::kImageTooSmall, message.str()};
+  }
+  if (static_cast<long long>(width) * height > limits.max_image_pixels) {
+    message << "image " << width << "x" << height << " has more than " << limits.max_image_pixels
+            << " pixels";
+    return InputError{InputErrorCode::kImageTooLarge, message.str()};
+  }
+  const int depth = CV_MAT_DEPTH(cv_type);
+  const int channels = CV_MAT_CN(cv_type);
+  if ((depth != CV_8U && depth != CV_16U) || (channels != 1 && channels != 3 && channels != 4)) {
+    message << "image type " << cv::typeToString(cv_type)
+            << " is not 8- or 16-bit with 1, 3 or 4 channels";
+    return InputError{InputErrorCode::kUnsupportedImageType, message.str()};
+  }
+  return std::nullopt;
+}
+
+std::optional<InputError> checkPose(const Pose& pose, const InputLimits& limits) {
+  const Eigen::Vector4d q = pose.orientation.coeffs();
+  if (!pose.position.allFinite() || !q.allFinite()) {
+    std::ostringstream message;
+    message << "pose has non-finite values: position (" << pose.position.transpose()
+            << "), quaternion xyzw (" << q.transpose() << ")";
+    return InputError{InputErrorCode::kNonFinitePose, message.str()};
+  }
+  const double norm = q.norm();
+  if (std::abs(norm - 1.0) > limits.quaternion_norm_tolerance) {
+    std::ostringstream message;
+    message << "pose quaternion has norm " << norm << ", expected 1 +- "
+            << limits.quaternion_norm_tolerance;
+    return InputError{InputErrorCode::kNonUnitQuaternion, message.str()};
+  }
+  return std::nullopt;
+}
+
+Pose normalisedPose(const Pose& pose) {
+  Pose result = pose;
+  result.orientation.normalize();
+  return result;
+}
+
+}  // namespace landmark_loop_closure

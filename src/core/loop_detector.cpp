@@ -1,0 +1,228 @@
+#include "landmark_loop_closure/loop_detector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "landmark_loop_closure/hog_descriptor.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+constexpr int kThumbnailWidth = 160;
+constexpr int kThumbnailHeight = 120;
+
+}  // namespace
+
+std::string AcceptanceOptions::validate() const {
+  std::ostringstream errors;
+  if (!(min_score >= -1.0 && min_score <= 1.0)) {
+    errors << "acceptance/min_score must be in [-1, 1] (got " << min_score << ")\n";
+  }
+  if (consistent_keyframes < 1) {
+    errors << "acceptance/consistent_keyframes must be >= 1 (got " << consistent_keyframes << ")\n";
+  }
+  if (index_window < 0) {
+    errors << "acceptance/index_window must be >= 0 (got " << index_window << ")\n";
+  }
+  return errors.str();
+}
+
+std::string LoopDetectorOptions::validate() const {
+  std::ostringstream errors;
+  if (input.min_image_side < 1) {
+    errors << "input/min_image_side must be >= 1 (got " << input.min_image_side << ")\n";
+  }
+  if (input.max_image_pixels <
+      static_cast<long long>(input.min_image_side) * input.min_image_side) {
+    errors << "input/max_image_pixels (" << input.max_image_pixels
+           << ") is smaller than a minimum-size image\n";
+  }
+  if (!(input.quaternion_norm_tolerance > 0.0 && input.quaternion_norm_tolerance < 1.0)) {
+    errors << "input/quaternion_norm_tolerance must be in (0, 1) (got "
+           << input.quaternion_norm_tolerance << ")\n";
+  }
+  errors << keyframe.validate() << descriptor.validate() << database.validate()
+         << acceptance.validate();
+  return errors.str();
+}
+
+const char* toString(CandidateVerdict verdict) {
+  switch (verdict) {
+    case CandidateVerdict::kAccepted:
+      return "accepted";
+    case CandidateVerdict::kBelowThreshold:
+      return "below_threshold";
+    case CandidateVerdict::kAwaitingConsistency:
+      return "awaiting_consistency";
+    case CandidateVerdict::kOutscored:
+      return "outscored";
+  }
+  return "unknown";
+}
+
+LoopDetector::LoopDetector(const LoopDetectorOptions& options,
+                           std::shared_ptr<const DescriptorExtractor> extractor)
+    : options_(options),
+      extractor_(std::move(extractor)),
+      selector_(options.keyframe),
+      database_(extractor_ ? extractor_->globalDimension() : 1),
+      consistency_(options.acceptance.index_window) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw std::invalid_argument(problems);
+  if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
+}
+
+FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_width,
+                                   int image_height, int image_cv_type) {
+  FrameAdmission admission;
+  if (!std::isfinite(stamp)) {
+    admission.error = InputError{InputErrorCode::kNonFiniteStamp, "stamp is not finite"};
+    return admission;
+  }
+  if (selector_.hasKeyframe() && stamp <= selector_.lastKeyframeStamp()) {
+    std::ostringstream message;
+    message.precision(17);
+    message << "stamp " << stamp << " s is not after the last keyframe's "
+            << selector_.lastKeyframeStamp() << " s";
+    admission.error = InputError{InputErrorCode::kStampNotIncreasing, message.str()};
+    return admission;
+  }
+  if ((admission.error = checkPose(pose, options_.input))) return admission;
+  if ((admission.error = checkImage(image_width, image_height, image_cv_type, options_.input))) {
+    return admission;
+  }
+  const cv::Size size(image_width, image_height);
+  if (image_size_ && *image_size_ != size) {
+    std::ostringstream message;
+    message << "image size " << image_width << "x" << image_height
+            << " differs from the first image's " << image_size_->width << "x"
+            << image_size_->height;
+    admission.error = InputError{InputErrorCode::kImageSizeChanged, message.str()};
+    return admission;
+  }
+  image_size_ = size;
+  admission.selection = selector_.select(stamp, normalisedPose(pose));
+  if (admission.selection.verdict == SelectionVerdict::kKeyframe) {
+    admission.keyframe_id = next_keyframe_id_++;
+  }
+  return admission;
+}
+
+KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
+                                         const cv::Mat& image) {
+  KeyframeResult result;
+  result.keyframe_id = keyframe_id;
+  if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) {
+    result.error = std::move(error);
+    return result;
+  }
+  if (!database_.empty() && keyframe_id <= database_.at(database_.size() - 1).id) {
+    result.error = InputError{
+        InputErrorCode::kStampNotIncreasing,
+        "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
+    return result;
+  }
+
+  const auto describe_start = Clock::now();
+  ImageDescriptor descriptor = extractor_->describe(image);
+  result.times.describe_ms = millisecondsSince(describe_start);
+
+  const auto query_start = Clock::now();
+  const QueryResult query = database_.query(descriptor.global, stamp, options_.database);
+  result.times.query_ms = millisecondsSince(query_start);
+  result.query_status = query.status;
+
+  decide(&result, descriptor, query);
+  if (result.loop) {
+    result.loop->query_id = keyframe_id;
+    result.loop->query_stamp = stamp;
+    result.loop->query_pose = normalisedPose(pose);
+  }
+
+  Keyframe keyframe;
+  keyframe.id = keyframe_id;
+  keyframe.stamp = stamp;
+  keyframe.pose = normalisedPose(pose);
+  keyframe.descriptor = std::move(descriptor);
+  if (options_.keep_thumbnails) {
+    keyframe.thumbnail = toWorkingImage(image, kThumbnailWidth, kThumbnailHeight).clone();
+  }
+  database_.add(std::move(keyframe));
+  return result;
+}
+
+void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
+                          const QueryResult& query) {
+  if (query.status != QueryStatus::kSearched) {
+    consistency_.reset();
+    return;
+  }
+  const auto rerank_start = Clock::now();
+  std::vector<CandidateReport>& reports = result->candidates;
+  for (const Candidate& candidate : query.candidates) {
+    const Keyframe& stored = database_.at(candidate.index);
+    CandidateReport report;
+    report.match_id = stored.id;
+    report.match_stamp = stored.stamp;
+    report.global_score = candidate.global_score;
+    report.score = extractor_->reranks() ? extractor_->similarity(descriptor, stored.descriptor)
+                                         : candidate.global_score;
+    reports.push_back(report);
+  }
+  std::stable_sort(
+      reports.begin(), reports.end(),
+      [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
+  result->times.rerank_ms = millisecondsSince(rerank_start);
+
+  std::vector<uint64_t> above_threshold;
+  for (const CandidateReport& report : reports) {
+    if (report.score >= options_.acceptance.min_score) above_threshold.push_back(report.match_id);
+  }
+  const std::vector<int> chains = consistency_.update(above_threshold);
+
+  size_t chain_index = 0;
+  for (CandidateReport& report : reports) {
+    if (report.score < options_.acceptance.min_score) {
+      report.verdict = CandidateVerdict::kBelowThreshold;
+      continue;
+    }
+    report.consistent_keyframes = chains[chain_index++];
+    if (report.consistent_keyframes < options_.acceptance.consistent_keyframes) {
+      report.verdict = CandidateVerdict::kAwaitingConsistency;
+    } else if (result->loop) {
+      report.verdict = CandidateVerdict::kOutscored;
+    } else {
+      report.verdict = CandidateVerdict::kAccepted;
+      const Keyframe* match = database_.findById(report.match_id);
+      LoopClosure loop;
+      loop.match_id = match->id;
+      loop.match_stamp = match->stamp;
+      loop.match_pose = match->pose;
+      loop.global_score = report.global_score;
+      loop.score = report.score;
+      loop.consistent_keyframes = report.consistent_keyframes;
+      result->loop = loop;
+    }
+  }
+}
+
+FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image) {
+  FrameResult result;
+  result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
+  if (result.admission.isKeyframe()) {
+    result.keyframe = addKeyframe(result.admission.keyframe_id, stamp, pose, image);
+  }
+  return result;
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,286 @@
+#include "landmark_loop_closure/sim/corridor_world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+namespace landmark_loop_closure {
+namespace sim {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kWallSampleStep = 0.25;  // Metres between wall vertices; arcs need it.
+
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+uint32_t hash2(int x, int y, uint32_t seed) {
+  uint32_t h = seed * 0x9E3779B9u ^ static_cast<uint32_t>(x) * 0x85EBCA6Bu ^
+               static_cast<uint32_t>(y) * 0xC2B2AE35u;
+  h ^= h >> 15;
+  h *= 0x2C1B3C6Du;
+  h ^= h >> 12;
+  return h;
+}
+
+// A poster: a framed rectangle with one of a few inner patterns, drawn into the wall texture.
+void drawPoster(cv::Mat* texture, const cv::Rect& box, cv::RNG* rng) {
+  const int background = rng->uniform(20, 235);
+  const int foreground = (background + rng->uniform(70, 160)) % 256;
+  cv::Mat patch = (*texture)(box);
+  patch.setTo(cv::Scalar(background));
+  switch (rng->uniform(0, 4)) {
+    case 0: {  // Stripes at a random angle.
+      const double angle = rng->uniform(0.0, kPi);
+      const int period = rng->uniform(6, 20);
+      for (int y = 0; y < patch.rows; ++y) {
+        for (int x = 0; x < patch.cols; ++x) {
+          const double t = x * std::cos(angle) + y * std::sin(angle);
+          if (static_cast<int>(std::floor(t / period)) % 2 == 0) patch.at<uchar>(y, x) = foreground;
+        }
+      }
+      break;
+    }
+    case 1: {  // Discs.
+      const int count = rng->uniform(2, 7);
+      for (int i = 0; i < count; ++i) {
+        cv::circle(patch, cv::Point(rng->uniform(0, patch.cols), rng->uniform(0, patch.rows)),
+                   rng->uniform(4, std::max(5, patch.rows / 3)), cv::Scalar(foreground), cv::FILLED,
+                   cv::LINE_AA);
+      }
+      break;
+    }
+    case 2: {  // Checkerboard.
+      const int cell = rng->uniform(6, 16);
+      for (int y = 0; y < patch.rows; ++y) {
+        for (int x = 0; x < patch.cols; ++x) {
+          if (((x / cell) + (y / cell)) % 2 == 0) patch.at<uchar>(y, x) = foreground;
+        }
+      }
+      break;
+    }
+    default: {  // Lines of "text": short dark blocks.
+      for (int y = 6; y + 6 < patch.rows; y += 10) {
+        for (int x = 6; x + 6 < patch.cols;) {
+          const int word = rng->uniform(5, 25);
+          cv::rectangle(patch, cv::Rect(x, y, std::min(word, patch.cols - 6 - x), 5),
+                        cv::Scalar(foreground), cv::FILLED);
+          x += word + rng->uniform(3, 8);
+        }
+      }
+      break;
+    }
+  }
+  cv::rectangle(*texture, box, cv::Scalar(rng->uniform(0, 60)), 3);
+}
+
+}  // namespace
+
+CorridorWorld::CorridorWorld(const Options& options) : options_(options) {
+  const double straight_x = options.length - 2.0 * options.corner_radius;
+  const double straight_y = options.width - 2.0 * options.corner_radius;
+  centre_length_ = 2.0 * (straight_x + straight_y) + 2.0 * kPi * options.corner_radius;
+  buildWall(0, 0.5 * options.corridor_width);   // Inner wall, left of the direction of travel.
+  buildWall(1, -0.5 * options.corridor_width);  // Outer wall.
+
+  // Perceptual aliasing on purpose: a few posters appear again elsewhere on the route.
+  cv::RNG rng(options.seed * 31u + 5u);
+  const int poster_w = static_cast<int>(1.0 * options.pixels_per_metre);
+  const int poster_h = static_cast<int>(0.7 * options.pixels_per_metre);
+  for (int copy = 0; copy < 3; ++copy) {
+    const cv::Mat& source = wall_textures_[copy % 2];
+    cv::Mat& target = wall_textures_[(copy + 1) % 2];
+    const int sx = rng.uniform(0, source.cols - poster_w);
+    const int tx = rng.uniform(0, target.cols - poster_w);
+    const int y = static_cast<int>(0.6 * options.pixels_per_metre);
+    source(cv::Rect(sx, y, poster_w, poster_h)).copyTo(target(cv::Rect(tx, y, poster_w, poster_h)));
+  }
+}
+
+Eigen::Vector2d CorridorWorld::centreAt(double s, Eigen::Vector2d* tangent) const {
+  const double half_x = 0.5 * options_.length;
+  const double half_y = 0.5 * options_.width;
+  const double r = options_.corner_radius;
+  const double straight_x = options_.length - 2.0 * r;
+  const double straight_y = options_.width - 2.0 * r;
+  const double arc = 0.5 * kPi * r;
+  s = std::fmod(s, centre_length_);
+  if (s < 0.0) s += centre_length_;
+
+  // Counter-clockwise: bottom edge (+x), corner, right edge (+y), corner, top (-x), corner,
+  // left (-y), corner.
+  const double straights[4] = {straight_x, straight_y, straight_x, straight_y};
+  const Eigen::Vector2d starts[4] = {
+      {-half_x + r, -half_y}, {half_x, -half_y + r}, {half_x - r, half_y}, {-half_x, half_y - r}};
+  const Eigen::Vector2d directions[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
+  for (int side = 0; side < 4; ++side) {
+    if (s <= straights[side]) {
+      *tangent = directions[side];
+      return starts[side] + s * directions[side];
+    }
+    s -= straights[side];
+    if (s <= arc || side == 3) {
+      const Eigen::Vector2d end = starts[side] + straights[side] * directions[side];
+      const Eigen::Vector2d left(-directions[side].y(), directions[side].x());
+      const Eigen::Vector2d centre = end + r * left;
+      const double start_angle = std::atan2(-left.y(), -left.x());
+      const double angle = start_angle + std::min(s, arc) / r;
+      *tangent = Eigen::Vector2d(-std::sin(angle), std::cos(angle));
+      return centre + r * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    }
+    s -= arc;
+  }
+  *tangent = directions[0];
+  return starts[0];
+}
+
+Pose2D CorridorWorld::poseAt(double s, double lateral) const {
+  Eigen::Vector2d tangent;
+  const Eigen::Vector2d centre = centreAt(s, &tangent);
+  const Eigen::Vector2d left(-tangent.y(), tangent.x());
+  const Eigen::Vector2d position = centre + lateral * left;
+  return {position.x(), position.y(), std::atan2(tangent.y(), tangent.x())};
+}
+
+void CorridorWorld::buildWall(int wall, double offset) {
+  const int samples = static_cast<int>(std::ceil(centre_length_ / kWallSampleStep));
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i <= samples; ++i) {
+    Eigen::Vector2d tangent;
+    const Eigen::Vector2d centre = centreAt(i * centre_length_ / samples, &tangent);
+    points.push_back(centre + offset * Eigen::Vector2d(-tangent.y(), tangent.x()));
+  }
+  double u = 0.0;
+  for (size_t i = 0; i + 1 < points.size(); ++i) {
+    segments_.push_back({points[i], points[i + 1], wall, u});
+    u += (points[i + 1] - points[i]).norm();
+  }
+
+  const double ppm = options_.pixels_per_metre;
+  const int cols = static_cast<int>(std::ceil(u * ppm)) + 1;
+  const int rows = static_cast<int>(std::ceil(options_.wall_height * ppm));
+  cv::RNG rng(options_.seed * 977u + static_cast<uint32_t>(wall) * 131u + 1u);
+
+  // Base: smooth low-frequency shading, so blank wall is not perfectly flat.
+  cv::Mat coarse(std::max(2, rows / 40), std::max(2, cols / 40), CV_8UC1);
+  rng.fill(coarse, cv::RNG::UNIFORM, 95, 165);
+  cv::Mat texture;
+  cv::resize(coarse, texture, cv::Size(cols, rows), 0, 0, cv::INTER_CUBIC);
+  // Painted sections a few metres long, each its own shade, as in real buildings: they make
+  // places tell apart at a glance.
+  for (double start = 0.0; start < u;) {
+    const double length = rng.uniform(2.5, 6.0);
+    const cv::Rect section(static_cast<int>(start * ppm), 0, static_cast<int>(length * ppm) + 1,
+                           rows);
+    texture(section & cv::Rect(0, 0, cols, rows)) += cv::Scalar(rng.uniform(-70, 70));
+    start += length;
+  }
+
+  // Skirting board and a dado rail: long horizontal edges, as in real corridors.
+  cv::rectangle(texture, cv::Rect(0, rows - static_cast<int>(0.12 * ppm), cols, rows),
+                cv::Scalar(50), cv::FILLED);
+  cv::line(texture, cv::Point(0, static_cast<int>(0.45 * rows)),
+           cv::Point(cols, static_cast<int>(0.45 * rows)), cv::Scalar(70), 2);
+
+  // Doors, pillars and posters along the wall, spaced irregularly.
+  for (double x = 0.5; x < u - 1.5;) {
+    const int kind = rng.uniform(0, 10);
+    const int left = static_cast<int>(x * ppm);
+    if (kind < 2) {  // Door with a handle.
+      const int w = static_cast<int>(0.9 * ppm);
+      const int h = static_cast<int>(2.1 * ppm);
+      cv::rectangle(texture, cv::Rect(left, rows - h, w, h), cv::Scalar(rng.uniform(30, 90)),
+                    cv::FILLED);
+      cv::rectangle(texture, cv::Rect(left, rows - h, w, h), cv::Scalar(15), 3);
+      cv::circle(texture, cv::Point(left + w - 12, rows - h / 2), 4, cv::Scalar(220), cv::FILLED);
+      x += 0.9 + rng.uniform(0.3, 1.2);
+    } else if (kind < 3) {  // Pillar.
+      const int w = static_cast<int>(rng.uniform(0.2, 0.4) * ppm);
+      cv::rectangle(texture, cv::Rect(left, 0, w, rows), cv::Scalar(rng.uniform(170, 230)),
+                    cv::FILLED);
+      x += 0.4 + rng.uniform(0.4, 1.0);
+    } else {  // Poster.
+      const int w = static_cast<int>(rng.uniform(0.6, 1.6) * ppm);
+      const int h = static_cast<int>(rng.uniform(0.5, 1.1) * ppm);
+      const int top = static_cast<int>(rng.uniform(0.35, 1.0) * ppm);
+      drawPoster(&texture, cv::Rect(left, top, std::min(w, cols - left - 1), h), &rng);
+      x += w / ppm + rng.uniform(0.2, 0.9);
+    }
+  }
+  if (static_cast<int>(wall_textures_.size()) <= wall) wall_textures_.resize(wall + 1);
+  wall_textures_[wall] = texture;
+}
+
+cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
+                              const Lighting& lighting, uint32_t noise_seed) const {
+  cv::Mat image(camera.height, camera.width, CV_8UC1);
+  const double cx = 0.5 * (camera.width - 1);
+  const double cy = 0.5 * (camera.height - 1);
+  const double ppm = options_.pixels_per_metre;
+  const Eigen::Vector2d origin(pose.x, pose.y);
+  constexpr double kTile = 0.6;
+
+  for (int col = 0; col < camera.width; ++col) {
+    const double offset_angle = std::atan2(cx - col, camera.focal_px);
+    const double angle = pose.yaw + offset_angle;
+    const Eigen::Vector2d direction(std::cos(angle), std::sin(angle));
+    double nearest = std::numeric_limits<double>::infinity();
+    const Segment* hit = nullptr;
+    double hit_u = 0.0;
+    for (const Segment& segment : segments_) {
+      const Eigen::Vector2d edge = segment.b - segment.a;
+      const double denominator = cross2(direction, edge);
+      if (std::abs(denominator) < 1e-12) continue;
+      const Eigen::Vector2d to_start = segment.a - origin;
+      const double distance = cross2(to_start, edge) / denominator;
+      const double along = cross2(to_start, direction) / denominator;
+      if (distance > 1e-6 && along >= 0.0 && along <= 1.0 && distance < nearest) {
+        nearest = distance;
+        hit = &segment;
+        hit_u = segment.u_start + along * edge.norm();
+      }
+    }
+    const double cos_offset = std::cos(offset_angle);
+    const double depth = nearest * cos_offset;  // Perpendicular distance: no fish-eye bend.
+    for (int row = 0; row < camera.height; ++row) {
+      const double dy = row - cy;
+      double value = 200.0 - 0.2 * row;  // Ceiling.
+      const double wall_z = camera.height_m - dy * depth / camera.focal_px;
+      if (hit && wall_z >= 0.0 && wall_z <= options_.wall_height) {
+        const cv::Mat& texture = wall_textures_[hit->wall];
+        const int tx = std::clamp(static_cast<int>(hit_u * ppm), 0, texture.cols - 1);
+        const int ty = std::clamp(static_cast<int>((options_.wall_height - wall_z) * ppm), 0,
+                                  texture.rows - 1);
+        value = texture.at<uchar>(ty, tx);
+      } else if (dy > 0.0) {  // Floor: tiles with per-tile shade and dark grout.
+        const double ground = camera.height_m * camera.focal_px / dy / cos_offset;
+        const Eigen::Vector2d point = origin + ground * direction;
+        const double fx = point.x() / kTile;
+        const double fy = point.y() / kTile;
+        const int ix = static_cast<int>(std::floor(fx));
+        const int iy = static_cast<int>(std::floor(fy));
+        const bool grout = fx - ix < 0.05 || fy - iy < 0.05;
+        value = grout ? 70.0 : 85.0 + hash2(ix, iy, options_.seed) % 20;
+      }
+      image.at<uchar>(row, col) = cv::saturate_cast<uchar>(value);
+    }
+  }
+  cv::GaussianBlur(image, image, cv::Size(3, 3), 0.0);  // Camera blur; hides sampling aliasing.
+  cv::Mat lit;
+  image.convertTo(lit, CV_32F, lighting.gain, lighting.offset);
+  if (lighting.noise_sigma > 0.0) {
+    cv::Mat noise(lit.size(), CV_32F);
+    cv::RNG rng(noise_seed);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, lighting.noise_sigma);
+    lit += noise;
+  }
+  lit.convertTo(image, CV_8U);
+  return image;
+}
+
+}  // namespace sim
+}  // namespace landmark_loop_closure

@@ -1,0 +1,57 @@
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/input_error.h"
+
+using namespace landmark_loop_closure;
+
+TEST(CheckImage, AcceptsSupportedTypes) {
+  const InputLimits limits;
+  for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_16UC3}) {
+    EXPECT_FALSE(checkImage(320, 240, type, limits)) << cv::typeToString(type);
+  }
+}
+
+TEST(CheckImage, RefusesEachKindOfBadImage) {
+  const InputLimits limits;
+  EXPECT_EQ(checkImage(0, 0, CV_8UC1, limits)->code, InputErrorCode::kEmptyImage);
+  EXPECT_EQ(checkImage(320, 0, CV_8UC1, limits)->code, InputErrorCode::kEmptyImage);
+  EXPECT_EQ(checkImage(8, 240, CV_8UC1, limits)->code, InputErrorCode::kImageTooSmall);
+  EXPECT_EQ(checkImage(20000, 20000, CV_8UC1, limits)->code, InputErrorCode::kImageTooLarge);
+  EXPECT_EQ(checkImage(320, 240, CV_32FC1, limits)->code, InputErrorCode::kUnsupportedImageType);
+  EXPECT_EQ(checkImage(320, 240, CV_8UC2, limits)->code, InputErrorCode::kUnsupportedImageType);
+}
+
+TEST(CheckImage, MessageNamesTheValues) {
+  const auto error = checkImage(8, 6, CV_8UC1, InputLimits{});
+  ASSERT_TRUE(error);
+  EXPECT_NE(error->message.find("8x6"), std::string::npos) << error->message;
+}
+
+TEST(CheckPose, RefusesNonFiniteValues) {
+  Pose pose;
+  pose.position.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(checkPose(pose, InputLimits{})->code, InputErrorCode::kNonFinitePose);
+  pose = Pose{};
+  pose.orientation.w() = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(checkPose(pose, InputLimits{})->code, InputErrorCode::kNonFinitePose);
+}
+
+TEST(CheckPose, RefusesNonUnitQuaternionButToleratesRounding) {
+  Pose pose;
+  pose.orientation = Eigen::Quaterniond(2.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(checkPose(pose, InputLimits{})->code, InputErrorCode::kNonUnitQuaternion);
+  pose.orientation = Eigen::Quaterniond(0.0, 0.0, 0.0, 0.0);
+  EXPECT_EQ(checkPose(pose, InputLimits{})->code, InputErrorCode::kNonUnitQuaternion);
+  pose.orientation = Eigen::Quaterniond(1.001, 0.0, 0.0, 0.0);
+  EXPECT_FALSE(checkPose(pose, InputLimits{}));
+  EXPECT_NEAR(normalisedPose(pose).orientation.norm(), 1.0, 1e-12);
+}
+
+TEST(InputErrorCode, EveryCodeHasAName) {
+  for (int code = 0; code <= static_cast<int>(InputErrorCode::kNonUnitQuaternion); ++code) {
+    EXPECT_STRNE(toString(static_cast<InputErrorCode>(code)), "unknown");
+  }
+}

@@ -1,0 +1,169 @@
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/loop_detector.h"
+
+using namespace landmark_loop_closure;
+
+namespace {
+
+// Each image is filled with one grey value: its "place". Descriptors are one-hot in that value,
+// so two keyframes match exactly when they show the same place.
+class PlaceExtractor : public DescriptorExtractor {
+ public:
+  std::string name() const override { return "place"; }
+  int globalDimension() const override { return 256; }
+  ImageDescriptor describe(const cv::Mat& image) const override {
+    ImageDescriptor descriptor;
+    descriptor.global.assign(256, 0.0f);
+    descriptor.global[image.at<uchar>(0, 0)] = 1.0f;
+    return descriptor;
+  }
+};
+
+cv::Mat place(int value) { return cv::Mat(48, 64, CV_8UC1, cv::Scalar(value)); }
+
+LoopDetectorOptions smallOptions() {
+  LoopDetectorOptions options;
+  options.keyframe.min_motion = 0.5;
+  options.keyframe.max_motion = 10.0;
+  options.database.exclude_recent_keyframes = 5;
+  options.database.exclude_recent_seconds = 0.0;
+  options.database.min_size = 10;
+  options.acceptance.min_score = 0.5;
+  options.acceptance.consistent_keyframes = 3;
+  options.acceptance.index_window = 2;
+  return options;
+}
+
+// Keyframe i at x = i metres, stamp i seconds, showing place `value`.
+FrameResult feed(LoopDetector* detector, int i, int value) {
+  return detector->process(i, planarPose(i, 0, 0), place(value));
+}
+
+}  // namespace
+
+TEST(LoopDetector, AcceptsOnlyAfterKConsistentKeyframes) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) {
+    const FrameResult result = feed(&detector, i, i);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_FALSE(result.keyframe->loop);
+  }
+  // Revisit places 10, 11, 12: the first two only start the chain.
+  FrameResult r40 = feed(&detector, 40, 10);
+  ASSERT_FALSE(r40.keyframe->candidates.empty());
+  EXPECT_EQ(r40.keyframe->candidates[0].match_id, 10u);
+  EXPECT_EQ(r40.keyframe->candidates[0].verdict, CandidateVerdict::kAwaitingConsistency);
+  EXPECT_FALSE(r40.keyframe->loop);
+  EXPECT_FALSE(feed(&detector, 41, 11).keyframe->loop);
+  const FrameResult r42 = feed(&detector, 42, 12);
+  ASSERT_TRUE(r42.keyframe->loop);
+  EXPECT_EQ(r42.keyframe->loop->query_id, 42u);
+  EXPECT_EQ(r42.keyframe->loop->match_id, 12u);
+  EXPECT_EQ(r42.keyframe->loop->consistent_keyframes, 3);
+  EXPECT_DOUBLE_EQ(r42.keyframe->loop->score, 1.0);
+  EXPECT_DOUBLE_EQ(r42.keyframe->loop->match_pose.position.x(), 12.0);
+  EXPECT_DOUBLE_EQ(r42.keyframe->loop->query_stamp, 42.0);
+  // Other candidates are reported as below the threshold.
+  for (size_t i = 1; i < r42.keyframe->candidates.size(); ++i) {
+    EXPECT_EQ(r42.keyframe->candidates[i].verdict, CandidateVerdict::kBelowThreshold);
+  }
+}
+
+TEST(LoopDetector, InconsistentMatchesNeverMakeALoop) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  // Each revisit matches a different, far-apart place: no chain reaches 3.
+  int i = 40;
+  for (int value : {5, 20, 33, 8, 27, 15}) {
+    EXPECT_FALSE(feed(&detector, i++, value).keyframe->loop);
+  }
+}
+
+TEST(LoopDetector, NoSearchBeforeTheMinimumDatabaseSize) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 9; ++i) {
+    EXPECT_EQ(feed(&detector, i, 7).keyframe->query_status, QueryStatus::kDatabaseTooSmall);
+  }
+  EXPECT_EQ(feed(&detector, 9, 7).keyframe->query_status, QueryStatus::kDatabaseTooSmall);
+  EXPECT_EQ(feed(&detector, 10, 7).keyframe->query_status, QueryStatus::kSearched);
+}
+
+TEST(LoopDetector, RedundantFramesAreNotStored) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  EXPECT_TRUE(detector.process(0.0, planarPose(0, 0, 0), place(1)).admission.isKeyframe());
+  const FrameResult redundant = detector.process(0.1, planarPose(0.1, 0, 0), place(1));
+  EXPECT_EQ(redundant.admission.selection.verdict, SelectionVerdict::kRedundant);
+  EXPECT_FALSE(redundant.keyframe);
+  EXPECT_EQ(detector.database().size(), 1u);
+}
+
+TEST(LoopDetector, BadInputIsRefusedWithATypedErrorAndChangesNothing) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 5; ++i) feed(&detector, i, i);
+  const size_t stored = detector.database().size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  auto expectRefused = [&](const FrameResult& result, InputErrorCode code) {
+    ASSERT_TRUE(result.admission.error);
+    EXPECT_EQ(result.admission.error->code, code) << result.admission.error->message;
+    EXPECT_FALSE(result.keyframe);
+    EXPECT_EQ(detector.database().size(), stored);
+  };
+  expectRefused(detector.process(10, planarPose(nan, 0, 0), place(1)),
+                InputErrorCode::kNonFinitePose);
+  Pose unnormalised = planarPose(10, 0, 0);
+  unnormalised.orientation.coeffs() *= 3.0;
+  expectRefused(detector.process(10, unnormalised, place(1)), InputErrorCode::kNonUnitQuaternion);
+  expectRefused(detector.process(3.5, planarPose(10, 0, 0), place(1)),
+                InputErrorCode::kStampNotIncreasing);
+  expectRefused(detector.process(4.0, planarPose(10, 0, 0), place(1)),
+                InputErrorCode::kStampNotIncreasing);
+  expectRefused(detector.process(nan, planarPose(10, 0, 0), place(1)),
+                InputErrorCode::kNonFiniteStamp);
+  expectRefused(detector.process(10, planarPose(10, 0, 0), cv::Mat()), InputErrorCode::kEmptyImage);
+  expectRefused(detector.process(10, planarPose(10, 0, 0), cv::Mat(96, 128, CV_8UC1)),
+                InputErrorCode::kImageSizeChanged);
+  expectRefused(detector.process(10, planarPose(10, 0, 0), cv::Mat(48, 64, CV_32FC1)),
+                InputErrorCode::kUnsupportedImageType);
+
+  // The selector's reference is still keyframe 4 at x = 4: x = 4.2 is redundant, x = 5 is not.
+  EXPECT_EQ(detector.process(11, planarPose(4.2, 0, 0), place(1)).admission.selection.verdict,
+            SelectionVerdict::kRedundant);
+  const FrameResult next = detector.process(12, planarPose(5, 0, 0), place(1));
+  ASSERT_TRUE(next.keyframe);
+  EXPECT_FALSE(next.keyframe->error);
+  EXPECT_EQ(next.keyframe->keyframe_id, 5u);
+  EXPECT_EQ(detector.database().size(), stored + 1);
+}
+
+TEST(LoopDetector, AddKeyframeRefusesAnEmptyImageWithoutStoring) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  const FrameAdmission admission = detector.admit(1.0, planarPose(0, 0, 0), 64, 48, CV_8UC1);
+  ASSERT_TRUE(admission.isKeyframe());
+  const KeyframeResult result = detector.addKeyframe(admission.keyframe_id, 1.0, Pose{}, cv::Mat());
+  ASSERT_TRUE(result.error);
+  EXPECT_EQ(result.error->code, InputErrorCode::kEmptyImage);
+  EXPECT_TRUE(detector.database().empty());
+}
+
+TEST(LoopDetector, InvalidOptionsAreRefusedAtConstruction) {
+  LoopDetectorOptions options;
+  options.acceptance.consistent_keyframes = 0;
+  EXPECT_THROW(LoopDetector(options, std::make_shared<PlaceExtractor>()), std::invalid_argument);
+  EXPECT_THROW(LoopDetector(LoopDetectorOptions{}, nullptr), std::invalid_argument);
+}
+
+TEST(LoopDetector, KeepsThumbnailsOnlyWhenAsked) {
+  LoopDetectorOptions options = smallOptions();
+  options.keep_thumbnails = false;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  feed(&detector, 0, 3);
+  EXPECT_TRUE(detector.database().at(0).thumbnail.empty());
+  LoopDetector with_thumbnails(smallOptions(), std::make_shared<PlaceExtractor>());
+  feed(&with_thumbnails, 0, 3);
+  EXPECT_EQ(with_thumbnails.database().at(0).thumbnail.size(), cv::Size(160, 120));
+}

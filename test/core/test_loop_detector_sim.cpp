@@ -1,0 +1,68 @@
+// The whole core pipeline on the generated corridor: HOG descriptors, drifting odometry.
+#include <cmath>
+#include <map>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/hog_descriptor.h"
+#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/sim/sequence.h"
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::sim;
+
+namespace {
+
+struct RunSummary {
+  int keyframes = 0;
+  int loops = 0;
+  int true_loops = 0;
+  double worst_loop_distance = 0.0;
+};
+
+// Runs a route through the detector; a loop is true when the ground-truth positions of its two
+// keyframes are within 2.5 m.
+RunSummary run(double laps) {
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = laps;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  LoopDetector detector(LoopDetectorOptions{}, std::make_shared<HogDescriptor>());
+  std::map<uint64_t, Pose2D> truth_by_keyframe;
+  RunSummary summary;
+  SequenceFrame frame;
+  while (sequence.next(&frame, false)) {
+    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+    const FrameAdmission admission =
+        detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
+    if (!admission.isKeyframe()) continue;
+    const KeyframeResult result =
+        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame));
+    EXPECT_FALSE(result.error);
+    truth_by_keyframe[admission.keyframe_id] = frame.truth;
+    ++summary.keyframes;
+    if (!result.loop) continue;
+    const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
+    const double distance = std::hypot(match.x - frame.truth.x, match.y - frame.truth.y);
+    ++summary.loops;
+    summary.true_loops += distance < 2.5 ? 1 : 0;
+    summary.worst_loop_distance = std::max(summary.worst_loop_distance, distance);
+  }
+  return summary;
+}
+
+}  // namespace
+
+TEST(LoopDetectorOnCorridor, RevisitGivesOnlyTrueLoops) {
+  const RunSummary summary = run(2.0);
+  EXPECT_GT(summary.keyframes, 300);
+  EXPECT_GE(summary.loops, 5);
+  EXPECT_EQ(summary.true_loops, summary.loops)
+      << "worst loop " << summary.worst_loop_distance << " m";
+}
+
+TEST(LoopDetectorOnCorridor, OneWayRouteGivesNoLoop) {
+  const RunSummary summary = run(0.9);
+  EXPECT_GT(summary.keyframes, 150);
+  EXPECT_EQ(summary.loops, 0);
+}
