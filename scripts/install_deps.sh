@@ -5,12 +5,12 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake catkin ros-core rosbash ros-message-generation ros-message-runtime
-  libroscpp-dev libnodeletlib-dev libnodeletlib-tools libpluginlib-dev
+  libroscpp-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
   libcv-bridge-dev libimage-transport-dev libmessage-filters-dev
-  libtf2-ros-dev libtf2-eigen-dev libsensor-msgs-dev libnav-msgs-dev libvisualization-msgs-dev
+  libtf2-ros-dev libtf2-eigen-dev libtf2-msgs-dev libsensor-msgs-dev libnav-msgs-dev libvisualization-msgs-dev
   libdiagnostic-updater-dev libdiagnostic-msgs-dev ros-diagnostic-msgs
   ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
-  librosbag-dev rosbag librostest-dev python3-rostest python3-roslaunch
+  librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev
 )
 

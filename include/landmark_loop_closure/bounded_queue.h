@@ -9,38 +9,26 @@
 namespace landmark_loop_closure {
 
 /// A bounded FIFO between a producer that must never wait (a subscriber callback) and one
-/// consumer thread. When full, push() drops the oldest droppable item, or the oldest item when
-/// none is droppable, and reports it, so the producer always returns at once.
+/// consumer thread. When full, push() drops the oldest item and says so, so the producer always
+/// returns at once and the consumer works on the freshest data.
 template <typename T>
 class BoundedQueue {
  public:
   explicit BoundedQueue(size_t capacity) : capacity_(capacity == 0 ? 1 : capacity) {}
 
-  struct PushResult {
-    bool dropped = false;            ///< An older item was dropped to make room.
-    bool dropped_droppable = false;  ///< ...and it was a droppable one.
-  };
-
-  PushResult push(T item, bool droppable) {
-    PushResult result;
+  /// Returns true when the oldest item was dropped to make room.
+  bool push(T item) {
+    bool dropped = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (items_.size() >= capacity_) {
-        auto victim = items_.begin();
-        for (auto it = items_.begin(); it != items_.end(); ++it) {
-          if (it->droppable) {
-            victim = it;
-            break;
-          }
-        }
-        result.dropped = true;
-        result.dropped_droppable = victim->droppable;
-        items_.erase(victim);
+        items_.pop_front();
+        dropped = true;
       }
-      items_.push_back(Entry{std::move(item), droppable});
+      items_.push_back(std::move(item));
     }
     ready_.notify_one();
-    return result;
+    return dropped;
   }
 
   /// Blocks until an item arrives or close() is called; nullopt once closed.
@@ -48,7 +36,7 @@ class BoundedQueue {
     std::unique_lock<std::mutex> lock(mutex_);
     ready_.wait(lock, [this] { return closed_ || !items_.empty(); });
     if (closed_) return std::nullopt;
-    T item = std::move(items_.front().value);
+    T item = std::move(items_.front());
     items_.pop_front();
     return item;
   }
@@ -69,14 +57,10 @@ class BoundedQueue {
   size_t capacity() const { return capacity_; }
 
  private:
-  struct Entry {
-    T value;
-    bool droppable;
-  };
   const size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;
-  std::deque<Entry> items_;
+  std::deque<T> items_;
   bool closed_ = false;
 };
 

@@ -11,7 +11,7 @@
 
 namespace landmark_loop_closure {
 
-struct Keyframe {
+struct KeyframeRecord {
   uint64_t id = 0;
   double stamp = 0.0;  ///< Seconds.
   Pose pose;           ///< In the odometry frame.
@@ -56,23 +56,23 @@ class KeyframeDatabase {
 
   /// Stores a keyframe. Throws std::invalid_argument, storing nothing, when its id is not greater
   /// than the last id or its global descriptor has the wrong length.
-  void add(Keyframe keyframe);
+  void add(KeyframeRecord keyframe);
 
   QueryResult query(const std::vector<float>& global, double stamp,
                     const DatabaseOptions& options) const;
 
   size_t size() const { return keyframes_.size(); }
   bool empty() const { return keyframes_.empty(); }
-  const Keyframe& at(size_t index) const { return keyframes_.at(index); }
+  const KeyframeRecord& at(size_t index) const { return keyframes_.at(index); }
   /// nullptr when no keyframe has this id.
-  const Keyframe* findById(uint64_t id) const;
+  const KeyframeRecord* findById(uint64_t id) const;
   /// Heap bytes of the stored keyframes (descriptors, thumbnails, records).
   size_t bytes() const;
   void clear() { keyframes_.clear(); }
 
  private:
   int global_dimension_;
-  std::vector<Keyframe> keyframes_;
+  std::vector<KeyframeRecord> keyframes_;
 };
 
 }  // namespace landmark_loop_closure

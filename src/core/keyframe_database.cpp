@@ -38,7 +38,7 @@ KeyframeDatabase::KeyframeDatabase(int global_dimension) : global_dimension_(glo
   if (global_dimension <= 0) throw std::invalid_argument("global descriptor dimension must be > 0");
 }
 
-void KeyframeDatabase::add(Keyframe keyframe) {
+void KeyframeDatabase::add(KeyframeRecord keyframe) {
   if (!keyframes_.empty() && keyframe.id <= keyframes_.back().id) {
     throw std::invalid_argument("keyframe id " + std::to_string(keyframe.id) +
                                 " is not greater than the last stored id " +
@@ -65,7 +65,7 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
   std::vector<Candidate> scored;
   scored.reserve(end);
   for (size_t index = 0; index < end; ++index) {
-    const Keyframe& keyframe = keyframes_[index];
+    const KeyframeRecord& keyframe = keyframes_[index];
     if (std::abs(stamp - keyframe.stamp) < options.exclude_recent_seconds) continue;
     scored.push_back({index, keyframe.id, cosineSimilarity(global, keyframe.descriptor.global)});
   }
@@ -84,15 +84,15 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
   return result;
 }
 
-const Keyframe* KeyframeDatabase::findById(uint64_t id) const {
+const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
   const auto it = std::lower_bound(keyframes_.begin(), keyframes_.end(), id,
-                                   [](const Keyframe& k, uint64_t value) { return k.id < value; });
+                                   [](const KeyframeRecord& k, uint64_t value) { return k.id < value; });
   return it != keyframes_.end() && it->id == id ? &*it : nullptr;
 }
 
 size_t KeyframeDatabase::bytes() const {
-  size_t total = keyframes_.capacity() * sizeof(Keyframe);
-  for (const Keyframe& keyframe : keyframes_) {
+  size_t total = keyframes_.capacity() * sizeof(KeyframeRecord);
+  for (const KeyframeRecord& keyframe : keyframes_) {
     total +=
         keyframe.descriptor.bytes() + keyframe.thumbnail.total() * keyframe.thumbnail.elemSize();
   }

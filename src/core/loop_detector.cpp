@@ -149,7 +149,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_pose = normalisedPose(pose);
   }
 
-  Keyframe keyframe;
+  KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
@@ -170,7 +170,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   const auto rerank_start = Clock::now();
   std::vector<CandidateReport>& reports = result->candidates;
   for (const Candidate& candidate : query.candidates) {
-    const Keyframe& stored = database_.at(candidate.index);
+    const KeyframeRecord& stored = database_.at(candidate.index);
     CandidateReport report;
     report.match_id = stored.id;
     report.match_stamp = stored.stamp;
@@ -203,8 +203,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       report.verdict = CandidateVerdict::kOutscored;
     } else {
       report.verdict = CandidateVerdict::kAccepted;
-      const Keyframe* match = database_.findById(report.match_id);
-      LoopClosure loop;
+      const KeyframeRecord* match = database_.findById(report.match_id);
+      AcceptedLoop loop;
       loop.match_id = match->id;
       loop.match_stamp = match->stamp;
       loop.match_pose = match->pose;

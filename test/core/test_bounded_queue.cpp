@@ -8,34 +8,20 @@ using namespace landmark_loop_closure;
 
 TEST(BoundedQueue, FifoWithinCapacity) {
   BoundedQueue<int> queue(3);
-  for (int i = 0; i < 3; ++i) EXPECT_FALSE(queue.push(i, false).dropped);
+  for (int i = 0; i < 3; ++i) EXPECT_FALSE(queue.push(i));
   EXPECT_EQ(*queue.pop(), 0);
   EXPECT_EQ(*queue.pop(), 1);
   EXPECT_EQ(*queue.pop(), 2);
 }
 
-TEST(BoundedQueue, FullQueueDropsTheOldestDroppableFirst) {
-  BoundedQueue<int> queue(3);
-  queue.push(1, false);
-  queue.push(2, true);
-  queue.push(3, false);
-  const auto result = queue.push(4, false);
-  EXPECT_TRUE(result.dropped);
-  EXPECT_TRUE(result.dropped_droppable);
-  EXPECT_EQ(*queue.pop(), 1);
-  EXPECT_EQ(*queue.pop(), 3);
-  EXPECT_EQ(*queue.pop(), 4);
-}
-
-TEST(BoundedQueue, WithNothingDroppableTheOldestGoes) {
+TEST(BoundedQueue, FullQueueDropsTheOldest) {
   BoundedQueue<int> queue(2);
-  queue.push(1, false);
-  queue.push(2, false);
-  const auto result = queue.push(3, false);
-  EXPECT_TRUE(result.dropped);
-  EXPECT_FALSE(result.dropped_droppable);
+  queue.push(1);
+  queue.push(2);
+  EXPECT_TRUE(queue.push(3));
   EXPECT_EQ(queue.size(), 2u);
   EXPECT_EQ(*queue.pop(), 2);
+  EXPECT_EQ(*queue.pop(), 3);
 }
 
 TEST(BoundedQueue, CloseWakesABlockedConsumer) {
@@ -50,7 +36,14 @@ TEST(BoundedQueue, CloseWakesABlockedConsumer) {
 TEST(BoundedQueue, ProducerNeverBlocksWhileConsumerIsBusy) {
   BoundedQueue<int> queue(4);
   int dropped = 0;
-  for (int i = 0; i < 1000; ++i) dropped += queue.push(i, true).dropped ? 1 : 0;
+  for (int i = 0; i < 1000; ++i) dropped += queue.push(i) ? 1 : 0;
   EXPECT_EQ(dropped, 996);
   EXPECT_EQ(*queue.pop(), 996);
+}
+
+TEST(BoundedQueue, ZeroCapacityStillHoldsOne) {
+  BoundedQueue<int> queue(0);
+  EXPECT_EQ(queue.capacity(), 1u);
+  queue.push(7);
+  EXPECT_EQ(*queue.pop(), 7);
 }

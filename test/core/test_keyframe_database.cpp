@@ -11,8 +11,8 @@ std::vector<float> direction(double angle) {
   return {static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle))};
 }
 
-Keyframe keyframe(uint64_t id, double stamp, double angle) {
-  Keyframe k;
+KeyframeRecord keyframe(uint64_t id, double stamp, double angle) {
+  KeyframeRecord k;
   k.id = id;
   k.stamp = stamp;
   k.descriptor.global = direction(angle);
@@ -91,7 +91,7 @@ TEST(KeyframeDatabase, RefusesBadKeyframesAndKeepsWhatItHas) {
   database.add(keyframe(5, 1.0, 0.0));
   EXPECT_THROW(database.add(keyframe(5, 2.0, 0.0)), std::invalid_argument);
   EXPECT_THROW(database.add(keyframe(3, 2.0, 0.0)), std::invalid_argument);
-  Keyframe wrong_length = keyframe(6, 2.0, 0.0);
+  KeyframeRecord wrong_length = keyframe(6, 2.0, 0.0);
   wrong_length.descriptor.global.push_back(0.0f);
   EXPECT_THROW(database.add(wrong_length), std::invalid_argument);
   ASSERT_EQ(database.size(), 1u);

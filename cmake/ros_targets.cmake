@@ -1,0 +1,33 @@
+# ROS wrapper: the nodelet, its standalone node, and the demo tools.
+add_library(${PROJECT_NAME}_nodelet
+  src/ros/ros_conversions.cpp
+  src/ros/ros_parameter_source.cpp
+  src/ros/loop_markers.cpp
+  src/ros/loop_closure_node.cpp
+  src/ros/loop_closure_nodelet.cpp)
+target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_config ${catkin_LIBRARIES})
+add_dependencies(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_generate_messages_cpp)
+
+add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
+target_include_directories(loop_closure_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
+
+install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_nodelet
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
+install(TARGETS loop_closure_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
+install(DIRECTORY launch config DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+
+# Demo tools: the generated corridor bag and a report of loops against ground truth.
+add_executable(make_demo_bag src/tools/make_demo_bag.cpp)
+target_include_directories(make_demo_bag SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(make_demo_bag ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
+
+add_executable(demo_report src/tools/demo_report.cpp)
+target_include_directories(demo_report SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(demo_report ${catkin_LIBRARIES})
+add_dependencies(demo_report ${PROJECT_NAME}_generate_messages_cpp)
+install(TARGETS make_demo_bag demo_report RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

@@ -1,0 +1,348 @@
+#include "loop_closure_node.h"
+
+#include <chrono>
+#include <sstream>
+
+#include <cv_bridge/cv_bridge.h>
+#include <image_transport/camera_common.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "landmark_loop_closure/Keyframe.h"
+#include "landmark_loop_closure/LoopCandidateArray.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/match_image.h"
+#include "ros_conversions.h"
+#include "ros_parameter_source.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+constexpr double kRejectionLogPeriod = 5.0;  // Seconds between log lines for one kind of error.
+constexpr double kWarningPeriod = 10.0;
+constexpr size_t kMaxPendingTf = 100;
+constexpr double kTfRetryPeriod = 0.02;
+constexpr double kDiagnosticsPeriod = 1.0;
+
+double wallNow() { return ros::WallTime::now().toSec(); }
+
+}  // namespace
+
+NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
+  const RosParameterSource source(private_node);
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  for (const std::string& key : source.keys()) {
+    if (!reader.isKnown(key)) {
+      ROS_WARN("Unknown parameter %s/%s is ignored (misspelt? see config/default.yaml)",
+               private_node.getNamespace().c_str(), key.c_str());
+    }
+  }
+  const std::string problems = reader.errors() + options.validate();
+  if (!problems.empty()) throw std::invalid_argument(problems);
+  return options;
+}
+
+LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_node,
+                                 const NodeOptions& options)
+    : node_(node),
+      private_node_(private_node),
+      options_(options),
+      detector_(options.detector, makeDescriptorExtractor(options.detector.descriptor)),
+      image_transport_(node),
+      markers_(options.odom_frame, options.detector.acceptance.min_score,
+               options.publish_rejected_markers),
+      queue_(static_cast<size_t>(options.worker_queue_size)),
+      diagnostics_(node, private_node, ros::this_node::getName()) {
+  loop_publisher_ = node_.advertise<LoopClosure>("loop_closures", 100);
+  keyframe_publisher_ = node_.advertise<Keyframe>("keyframes", 100);
+  candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
+  markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  image_transport::ImageTransport private_transport(private_node_);
+  match_image_publisher_ = private_transport.advertise("match_image", 1);
+
+  diagnostics_.setHardwareID("none");
+  diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
+  last_rate_time_ = ros::WallTime::now();
+  diagnostics_timer_ = node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
+                                             [this](const ros::WallTimerEvent&) {
+                                               diagnostics_.force_update();
+                                             });
+
+  worker_ = std::thread(&LoopClosureNode::workerLoop, this);
+  subscribe();
+  ROS_INFO("Loop closure: descriptor %s, pose from %s, listening on %s%s%s",
+           detector_.extractor().name().c_str(), options_.pose_source.c_str(),
+           image_topic_.c_str(), odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+}
+
+LoopClosureNode::~LoopClosureNode() {
+  queue_.close();
+  if (worker_.joinable()) worker_.join();
+}
+
+void LoopClosureNode::subscribe() {
+  // Never lazy: a detector that stops listening loses keyframes for good.
+  image_topic_ = node_.resolveName("image");
+  camera_info_subscriber_ =
+      node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
+                      &LoopClosureNode::onCameraInfo, this);
+  if (options_.pose_source == "tf") {
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
+    image_subscriber_ =
+        image_transport_.subscribe("image", 5, &LoopClosureNode::onImageForTf, this);
+    tf_timer_ = node_.createWallTimer(ros::WallDuration(kTfRetryPeriod),
+                                      [this](const ros::WallTimerEvent&) { retryPendingTf(); });
+    return;
+  }
+  odom_topic_ = node_.resolveName("odom");
+  const uint32_t queue = static_cast<uint32_t>(options_.sync_queue_size);
+  image_filter_.subscribe(image_transport_, "image", queue);
+  odom_filter_.subscribe(node_, "odom", queue);
+  image_filter_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
+      [this](const sensor_msgs::ImageConstPtr&) {
+        ++images_received_;
+        last_image_wall_ = wallNow();
+      }));
+  odom_filter_.registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
+      [this](const nav_msgs::OdometryConstPtr&) {
+        ++odometry_received_;
+        last_odometry_wall_ = wallNow();
+      }));
+  sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
+                                                                     image_filter_, odom_filter_);
+  sync_->setMaxIntervalDuration(ros::Duration(options_.sync_slop));
+  sync_->registerCallback(boost::bind(&LoopClosureNode::onImageWithOdometry, this,
+                                      boost::placeholders::_1, boost::placeholders::_2));
+}
+
+void LoopClosureNode::onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
+                                          const nav_msgs::OdometryConstPtr& odometry) {
+  const std::string& frame =
+      odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
+  admitFrame(image, fromRos(odometry->pose.pose), frame);
+}
+
+void LoopClosureNode::onImageForTf(const sensor_msgs::ImageConstPtr& image) {
+  ++images_received_;
+  last_image_wall_ = wallNow();
+  pending_tf_.push_back({image, ros::WallTime::now()});
+  if (pending_tf_.size() > kMaxPendingTf) {
+    pending_tf_.pop_front();
+    ++tf_timeouts_;
+  }
+  retryPendingTf();
+}
+
+void LoopClosureNode::retryPendingTf() {
+  while (!pending_tf_.empty()) {
+    const PendingImage& pending = pending_tf_.front();
+    const ros::Time stamp = pending.image->header.stamp;
+    std::string error;
+    if (tf_buffer_->canTransform(options_.odom_frame, options_.base_frame, stamp, &error)) {
+      const geometry_msgs::TransformStamped transform =
+          tf_buffer_->lookupTransform(options_.odom_frame, options_.base_frame, stamp);
+      last_odometry_wall_ = wallNow();
+      ++odometry_received_;
+      const Pose pose = Pose::fromIsometry(tf2::transformToEigen(transform));
+      const sensor_msgs::ImageConstPtr image = pending.image;
+      pending_tf_.pop_front();
+      admitFrame(image, pose, options_.odom_frame);
+      continue;
+    }
+    if ((ros::WallTime::now() - pending.received).toSec() < options_.tf_timeout) return;
+    ++tf_timeouts_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Dropped image at %.3f: no transform %s -> %s after %.2f s (%s)",
+                      stamp.toSec(), options_.odom_frame.c_str(), options_.base_frame.c_str(),
+                      options_.tf_timeout, error.c_str());
+    pending_tf_.pop_front();
+  }
+}
+
+void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  camera_info_ = info;
+  camera_info_seen_ = true;
+}
+
+void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
+                                 const std::string& frame_id) {
+  if (auto error = checkImageMessage(*image)) {
+    reportRejected(*error);
+    return;
+  }
+  const double stamp = toSeconds(image->header.stamp);
+  const FrameAdmission admission =
+      detector_.admit(stamp, pose, static_cast<int>(image->width), static_cast<int>(image->height),
+                      *cvTypeOfEncoding(image->encoding));
+  if (admission.error) {
+    reportRejected(*admission.error);
+    return;
+  }
+  ++frames_admitted_;
+  const Selection& selection = admission.selection;
+  if (selection.verdict == SelectionVerdict::kOdometryJump) {
+    ++odometry_jumps_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Odometry jumped: motion %.2f since the last keyframe exceeds "
+                      "keyframe/max_motion %.2f; frame refused (tracking lost?)",
+                      selection.motion, options_.detector.keyframe.max_motion);
+    return;
+  }
+  if (selection.reanchored) {
+    ROS_WARN("Odometry stayed %.2f away from the last keyframe for %d frames: taking it as "
+             "re-initialised and starting from keyframe %lu",
+             selection.motion, options_.detector.keyframe.jump_reanchor_frames,
+             static_cast<unsigned long>(admission.keyframe_id));
+  }
+  if (!admission.isKeyframe()) return;
+  if (queue_.push(KeyframeJob{image, admission.keyframe_id, stamp, normalisedPose(pose), frame_id})) {
+    ++keyframes_dropped_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
+                      "far); raise worker_queue_size or keyframe/min_motion",
+                      static_cast<unsigned long>(keyframes_dropped_.load()));
+  }
+}
+
+void LoopClosureNode::reportRejected(const InputError& error) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++rejected_[error.code];
+  const ros::WallTime now = ros::WallTime::now();
+  auto last = last_rejection_log_.find(error.code);
+  if (last != last_rejection_log_.end() && (now - last->second).toSec() < kRejectionLogPeriod) {
+    return;
+  }
+  last_rejection_log_[error.code] = now;
+  ROS_ERROR("Dropped frame (%s, %lu so far): %s", toString(error.code),
+            static_cast<unsigned long>(rejected_[error.code]), error.message.c_str());
+}
+
+void LoopClosureNode::workerLoop() {
+  while (std::optional<KeyframeJob> job = queue_.pop()) processKeyframe(*job);
+}
+
+void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
+  const auto start = std::chrono::steady_clock::now();
+  cv::Mat grey;
+  try {
+    grey = toGrey(*job.image);
+  } catch (const cv::Exception& error) {
+    reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
+    return;
+  }
+  const KeyframeResult result = detector_.addKeyframe(job.id, job.stamp, job.pose, grey);
+  if (result.error) {
+    reportRejected(*result.error);
+    return;
+  }
+  ++keyframes_stored_;
+  publishResults(job, result, grey);
+  const double elapsed =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  last_processing_ms_ = elapsed;
+  max_processing_ms_ = std::max(max_processing_ms_, elapsed);
+  database_bytes_ = detector_.database().bytes();
+}
+
+void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResult& result,
+                                     const cv::Mat& grey) {
+  keyframe_publisher_.publish(toKeyframeMsg(job.id, job.stamp, job.pose, job.frame_id));
+  if (result.loop) {
+    loop_publisher_.publish(toLoopMsg(*result.loop, job.frame_id));
+    ++loops_published_;
+    ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
+             static_cast<unsigned long>(result.loop->query_id),
+             static_cast<unsigned long>(result.loop->match_id), result.loop->score,
+             result.loop->consistent_keyframes);
+  }
+  if (candidates_publisher_.getNumSubscribers() > 0) {
+    candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id));
+  }
+
+  markers_.setFrameId(job.frame_id);
+  markers_.addKeyframe(job.pose);
+  if (result.loop) markers_.addLoop(*result.loop);
+  for (const CandidateReport& candidate : result.candidates) {
+    if (candidate.verdict != CandidateVerdict::kAwaitingConsistency &&
+        candidate.verdict != CandidateVerdict::kOutscored) {
+      continue;
+    }
+    if (const KeyframeRecord* match = detector_.database().findById(candidate.match_id)) {
+      markers_.addRejected(job.pose, match->pose);
+    }
+  }
+  if (markers_publisher_.getNumSubscribers() > 0) {
+    markers_publisher_.publish(markers_.toMsg(toRosTime(job.stamp)));
+  }
+  if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(result, grey);
+}
+
+void LoopClosureNode::publishMatchImage(const KeyframeResult& result, const cv::Mat& grey) {
+  if (result.candidates.empty()) return;
+  const CandidateReport& best = result.candidates.front();
+  const KeyframeRecord* match = detector_.database().findById(best.match_id);
+  std::ostringstream caption;
+  caption.precision(3);
+  caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
+          << std::fixed << best.score << "  " << toString(best.verdict);
+  const cv::Mat picture = renderMatchImage(grey, match ? match->thumbnail : cv::Mat(),
+                                           caption.str(), best.verdict == CandidateVerdict::kAccepted);
+  std_msgs::Header header;
+  header.stamp = toRosTime(result.loop ? result.loop->query_stamp : 0.0);
+  match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
+}
+
+void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  const double now = wallNow();
+  const bool use_odom = options_.pose_source == "odom";
+  std::ostringstream waiting;
+  if (now - last_image_wall_ > options_.input_timeout) waiting << image_topic_;
+  if (use_odom && now - last_odometry_wall_ > options_.input_timeout) {
+    waiting << (waiting.tellp() > 0 ? " and " : "") << odom_topic_;
+  }
+  if (!use_odom && tf_timeouts_ > 0 && now - last_odometry_wall_ > options_.input_timeout) {
+    waiting << (waiting.tellp() > 0 ? " and " : "") << "tf " << options_.odom_frame << " -> "
+            << options_.base_frame;
+  }
+  if (waiting.tellp() > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
+                    options_.input_timeout, waiting.str().c_str());
+  } else if (keyframes_dropped_ > 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "Running; the worker has dropped keyframes");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
+  }
+
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const double elapsed = std::max(1e-3, (ros::WallTime::now() - last_rate_time_).toSec());
+  status.add("image topic", image_topic_);
+  if (use_odom) status.add("odometry topic", odom_topic_);
+  status.addf("image rate (Hz)", "%.1f", (images_received_ - last_images_for_rate_) / elapsed);
+  status.addf("pose rate (Hz)", "%.1f", (odometry_received_ - last_odometry_for_rate_) / elapsed);
+  last_images_for_rate_ = images_received_;
+  last_odometry_for_rate_ = odometry_received_;
+  last_rate_time_ = ros::WallTime::now();
+  status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
+  status.add("frames admitted", frames_admitted_.load());
+  status.add("keyframes", keyframes_stored_.load());
+  status.add("database bytes", database_bytes_);
+  status.add("loops published", loops_published_.load());
+  status.add("keyframes dropped (worker busy)", keyframes_dropped_.load());
+  status.add("queued keyframes", queue_.size());
+  status.add("odometry jumps", odometry_jumps_.load());
+  if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
+  status.addf("last keyframe processing (ms)", "%.1f", last_processing_ms_);
+  status.addf("max keyframe processing (ms)", "%.1f", max_processing_ms_);
+  for (const auto& [code, count] : rejected_) {
+    status.add(std::string("rejected: ") + toString(code), count);
+  }
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,137 @@
+#pragma once
+
+#include <atomic>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "landmark_loop_closure/bounded_queue.h"
+#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/node_options.h"
+#include "loop_markers.h"
+
+namespace landmark_loop_closure {
+
+/// Reads the node's options from its private namespace. Throws std::invalid_argument listing
+/// every problem (type errors and validation); warns about keys it does not know.
+NodeOptions loadNodeOptions(const ros::NodeHandle& private_node);
+
+/// The ROS side of the detector: subscriptions, a worker thread, publishers, diagnostics.
+///
+/// Threading: subscriber and timer callbacks run on the node handles' single-threaded queue and
+/// only do cheap checks and keyframe selection; describing and searching run on one worker
+/// thread fed by a bounded queue, so a callback never waits for it.
+class LoopClosureNode {
+ public:
+  LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_node, const NodeOptions& options);
+  ~LoopClosureNode();
+
+  LoopClosureNode(const LoopClosureNode&) = delete;
+  LoopClosureNode& operator=(const LoopClosureNode&) = delete;
+
+ private:
+  struct KeyframeJob {
+    sensor_msgs::ImageConstPtr image;
+    uint64_t id;
+    double stamp;
+    Pose pose;
+    std::string frame_id;
+  };
+  struct PendingImage {
+    sensor_msgs::ImageConstPtr image;
+    ros::WallTime received;
+  };
+  using SyncPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, nav_msgs::Odometry>;
+
+  void subscribe();
+  void onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
+                           const nav_msgs::OdometryConstPtr& odometry);
+  void onImageForTf(const sensor_msgs::ImageConstPtr& image);
+  void retryPendingTf();
+  void onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info);
+  void admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
+                  const std::string& frame_id);
+  void reportRejected(const InputError& error);
+
+  void workerLoop();
+  void processKeyframe(const KeyframeJob& job);
+  void publishResults(const KeyframeJob& job, const KeyframeResult& result,
+                      const cv::Mat& grey);
+  void publishMatchImage(const KeyframeResult& result, const cv::Mat& grey);
+  void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle node_;
+  ros::NodeHandle private_node_;
+  NodeOptions options_;
+  LoopDetector detector_;
+
+  // Inputs.
+  image_transport::ImageTransport image_transport_;
+  image_transport::SubscriberFilter image_filter_;
+  message_filters::Subscriber<nav_msgs::Odometry> odom_filter_;
+  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+  image_transport::Subscriber image_subscriber_;
+  ros::Subscriber camera_info_subscriber_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::deque<PendingImage> pending_tf_;
+  ros::WallTimer tf_timer_;
+  std::string image_topic_;
+  std::string odom_topic_;
+
+  // Outputs.
+  ros::Publisher loop_publisher_;
+  ros::Publisher keyframe_publisher_;
+  ros::Publisher candidates_publisher_;
+  ros::Publisher markers_publisher_;
+  image_transport::Publisher match_image_publisher_;
+  LoopMarkers markers_;  // Worker thread only.
+
+  // Worker.
+  BoundedQueue<KeyframeJob> queue_;
+  std::thread worker_;
+
+  // Diagnostics; counters are written by both threads.
+  diagnostic_updater::Updater diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+  std::atomic<uint64_t> images_received_{0};
+  std::atomic<uint64_t> odometry_received_{0};
+  std::atomic<uint64_t> frames_admitted_{0};
+  std::atomic<uint64_t> keyframes_stored_{0};
+  std::atomic<uint64_t> loops_published_{0};
+  std::atomic<uint64_t> keyframes_dropped_{0};
+  std::atomic<uint64_t> tf_timeouts_{0};
+  std::atomic<uint64_t> odometry_jumps_{0};
+  std::atomic<double> last_image_wall_{0.0};
+  std::atomic<double> last_odometry_wall_{0.0};
+  std::atomic<bool> camera_info_seen_{false};
+  std::mutex stats_mutex_;  // Guards what follows.
+  std::map<InputErrorCode, uint64_t> rejected_;
+  std::map<InputErrorCode, ros::WallTime> last_rejection_log_;
+  double last_processing_ms_ = 0.0;
+  double max_processing_ms_ = 0.0;
+  size_t database_bytes_ = 0;
+  uint64_t last_images_for_rate_ = 0;
+  uint64_t last_odometry_for_rate_ = 0;
+  ros::WallTime last_rate_time_;
+  sensor_msgs::CameraInfoConstPtr camera_info_;
+};
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,29 @@
+// The nodelet only builds the node; everything else lives in LoopClosureNode.
+#include <memory>
+
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+
+#include "loop_closure_node.h"
+
+namespace landmark_loop_closure {
+
+class LoopClosureNodelet : public nodelet::Nodelet {
+ private:
+  void onInit() override {
+    NodeOptions options;
+    try {
+      options = loadNodeOptions(getPrivateNodeHandle());
+    } catch (const std::invalid_argument& problems) {
+      NODELET_FATAL("Refusing to start, fix these parameters:\n%s", problems.what());
+      throw;
+    }
+    node_ = std::make_unique<LoopClosureNode>(getNodeHandle(), getPrivateNodeHandle(), options);
+  }
+
+  std::unique_ptr<LoopClosureNode> node_;
+};
+
+}  // namespace landmark_loop_closure
+
+PLUGINLIB_EXPORT_CLASS(landmark_loop_closure::LoopClosureNodelet, nodelet::Nodelet)

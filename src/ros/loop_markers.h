@@ -1,0 +1,35 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <visualization_msgs/MarkerArray.h>
+
+#include "landmark_loop_closure/loop_detector.h"
+
+namespace landmark_loop_closure {
+
+/// What rviz shows: keyframe positions, accepted loops coloured by score (red at the threshold,
+/// green at 1), and optionally rejected candidates in grey.
+class LoopMarkers {
+ public:
+  LoopMarkers(std::string frame_id, double min_score, bool show_rejected);
+
+  void addKeyframe(const Pose& pose);
+  void addLoop(const AcceptedLoop& loop);
+  void addRejected(const Pose& query, const Pose& match);
+  void setFrameId(const std::string& frame_id) { frame_id_ = frame_id; }
+
+  visualization_msgs::MarkerArray toMsg(const ros::Time& stamp) const;
+
+ private:
+  std::string frame_id_;
+  double min_score_;
+  bool show_rejected_;
+  std::vector<geometry_msgs::Point> keyframes_;
+  std::vector<geometry_msgs::Point> loop_ends_;
+  std::vector<std_msgs::ColorRGBA> loop_colours_;
+  std::vector<geometry_msgs::Point> rejected_ends_;
+};
+
+}  // namespace landmark_loop_closure

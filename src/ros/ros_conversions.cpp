@@ -1,0 +1,162 @@
+#include "ros_conversions.h"
+
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+#include <sensor_msgs/image_encodings.h>
+
+namespace landmark_loop_closure {
+
+namespace enc = sensor_msgs::image_encodings;
+
+std::optional<int> cvTypeOfEncoding(const std::string& encoding) {
+  if (encoding == enc::MONO8) return CV_8UC1;
+  if (encoding == enc::MONO16) return CV_16UC1;
+  if (encoding == enc::BGR8 || encoding == enc::RGB8) return CV_8UC3;
+  if (encoding == enc::BGRA8 || encoding == enc::RGBA8) return CV_8UC4;
+  return std::nullopt;
+}
+
+std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image) {
+  const std::optional<int> type = cvTypeOfEncoding(image.encoding);
+  if (!type) {
+    return InputError{InputErrorCode::kUnsupportedImageType,
+                      "image encoding '" + image.encoding +
+                          "' is not supported (use mono8, mono16, bgr8, rgb8, bgra8 or rgba8)"};
+  }
+  if (image.width == 0 || image.height == 0) {
+    std::ostringstream message;
+    message << "image is empty (" << image.width << "x" << image.height << ")";
+    return InputError{InputErrorCode::kEmptyImage, message.str()};
+  }
+  const size_t pixel_bytes = CV_ELEM_SIZE(*type);
+  const size_t needed = static_cast<size_t>(image.step) * image.height;
+  if (image.step < image.width * pixel_bytes || image.data.size() < needed) {
+    std::ostringstream message;
+    message << "image " << image.width << "x" << image.height << " " << image.encoding
+            << " has step " << image.step << " and " << image.data.size()
+            << " bytes of data, which cannot hold it";
+    return InputError{InputErrorCode::kEmptyImage, message.str()};
+  }
+  return std::nullopt;
+}
+
+cv::Mat toGrey(const sensor_msgs::Image& image) {
+  const int type = *cvTypeOfEncoding(image.encoding);
+  // A view of the message's buffer; every branch below copies before the message can go away.
+  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,
+                     const_cast<uint8_t*>(image.data.data()), image.step);
+  cv::Mat grey;
+  if (image.encoding == enc::MONO8) {
+    grey = view.clone();
+  } else if (image.encoding == enc::MONO16) {
+    view.convertTo(grey, CV_8U, 1.0 / 256.0);
+  } else if (image.encoding == enc::BGR8) {
+    cv::cvtColor(view, grey, cv::COLOR_BGR2GRAY);
+  } else if (image.encoding == enc::RGB8) {
+    cv::cvtColor(view, grey, cv::COLOR_RGB2GRAY);
+  } else if (image.encoding == enc::BGRA8) {
+    cv::cvtColor(view, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    cv::cvtColor(view, grey, cv::COLOR_RGBA2GRAY);
+  }
+  return grey;
+}
+
+Pose fromRos(const geometry_msgs::Pose& pose) {
+  Pose result;
+  result.position = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+  // Not normalised here: checkPose decides whether the quaternion is close enough to unit.
+  result.orientation =
+      Eigen::Quaterniond(pose.orientation.w, pose.orientation.x, pose.orientation.y,
+                         pose.orientation.z);
+  return result;
+}
+
+geometry_msgs::Pose toRos(const Pose& pose) {
+  geometry_msgs::Pose result;
+  result.position.x = pose.position.x();
+  result.position.y = pose.position.y();
+  result.position.z = pose.position.z();
+  result.orientation.w = pose.orientation.w();
+  result.orientation.x = pose.orientation.x();
+  result.orientation.y = pose.orientation.y();
+  result.orientation.z = pose.orientation.z();
+  return result;
+}
+
+double toSeconds(const ros::Time& stamp) { return stamp.toSec(); }
+
+ros::Time toRosTime(double seconds) {
+  // Rounded to the nanosecond so that a stamp survives the round trip through double.
+  const int64_t nanoseconds = static_cast<int64_t>(std::llround(seconds * 1e9));
+  ros::Time stamp;
+  stamp.fromNSec(static_cast<uint64_t>(nanoseconds));
+  return stamp;
+}
+
+LoopClosure toLoopMsg(const AcceptedLoop& loop, const std::string& frame_id) {
+  LoopClosure msg;
+  msg.header.stamp = toRosTime(loop.query_stamp);
+  msg.header.frame_id = frame_id;
+  msg.query_id = loop.query_id;
+  msg.query_stamp = toRosTime(loop.query_stamp);
+  msg.match_id = loop.match_id;
+  msg.match_stamp = toRosTime(loop.match_stamp);
+  msg.score = loop.score;
+  msg.global_score = loop.global_score;
+  msg.rerank_score = loop.score;
+  msg.consistent_frames = static_cast<uint32_t>(loop.consistent_keyframes);
+  msg.query_pose = toRos(loop.query_pose);
+  msg.match_pose = toRos(loop.match_pose);
+  msg.relative_pose.pose.orientation.w = 1.0;
+  msg.has_relative_pose = false;
+  return msg;
+}
+
+Keyframe toKeyframeMsg(uint64_t id, double stamp, const Pose& pose, const std::string& frame_id) {
+  Keyframe msg;
+  msg.header.stamp = toRosTime(stamp);
+  msg.header.frame_id = frame_id;
+  msg.id = id;
+  msg.pose = toRos(pose);
+  return msg;
+}
+
+uint8_t toMsgVerdict(CandidateVerdict verdict) {
+  switch (verdict) {
+    case CandidateVerdict::kAccepted:
+      return LoopCandidate::ACCEPTED;
+    case CandidateVerdict::kBelowThreshold:
+      return LoopCandidate::BELOW_THRESHOLD;
+    case CandidateVerdict::kAwaitingConsistency:
+      return LoopCandidate::AWAITING_CONSISTENCY;
+    case CandidateVerdict::kOutscored:
+      return LoopCandidate::OUTSCORED;
+  }
+  return LoopCandidate::BELOW_THRESHOLD;
+}
+
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, double stamp,
+                                   const std::string& frame_id) {
+  LoopCandidateArray msg;
+  msg.header.stamp = toRosTime(stamp);
+  msg.header.frame_id = frame_id;
+  msg.query_id = result.keyframe_id;
+  msg.query_status = toString(result.query_status);
+  for (const CandidateReport& report : result.candidates) {
+    LoopCandidate candidate;
+    candidate.match_id = report.match_id;
+    candidate.match_stamp = toRosTime(report.match_stamp);
+    candidate.score = report.score;
+    candidate.global_score = report.global_score;
+    candidate.consistent_frames = static_cast<uint32_t>(report.consistent_keyframes);
+    candidate.verdict = toMsgVerdict(report.verdict);
+    candidate.reason = toString(report.verdict);
+    msg.candidates.push_back(candidate);
+  }
+  return msg;
+}
+
+}  // namespace landmark_loop_closure

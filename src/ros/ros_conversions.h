@@ -1,0 +1,43 @@
+#pragma once
+
+// The one place where ROS messages and core types meet.
+
+#include <optional>
+#include <string>
+
+#include <geometry_msgs/Pose.h>
+#include <ros/time.h>
+#include <sensor_msgs/Image.h>
+
+#include "landmark_loop_closure/Keyframe.h"
+#include "landmark_loop_closure/LoopCandidateArray.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/input_error.h"
+#include "landmark_loop_closure/loop_detector.h"
+
+namespace landmark_loop_closure {
+
+/// OpenCV type (CV_8UC1, CV_16UC1, CV_8UC3, CV_8UC4) of a supported encoding; nullopt for others.
+/// Supported: mono8, mono16, bgr8, rgb8, bgra8, rgba8.
+std::optional<int> cvTypeOfEncoding(const std::string& encoding);
+
+/// Checks what can be checked without touching pixels: encoding, and that the buffer holds
+/// height * step bytes with step >= width * pixel size. Cheap enough for a subscriber callback.
+std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image);
+
+/// 8-bit grey copy or view of a message that passed checkImageMessage.
+cv::Mat toGrey(const sensor_msgs::Image& image);
+
+Pose fromRos(const geometry_msgs::Pose& pose);
+geometry_msgs::Pose toRos(const Pose& pose);
+
+double toSeconds(const ros::Time& stamp);
+ros::Time toRosTime(double seconds);
+
+LoopClosure toLoopMsg(const AcceptedLoop& loop, const std::string& frame_id);
+Keyframe toKeyframeMsg(uint64_t id, double stamp, const Pose& pose, const std::string& frame_id);
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, double stamp,
+                                   const std::string& frame_id);
+uint8_t toMsgVerdict(CandidateVerdict verdict);
+
+}  // namespace landmark_loop_closure

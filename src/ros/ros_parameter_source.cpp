@@ -1,0 +1,29 @@
+#include "ros_parameter_source.h"
+
+namespace landmark_loop_closure {
+
+ParameterLookup RosParameterSource::get(const std::string& key, double* value) const {
+  return lookup(key, value);
+}
+ParameterLookup RosParameterSource::get(const std::string& key, int* value) const {
+  return lookup(key, value);
+}
+ParameterLookup RosParameterSource::get(const std::string& key, bool* value) const {
+  return lookup(key, value);
+}
+ParameterLookup RosParameterSource::get(const std::string& key, std::string* value) const {
+  return lookup(key, value);
+}
+
+std::vector<std::string> RosParameterSource::keys() const {
+  std::vector<std::string> all;
+  std::vector<std::string> result;
+  if (!node_.getParamNames(all)) return result;
+  const std::string prefix = node_.getNamespace() + "/";
+  for (const std::string& name : all) {
+    if (name.compare(0, prefix.size(), prefix) == 0) result.push_back(name.substr(prefix.size()));
+  }
+  return result;
+}
+
+}  // namespace landmark_loop_closure
