@@ -6,6 +6,8 @@ cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 scripts/build.sh
 export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:11311
+# ROS's Python tools need the system interpreter, not a pyenv/venv python3 first on PATH.
+export PATH="/usr/bin:$PATH"
 # The devel space puts this package on ROS_PACKAGE_PATH for rostest and roslaunch checks.
 set +u
 source _build/devel/setup.bash

@@ -86,7 +86,7 @@ struct KeyframeResult {
   std::optional<InputError> error;  ///< Set: the keyframe was refused and not stored.
   uint64_t keyframe_id = 0;
   QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
-  std::optional<AcceptedLoop> loop;          ///< The accepted loop, if any.
+  std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
   StageTimes times;
 };

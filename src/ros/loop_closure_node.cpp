@@ -66,16 +66,15 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
   last_rate_time_ = ros::WallTime::now();
-  diagnostics_timer_ = node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
-                                             [this](const ros::WallTimerEvent&) {
-                                               diagnostics_.force_update();
-                                             });
+  diagnostics_timer_ =
+      node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
+                            [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
   subscribe();
   ROS_INFO("Loop closure: descriptor %s, pose from %s, listening on %s%s%s",
-           detector_.extractor().name().c_str(), options_.pose_source.c_str(),
-           image_topic_.c_str(), odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+           detector_.extractor().name().c_str(), options_.pose_source.c_str(), image_topic_.c_str(),
+           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
 }
 
 LoopClosureNode::~LoopClosureNode() {
@@ -86,9 +85,8 @@ LoopClosureNode::~LoopClosureNode() {
 void LoopClosureNode::subscribe() {
   // Never lazy: a detector that stops listening loses keyframes for good.
   image_topic_ = node_.resolveName("image");
-  camera_info_subscriber_ =
-      node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
-                      &LoopClosureNode::onCameraInfo, this);
+  camera_info_subscriber_ = node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
+                                            &LoopClosureNode::onCameraInfo, this);
   if (options_.pose_source == "tf") {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
@@ -113,7 +111,7 @@ void LoopClosureNode::subscribe() {
         last_odometry_wall_ = wallNow();
       }));
   sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
-                                                                     image_filter_, odom_filter_);
+                                                                      image_filter_, odom_filter_);
   sync_->setMaxIntervalDuration(ros::Duration(options_.sync_slop));
   sync_->registerCallback(boost::bind(&LoopClosureNode::onImageWithOdometry, this,
                                       boost::placeholders::_1, boost::placeholders::_2));
@@ -194,13 +192,15 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     return;
   }
   if (selection.reanchored) {
-    ROS_WARN("Odometry stayed %.2f away from the last keyframe for %d frames: taking it as "
-             "re-initialised and starting from keyframe %lu",
-             selection.motion, options_.detector.keyframe.jump_reanchor_frames,
-             static_cast<unsigned long>(admission.keyframe_id));
+    ROS_WARN(
+        "Odometry stayed %.2f away from the last keyframe for %d frames: taking it as "
+        "re-initialised and starting from keyframe %lu",
+        selection.motion, options_.detector.keyframe.jump_reanchor_frames,
+        static_cast<unsigned long>(admission.keyframe_id));
   }
   if (!admission.isKeyframe()) return;
-  if (queue_.push(KeyframeJob{image, admission.keyframe_id, stamp, normalisedPose(pose), frame_id})) {
+  if (queue_.push(KeyframeJob{image, admission.keyframe_id, image->header.stamp,
+                              normalisedPose(pose), frame_id})) {
     ++keyframes_dropped_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
@@ -235,12 +235,13 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
     return;
   }
-  const KeyframeResult result = detector_.addKeyframe(job.id, job.stamp, job.pose, grey);
+  const KeyframeResult result = detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey);
   if (result.error) {
     reportRejected(*result.error);
     return;
   }
   ++keyframes_stored_;
+  keyframe_stamps_[job.id] = job.stamp;
   publishResults(job, result, grey);
   const double elapsed =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -254,7 +255,8 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
                                      const cv::Mat& grey) {
   keyframe_publisher_.publish(toKeyframeMsg(job.id, job.stamp, job.pose, job.frame_id));
   if (result.loop) {
-    loop_publisher_.publish(toLoopMsg(*result.loop, job.frame_id));
+    loop_publisher_.publish(toLoopMsg(*result.loop, job.stamp,
+                                      keyframe_stamps_.at(result.loop->match_id), job.frame_id));
     ++loops_published_;
     ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
              static_cast<unsigned long>(result.loop->query_id),
@@ -262,7 +264,8 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
              result.loop->consistent_keyframes);
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
-    candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id));
+    candidates_publisher_.publish(toCandidatesMsg(
+        result, job.stamp, job.frame_id, [this](uint64_t id) { return keyframe_stamps_.at(id); }));
   }
 
   markers_.setFrameId(job.frame_id);
@@ -278,12 +281,13 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
     }
   }
   if (markers_publisher_.getNumSubscribers() > 0) {
-    markers_publisher_.publish(markers_.toMsg(toRosTime(job.stamp)));
+    markers_publisher_.publish(markers_.toMsg(job.stamp));
   }
-  if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(result, grey);
+  if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(job, result, grey);
 }
 
-void LoopClosureNode::publishMatchImage(const KeyframeResult& result, const cv::Mat& grey) {
+void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeResult& result,
+                                        const cv::Mat& grey) {
   if (result.candidates.empty()) return;
   const CandidateReport& best = result.candidates.front();
   const KeyframeRecord* match = detector_.database().findById(best.match_id);
@@ -291,10 +295,11 @@ void LoopClosureNode::publishMatchImage(const KeyframeResult& result, const cv::
   caption.precision(3);
   caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
           << std::fixed << best.score << "  " << toString(best.verdict);
-  const cv::Mat picture = renderMatchImage(grey, match ? match->thumbnail : cv::Mat(),
-                                           caption.str(), best.verdict == CandidateVerdict::kAccepted);
+  const cv::Mat picture =
+      renderMatchImage(grey, match ? match->thumbnail : cv::Mat(), caption.str(),
+                       best.verdict == CandidateVerdict::kAccepted);
   std_msgs::Header header;
-  header.stamp = toRosTime(result.loop ? result.loop->query_stamp : 0.0);
+  header.stamp = job.stamp;
   match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
 }
 

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <unordered_map>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
@@ -49,7 +50,7 @@ class LoopClosureNode {
   struct KeyframeJob {
     sensor_msgs::ImageConstPtr image;
     uint64_t id;
-    double stamp;
+    ros::Time stamp;
     Pose pose;
     std::string frame_id;
   };
@@ -72,9 +73,8 @@ class LoopClosureNode {
 
   void workerLoop();
   void processKeyframe(const KeyframeJob& job);
-  void publishResults(const KeyframeJob& job, const KeyframeResult& result,
-                      const cv::Mat& grey);
-  void publishMatchImage(const KeyframeResult& result, const cv::Mat& grey);
+  void publishResults(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
+  void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle node_;
@@ -102,7 +102,8 @@ class LoopClosureNode {
   ros::Publisher candidates_publisher_;
   ros::Publisher markers_publisher_;
   image_transport::Publisher match_image_publisher_;
-  LoopMarkers markers_;  // Worker thread only.
+  LoopMarkers markers_;                                      // Worker thread only.
+  std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
 
   // Worker.
   BoundedQueue<KeyframeJob> queue_;

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <sstream>
 
-#include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
+#include <opencv2/imgproc.hpp>
 
 namespace landmark_loop_closure {
 
@@ -68,9 +68,8 @@ Pose fromRos(const geometry_msgs::Pose& pose) {
   Pose result;
   result.position = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
   // Not normalised here: checkPose decides whether the quaternion is close enough to unit.
-  result.orientation =
-      Eigen::Quaterniond(pose.orientation.w, pose.orientation.x, pose.orientation.y,
-                         pose.orientation.z);
+  result.orientation = Eigen::Quaterniond(pose.orientation.w, pose.orientation.x,
+                                          pose.orientation.y, pose.orientation.z);
   return result;
 }
 
@@ -89,21 +88,21 @@ geometry_msgs::Pose toRos(const Pose& pose) {
 double toSeconds(const ros::Time& stamp) { return stamp.toSec(); }
 
 ros::Time toRosTime(double seconds) {
-  // Rounded to the nanosecond so that a stamp survives the round trip through double.
   const int64_t nanoseconds = static_cast<int64_t>(std::llround(seconds * 1e9));
   ros::Time stamp;
   stamp.fromNSec(static_cast<uint64_t>(nanoseconds));
   return stamp;
 }
 
-LoopClosure toLoopMsg(const AcceptedLoop& loop, const std::string& frame_id) {
+LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
+                      const ros::Time& match_stamp, const std::string& frame_id) {
   LoopClosure msg;
-  msg.header.stamp = toRosTime(loop.query_stamp);
+  msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
   msg.query_id = loop.query_id;
-  msg.query_stamp = toRosTime(loop.query_stamp);
+  msg.query_stamp = query_stamp;
   msg.match_id = loop.match_id;
-  msg.match_stamp = toRosTime(loop.match_stamp);
+  msg.match_stamp = match_stamp;
   msg.score = loop.score;
   msg.global_score = loop.global_score;
   msg.rerank_score = loop.score;
@@ -115,9 +114,10 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const std::string& frame_id) {
   return msg;
 }
 
-Keyframe toKeyframeMsg(uint64_t id, double stamp, const Pose& pose, const std::string& frame_id) {
+Keyframe toKeyframeMsg(uint64_t id, const ros::Time& stamp, const Pose& pose,
+                       const std::string& frame_id) {
   Keyframe msg;
-  msg.header.stamp = toRosTime(stamp);
+  msg.header.stamp = stamp;
   msg.header.frame_id = frame_id;
   msg.id = id;
   msg.pose = toRos(pose);
@@ -138,17 +138,18 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
   return LoopCandidate::BELOW_THRESHOLD;
 }
 
-LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, double stamp,
-                                   const std::string& frame_id) {
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time& stamp,
+                                   const std::string& frame_id,
+                                   const std::function<ros::Time(uint64_t)>& stamp_of) {
   LoopCandidateArray msg;
-  msg.header.stamp = toRosTime(stamp);
+  msg.header.stamp = stamp;
   msg.header.frame_id = frame_id;
   msg.query_id = result.keyframe_id;
   msg.query_status = toString(result.query_status);
   for (const CandidateReport& report : result.candidates) {
     LoopCandidate candidate;
     candidate.match_id = report.match_id;
-    candidate.match_stamp = toRosTime(report.match_stamp);
+    candidate.match_stamp = stamp_of(report.match_id);
     candidate.score = report.score;
     candidate.global_score = report.global_score;
     candidate.consistent_frames = static_cast<uint32_t>(report.consistent_keyframes);

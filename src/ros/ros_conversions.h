@@ -2,6 +2,7 @@
 
 // The one place where ROS messages and core types meet.
 
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -34,10 +35,16 @@ geometry_msgs::Pose toRos(const Pose& pose);
 double toSeconds(const ros::Time& stamp);
 ros::Time toRosTime(double seconds);
 
-LoopClosure toLoopMsg(const AcceptedLoop& loop, const std::string& frame_id);
-Keyframe toKeyframeMsg(uint64_t id, double stamp, const Pose& pose, const std::string& frame_id);
-LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, double stamp,
-                                   const std::string& frame_id);
+/// Stamps as double seconds lose nanoseconds at epoch scale, so messages carry the original
+/// ros::Time of each keyframe, passed in by the caller.
+LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
+                      const ros::Time& match_stamp, const std::string& frame_id);
+Keyframe toKeyframeMsg(uint64_t id, const ros::Time& stamp, const Pose& pose,
+                       const std::string& frame_id);
+/// `stamp_of(id)` returns a keyframe's original stamp.
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time& stamp,
+                                   const std::string& frame_id,
+                                   const std::function<ros::Time(uint64_t)>& stamp_of);
 uint8_t toMsgVerdict(CandidateVerdict verdict);
 
 }  // namespace landmark_loop_closure

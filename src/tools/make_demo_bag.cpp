@@ -31,7 +31,8 @@ geometry_msgs::Pose toPose(const Pose2D& pose) {
   return result;
 }
 
-nav_msgs::Odometry toOdometry(const Pose2D& pose, const ros::Time& stamp, const std::string& frame) {
+nav_msgs::Odometry toOdometry(const Pose2D& pose, const ros::Time& stamp,
+                              const std::string& frame) {
   nav_msgs::Odometry odometry;
   odometry.header.stamp = stamp;
   odometry.header.frame_id = frame;
@@ -87,7 +88,8 @@ int main(int argc, char** argv) {
     std_msgs::Header header;
     header.stamp = stamp;
     header.frame_id = "camera";
-    bag.write("/camera/image_raw", stamp, cv_bridge::CvImage(header, "mono8", frame.image).toImageMsg());
+    bag.write("/camera/image_raw", stamp,
+              cv_bridge::CvImage(header, "mono8", frame.image).toImageMsg());
     bag.write("/camera/camera_info", stamp, cameraInfo(camera, header));
     const nav_msgs::Odometry odometry = toOdometry(frame.odom, stamp, "odom");
     bag.write("/odom", stamp, odometry);
@@ -106,7 +108,7 @@ int main(int argc, char** argv) {
     }
   }
   bag.close();
-  std::cout << "make_demo_bag: wrote " << sequence.size() << " frames ("
-            << options.laps << " laps of " << world.lapLength() << " m) to " << path << "\n";
+  std::cout << "make_demo_bag: wrote " << sequence.size() << " frames (" << options.laps
+            << " laps of " << world.lapLength() << " m) to " << path << "\n";
   return 0;
 }

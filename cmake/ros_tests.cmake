@@ -1,0 +1,19 @@
+# Tests of the ROS wrapper: message conversions, the running node, every shipped launch file.
+find_package(rostest REQUIRED)
+find_package(roslaunch REQUIRED)
+
+catkin_add_gtest(test_ros_conversions test/ros/test_ros_conversions.cpp)
+target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_ros_conversions ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES}
+  GTest::gtest_main)
+
+foreach(name node_revisit node_bad_input)
+  add_rostest_gtest(test_${name} test/ros/${name}.test test/ros/test_${name}.cpp)
+  target_include_directories(test_${name} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+  target_link_libraries(test_${name} ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
+  add_dependencies(test_${name} ${PROJECT_NAME}_generate_messages_cpp loop_closure_node
+    ${PROJECT_NAME}_nodelet)
+endforeach()
+
+roslaunch_add_file_check(launch IGNORE_UNSET_ARGS)
+roslaunch_add_file_check(test/ros)

@@ -1,0 +1,115 @@
+#pragma once
+
+// Drives a running loop-closure node with the generated corridor sequence and records what it
+// publishes.
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <cv_bridge/cv_bridge.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+
+#include "landmark_loop_closure/Keyframe.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/sim/sequence.h"
+
+namespace landmark_loop_closure {
+namespace test_support {
+
+class NodeHarness {
+ public:
+  NodeHarness() {
+    image_publisher_ = node_.advertise<sensor_msgs::Image>("/camera/image_raw", 100);
+    odom_publisher_ = node_.advertise<nav_msgs::Odometry>("/odom", 100);
+    keyframe_subscriber_ = node_.subscribe("/keyframes", 1000, &NodeHarness::onKeyframe, this);
+    loop_subscriber_ = node_.subscribe("/loop_closures", 1000, &NodeHarness::onLoop, this);
+    diagnostics_subscriber_ =
+        node_.subscribe("/diagnostics", 10, &NodeHarness::onDiagnostics, this);
+  }
+
+  /// Waits until the node listens to both inputs; false after `timeout` seconds.
+  bool waitForNode(double timeout = 30.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    while (ros::ok() && ros::WallTime::now() < end) {
+      if (image_publisher_.getNumSubscribers() > 0 && odom_publisher_.getNumSubscribers() > 0 &&
+          keyframe_subscriber_.getNumPublishers() > 0) {
+        return true;
+      }
+      ros::WallDuration(0.05).sleep();
+    }
+    return false;
+  }
+
+  /// Publishes an image and its odometry with the same stamp; `corrupt_pose` puts NaN in x.
+  void publish(double stamp, const sim::Pose2D& odom, const cv::Mat& image,
+               const std::string& encoding = "mono8", bool corrupt_pose = false) {
+    std_msgs::Header header;
+    header.stamp = ros::Time(stamp);
+    header.frame_id = "camera";
+    sensor_msgs::ImagePtr message = cv_bridge::CvImage(header, "mono8", image).toImageMsg();
+    message->encoding = encoding;
+    nav_msgs::Odometry odometry;
+    odometry.header.stamp = header.stamp;
+    odometry.header.frame_id = "odom";
+    odometry.child_frame_id = "base_link";
+    odometry.pose.pose.position.x =
+        corrupt_pose ? std::numeric_limits<double>::quiet_NaN() : odom.x;
+    odometry.pose.pose.position.y = odom.y;
+    odometry.pose.pose.orientation.z = std::sin(0.5 * odom.yaw);
+    odometry.pose.pose.orientation.w = std::cos(0.5 * odom.yaw);
+    odom_publisher_.publish(odometry);
+    image_publisher_.publish(message);
+  }
+
+  /// Spins until no keyframe arrived for `quiet` seconds (or `timeout` passed).
+  void waitUntilQuiet(double quiet = 2.0, double timeout = 60.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    last_output_ = ros::WallTime::now();
+    while (ros::ok() && ros::WallTime::now() < end &&
+           (ros::WallTime::now() - last_output_).toSec() < quiet) {
+      ros::spinOnce();
+      ros::WallDuration(0.01).sleep();
+    }
+  }
+
+  const std::map<uint64_t, ros::Time>& keyframes() const { return keyframes_; }
+  const std::vector<LoopClosure>& loops() const { return loops_; }
+  /// Last value of a key in the node's diagnostics; empty when never seen.
+  std::string diagnostic(const std::string& key) const {
+    const auto it = diagnostics_.find(key);
+    return it == diagnostics_.end() ? std::string() : it->second;
+  }
+
+ private:
+  void onKeyframe(const KeyframeConstPtr& keyframe) {
+    keyframes_[keyframe->id] = keyframe->header.stamp;
+    last_output_ = ros::WallTime::now();
+  }
+  void onLoop(const LoopClosureConstPtr& loop) { loops_.push_back(*loop); }
+  void onDiagnostics(const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
+    for (const auto& status : array->status) {
+      if (status.name.find("loop closure") == std::string::npos) continue;
+      for (const auto& value : status.values) diagnostics_[value.key] = value.value;
+    }
+  }
+
+  ros::NodeHandle node_;
+  ros::Publisher image_publisher_;
+  ros::Publisher odom_publisher_;
+  ros::Subscriber keyframe_subscriber_;
+  ros::Subscriber loop_subscriber_;
+  ros::Subscriber diagnostics_subscriber_;
+  std::map<uint64_t, ros::Time> keyframes_;
+  std::vector<LoopClosure> loops_;
+  std::map<std::string, std::string> diagnostics_;
+  ros::WallTime last_output_;
+};
+
+}  // namespace test_support
+}  // namespace landmark_loop_closure

@@ -1,0 +1,58 @@
+// The running node, fed a one-way route with bad frames mixed in, publishes no loop, drops every
+// bad frame without output, keeps working after them and counts them in its diagnostics.
+#include <set>
+
+#include "node_harness.h"
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::sim;
+
+TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
+  test_support::NodeHarness harness;
+  ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = 0.9;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  std::set<ros::Time> bad_stamps;
+  double last_bad_stamp = 0.0;
+  ros::WallRate rate(150.0);
+  SequenceFrame frame;
+  while (ros::ok() && sequence.next(&frame)) {
+    harness.publish(frame.stamp, frame.odom, frame.image);
+    const double between = frame.stamp + 0.5 / options.rate;  // Its own stamp, after this frame.
+    if (frame.index == 100 || frame.index == 101) {           // Float image: unsupported encoding.
+      harness.publish(between, frame.odom, frame.image, "32FC1");
+      bad_stamps.insert(ros::Time(between));
+      last_bad_stamp = between;
+    } else if (frame.index == 200 || frame.index == 201) {  // Odometry with NaN.
+      harness.publish(between, frame.odom, frame.image, "mono8", true);
+      bad_stamps.insert(ros::Time(between));
+      last_bad_stamp = between;
+    } else if (frame.index == 300) {  // Back in time by 10 s (a bag restarted).
+      const double old = frame.stamp - 10.0;
+      harness.publish(old, frame.odom, frame.image);
+      bad_stamps.insert(ros::Time(old));
+    }
+    ros::spinOnce();
+    rate.sleep();
+  }
+  harness.waitUntilQuiet(3.0);
+
+  EXPECT_TRUE(harness.loops().empty()) << harness.loops().size() << " loops on a one-way route";
+  EXPECT_GT(harness.keyframes().size(), 150u);
+  ros::Time newest;
+  for (const auto& [id, stamp] : harness.keyframes()) {
+    EXPECT_EQ(bad_stamps.count(stamp), 0u) << "keyframe " << id << " came from a bad frame";
+    newest = std::max(newest, stamp);
+  }
+  EXPECT_GT(newest.toSec(), last_bad_stamp + 10.0) << "the node stopped after the bad input";
+  EXPECT_NE(harness.diagnostic("rejected: unsupported_image_type"), "");
+  EXPECT_NE(harness.diagnostic("rejected: non_finite_pose"), "");
+}
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_node_bad_input");
+  return RUN_ALL_TESTS();
+}

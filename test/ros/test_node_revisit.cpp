@@ -1,0 +1,53 @@
+// The running node, fed two laps of the corridor, publishes loops whose keyframes are truly at
+// the same place, with ids and stamps that agree with its keyframes topic.
+#include <map>
+
+#include "node_harness.h"
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::sim;
+
+TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
+  test_support::NodeHarness harness;
+  ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = 2.0;
+  options.start_stamp = 1700000000.123456789;  // Epoch-scale stamps, as on a real robot.
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  std::map<ros::Time, Pose2D> truth;
+  ros::WallRate rate(150.0);
+  SequenceFrame frame;
+  while (ros::ok() && sequence.next(&frame)) {
+    truth[ros::Time(frame.stamp)] = frame.truth;
+    harness.publish(frame.stamp, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+  }
+  harness.waitUntilQuiet();
+
+  EXPECT_GT(harness.keyframes().size(), 400u);
+  ASSERT_GE(harness.loops().size(), 5u);
+  for (const LoopClosure& loop : harness.loops()) {
+    SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id));
+    ASSERT_EQ(harness.keyframes().count(loop.query_id), 1u);
+    ASSERT_EQ(harness.keyframes().count(loop.match_id), 1u);
+    EXPECT_EQ(harness.keyframes().at(loop.query_id), loop.query_stamp);
+    EXPECT_EQ(harness.keyframes().at(loop.match_id), loop.match_stamp);
+    // Stamps are the images' own, to the nanosecond, so a backend can look them up exactly.
+    ASSERT_EQ(truth.count(loop.query_stamp), 1u);
+    ASSERT_EQ(truth.count(loop.match_stamp), 1u);
+    const Pose2D& query = truth.at(loop.query_stamp);
+    const Pose2D& match = truth.at(loop.match_stamp);
+    EXPECT_LT(std::hypot(query.x - match.x, query.y - match.y), 2.5);
+    EXPECT_GT(loop.query_id, loop.match_id);
+    EXPECT_GE(loop.score, 0.7);
+    EXPECT_EQ(loop.header.frame_id, "odom");
+  }
+}
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_node_revisit");
+  return RUN_ALL_TESTS();
+}

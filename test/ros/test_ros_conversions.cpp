@@ -1,0 +1,131 @@
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include "../../src/ros/ros_conversions.h"
+
+using namespace landmark_loop_closure;
+
+namespace {
+
+sensor_msgs::Image makeImage(const std::string& encoding, uint32_t width, uint32_t height,
+                             uint32_t pixel_bytes) {
+  sensor_msgs::Image image;
+  image.encoding = encoding;
+  image.width = width;
+  image.height = height;
+  image.step = width * pixel_bytes;
+  image.data.assign(static_cast<size_t>(image.step) * height, 0);
+  return image;
+}
+
+}  // namespace
+
+TEST(RosConversions, PoseRoundTrip) {
+  Pose pose;
+  pose.position = Eigen::Vector3d(1.5, -2.0, 0.25);
+  pose.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  const Pose back = fromRos(toRos(pose));
+  EXPECT_TRUE(back.position.isApprox(pose.position));
+  EXPECT_TRUE(back.orientation.isApprox(pose.orientation));
+}
+
+TEST(RosConversions, FromRosKeepsAnUnnormalisedQuaternionForTheCheckToSee) {
+  geometry_msgs::Pose message;
+  message.orientation.w = 2.0;
+  EXPECT_DOUBLE_EQ(fromRos(message).orientation.norm(), 2.0);
+}
+
+TEST(RosConversions, StampRoundTripThroughDoubleIsWithinAMicrosecond) {
+  // Not exact: why messages carry the original ros::Time rather than the core's double.
+  const ros::Time stamp(1700000000, 123456789);
+  EXPECT_LT(std::abs((toRosTime(toSeconds(stamp)) - stamp).toSec()), 1e-6);
+}
+
+TEST(RosConversions, SupportedEncodingsConvertToGrey) {
+  namespace enc = sensor_msgs::image_encodings;
+  const std::pair<std::string, uint32_t> encodings[] = {{enc::MONO8, 1}, {enc::MONO16, 2},
+                                                        {enc::BGR8, 3},  {enc::RGB8, 3},
+                                                        {enc::BGRA8, 4}, {enc::RGBA8, 4}};
+  for (const auto& [encoding, bytes] : encodings) {
+    sensor_msgs::Image image = makeImage(encoding, 64, 48, bytes);
+    image.data.assign(image.data.size(), 200);
+    ASSERT_FALSE(checkImageMessage(image)) << encoding;
+    const cv::Mat grey = toGrey(image);
+    EXPECT_EQ(grey.type(), CV_8UC1) << encoding;
+    EXPECT_EQ(grey.size(), cv::Size(64, 48)) << encoding;
+  }
+}
+
+TEST(RosConversions, RgbAndBgrAreNotConfused) {
+  sensor_msgs::Image red_rgb = makeImage(sensor_msgs::image_encodings::RGB8, 16, 16, 3);
+  for (size_t i = 0; i < red_rgb.data.size(); i += 3) red_rgb.data[i] = 255;
+  sensor_msgs::Image red_bgr = makeImage(sensor_msgs::image_encodings::BGR8, 16, 16, 3);
+  for (size_t i = 2; i < red_bgr.data.size(); i += 3) red_bgr.data[i] = 255;
+  EXPECT_EQ(toGrey(red_rgb).at<uchar>(0, 0), toGrey(red_bgr).at<uchar>(0, 0));
+}
+
+TEST(RosConversions, UnsupportedEncodingIsNamed) {
+  const sensor_msgs::Image image = makeImage("32FC1", 64, 48, 4);
+  const auto error = checkImageMessage(image);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kUnsupportedImageType);
+  EXPECT_NE(error->message.find("32FC1"), std::string::npos);
+}
+
+TEST(RosConversions, TruncatedOrEmptyBuffersAreRefused) {
+  sensor_msgs::Image image = makeImage(sensor_msgs::image_encodings::MONO8, 64, 48, 1);
+  image.data.resize(100);
+  EXPECT_TRUE(checkImageMessage(image));
+  image = makeImage(sensor_msgs::image_encodings::BGR8, 64, 48, 3);
+  image.step = 64;  // Too short for 3 bytes per pixel.
+  EXPECT_TRUE(checkImageMessage(image));
+  EXPECT_TRUE(checkImageMessage(makeImage(sensor_msgs::image_encodings::MONO8, 0, 0, 1)));
+}
+
+TEST(RosConversions, LoopMessageCarriesEveryField) {
+  AcceptedLoop loop;
+  loop.query_id = 40;
+  loop.query_stamp = 12.5;
+  loop.match_id = 3;
+  loop.match_stamp = 2.25;
+  loop.score = 0.9;
+  loop.global_score = 0.8;
+  loop.consistent_keyframes = 4;
+  loop.query_pose = planarPose(1, 2, 0.3);
+  loop.match_pose = planarPose(1.1, 2.1, 0.2);
+  const ros::Time query_stamp(1700000000, 123456789);
+  const ros::Time match_stamp(1699999990, 987654321);
+  const LoopClosure message = toLoopMsg(loop, query_stamp, match_stamp, "odom");
+  EXPECT_EQ(message.header.frame_id, "odom");
+  EXPECT_EQ(message.header.stamp, query_stamp);
+  EXPECT_EQ(message.query_stamp, query_stamp);
+  EXPECT_EQ(message.query_id, 40u);
+  EXPECT_EQ(message.match_id, 3u);
+  EXPECT_EQ(message.match_stamp, match_stamp);
+  EXPECT_DOUBLE_EQ(message.score, 0.9);
+  EXPECT_DOUBLE_EQ(message.global_score, 0.8);
+  EXPECT_EQ(message.consistent_frames, 4u);
+  EXPECT_DOUBLE_EQ(message.match_pose.position.x, 1.1);
+  EXPECT_FALSE(message.has_relative_pose);
+}
+
+TEST(RosConversions, CandidatesCarryVerdictConstants) {
+  KeyframeResult result;
+  result.keyframe_id = 9;
+  result.query_status = QueryStatus::kSearched;
+  CandidateReport report;
+  report.match_id = 2;
+  report.verdict = CandidateVerdict::kAwaitingConsistency;
+  result.candidates.push_back(report);
+  const LoopCandidateArray message =
+      toCandidatesMsg(result, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
+  EXPECT_EQ(message.query_status, "searched");
+  ASSERT_EQ(message.candidates.size(), 1u);
+  EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::AWAITING_CONSISTENCY);
+  EXPECT_EQ(message.candidates[0].reason, "awaiting_consistency");
+  EXPECT_EQ(message.candidates[0].match_stamp, ros::Time(2.0));
+}
