@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
@@ -27,17 +28,21 @@ class NodeHarness {
   NodeHarness() {
     image_publisher_ = node_.advertise<sensor_msgs::Image>("/camera/image_raw", 100);
     odom_publisher_ = node_.advertise<nav_msgs::Odometry>("/odom", 100);
+    tf_publisher_ = node_.advertise<tf2_msgs::TFMessage>("/tf", 100);
     keyframe_subscriber_ = node_.subscribe("/keyframes", 1000, &NodeHarness::onKeyframe, this);
     loop_subscriber_ = node_.subscribe("/loop_closures", 1000, &NodeHarness::onLoop, this);
     diagnostics_subscriber_ =
         node_.subscribe("/diagnostics", 10, &NodeHarness::onDiagnostics, this);
   }
 
-  /// Waits until the node listens to both inputs; false after `timeout` seconds.
+  /// Waits until the node listens to images and to its pose source (odometry or tf); false after
+  /// `timeout` seconds.
   bool waitForNode(double timeout = 30.0) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
     while (ros::ok() && ros::WallTime::now() < end) {
-      if (image_publisher_.getNumSubscribers() > 0 && odom_publisher_.getNumSubscribers() > 0 &&
+      const bool pose_source_connected =
+          odom_publisher_.getNumSubscribers() > 0 || tf_publisher_.getNumSubscribers() > 0;
+      if (image_publisher_.getNumSubscribers() > 0 && pose_source_connected &&
           keyframe_subscriber_.getNumPublishers() > 0) {
         return true;
       }
@@ -46,7 +51,8 @@ class NodeHarness {
     return false;
   }
 
-  /// Publishes an image and its odometry with the same stamp; `corrupt_pose` puts NaN in x.
+  /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
+  /// the same stamp; `corrupt_pose` puts NaN in x.
   void publish(double stamp, const sim::Pose2D& odom, const cv::Mat& image,
                const std::string& encoding = "mono8", bool corrupt_pose = false) {
     std_msgs::Header header;
@@ -64,6 +70,15 @@ class NodeHarness {
     odometry.pose.pose.orientation.z = std::sin(0.5 * odom.yaw);
     odometry.pose.pose.orientation.w = std::cos(0.5 * odom.yaw);
     odom_publisher_.publish(odometry);
+    geometry_msgs::TransformStamped transform;
+    transform.header = odometry.header;
+    transform.child_frame_id = odometry.child_frame_id;
+    transform.transform.translation.x = odometry.pose.pose.position.x;
+    transform.transform.translation.y = odometry.pose.pose.position.y;
+    transform.transform.rotation = odometry.pose.pose.orientation;
+    tf2_msgs::TFMessage tf;
+    tf.transforms.push_back(transform);
+    if (!corrupt_pose) tf_publisher_.publish(tf);  // tf itself refuses NaN transforms.
     image_publisher_.publish(message);
   }
 
@@ -102,6 +117,7 @@ class NodeHarness {
   ros::NodeHandle node_;
   ros::Publisher image_publisher_;
   ros::Publisher odom_publisher_;
+  ros::Publisher tf_publisher_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber diagnostics_subscriber_;
