@@ -8,6 +8,7 @@ set(CORE_TESTS
   test_loop_detector
   test_loop_detector_sim
   test_bounded_queue
+  test_match_image
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})
@@ -17,5 +18,9 @@ foreach(name ${CORE_TESTS})
   target_compile_definitions(${name} PRIVATE
     PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
+
+catkin_add_gtest(test_ground_truth test/core/test_ground_truth.cpp)
+target_link_libraries(test_ground_truth ${PROJECT_NAME}_eval GTest::gtest_main)
+target_compile_definitions(test_ground_truth PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
 include(cmake/ros_tests.cmake OPTIONAL)

@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
-scripts/build.sh
+scripts/build.sh tests
 export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:11311
 # ROS's Python tools need the system interpreter, not a pyenv/venv python3 first on PATH.
 export PATH="/usr/bin:$PATH"

@@ -1,0 +1,74 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "landmark_loop_closure/pose.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+/// Which images show the same place: a sparse binary matrix, entry (row, col) = 1 when image
+/// `row` and image `col` are the same place. For a single sequence rows and columns are the same
+/// images; for two traversals rows are queries and columns database images.
+class GroundTruth {
+ public:
+  enum class Shape { kEmpty, kSymmetric, kLowerTriangular, kUpperTriangular, kMixed };
+
+  GroundTruth() = default;
+  GroundTruth(size_t rows, size_t cols);
+
+  /// Marks (row, col); call finalize() once after the last add().
+  void add(size_t row, size_t col);
+  void finalize();
+
+  size_t rows() const { return rows_; }
+  size_t cols() const { return cols_; }
+  /// Number of positive entries.
+  size_t count() const;
+  bool contains(size_t row, size_t col) const;
+  const std::vector<uint32_t>& positives(size_t row) const { return positives_[row]; }
+  size_t rowsWithPositives() const;
+  Shape shape() const;
+  /// Square matrix with every pair in both directions, for sequences whose files list only
+  /// (later, earlier) or only (earlier, later).
+  GroundTruth undirected() const;
+
+ private:
+  size_t rows_ = 0;
+  size_t cols_ = 0;
+  std::vector<std::vector<uint32_t>> positives_;
+};
+
+const char* toString(GroundTruth::Shape shape);
+
+class GroundTruthError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads a 2-D numeric or logical matrix (any MATLAB numeric class, dense or sparse, plain or
+/// zlib-compressed elements) from a MATLAB v5 .mat file; nonzero = same place. `variable` empty
+/// takes the first 2-D numeric matrix. Streams the data, so a 26k x 26k matrix needs memory only
+/// for its positives. Throws GroundTruthError naming the file and the problem.
+GroundTruth readMatGroundTruth(const std::string& path, const std::string& variable = "");
+
+/// Two aligned traversals: query i shows the place of database image j when |i - j| <= tolerance.
+GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance);
+
+/// One sequence with poses: i and j are the same place when their positions are within
+/// `max_distance` metres, their headings within `max_angle` radians (<= 0: any heading), and
+/// their stamps at least `min_time_gap` seconds apart.
+GroundTruth poseGroundTruth(const std::vector<Pose>& poses, const std::vector<double>& stamps,
+                            double max_distance, double max_angle, double min_time_gap);
+
+/// KITTI odometry poses: one row-major 3x4 [R|t] per line. Throws GroundTruthError.
+std::vector<Pose> readKittiPoses(const std::string& path);
+/// One number per line (KITTI times.txt). Throws GroundTruthError.
+std::vector<double> readNumbers(const std::string& path);
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,23 @@
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/match_image.h"
+
+using namespace landmark_loop_closure;
+
+TEST(MatchImage, PutsBothImagesSideBySideAtTheRequestedHeight) {
+  const cv::Mat query(120, 160, CV_8UC1, cv::Scalar(50));
+  const cv::Mat match(240, 320, CV_8UC3, cv::Scalar(200, 200, 200));
+  const cv::Mat picture = renderMatchImage(query, match, "keyframe 10 vs 2", true, 240);
+  ASSERT_EQ(picture.type(), CV_8UC3);
+  EXPECT_EQ(picture.cols, 320 + 320);
+  EXPECT_GT(picture.rows, 240);  // Caption line below.
+  EXPECT_EQ(picture.at<cv::Vec3b>(100, 100), cv::Vec3b(50, 50, 50));
+  EXPECT_EQ(picture.at<cv::Vec3b>(100, 500), cv::Vec3b(200, 200, 200));
+}
+
+TEST(MatchImage, MissingMatchIsDrawnAsAPlaceholder) {
+  const cv::Mat query(120, 160, CV_8UC1, cv::Scalar(50));
+  const cv::Mat picture = renderMatchImage(query, cv::Mat(), "no thumbnail", false, 120);
+  EXPECT_EQ(picture.rows > 120, true);
+  EXPECT_EQ(picture.cols, 160 + 160);
+}
