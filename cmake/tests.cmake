@@ -19,8 +19,11 @@ foreach(name ${CORE_TESTS})
     PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
 
-catkin_add_gtest(test_ground_truth test/core/test_ground_truth.cpp)
-target_link_libraries(test_ground_truth ${PROJECT_NAME}_eval GTest::gtest_main)
-target_compile_definitions(test_ground_truth PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+# Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.
+foreach(name test_ground_truth test_evaluation test_baselines_regression)
+  catkin_add_gtest(${name} test/core/${name}.cpp)
+  target_link_libraries(${name} ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+endforeach()
 
 include(cmake/ros_tests.cmake OPTIONAL)

@@ -46,10 +46,15 @@ class DescriptorExtractor {
 
 /// Parameters that choose and shape the descriptor.
 struct DescriptorOptions {
-  std::string type = "hog";  ///< "hog": whole-image HOG with CALC's settings (3648 dims).
+  /// "hog": HOG with CALC's settings (3648 values); "hog_whole": one 9-bin HOG window over the
+  /// whole image (9576); "pixels": 32x24 downsampled grey pixels (768).
+  std::string type = "hog";
 
   std::string validate() const;
 };
+
+/// Every value DescriptorOptions::type accepts.
+const std::vector<std::string>& descriptorTypes();
 
 /// Builds the extractor named by options.type; throws std::invalid_argument for an unknown type.
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(

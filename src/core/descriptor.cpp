@@ -1,9 +1,11 @@
 #include "landmark_loop_closure/descriptor.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <Eigen/Core>
 
+#include "landmark_loop_closure/baseline_descriptors.h"
 #include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
@@ -25,14 +27,24 @@ double DescriptorExtractor::similarity(const ImageDescriptor& query,
   return cosineSimilarity(query.global, candidate.global);
 }
 
+const std::vector<std::string>& descriptorTypes() {
+  static const std::vector<std::string> types = {"hog", "hog_whole", "pixels"};
+  return types;
+}
+
 std::string DescriptorOptions::validate() const {
-  if (type != "hog") return "descriptor/type must be one of: hog (got '" + type + "')\n";
-  return {};
+  const auto& types = descriptorTypes();
+  if (std::find(types.begin(), types.end(), type) != types.end()) return {};
+  std::string known;
+  for (const std::string& name : types) known += (known.empty() ? "" : ", ") + name;
+  return "descriptor/type must be one of: " + known + " (got '" + type + "')\n";
 }
 
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
     const DescriptorOptions& options) {
   if (options.type == "hog") return std::make_shared<HogDescriptor>();
+  if (options.type == "hog_whole") return std::make_shared<WholeImageHogDescriptor>();
+  if (options.type == "pixels") return std::make_shared<PixelDescriptor>();
   throw std::invalid_argument("unknown descriptor type '" + options.type + "'");
 }
 

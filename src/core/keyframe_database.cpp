@@ -85,8 +85,9 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
 }
 
 const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
-  const auto it = std::lower_bound(keyframes_.begin(), keyframes_.end(), id,
-                                   [](const KeyframeRecord& k, uint64_t value) { return k.id < value; });
+  const auto it =
+      std::lower_bound(keyframes_.begin(), keyframes_.end(), id,
+                       [](const KeyframeRecord& k, uint64_t value) { return k.id < value; });
   return it != keyframes_.end() && it->id == id ? &*it : nullptr;
 }
 

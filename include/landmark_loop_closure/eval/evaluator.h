@@ -1,0 +1,77 @@
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/eval/ground_truth.h"
+#include "landmark_loop_closure/eval/metrics.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+/// Image files of a folder (png, jpg, jpeg, bmp, pgm, ppm, tif, tiff), sorted by name.
+/// Throws GroundTruthError when the folder is missing or holds no image.
+std::vector<std::string> listImages(const std::string& folder);
+
+/// Called now and then with (done, total) during long runs.
+using Progress = std::function<void(size_t done, size_t total)>;
+
+/// Descriptors of a list of images, in order. An image that does not decode keeps its slot
+/// (so ground-truth indices stay aligned), is marked invalid and is never matched.
+struct DescribedImages {
+  std::vector<ImageDescriptor> descriptors;
+  std::vector<bool> valid;
+  std::vector<double> describe_ms;
+  std::vector<std::string> undecodable;
+
+  size_t size() const { return descriptors.size(); }
+};
+
+/// `load(i)` returns image i (empty when it cannot be read).
+DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)>& load,
+                               const DescriptorExtractor& extractor, const Progress& progress = {});
+DescribedImages describeImageFiles(const std::vector<std::string>& paths,
+                                   const DescriptorExtractor& extractor,
+                                   const Progress& progress = {});
+
+struct MatchingOptions {
+  /// Sequence mode (queries == database): image i is only matched against images j with
+  /// j < i - exclude_recent, as an online detector would.
+  int exclude_recent = 0;
+  /// When the extractor re-ranks: how many global-descriptor candidates it re-scores.
+  int shortlist = 10;
+  /// Largest side of the similarity-matrix picture (max-pooled down to it).
+  int matrix_size = 1000;
+};
+
+struct Evaluation {
+  std::string name;
+  Metrics metrics;
+  std::vector<QueryOutcome> outcomes;
+  Percentiles describe_ms;
+  Percentiles query_ms;
+  double bytes_per_image = 0.0;
+  size_t undecodable = 0;
+  cv::Mat similarity;  ///< CV_32F, queries x database, max-pooled to at most matrix_size.
+};
+
+/// Traversal matching: every query against every database image. `truth` is queries x database.
+Evaluation evaluateTraversals(const DescribedImages& database, const DescribedImages& queries,
+                              const GroundTruth& truth, const DescriptorExtractor& extractor,
+                              const MatchingOptions& options, const Progress& progress = {});
+
+/// Sequence matching: each image against the earlier ones outside the exclusion window.
+/// `truth` is square over the sequence (use GroundTruth::undirected() for one-sided files).
+Evaluation evaluateSequence(const DescribedImages& images, const GroundTruth& truth,
+                            const DescriptorExtractor& extractor, const MatchingOptions& options,
+                            const Progress& progress = {});
+
+/// The ground truth drawn on the same grid as Evaluation::similarity (white = same place).
+cv::Mat groundTruthPicture(const GroundTruth& truth, int matrix_size);
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,31 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "landmark_loop_closure/eval/evaluator.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+struct RunDescription {
+  std::string dataset;       ///< Free text, e.g. "nordland summer vs winter".
+  std::string mode;          ///< "traversal" or "sequence".
+  std::string ground_truth;  ///< Where the ground truth came from.
+  size_t database_images = 0;
+  size_t query_images = 0;
+};
+
+/// Writes into `folder` (created if needed): results.json (every configuration's measures),
+/// pr_<name>.csv (the curve), matches_<name>.csv (every query's best match, whether it is right,
+/// and whether it is accepted at the 100 %-precision threshold), similarity_<name>.png and
+/// ground_truth.png. Returns the path of results.json.
+std::string writeReport(const std::string& folder, const RunDescription& run,
+                        const std::vector<Evaluation>& evaluations, const GroundTruth& truth,
+                        int matrix_size);
+
+/// Peak resident memory of this process in bytes (VmHWM), 0 when unknown.
+size_t peakResidentBytes();
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,239 @@
+#include "landmark_loop_closure/eval/evaluator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <numeric>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace landmark_loop_closure {
+namespace eval {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+bool isImageFile(const fs::path& path) {
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  static const char* kExtensions[] = {".png", ".jpg", ".jpeg", ".bmp",
+                                      ".pgm", ".ppm", ".tif",  ".tiff"};
+  return std::any_of(std::begin(kExtensions), std::end(kExtensions),
+                     [&extension](const char* e) { return extension == e; });
+}
+
+// Max-pools scores into a picture grid of at most `size` per side.
+class SimilarityGrid {
+ public:
+  SimilarityGrid(size_t rows, size_t cols, int size)
+      : rows_(rows),
+        cols_(cols),
+        grid_(static_cast<int>(std::min<size_t>(rows, size)),
+              static_cast<int>(std::min<size_t>(cols, size)), CV_32F, cv::Scalar(-1.0f)) {}
+
+  void add(size_t row, size_t col, double score) {
+    const int r = static_cast<int>(row * grid_.rows / std::max<size_t>(1, rows_));
+    const int c = static_cast<int>(col * grid_.cols / std::max<size_t>(1, cols_));
+    float& cell = grid_.at<float>(r, c);
+    cell = std::max(cell, static_cast<float>(score));
+  }
+  cv::Mat take() { return grid_; }
+
+ private:
+  size_t rows_;
+  size_t cols_;
+  cv::Mat grid_;
+};
+
+struct Scored {
+  size_t index;
+  double global;
+};
+
+// Best database match of one query among database[0, end) (skipping invalid ones).
+QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
+                        const DescribedImages& database, size_t end, const GroundTruth& truth,
+                        const DescriptorExtractor& extractor, const MatchingOptions& options,
+                        SimilarityGrid* grid) {
+  QueryOutcome outcome;
+  outcome.query = query_index;
+  outcome.has_truth = false;
+  for (const uint32_t place : truth.positives(query_index)) {
+    if (place < end && database.valid[place]) {
+      outcome.has_truth = true;
+      break;
+    }
+  }
+  std::vector<Scored> scored;
+  scored.reserve(end);
+  for (size_t j = 0; j < end; ++j) {
+    if (!database.valid[j]) continue;
+    const double score = cosineSimilarity(query.global, database.descriptors[j].global);
+    scored.push_back({j, score});
+    grid->add(query_index, j, score);
+  }
+  if (scored.empty()) return outcome;
+  const size_t keep = extractor.reranks() ? std::min<size_t>(scored.size(), options.shortlist) : 1;
+  std::partial_sort(scored.begin(), scored.begin() + static_cast<std::ptrdiff_t>(keep),
+                    scored.end(),
+                    [](const Scored& a, const Scored& b) { return a.global > b.global; });
+  size_t best = scored[0].index;
+  double best_score = scored[0].global;
+  if (extractor.reranks()) {
+    best_score = -std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < keep; ++k) {
+      const double score = extractor.similarity(query, database.descriptors[scored[k].index]);
+      if (score > best_score) {
+        best_score = score;
+        best = scored[k].index;
+      }
+    }
+  }
+  outcome.match = static_cast<long>(best);
+  outcome.score = best_score;
+  outcome.correct = truth.contains(query_index, best);
+  return outcome;
+}
+
+Evaluation summarise(const std::string& name, std::vector<QueryOutcome> outcomes,
+                     std::vector<double> query_ms, const DescribedImages& database,
+                     const DescribedImages* queries, SimilarityGrid* grid) {
+  Evaluation evaluation;
+  evaluation.name = name;
+  evaluation.metrics = computeMetrics(outcomes);
+  evaluation.outcomes = std::move(outcomes);
+  std::vector<double> describe = database.describe_ms;
+  size_t bytes = 0;
+  size_t described = 0;
+  for (size_t i = 0; i < database.size(); ++i) {
+    if (!database.valid[i]) continue;
+    bytes += database.descriptors[i].bytes();
+    ++described;
+  }
+  evaluation.undecodable = database.undecodable.size();
+  if (queries) {
+    describe.insert(describe.end(), queries->describe_ms.begin(), queries->describe_ms.end());
+    evaluation.undecodable += queries->undecodable.size();
+  }
+  evaluation.describe_ms = percentiles(describe);
+  evaluation.query_ms = percentiles(std::move(query_ms));
+  evaluation.bytes_per_image = described ? static_cast<double>(bytes) / described : 0.0;
+  evaluation.similarity = grid->take();
+  return evaluation;
+}
+
+}  // namespace
+
+std::vector<std::string> listImages(const std::string& folder) {
+  if (!fs::is_directory(folder))
+    throw GroundTruthError("image folder " + folder + " does not exist");
+  std::vector<std::string> paths;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    if (entry.is_regular_file() && isImageFile(entry.path()))
+      paths.push_back(entry.path().string());
+  }
+  if (paths.empty()) throw GroundTruthError("image folder " + folder + " holds no image");
+  std::sort(paths.begin(), paths.end());
+  return paths;
+}
+
+DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)>& load,
+                               const DescriptorExtractor& extractor, const Progress& progress) {
+  DescribedImages result;
+  result.descriptors.resize(count);
+  result.valid.assign(count, false);
+  for (size_t i = 0; i < count; ++i) {
+    const cv::Mat image = load(i);
+    if (image.empty()) {
+      result.undecodable.push_back(std::to_string(i));
+    } else {
+      const auto start = Clock::now();
+      result.descriptors[i] = extractor.describe(image);
+      result.describe_ms.push_back(millisecondsSince(start));
+      result.valid[i] = true;
+    }
+    if (progress) progress(i + 1, count);
+  }
+  return result;
+}
+
+DescribedImages describeImageFiles(const std::vector<std::string>& paths,
+                                   const DescriptorExtractor& extractor, const Progress& progress) {
+  DescribedImages result = describeImages(
+      paths.size(), [&paths](size_t i) { return cv::imread(paths[i], cv::IMREAD_GRAYSCALE); },
+      extractor, progress);
+  for (std::string& entry : result.undecodable) entry = paths[std::stoul(entry)];
+  return result;
+}
+
+Evaluation evaluateTraversals(const DescribedImages& database, const DescribedImages& queries,
+                              const GroundTruth& truth, const DescriptorExtractor& extractor,
+                              const MatchingOptions& options, const Progress& progress) {
+  if (truth.rows() != queries.size() || truth.cols() != database.size()) {
+    throw GroundTruthError("ground truth is " + std::to_string(truth.rows()) + " x " +
+                           std::to_string(truth.cols()) + " but there are " +
+                           std::to_string(queries.size()) + " queries and " +
+                           std::to_string(database.size()) + " database images");
+  }
+  SimilarityGrid grid(queries.size(), database.size(), options.matrix_size);
+  std::vector<QueryOutcome> outcomes;
+  std::vector<double> query_ms;
+  for (size_t q = 0; q < queries.size(); ++q) {
+    if (!queries.valid[q]) continue;
+    const auto start = Clock::now();
+    outcomes.push_back(matchQuery(q, queries.descriptors[q], database, database.size(), truth,
+                                  extractor, options, &grid));
+    query_ms.push_back(millisecondsSince(start));
+    if (progress) progress(q + 1, queries.size());
+  }
+  return summarise(extractor.name(), std::move(outcomes), std::move(query_ms), database, &queries,
+                   &grid);
+}
+
+Evaluation evaluateSequence(const DescribedImages& images, const GroundTruth& truth,
+                            const DescriptorExtractor& extractor, const MatchingOptions& options,
+                            const Progress& progress) {
+  if (truth.rows() != images.size() || truth.cols() != images.size()) {
+    throw GroundTruthError("ground truth is " + std::to_string(truth.rows()) + " x " +
+                           std::to_string(truth.cols()) + " but the sequence has " +
+                           std::to_string(images.size()) + " images");
+  }
+  SimilarityGrid grid(images.size(), images.size(), options.matrix_size);
+  std::vector<QueryOutcome> outcomes;
+  std::vector<double> query_ms;
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (!images.valid[i]) continue;
+    const long end = static_cast<long>(i) - options.exclude_recent;
+    const auto start = Clock::now();
+    outcomes.push_back(matchQuery(i, images.descriptors[i], images,
+                                  static_cast<size_t>(std::max(0L, end)), truth, extractor, options,
+                                  &grid));
+    query_ms.push_back(millisecondsSince(start));
+    if (progress) progress(i + 1, images.size());
+  }
+  return summarise(extractor.name(), std::move(outcomes), std::move(query_ms), images, nullptr,
+                   &grid);
+}
+
+cv::Mat groundTruthPicture(const GroundTruth& truth, int matrix_size) {
+  const int rows = static_cast<int>(std::min<size_t>(truth.rows(), matrix_size));
+  const int cols = static_cast<int>(std::min<size_t>(truth.cols(), matrix_size));
+  cv::Mat picture(rows, cols, CV_8UC1, cv::Scalar(0));
+  for (size_t r = 0; r < truth.rows(); ++r) {
+    for (const uint32_t c : truth.positives(r)) {
+      picture.at<uchar>(static_cast<int>(r * rows / truth.rows()),
+                        static_cast<int>(c * cols / truth.cols())) = 255;
+    }
+  }
+  return picture;
+}
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,129 @@
+#include "landmark_loop_closure/eval/report.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace landmark_loop_closure {
+namespace eval {
+
+namespace {
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+void writePercentiles(std::ostream& out, const char* name, const Percentiles& p) {
+  out << "      " << jsonString(name) << ": {\"median\": " << p.median << ", \"p99\": " << p.p99
+      << "},\n";
+}
+
+cv::Mat similarityPicture(const cv::Mat& similarity) {
+  // Colours span the 5th percentile to the maximum: most pairs are unrelated places, and a
+  // min-max scale would spend the colour range on them.
+  const cv::Mat valid = similarity > -1.0f;
+  std::vector<float> values;
+  for (int r = 0; r < similarity.rows; ++r) {
+    for (int c = 0; c < similarity.cols; ++c) {
+      if (valid.at<uchar>(r, c)) values.push_back(similarity.at<float>(r, c));
+    }
+  }
+  cv::Mat colour(similarity.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  if (values.empty()) return colour;
+  std::nth_element(values.begin(), values.begin() + values.size() / 20, values.end());
+  const double low = values[values.size() / 20];
+  const double high = *std::max_element(values.begin(), values.end());
+  const double scale = 255.0 / std::max(1e-6, high - low);
+  cv::Mat scaled;
+  similarity.convertTo(scaled, CV_8U, scale, -low * scale);
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_VIRIDIS);
+  colour.setTo(cv::Scalar(0, 0, 0), ~valid);
+  return colour;
+}
+
+}  // namespace
+
+size_t peakResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) {
+      std::istringstream fields(line.substr(6));
+      size_t kilobytes = 0;
+      fields >> kilobytes;
+      return kilobytes * 1024;
+    }
+  }
+  return 0;
+}
+
+std::string writeReport(const std::string& folder, const RunDescription& run,
+                        const std::vector<Evaluation>& evaluations, const GroundTruth& truth,
+                        int matrix_size) {
+  namespace fs = std::filesystem;
+  fs::create_directories(folder);
+  const fs::path base(folder);
+  const std::string results_path = (base / "results.json").string();
+  std::ofstream json(results_path);
+  json << std::setprecision(6);
+  json << "{\n  \"dataset\": " << jsonString(run.dataset)
+       << ",\n  \"mode\": " << jsonString(run.mode)
+       << ",\n  \"ground_truth\": " << jsonString(run.ground_truth)
+       << ",\n  \"database_images\": " << run.database_images
+       << ",\n  \"query_images\": " << run.query_images
+       << ",\n  \"ground_truth_positives\": " << truth.count()
+       << ",\n  \"peak_rss_bytes\": " << peakResidentBytes() << ",\n  \"configurations\": [\n";
+  for (size_t k = 0; k < evaluations.size(); ++k) {
+    const Evaluation& e = evaluations[k];
+    const Metrics& m = e.metrics;
+    json << "    {\n      \"name\": " << jsonString(e.name) << ",\n"
+         << "      \"recall_at_100_precision\": " << m.recall_at_100_precision << ",\n"
+         << "      \"threshold_at_100_precision\": " << m.threshold_at_100_precision << ",\n"
+         << "      \"auc\": " << m.auc << ",\n"
+         << "      \"average_precision\": " << m.average_precision << ",\n"
+         << "      \"recall_at_1\": " << m.recall_at_1 << ",\n"
+         << "      \"queries\": " << m.queries << ",\n"
+         << "      \"queries_with_truth\": " << m.queries_with_truth << ",\n"
+         << "      \"undecodable_images\": " << e.undecodable << ",\n"
+         << "      \"bytes_per_image\": " << e.bytes_per_image << ",\n";
+    writePercentiles(json, "describe_ms", e.describe_ms);
+    writePercentiles(json, "query_ms", e.query_ms);
+    json << "      \"pr_curve\": " << jsonString("pr_" + e.name + ".csv") << "\n    }"
+         << (k + 1 < evaluations.size() ? "," : "") << "\n";
+
+    std::ofstream curve(base / ("pr_" + e.name + ".csv"));
+    curve << "threshold,precision,recall\n" << std::setprecision(6);
+    for (const PrPoint& point : m.curve) {
+      curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
+    }
+    std::ofstream matches(base / ("matches_" + e.name + ".csv"));
+    matches << "query,match,score,correct,query_has_place,accepted_at_100p\n"
+            << std::setprecision(6);
+    for (const QueryOutcome& o : e.outcomes) {
+      const bool accepted = o.match >= 0 && m.recall_at_100_precision > 0.0 &&
+                            o.score >= m.threshold_at_100_precision;
+      matches << o.query << "," << o.match << "," << o.score << "," << o.correct << ","
+              << o.has_truth << "," << accepted << "\n";
+    }
+    if (!e.similarity.empty()) {
+      cv::imwrite((base / ("similarity_" + e.name + ".png")).string(),
+                  similarityPicture(e.similarity));
+    }
+  }
+  json << "  ]\n}\n";
+  cv::imwrite((base / "ground_truth.png").string(), groundTruthPicture(truth, matrix_size));
+  return results_path;
+}
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,255 @@
+// Offline evaluation of loop-closure descriptors: precision-recall, recall at 100 % precision,
+// AUC, timing and memory, on image folders with ground truth, or on the generated corridor.
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/eval/report.h"
+#include "landmark_loop_closure/sim/sequence.h"
+
+namespace {
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::eval;
+
+constexpr char kUsage[] = R"(usage: lcd_evaluate SOURCE [GROUND TRUTH] [OPTIONS]
+
+SOURCE, one of:
+  --images DIR                  one sequence (images sorted by name), matched against itself
+  --database DIR --queries DIR  two traversals: each query against every database image
+  --corridor LAPS               the generated corridor (ground truth from its true poses)
+
+GROUND TRUTH, one of:
+  --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)
+  --gt-aligned N                traversals: query i is database i +- N
+  --gt-poses FILE --gt-times FILE   KITTI poses; same place = within --gt-distance metres
+                                (default 5), --gt-angle degrees (default 0 = any heading) and
+                                at least --gt-gap seconds apart (default 30)
+
+OPTIONS:
+  --descriptors LIST   comma-separated: pixels, hog, hog_whole (default: all)
+  --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
+  --limit N            use the first N images of each folder
+  --output DIR         where results go (default lcd_results)
+  --name TEXT          dataset name written into the results
+  --matrix-size N      largest side of the similarity pictures (default 1000)
+)";
+
+struct Arguments {
+  std::map<std::string, std::string> values;
+  bool has(const std::string& key) const { return values.count(key) > 0; }
+  std::string get(const std::string& key, const std::string& fallback = "") const {
+    const auto it = values.find(key);
+    return it == values.end() ? fallback : it->second;
+  }
+  double number(const std::string& key, double fallback) const {
+    if (!has(key)) return fallback;
+    char* end = nullptr;
+    const double value = std::strtod(get(key).c_str(), &end);
+    if (end == get(key).c_str() || *end != '\0') {
+      throw std::invalid_argument(key + " needs a number, not '" + get(key) + "'");
+    }
+    return value;
+  }
+};
+
+Arguments parse(int argc, char** argv) {
+  Arguments arguments;
+  for (int i = 1; i < argc; ++i) {
+    const std::string key = argv[i];
+    if (key == "--help" || key == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    if (key.rfind("--", 0) != 0 || i + 1 >= argc) {
+      throw std::invalid_argument("unexpected argument '" + key + "'");
+    }
+    arguments.values[key] = argv[++i];
+  }
+  return arguments;
+}
+
+std::vector<std::string> splitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::istringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    if (!item.empty()) items.push_back(item);
+  }
+  return items;
+}
+
+// A progress line at most every few seconds, so long runs show they are alive.
+Progress progressPrinter(const std::string& what) {
+  auto last =
+      std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
+  return [what, last](size_t done, size_t total) {
+    const auto now = std::chrono::steady_clock::now();
+    if (done != total && now - *last < std::chrono::seconds(5)) return;
+    *last = now;
+    std::cerr << "lcd_evaluate: " << what << " " << done << "/" << total << "\n";
+  };
+}
+
+std::vector<std::string> limited(std::vector<std::string> paths, const Arguments& arguments) {
+  if (arguments.has("--limit")) {
+    const size_t limit = static_cast<size_t>(arguments.number("--limit", 0));
+    if (limit < paths.size()) paths.resize(limit);
+  }
+  return paths;
+}
+
+// The generated corridor: one image every 0.3 m, ground truth from the true poses.
+struct Corridor {
+  std::vector<cv::Mat> images;
+  std::vector<Pose> poses;
+  std::vector<double> stamps;
+};
+
+Corridor makeCorridor(double laps) {
+  const sim::CorridorWorld world;
+  sim::SequenceOptions options;
+  options.laps = laps;
+  sim::SequenceGenerator sequence(world, sim::CameraModel{}, options);
+  Corridor corridor;
+  sim::SequenceFrame frame;
+  while (sequence.next(&frame, false)) {
+    if (frame.index % 3 != 0) continue;
+    corridor.images.push_back(sequence.render(frame));
+    corridor.poses.push_back(planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw));
+    corridor.stamps.push_back(frame.stamp);
+  }
+  return corridor;
+}
+
+int run(const Arguments& arguments) {
+  const std::vector<std::string> names =
+      splitList(arguments.get("--descriptors", "pixels,hog,hog_whole"));
+  MatchingOptions matching;
+  matching.exclude_recent = static_cast<int>(arguments.number("--exclude-recent", 50));
+  matching.matrix_size = static_cast<int>(arguments.number("--matrix-size", 1000));
+  RunDescription run;
+  run.dataset = arguments.get("--name");
+  const double gt_distance = arguments.number("--gt-distance", 5.0);
+  const double gt_angle = arguments.number("--gt-angle", 0.0) * M_PI / 180.0;
+  const double gt_gap = arguments.number("--gt-gap", 30.0);
+
+  // Sources.
+  std::vector<std::string> database_paths;
+  std::vector<std::string> query_paths;
+  Corridor corridor;
+  if (arguments.has("--images")) {
+    database_paths = limited(listImages(arguments.get("--images")), arguments);
+    run.mode = "sequence";
+  } else if (arguments.has("--database") && arguments.has("--queries")) {
+    database_paths = limited(listImages(arguments.get("--database")), arguments);
+    query_paths = limited(listImages(arguments.get("--queries")), arguments);
+    run.mode = "traversal";
+  } else if (arguments.has("--corridor")) {
+    corridor = makeCorridor(arguments.number("--corridor", 2.0));
+    run.mode = "sequence";
+  } else {
+    throw std::invalid_argument("give --images, --database with --queries, or --corridor");
+  }
+  const bool traversal = run.mode == "traversal";
+  const size_t database_count =
+      corridor.images.empty() ? database_paths.size() : corridor.images.size();
+  run.database_images = database_count;
+  run.query_images = traversal ? query_paths.size() : database_count;
+  if (run.dataset.empty())
+    run.dataset = arguments.get("--images", arguments.get("--database", "corridor"));
+
+  // Ground truth.
+  GroundTruth truth;
+  if (arguments.has("--gt-mat")) {
+    truth = readMatGroundTruth(arguments.get("--gt-mat"), arguments.get("--gt-var"));
+    run.ground_truth = arguments.get("--gt-mat");
+    if (!traversal && truth.rows() == truth.cols()) truth = truth.undirected();
+  } else if (arguments.has("--gt-aligned")) {
+    const int tolerance = static_cast<int>(arguments.number("--gt-aligned", 0));
+    truth = traversal ? alignedGroundTruth(query_paths.size(), database_paths.size(), tolerance)
+                      : throw std::invalid_argument("--gt-aligned needs --database and --queries");
+    run.ground_truth = "aligned traversals, +-" + std::to_string(tolerance);
+  } else if (arguments.has("--gt-poses")) {
+    const std::vector<Pose> poses = readKittiPoses(arguments.get("--gt-poses"));
+    const std::vector<double> stamps = readNumbers(arguments.get("--gt-times"));
+    truth = poseGroundTruth(poses, stamps, gt_distance, gt_angle, gt_gap);
+    run.ground_truth = arguments.get("--gt-poses");
+  } else if (!corridor.images.empty()) {
+    truth = poseGroundTruth(corridor.poses, corridor.stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
+    run.ground_truth = "true poses: within 2.5 m and 45 deg, 20 s apart";
+  } else {
+    throw std::invalid_argument("give a ground truth: --gt-mat, --gt-aligned or --gt-poses");
+  }
+  if (truth.rows() != run.query_images || truth.cols() != run.database_images) {
+    throw GroundTruthError("the ground truth is " + std::to_string(truth.rows()) + " x " +
+                           std::to_string(truth.cols()) + " but there are " +
+                           std::to_string(run.query_images) + " query and " +
+                           std::to_string(run.database_images) +
+                           " database images (wrong file, or --limit?)");
+  }
+
+  std::vector<Evaluation> evaluations;
+  for (const std::string& name : names) {
+    DescriptorOptions descriptor_options;
+    descriptor_options.type = name;
+    const std::string problem = descriptor_options.validate();
+    if (!problem.empty()) throw std::invalid_argument(problem);
+    const auto extractor = makeDescriptorExtractor(descriptor_options);
+    DescribedImages database;
+    if (!corridor.images.empty()) {
+      database = describeImages(
+          corridor.images.size(), [&](size_t i) { return corridor.images[i]; }, *extractor,
+          progressPrinter("describing (" + name + ")"));
+    } else {
+      database = describeImageFiles(database_paths, *extractor,
+                                    progressPrinter("describing database (" + name + ")"));
+    }
+    for (const std::string& path : database.undecodable) {
+      std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
+    }
+    Evaluation evaluation;
+    if (traversal) {
+      const DescribedImages queries = describeImageFiles(
+          query_paths, *extractor, progressPrinter("describing queries (" + name + ")"));
+      for (const std::string& path : queries.undecodable) {
+        std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
+      }
+      evaluation = evaluateTraversals(database, queries, truth, *extractor, matching,
+                                      progressPrinter("matching (" + name + ")"));
+    } else {
+      evaluation = evaluateSequence(database, truth, *extractor, matching,
+                                    progressPrinter("matching (" + name + ")"));
+    }
+    const Metrics& m = evaluation.metrics;
+    std::printf(
+        "%-10s R@100P %.3f  AUC %.3f  AP %.3f  R@1 %.3f  describe %.2f/%.2f ms  "
+        "query %.2f/%.2f ms (median/p99)  %.0f bytes/image\n",
+        name.c_str(), m.recall_at_100_precision, m.auc, m.average_precision, m.recall_at_1,
+        evaluation.describe_ms.median, evaluation.describe_ms.p99, evaluation.query_ms.median,
+        evaluation.query_ms.p99, evaluation.bytes_per_image);
+    evaluations.push_back(std::move(evaluation));
+  }
+  const std::string results = writeReport(arguments.get("--output", "lcd_results"), run,
+                                          evaluations, truth, matching.matrix_size);
+  std::printf("results: %s\n", results.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(parse(argc, argv));
+  } catch (const std::invalid_argument& error) {
+    std::cerr << "lcd_evaluate: " << error.what() << "\n\n" << kUsage;
+    return 2;
+  } catch (const std::exception& error) {
+    std::cerr << "lcd_evaluate: error: " << error.what() << "\n";
+    return 1;
+  }
+}

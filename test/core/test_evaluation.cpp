@@ -1,0 +1,195 @@
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/eval/report.h"
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::eval;
+namespace fs = std::filesystem;
+
+namespace {
+
+QueryOutcome outcome(size_t query, double score, bool correct, bool has_truth = true) {
+  QueryOutcome o;
+  o.query = query;
+  o.match = 0;
+  o.score = score;
+  o.correct = correct;
+  o.has_truth = has_truth;
+  return o;
+}
+
+// One-hot descriptors: image value v is "place v".
+class PlaceExtractor : public DescriptorExtractor {
+ public:
+  std::string name() const override { return "place"; }
+  int globalDimension() const override { return 256; }
+  ImageDescriptor describe(const cv::Mat& image) const override {
+    ImageDescriptor d;
+    d.global.assign(256, 0.0f);
+    d.global[image.at<uchar>(0, 0)] = 1.0f;
+    return d;
+  }
+};
+
+cv::Mat place(int value) { return cv::Mat(8, 8, CV_8UC1, cv::Scalar(value)); }
+
+}  // namespace
+
+TEST(Metrics, HandComputedCurve) {
+  // Scores high to low: T, T, F, T; five queries have a place (one never found).
+  const std::vector<QueryOutcome> outcomes = {outcome(0, 0.9, true), outcome(1, 0.8, true),
+                                              outcome(2, 0.7, false), outcome(3, 0.6, true),
+                                              outcome(4, 0.1, false)};
+  const Metrics m = computeMetrics(outcomes);
+  ASSERT_EQ(m.curve.size(), 5u);
+  EXPECT_EQ(m.queries_with_truth, 5u);
+  EXPECT_DOUBLE_EQ(m.recall_at_100_precision, 2.0 / 5.0);
+  EXPECT_DOUBLE_EQ(m.threshold_at_100_precision, 0.8);
+  EXPECT_DOUBLE_EQ(m.recall_at_1, 3.0 / 5.0);
+  EXPECT_DOUBLE_EQ(m.curve[2].precision, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(m.curve[3].precision, 3.0 / 4.0);
+  // AP: (1 + 1 + 3/4) / 5.
+  EXPECT_DOUBLE_EQ(m.average_precision, (1.0 + 1.0 + 0.75) / 5.0);
+  // AUC: trapezoids (0,1)->(.2,1)->(.4,1)->(.4,2/3)->(.6,3/4)->(.6,3/5).
+  EXPECT_NEAR(m.auc, 0.2 + 0.2 + 0.0 + 0.2 * (2.0 / 3.0 + 0.75) / 2.0 + 0.0, 1e-12);
+}
+
+TEST(Metrics, PerfectAndEmpty) {
+  const Metrics perfect = computeMetrics({outcome(0, 0.9, true), outcome(1, 0.5, true)});
+  EXPECT_DOUBLE_EQ(perfect.recall_at_100_precision, 1.0);
+  EXPECT_DOUBLE_EQ(perfect.auc, 1.0);
+  EXPECT_DOUBLE_EQ(perfect.average_precision, 1.0);
+  const Metrics none = computeMetrics({});
+  EXPECT_EQ(none.queries, 0u);
+  EXPECT_DOUBLE_EQ(none.recall_at_100_precision, 0.0);
+}
+
+TEST(Metrics, AFalseMatchAtTheTopMeansNoRecallAtFullPrecision) {
+  const Metrics m = computeMetrics({outcome(0, 0.99, false), outcome(1, 0.9, true)});
+  EXPECT_DOUBLE_EQ(m.recall_at_100_precision, 0.0);
+}
+
+TEST(Metrics, TiedScoresPassOrFailTogether) {
+  const Metrics m = computeMetrics({outcome(0, 0.5, true), outcome(1, 0.5, false)});
+  ASSERT_EQ(m.curve.size(), 1u);
+  EXPECT_DOUBLE_EQ(m.recall_at_100_precision, 0.0);
+  EXPECT_DOUBLE_EQ(m.curve[0].precision, 0.5);
+}
+
+TEST(Metrics, QueriesWithoutAPlaceOnlyAddFalsePositives) {
+  const Metrics m = computeMetrics({outcome(0, 0.9, true), outcome(1, 0.95, false, false)});
+  EXPECT_EQ(m.queries_with_truth, 1u);
+  EXPECT_DOUBLE_EQ(m.recall_at_100_precision, 0.0);
+  EXPECT_DOUBLE_EQ(m.recall_at_1, 1.0);
+}
+
+TEST(Percentiles, NearestRank) {
+  std::vector<double> values;
+  for (int i = 1; i <= 100; ++i) values.push_back(i);
+  const Percentiles p = percentiles(values);
+  EXPECT_DOUBLE_EQ(p.median, 50.0);
+  EXPECT_DOUBLE_EQ(p.p99, 99.0);
+  EXPECT_DOUBLE_EQ(percentiles({}).median, 0.0);
+}
+
+TEST(Evaluator, TraversalsFindTheAlignedPlace) {
+  const PlaceExtractor extractor;
+  const auto images = [](int offset) {
+    return [offset](size_t i) { return place(static_cast<int>(i) + offset); };
+  };
+  const DescribedImages database = describeImages(10, images(0), extractor);
+  // Queries 0..9 show places 0..9 except query 7, which shows place 3.
+  const DescribedImages queries = describeImages(
+      10, [](size_t i) { return place(i == 7 ? 3 : static_cast<int>(i)); }, extractor);
+  const Evaluation e = evaluateTraversals(database, queries, alignedGroundTruth(10, 10, 0),
+                                          extractor, MatchingOptions{});
+  EXPECT_DOUBLE_EQ(e.metrics.recall_at_1, 0.9);
+  EXPECT_EQ(e.outcomes[7].match, 3);
+  EXPECT_FALSE(e.outcomes[7].correct);
+  EXPECT_EQ(e.similarity.size(), cv::Size(10, 10));
+  EXPECT_GT(e.bytes_per_image, 0.0);
+}
+
+TEST(Evaluator, SequenceRespectsTheExclusionWindowAndSkipsUndecodableImages) {
+  const PlaceExtractor extractor;
+  // Places 0..9 then 0..9 again; image 12 does not decode.
+  const DescribedImages images = describeImages(
+      20, [](size_t i) { return i == 12 ? cv::Mat() : place(static_cast<int>(i % 10)); },
+      extractor);
+  EXPECT_EQ(images.undecodable.size(), 1u);
+  GroundTruth truth(20, 20);
+  for (size_t i = 10; i < 20; ++i) truth.add(i, i - 10);
+  truth.finalize();
+  MatchingOptions options;
+  options.exclude_recent = 5;
+  const Evaluation e = evaluateSequence(images, truth.undirected(), extractor, options);
+  EXPECT_EQ(e.outcomes.size(), 19u);
+  EXPECT_EQ(e.undecodable, 1u);
+  EXPECT_DOUBLE_EQ(e.metrics.recall_at_100_precision, 1.0);
+  EXPECT_EQ(e.metrics.queries_with_truth, 9u);  // Image 12 is not a query.
+  for (const QueryOutcome& o : e.outcomes) {
+    if (o.match >= 0) {
+      EXPECT_LT(o.match, static_cast<long>(o.query) - 5);
+    }
+  }
+}
+
+TEST(Evaluator, MismatchedGroundTruthSizeIsAClearError) {
+  const PlaceExtractor extractor;
+  const DescribedImages images = describeImages(
+      5, [](size_t i) { return place(int(i)); }, extractor);
+  try {
+    evaluateSequence(images, GroundTruth(6, 6), extractor, MatchingOptions{});
+    FAIL();
+  } catch (const GroundTruthError& error) {
+    EXPECT_NE(std::string(error.what()).find("6 x 6"), std::string::npos) << error.what();
+  }
+}
+
+TEST(Evaluator, ListImagesSortsAndRefusesMissingFolders) {
+  const fs::path folder = fs::temp_directory_path() / "lcd_list_images";
+  fs::remove_all(folder);
+  fs::create_directories(folder);
+  for (const char* name : {"b.png", "a.png", "c.txt", "d.JPG"}) std::ofstream(folder / name) << "x";
+  const std::vector<std::string> paths = listImages(folder.string());
+  ASSERT_EQ(paths.size(), 3u);
+  EXPECT_EQ(fs::path(paths[0]).filename(), "a.png");
+  EXPECT_EQ(fs::path(paths[2]).filename(), "d.JPG");
+  EXPECT_THROW(listImages((folder / "missing").string()), GroundTruthError);
+  // Files that are not images in fact do not decode: skipped and counted.
+  const PlaceExtractor extractor;
+  EXPECT_EQ(describeImageFiles(paths, extractor).undecodable.size(), 3u);
+}
+
+TEST(Report, WritesResultsCurvesAndPictures) {
+  const PlaceExtractor extractor;
+  const DescribedImages images = describeImages(
+      6, [](size_t i) { return place(int(i % 3)); }, extractor);
+  GroundTruth truth(6, 6);
+  for (size_t i = 3; i < 6; ++i) truth.add(i, i - 3);
+  truth.finalize();
+  MatchingOptions options;
+  options.exclude_recent = 1;
+  const Evaluation e = evaluateSequence(images, truth.undirected(), extractor, options);
+  const fs::path folder = fs::temp_directory_path() / "lcd_report";
+  fs::remove_all(folder);
+  RunDescription run;
+  run.dataset = "test \"quoted\"";
+  run.mode = "sequence";
+  const std::string results = writeReport(folder.string(), run, {e}, truth, 100);
+  std::ifstream json(results);
+  const std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"recall_at_100_precision\": 1"), std::string::npos) << text;
+  EXPECT_NE(text.find("test \\\"quoted\\\""), std::string::npos);
+  EXPECT_TRUE(fs::exists(folder / "pr_place.csv"));
+  EXPECT_TRUE(fs::exists(folder / "matches_place.csv"));
+  EXPECT_FALSE(cv::imread((folder / "similarity_place.png").string()).empty());
+  EXPECT_FALSE(cv::imread((folder / "ground_truth.png").string()).empty());
+  EXPECT_GT(peakResidentBytes(), 0u);
+}
