@@ -7,6 +7,10 @@ target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_
 target_link_libraries(test_ros_conversions ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES}
   GTest::gtest_main)
 
+catkin_add_gtest(test_bag_source test/ros/test_bag_source.cpp src/tools/bag_source.cpp)
+target_include_directories(test_bag_source SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_bag_source ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+
 foreach(name node_revisit node_bad_input)
   add_rostest_gtest(test_${name} test/ros/${name}.test test/ros/test_${name}.cpp)
   target_include_directories(test_${name} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

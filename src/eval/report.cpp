@@ -121,6 +121,14 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
     }
   }
   json << "  ]\n}\n";
+  if (!run.trajectory.empty()) {
+    std::ofstream trajectory(base / "trajectory.csv");
+    trajectory << "index,x,y,z\n" << std::setprecision(9);
+    for (size_t i = 0; i < run.trajectory.size(); ++i) {
+      const Eigen::Vector3d& p = run.trajectory[i].position;
+      trajectory << i << "," << p.x() << "," << p.y() << "," << p.z() << "\n";
+    }
+  }
   cv::imwrite((base / "ground_truth.png").string(), groundTruthPicture(truth, matrix_size));
   return results_path;
 }

@@ -7,6 +7,7 @@
 #include <map>
 #include <sstream>
 
+#include "bag_source.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/report.h"
 #include "landmark_loop_closure/sim/sequence.h"
@@ -22,6 +23,10 @@ SOURCE, one of:
   --images DIR                  one sequence (images sorted by name), matched against itself
   --database DIR --queries DIR  two traversals: each query against every database image
   --corridor LAPS               the generated corridor (ground truth from its true poses)
+  --bag FILE                    the keyframes a node would keep from a bag (images + odometry,
+                                keyframe rule of config/default.yaml); topics: --image-topic
+                                (/camera/image_raw), --odom-topic (/odom), --truth-topic (none);
+                                ground truth from the truth topic's poses, else the odometry's
 
 GROUND TRUTH, one of:
   --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)
@@ -103,8 +108,9 @@ std::vector<std::string> limited(std::vector<std::string> paths, const Arguments
   return paths;
 }
 
-// The generated corridor: one image every 0.3 m, ground truth from the true poses.
+// A sequence held in memory (generated corridor or bag keyframes) with its poses.
 struct Corridor {
+  bool from_bag = false;
   std::vector<cv::Mat> images;
   std::vector<Pose> poses;
   std::vector<double> stamps;
@@ -152,8 +158,34 @@ int run(const Arguments& arguments) {
   } else if (arguments.has("--corridor")) {
     corridor = makeCorridor(arguments.number("--corridor", 2.0));
     run.mode = "sequence";
+  } else if (arguments.has("--bag")) {
+    BagSourceOptions bag;
+    bag.path = arguments.get("--bag");
+    bag.image_topic = arguments.get("--image-topic", bag.image_topic);
+    bag.odom_topic = arguments.get("--odom-topic", bag.odom_topic);
+    bag.truth_topic = arguments.get("--truth-topic");
+    BagKeyframes keyframes = readBagKeyframes(bag);
+    std::fprintf(stderr,
+                 "lcd_evaluate: %zu images, %zu keyframes (%zu without odometry within %.2f s, "
+                 "%zu refused)\n",
+                 keyframes.images_read, keyframes.images.size(), keyframes.images_without_odometry,
+                 bag.sync_slop, keyframes.images_rejected);
+    if (keyframes.keyframes_without_truth > 0) {
+      std::fprintf(stderr, "lcd_evaluate: %zu keyframes had no truth pose; odometry used\n",
+                   keyframes.keyframes_without_truth);
+    }
+    if (bag.truth_topic.empty()) {
+      std::fprintf(stderr,
+                   "lcd_evaluate: no --truth-topic: ground truth from the odometry, which "
+                   "drifts\n");
+    }
+    corridor.images = std::move(keyframes.images);
+    corridor.stamps = std::move(keyframes.stamps);
+    corridor.poses = bag.truth_topic.empty() ? keyframes.odometry : keyframes.truth;
+    corridor.from_bag = true;
+    run.mode = "sequence";
   } else {
-    throw std::invalid_argument("give --images, --database with --queries, or --corridor");
+    throw std::invalid_argument("give --images, --database with --queries, --corridor or --bag");
   }
   const bool traversal = run.mode == "traversal";
   const size_t database_count =
@@ -179,9 +211,16 @@ int run(const Arguments& arguments) {
     const std::vector<double> stamps = readNumbers(arguments.get("--gt-times"));
     truth = poseGroundTruth(poses, stamps, gt_distance, gt_angle, gt_gap);
     run.ground_truth = arguments.get("--gt-poses");
+    run.trajectory = poses;
+  } else if (corridor.from_bag) {
+    truth = poseGroundTruth(corridor.poses, corridor.stamps, gt_distance, gt_angle, gt_gap);
+    run.ground_truth = "bag poses: within " + std::to_string(gt_distance) + " m, " +
+                       std::to_string(gt_gap) + " s apart";
+    run.trajectory = corridor.poses;
   } else if (!corridor.images.empty()) {
     truth = poseGroundTruth(corridor.poses, corridor.stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
     run.ground_truth = "true poses: within 2.5 m and 45 deg, 20 s apart";
+    run.trajectory = corridor.poses;
   } else {
     throw std::invalid_argument("give a ground truth: --gt-mat, --gt-aligned or --gt-poses");
   }

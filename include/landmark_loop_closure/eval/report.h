@@ -14,12 +14,13 @@ struct RunDescription {
   std::string ground_truth;  ///< Where the ground truth came from.
   size_t database_images = 0;
   size_t query_images = 0;
+  std::vector<Pose> trajectory;  ///< Sequence mode with poses: written to trajectory.csv.
 };
 
 /// Writes into `folder` (created if needed): results.json (every configuration's measures),
 /// pr_<name>.csv (the curve), matches_<name>.csv (every query's best match, whether it is right,
 /// and whether it is accepted at the 100 %-precision threshold), similarity_<name>.png and
-/// ground_truth.png. Returns the path of results.json.
+/// ground_truth.png, and trajectory.csv when the run has poses. Returns the path of results.json.
 std::string writeReport(const std::string& folder, const RunDescription& run,
                         const std::vector<Evaluation>& evaluations, const GroundTruth& truth,
                         int matrix_size);

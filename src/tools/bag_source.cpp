@@ -1,0 +1,95 @@
+#include "bag_source.h"
+
+#include <map>
+#include <stdexcept>
+
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/Image.h>
+
+#include "../ros/ros_conversions.h"
+#include "landmark_loop_closure/input_error.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+// The pose whose stamp is nearest `stamp`, if within `slop`.
+const Pose* nearest(const std::map<ros::Time, Pose>& poses, const ros::Time& stamp, double slop) {
+  if (poses.empty()) return nullptr;
+  auto after = poses.lower_bound(stamp);
+  auto best = after;
+  if (after == poses.end() ||
+      (after != poses.begin() && (stamp - std::prev(after)->first) < (after->first - stamp))) {
+    best = std::prev(after);
+  }
+  return std::abs((best->first - stamp).toSec()) <= slop ? &best->second : nullptr;
+}
+
+}  // namespace
+
+BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
+  rosbag::Bag bag;
+  try {
+    bag.open(options.path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& error) {
+    throw std::runtime_error("cannot read bag " + options.path + ": " + error.what());
+  }
+  // Poses first: a bag's odometry may be written after the image it belongs to.
+  std::map<ros::Time, Pose> odometry;
+  std::map<ros::Time, Pose> truth;
+  std::vector<std::string> pose_topics = {options.odom_topic};
+  if (!options.truth_topic.empty()) pose_topics.push_back(options.truth_topic);
+  for (const rosbag::MessageInstance& message :
+       rosbag::View(bag, rosbag::TopicQuery(pose_topics))) {
+    if (const auto pose = message.instantiate<nav_msgs::Odometry>()) {
+      (message.getTopic() == options.odom_topic ? odometry : truth)[pose->header.stamp] =
+          fromRos(pose->pose.pose);
+    }
+  }
+  if (odometry.empty()) {
+    throw std::runtime_error(options.path + " has no nav_msgs/Odometry on " + options.odom_topic);
+  }
+  if (!options.truth_topic.empty() && truth.empty()) {
+    throw std::runtime_error(options.path + " has no nav_msgs/Odometry on " + options.truth_topic);
+  }
+
+  BagKeyframes keyframes;
+  KeyframeSelector selector(options.keyframe);
+  const InputLimits limits;
+  for (const rosbag::MessageInstance& message :
+       rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{options.image_topic}))) {
+    const auto image = message.instantiate<sensor_msgs::Image>();
+    if (!image) continue;
+    ++keyframes.images_read;
+    const Pose* pose = nearest(odometry, image->header.stamp, options.sync_slop);
+    if (!pose) {
+      ++keyframes.images_without_odometry;
+      continue;
+    }
+    const double stamp = toSeconds(image->header.stamp);
+    if (checkImageMessage(*image) || checkPose(*pose, limits) ||
+        (selector.hasKeyframe() && stamp <= selector.lastKeyframeStamp())) {
+      ++keyframes.images_rejected;
+      continue;
+    }
+    if (selector.select(stamp, normalisedPose(*pose)).verdict != SelectionVerdict::kKeyframe) {
+      continue;
+    }
+    keyframes.images.push_back(toGrey(*image));
+    keyframes.stamps.push_back(stamp);
+    keyframes.odometry.push_back(normalisedPose(*pose));
+    if (!options.truth_topic.empty()) {
+      const Pose* true_pose = nearest(truth, image->header.stamp, options.sync_slop);
+      keyframes.keyframes_without_truth += true_pose ? 0 : 1;
+      keyframes.truth.push_back(normalisedPose(true_pose ? *true_pose : *pose));
+    }
+  }
+  if (keyframes.images_read == 0) {
+    throw std::runtime_error(options.path + " has no sensor_msgs/Image on " + options.image_topic);
+  }
+  return keyframes;
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,38 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/pose.h"
+
+namespace landmark_loop_closure {
+
+struct BagSourceOptions {
+  std::string path;
+  std::string image_topic = "/camera/image_raw";
+  std::string odom_topic = "/odom";
+  std::string truth_topic;  ///< nav_msgs/Odometry with ground truth; empty = none.
+  double sync_slop = 0.05;  ///< Seconds between an image and its odometry.
+  KeyframeSelectorOptions keyframe;
+};
+
+/// The keyframes a node would keep from a bag: images paired with odometry by nearest stamp,
+/// then the keyframe rule. Truth poses are paired the same way when a truth topic is given.
+struct BagKeyframes {
+  std::vector<cv::Mat> images;  ///< 8-bit grey.
+  std::vector<double> stamps;
+  std::vector<Pose> odometry;
+  std::vector<Pose> truth;  ///< Empty without a truth topic.
+  size_t images_read = 0;
+  size_t images_without_odometry = 0;
+  size_t images_rejected = 0;          ///< Bad encoding, pose or stamp.
+  size_t keyframes_without_truth = 0;  ///< Given their odometry pose as truth instead.
+};
+
+/// Throws std::runtime_error naming the bag and the problem.
+BagKeyframes readBagKeyframes(const BagSourceOptions& options);
+
+}  // namespace landmark_loop_closure
