@@ -22,6 +22,8 @@ constexpr char kUsage[] = R"(usage: lcd_evaluate SOURCE [GROUND TRUTH] [OPTIONS]
 SOURCE, one of:
   --images DIR                  one sequence (images sorted by name), matched against itself
   --database DIR --queries DIR  two traversals: each query against every database image
+      [--as-sequence]           ...or played one after the other as one sequence (the second
+                                traversal's images then close loops with the first's)
   --corridor LAPS               the generated corridor (ground truth from its true poses)
   --bag FILE                    the keyframes a node would keep from a bag (images + odometry,
                                 keyframe rule of config/default.yaml); topics: --image-topic
@@ -69,6 +71,10 @@ Arguments parse(int argc, char** argv) {
     if (key == "--help" || key == "-h") {
       std::cout << kUsage;
       std::exit(0);
+    }
+    if (key == "--as-sequence") {  // The one flag without a value.
+      arguments.values[key] = "true";
+      continue;
     }
     if (key.rfind("--", 0) != 0 || i + 1 >= argc) {
       throw std::invalid_argument("unexpected argument '" + key + "'");
@@ -147,6 +153,7 @@ int run(const Arguments& arguments) {
   // Sources.
   std::vector<std::string> database_paths;
   std::vector<std::string> query_paths;
+  size_t first_traversal = 0;  // --as-sequence: images of the first traversal.
   Corridor corridor;
   if (arguments.has("--images")) {
     database_paths = limited(listImages(arguments.get("--images")), arguments);
@@ -155,6 +162,12 @@ int run(const Arguments& arguments) {
     database_paths = limited(listImages(arguments.get("--database")), arguments);
     query_paths = limited(listImages(arguments.get("--queries")), arguments);
     run.mode = "traversal";
+    if (arguments.has("--as-sequence")) {
+      first_traversal = database_paths.size();
+      database_paths.insert(database_paths.end(), query_paths.begin(), query_paths.end());
+      query_paths.clear();
+      run.mode = "sequence";
+    }
   } else if (arguments.has("--corridor")) {
     corridor = makeCorridor(arguments.number("--corridor", 2.0));
     run.mode = "sequence";
@@ -203,8 +216,21 @@ int run(const Arguments& arguments) {
     if (!traversal && truth.rows() == truth.cols()) truth = truth.undirected();
   } else if (arguments.has("--gt-aligned")) {
     const int tolerance = static_cast<int>(arguments.number("--gt-aligned", 0));
-    truth = traversal ? alignedGroundTruth(query_paths.size(), database_paths.size(), tolerance)
-                      : throw std::invalid_argument("--gt-aligned needs --database and --queries");
+    if (traversal) {
+      truth = alignedGroundTruth(query_paths.size(), database_paths.size(), tolerance);
+    } else if (first_traversal > 0) {
+      // Image first_traversal + i of the second traversal is image i of the first, +- tolerance.
+      const GroundTruth across =
+          alignedGroundTruth(database_paths.size() - first_traversal, first_traversal, tolerance);
+      truth = GroundTruth(database_paths.size(), database_paths.size());
+      for (size_t i = 0; i < across.rows(); ++i) {
+        for (const uint32_t j : across.positives(i)) truth.add(first_traversal + i, j);
+      }
+      truth.finalize();
+      truth = truth.undirected();
+    } else {
+      throw std::invalid_argument("--gt-aligned needs --database and --queries");
+    }
     run.ground_truth = "aligned traversals, +-" + std::to_string(tolerance);
   } else if (arguments.has("--gt-poses")) {
     const std::vector<Pose> poses = readKittiPoses(arguments.get("--gt-poses"));
