@@ -9,6 +9,7 @@ set(CORE_TESTS
   test_loop_detector_sim
   test_bounded_queue
   test_match_image
+  test_landmarks
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})
