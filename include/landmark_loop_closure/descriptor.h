@@ -47,11 +47,21 @@ class DescriptorExtractor {
 /// Parameters that choose and shape the descriptor.
 struct DescriptorOptions {
   /// "hog": HOG with CALC's settings (3648 values); "hog_whole": one 9-bin HOG window over the
-  /// whole image (9576); "pixels": 32x24 downsampled grey pixels (768).
+  /// whole image (9576); "pixels": 32x24 downsampled grey pixels (768); "calc": the ONNX
+  /// encoder's output (1064); "landmarks": calc to shortlist, landmark matching to re-rank.
   std::string type = "hog";
+  std::string model;                         ///< ONNX encoder; empty = the package's model.
+  int max_landmarks = 50;                    ///< Landmarks per image (landmarks).
+  int landmark_grid = 4;                     ///< Cells per side of a landmark's crop (landmarks).
+  std::string landmark_layer = "conv3";      ///< Layer the crops are cut from: "conv3" or "conv2".
+  std::string landmark_pass = "shared";      ///< "shared" map crop or one pass "per_landmark".
+  std::string shape_weighting = "penalise";  ///< "penalise" or "paper" (methods.md).
 
   std::string validate() const;
 };
+
+/// The ONNX encoder shipped with the package (model/calc_encoder.onnx in the source tree).
+std::string defaultModelPath();
 
 /// Every value DescriptorOptions::type accepts.
 const std::vector<std::string>& descriptorTypes();

@@ -59,6 +59,12 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
 
   reader->read("descriptor/type", &detector.descriptor.type);
   reader->read("descriptor/keep_thumbnails", &detector.keep_thumbnails);
+  reader->read("descriptor/model", &detector.descriptor.model);
+  reader->read("descriptor/max_landmarks", &detector.descriptor.max_landmarks);
+  reader->read("descriptor/landmark_grid", &detector.descriptor.landmark_grid);
+  reader->read("descriptor/landmark_layer", &detector.descriptor.landmark_layer);
+  reader->read("descriptor/landmark_pass", &detector.descriptor.landmark_pass);
+  reader->read("descriptor/shape_weighting", &detector.descriptor.shape_weighting);
 
   reader->read("database/exclude_recent_keyframes", &detector.database.exclude_recent_keyframes);
   reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);

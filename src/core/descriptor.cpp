@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "landmark_loop_closure/baseline_descriptors.h"
+#include "landmark_loop_closure/convnet_descriptor.h"
 #include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
@@ -28,16 +29,40 @@ double DescriptorExtractor::similarity(const ImageDescriptor& query,
 }
 
 const std::vector<std::string>& descriptorTypes() {
-  static const std::vector<std::string> types = {"hog", "hog_whole", "pixels"};
+  static const std::vector<std::string> types = {"hog", "hog_whole", "pixels", "calc", "landmarks"};
   return types;
 }
 
+std::string defaultModelPath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/calc_encoder.onnx"; }
+
 std::string DescriptorOptions::validate() const {
+  std::string errors;
   const auto& types = descriptorTypes();
-  if (std::find(types.begin(), types.end(), type) != types.end()) return {};
-  std::string known;
-  for (const std::string& name : types) known += (known.empty() ? "" : ", ") + name;
-  return "descriptor/type must be one of: " + known + " (got '" + type + "')\n";
+  if (std::find(types.begin(), types.end(), type) == types.end()) {
+    std::string known;
+    for (const std::string& name : types) known += (known.empty() ? "" : ", ") + name;
+    errors += "descriptor/type must be one of: " + known + " (got '" + type + "')\n";
+  }
+  if (max_landmarks < 1) {
+    errors += "descriptor/max_landmarks must be >= 1 (got " + std::to_string(max_landmarks) + ")\n";
+  }
+  if (landmark_grid < 1 || landmark_grid > 16) {
+    errors +=
+        "descriptor/landmark_grid must be in [1, 16] (got " + std::to_string(landmark_grid) + ")\n";
+  }
+  if (landmark_layer != "conv3" && landmark_layer != "conv2") {
+    errors +=
+        "descriptor/landmark_layer must be 'conv3' or 'conv2' (got '" + landmark_layer + "')\n";
+  }
+  if (landmark_pass != "shared" && landmark_pass != "per_landmark") {
+    errors += "descriptor/landmark_pass must be 'shared' or 'per_landmark' (got '" + landmark_pass +
+              "')\n";
+  }
+  if (shape_weighting != "penalise" && shape_weighting != "paper") {
+    errors += "descriptor/shape_weighting must be 'penalise' or 'paper' (got '" + shape_weighting +
+              "')\n";
+  }
+  return errors;
 }
 
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
@@ -45,6 +70,18 @@ std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
   if (options.type == "hog") return std::make_shared<HogDescriptor>();
   if (options.type == "hog_whole") return std::make_shared<WholeImageHogDescriptor>();
   if (options.type == "pixels") return std::make_shared<PixelDescriptor>();
+  if (options.type == "calc" || options.type == "landmarks") {
+    ConvNetOptions convnet;
+    convnet.model_path = options.model.empty() ? defaultModelPath() : options.model;
+    convnet.landmarks = options.type == "landmarks";
+    convnet.proposals.max_landmarks = options.max_landmarks;
+    convnet.landmark_grid = options.landmark_grid;
+    convnet.crop_proposal_layer = options.landmark_layer == "conv2";
+    convnet.per_landmark_pass = options.landmark_pass == "per_landmark";
+    convnet.weighting =
+        options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
+    return std::make_shared<ConvNetDescriptor>(convnet);
+  }
   throw std::invalid_argument("unknown descriptor type '" + options.type + "'");
 }
 

@@ -38,7 +38,13 @@ GROUND TRUTH, one of:
                                 at least --gt-gap seconds apart (default 30)
 
 OPTIONS:
-  --descriptors LIST   comma-separated: pixels, hog, hog_whole (default: all)
+  --descriptors LIST   comma-separated (default pixels,hog,hog_whole): pixels, hog, hog_whole,
+                       calc, landmarks, and variants of landmarks: landmarks_paper (the paper's
+                       shape weighting), landmarks_per_landmark (one network pass per landmark),
+                       landmarks_gridN (crop grid N), landmarks_mN (N landmarks),
+                       landmarks_conv2 (crops from conv2)
+  --model FILE         ONNX encoder for calc and landmarks (default: the package's)
+  --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
   --limit N            use the first N images of each folder
   --output DIR         where results go (default lcd_results)
@@ -114,6 +120,34 @@ std::vector<std::string> limited(std::vector<std::string> paths, const Arguments
   return paths;
 }
 
+// "landmarks_paper_grid2_m30" -> type landmarks, paper weighting, grid 2, 30 landmarks.
+DescriptorOptions descriptorVariant(const std::string& name, const std::string& model) {
+  DescriptorOptions options;
+  options.model = model;
+  std::istringstream parts(name);
+  std::getline(parts, options.type, '_');
+  std::string part;
+  while (std::getline(parts, part, '_')) {
+    if (part == "paper") {
+      options.shape_weighting = "paper";
+    } else if (part == "per") {
+      options.landmark_pass = "per_landmark";
+      std::getline(parts, part, '_');  // "landmark"
+    } else if (part == "conv2" || part == "conv3") {
+      options.landmark_layer = part;
+    } else if (part.rfind("grid", 0) == 0) {
+      options.landmark_grid = std::stoi(part.substr(4));
+    } else if (part.rfind("m", 0) == 0) {
+      options.max_landmarks = std::stoi(part.substr(1));
+    } else if (options.type != "hog" || part != "whole") {
+      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
+    } else {
+      options.type = "hog_whole";
+    }
+  }
+  return options;
+}
+
 // A sequence held in memory (generated corridor or bag keyframes) with its poses.
 struct Corridor {
   bool from_bag = false;
@@ -144,6 +178,7 @@ int run(const Arguments& arguments) {
   MatchingOptions matching;
   matching.exclude_recent = static_cast<int>(arguments.number("--exclude-recent", 50));
   matching.matrix_size = static_cast<int>(arguments.number("--matrix-size", 1000));
+  matching.shortlist = static_cast<int>(arguments.number("--top-k", 10));
   RunDescription run;
   run.dataset = arguments.get("--name");
   const double gt_distance = arguments.number("--gt-distance", 5.0);
@@ -260,8 +295,7 @@ int run(const Arguments& arguments) {
 
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
-    DescriptorOptions descriptor_options;
-    descriptor_options.type = name;
+    const DescriptorOptions descriptor_options = descriptorVariant(name, arguments.get("--model"));
     const std::string problem = descriptor_options.validate();
     if (!problem.empty()) throw std::invalid_argument(problem);
     const auto extractor = makeDescriptorExtractor(descriptor_options);
@@ -290,6 +324,7 @@ int run(const Arguments& arguments) {
       evaluation = evaluateSequence(database, truth, *extractor, matching,
                                     progressPrinter("matching (" + name + ")"));
     }
+    evaluation.name = name;
     const Metrics& m = evaluation.metrics;
     std::printf(
         "%-10s R@100P %.3f  AUC %.3f  AP %.3f  R@1 %.3f  describe %.2f/%.2f ms  "

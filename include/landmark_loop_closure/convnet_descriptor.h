@@ -1,0 +1,53 @@
+#pragma once
+
+#include <mutex>
+#include <string>
+
+#include <opencv2/dnn.hpp>
+
+#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/landmarks.h"
+
+namespace landmark_loop_closure {
+
+struct ConvNetOptions {
+  std::string model_path;                  ///< ONNX file; input 1x1x120x160 grey in [0, 1].
+  std::string proposal_layer = "conv2";    ///< Output whose activations give landmark boxes.
+  std::string descriptor_layer = "conv3";  ///< Output that describes the image and landmarks.
+  bool landmarks = true;                   ///< false: whole-image descriptor only (CALC).
+  LandmarkProposalOptions proposals;
+  int landmark_grid = 4;             ///< Cells per side when cropping the shared map.
+  bool crop_proposal_layer = false;  ///< Cut landmark crops from the proposal layer.
+  bool per_landmark_pass = false;    ///< One network pass per landmark crop instead.
+  ShapeWeighting weighting = ShapeWeighting::kPenalise;
+};
+
+/// Descriptors from a convolutional encoder run by OpenCV's dnn module from an ONNX file (the
+/// package's CALC-style encoder, or any network whose named outputs are feature maps):
+/// the global descriptor is the descriptor layer's output, centred and L2-normalised; landmarks
+/// are proposed from the proposal layer and described from the same forward pass.
+class ConvNetDescriptor : public DescriptorExtractor {
+ public:
+  static constexpr int kWidth = 160;
+  static constexpr int kHeight = 120;
+
+  /// Throws std::runtime_error naming the file when the model cannot be loaded or lacks a layer.
+  explicit ConvNetDescriptor(const ConvNetOptions& options);
+
+  std::string name() const override { return options_.landmarks ? "landmarks" : "calc"; }
+  int globalDimension() const override { return global_dimension_; }
+  ImageDescriptor describe(const cv::Mat& image) const override;
+  double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const override;
+  bool reranks() const override { return options_.landmarks; }
+
+  /// The named outputs for a 160x120 grey image (exposed for tests and pictures).
+  std::vector<FeatureMaps> forward(const cv::Mat& working_image) const;
+
+ private:
+  ConvNetOptions options_;
+  int global_dimension_ = 0;
+  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable cv::dnn::Net net_;
+};
+
+}  // namespace landmark_loop_closure
