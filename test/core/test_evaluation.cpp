@@ -7,12 +7,16 @@
 
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/report.h"
+#include "place_extractor.h"
 
 using namespace landmark_loop_closure;
 using namespace landmark_loop_closure::eval;
 namespace fs = std::filesystem;
+using test_support::PlaceExtractor;
 
 namespace {
+
+cv::Mat place(int value) { return test_support::place(value, cv::Size(8, 8)); }
 
 QueryOutcome outcome(size_t query, double score, bool correct, bool has_truth = true) {
   QueryOutcome o;
@@ -23,21 +27,6 @@ QueryOutcome outcome(size_t query, double score, bool correct, bool has_truth = 
   o.has_truth = has_truth;
   return o;
 }
-
-// One-hot descriptors: image value v is "place v".
-class PlaceExtractor : public DescriptorExtractor {
- public:
-  std::string name() const override { return "place"; }
-  int globalDimension() const override { return 256; }
-  ImageDescriptor describe(const cv::Mat& image) const override {
-    ImageDescriptor d;
-    d.global.assign(256, 0.0f);
-    d.global[image.at<uchar>(0, 0)] = 1.0f;
-    return d;
-  }
-};
-
-cv::Mat place(int value) { return cv::Mat(8, 8, CV_8UC1, cv::Scalar(value)); }
 
 }  // namespace
 

@@ -4,26 +4,13 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/loop_detector.h"
+#include "place_extractor.h"
 
 using namespace landmark_loop_closure;
+using test_support::place;
+using test_support::PlaceExtractor;
 
 namespace {
-
-// Each image is filled with one grey value: its "place". Descriptors are one-hot in that value,
-// so two keyframes match exactly when they show the same place.
-class PlaceExtractor : public DescriptorExtractor {
- public:
-  std::string name() const override { return "place"; }
-  int globalDimension() const override { return 256; }
-  ImageDescriptor describe(const cv::Mat& image) const override {
-    ImageDescriptor descriptor;
-    descriptor.global.assign(256, 0.0f);
-    descriptor.global[image.at<uchar>(0, 0)] = 1.0f;
-    return descriptor;
-  }
-};
-
-cv::Mat place(int value) { return cv::Mat(48, 64, CV_8UC1, cv::Scalar(value)); }
 
 LoopDetectorOptions smallOptions() {
   LoopDetectorOptions options;
