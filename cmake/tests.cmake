@@ -10,6 +10,7 @@ set(CORE_TESTS
   test_bounded_queue
   test_match_image
   test_landmarks
+  test_convnet_descriptor
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})

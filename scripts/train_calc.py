@@ -13,6 +13,7 @@ usage: scripts/train_calc.py [--steps 800] [--output model/calc_encoder.onnx]
                              [--checkpoint _train/calc_checkpoint.pt] [--seed 1]
 The default 800 steps of 32 pairs take about 25 minutes on 2 CPU cores. Resumes from the
 checkpoint when it exists (delete it to start over); the same seed and steps give the same model.
+--export-only writes the checkpoint's encoder without training further.
 """
 import argparse
 import math
@@ -214,6 +215,8 @@ def main():
     parser.add_argument("--checkpoint", default="_train/calc_checkpoint.pt")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--batch", type=int, default=32)
+    parser.add_argument("--export-only", action="store_true",
+                        help="export the checkpoint's encoder without training")
     args = parser.parse_args()
     torch.set_num_threads(2)
     torch.manual_seed(args.seed)
@@ -231,6 +234,9 @@ def main():
         rng.setstate(state["python_rng"])
         torch.set_rng_state(state["torch_rng"])
         print("resumed at step %d after %.1f min" % (step, spent / 60))
+    if args.export_only:
+        export(model.encoder, args.output)
+        return 0
     os.makedirs(os.path.dirname(args.checkpoint) or ".", exist_ok=True)
 
     def save():

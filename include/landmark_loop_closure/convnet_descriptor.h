@@ -16,9 +16,9 @@ struct ConvNetOptions {
   std::string descriptor_layer = "conv3";  ///< Output that describes the image and landmarks.
   bool landmarks = true;                   ///< false: whole-image descriptor only (CALC).
   LandmarkProposalOptions proposals;
-  int landmark_grid = 4;             ///< Cells per side when cropping the shared map.
-  bool crop_proposal_layer = false;  ///< Cut landmark crops from the proposal layer.
-  bool per_landmark_pass = false;    ///< One network pass per landmark crop instead.
+  int landmark_grid = 2;            ///< Cells per side when cropping the shared map.
+  bool crop_proposal_layer = true;  ///< Crops from the proposal layer, else the descriptor layer.
+  bool per_landmark_pass = false;   ///< One network pass per landmark crop instead.
   ShapeWeighting weighting = ShapeWeighting::kPenalise;
 };
 

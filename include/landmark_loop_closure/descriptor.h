@@ -52,8 +52,8 @@ struct DescriptorOptions {
   std::string type = "hog";
   std::string model;                         ///< ONNX encoder; empty = the package's model.
   int max_landmarks = 50;                    ///< Landmarks per image (landmarks).
-  int landmark_grid = 4;                     ///< Cells per side of a landmark's crop (landmarks).
-  std::string landmark_layer = "conv3";      ///< Layer the crops are cut from: "conv3" or "conv2".
+  int landmark_grid = 2;                     ///< Cells per side of a landmark's crop (landmarks).
+  std::string landmark_layer = "conv2";      ///< Layer the crops are cut from: "conv2" or "conv3".
   std::string landmark_pass = "shared";      ///< "shared" map crop or one pass "per_landmark".
   std::string shape_weighting = "penalise";  ///< "penalise" or "paper" (methods.md).
 

@@ -42,7 +42,7 @@ OPTIONS:
                        calc, landmarks, and variants of landmarks: landmarks_paper (the paper's
                        shape weighting), landmarks_per_landmark (one network pass per landmark),
                        landmarks_gridN (crop grid N), landmarks_mN (N landmarks),
-                       landmarks_conv2 (crops from conv2)
+                       landmarks_conv3 (crops from conv3 instead of conv2)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
