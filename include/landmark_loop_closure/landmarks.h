@@ -52,6 +52,17 @@ enum class ShapeWeighting {
   kPaper,     ///< As printed: sum s * cos, which rewards shape disagreement.
 };
 
+/// A mutual-nearest-neighbour pair: landmark `a` of the first image, `b` of the second.
+struct LandmarkMatch {
+  int a = 0;
+  int b = 0;
+  double cosine = 0.0;
+};
+
+/// Mutual nearest neighbours by cosine of two landmark sets (empty when either is empty or the
+/// feature lengths differ).
+std::vector<LandmarkMatch> matchLandmarks(const cv::Mat& features_a, const cv::Mat& features_b);
+
 /// Similarity of two images from their landmarks: mutual nearest neighbours by cosine, each
 /// pair weighted by s = exp(|h_a - h_b| / max(h) + |w_a - w_b| / max(w)), the sum normalised by
 /// sqrt(n_a * n_b). Symmetric in its two arguments; 0 when either side has no landmark.

@@ -108,36 +108,41 @@ cv::Mat describeLandmarks(const FeatureMaps& maps, cv::Size image_size,
   return features;
 }
 
-double landmarkSimilarity(const std::vector<cv::Rect2f>& boxes_a, const cv::Mat& features_a,
-                          const std::vector<cv::Rect2f>& boxes_b, const cv::Mat& features_b,
-                          ShapeWeighting weighting) {
-  if (boxes_a.empty() || boxes_b.empty() || features_a.rows != static_cast<int>(boxes_a.size()) ||
-      features_b.rows != static_cast<int>(boxes_b.size()) || features_a.cols != features_b.cols) {
-    return 0.0;
+std::vector<LandmarkMatch> matchLandmarks(const cv::Mat& features_a, const cv::Mat& features_b) {
+  std::vector<LandmarkMatch> matches;
+  if (features_a.empty() || features_b.empty() || features_a.cols != features_b.cols) {
+    return matches;
   }
   const cv::Mat cosine = features_a * features_b.t();
-  std::vector<int> best_for_a(static_cast<size_t>(cosine.rows));
   std::vector<int> best_for_b(static_cast<size_t>(cosine.cols));
-  for (int u = 0; u < cosine.rows; ++u) {
-    cv::Point best;
-    cv::minMaxLoc(cosine.row(u), nullptr, nullptr, nullptr, &best);
-    best_for_a[u] = best.x;
-  }
   for (int v = 0; v < cosine.cols; ++v) {
     cv::Point best;
     cv::minMaxLoc(cosine.col(v), nullptr, nullptr, nullptr, &best);
     best_for_b[v] = best.y;
   }
-  double sum = 0.0;
   for (int u = 0; u < cosine.rows; ++u) {
-    const int v = best_for_a[u];
-    if (best_for_b[v] != u) continue;  // Mutual nearest neighbours only.
-    const cv::Rect2f& a = boxes_a[u];
-    const cv::Rect2f& b = boxes_b[v];
+    cv::Point best;
+    cv::minMaxLoc(cosine.row(u), nullptr, nullptr, nullptr, &best);
+    if (best_for_b[best.x] == u) matches.push_back({u, best.x, cosine.at<float>(u, best.x)});
+  }
+  return matches;
+}
+
+double landmarkSimilarity(const std::vector<cv::Rect2f>& boxes_a, const cv::Mat& features_a,
+                          const std::vector<cv::Rect2f>& boxes_b, const cv::Mat& features_b,
+                          ShapeWeighting weighting) {
+  if (boxes_a.empty() || boxes_b.empty() || features_a.rows != static_cast<int>(boxes_a.size()) ||
+      features_b.rows != static_cast<int>(boxes_b.size())) {
+    return 0.0;
+  }
+  double sum = 0.0;
+  for (const LandmarkMatch& match : matchLandmarks(features_a, features_b)) {
+    const cv::Rect2f& a = boxes_a[match.a];
+    const cv::Rect2f& b = boxes_b[match.b];
     const double shape = std::exp(std::abs(a.height - b.height) / std::max(a.height, b.height) +
                                   std::abs(a.width - b.width) / std::max(a.width, b.width));
-    const double cos_uv = cosine.at<float>(u, v);
-    sum += weighting == ShapeWeighting::kPenalise ? 1.0 - shape * (1.0 - cos_uv) : shape * cos_uv;
+    sum += weighting == ShapeWeighting::kPenalise ? 1.0 - shape * (1.0 - match.cosine)
+                                                  : shape * match.cosine;
   }
   return sum / std::sqrt(static_cast<double>(boxes_a.size()) * boxes_b.size());
 }

@@ -26,7 +26,8 @@ cv::Mat toColourAtHeight(const cv::Mat& image, int height) {
 }  // namespace
 
 cv::Mat renderMatchImage(const cv::Mat& query, const cv::Mat& match, const std::string& caption,
-                         bool accepted, int height) {
+                         bool accepted, int height,
+                         const std::vector<std::pair<cv::Rect2f, cv::Rect2f>>& matched_boxes) {
   constexpr int kCaptionHeight = 28;
   const cv::Mat left = toColourAtHeight(query, height);
   const cv::Mat right = toColourAtHeight(match, height);
@@ -38,6 +39,22 @@ cv::Mat renderMatchImage(const cv::Mat& query, const cv::Mat& match, const std::
               cv::LINE_AA);
   cv::line(canvas, cv::Point(left.cols, 0), cv::Point(left.cols, height),
            cv::Scalar(255, 255, 255));
+  const double query_scale = query.empty() ? 1.0 : static_cast<double>(height) / query.rows;
+  const double match_scale = match.empty() ? 1.0 : static_cast<double>(height) / match.rows;
+  const auto scaled = [](const cv::Rect2f& box, double scale, int x_offset) {
+    return cv::Rect(x_offset + cvRound(box.x * scale), cvRound(box.y * scale),
+                    cvRound(box.width * scale), cvRound(box.height * scale));
+  };
+  for (size_t i = 0; i < matched_boxes.size(); ++i) {
+    // Hues spread around the colour wheel so that neighbouring pairs differ.
+    cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<double>((i * 47) % 180), 255, 255));
+    cv::Mat bgr;
+    cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+    const cv::Vec3b c = bgr.at<cv::Vec3b>(0, 0);
+    const cv::Scalar pair_colour(c[0], c[1], c[2]);
+    cv::rectangle(canvas, scaled(matched_boxes[i].first, query_scale, 0), pair_colour, 1);
+    cv::rectangle(canvas, scaled(matched_boxes[i].second, match_scale, left.cols), pair_colour, 1);
+  }
   return canvas;
 }
 

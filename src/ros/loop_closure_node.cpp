@@ -11,6 +11,7 @@
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/landmarks.h"
 #include "landmark_loop_closure/match_image.h"
 #include "ros_conversions.h"
 #include "ros_parameter_source.h"

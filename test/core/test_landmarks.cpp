@@ -148,3 +148,16 @@ TEST(LandmarkSimilarity, NoLandmarksScoresZero) {
                                ShapeWeighting::kPenalise),
             0.0);
 }
+
+TEST(LandmarkMatches, AreMutualNearestNeighboursWithTheirCosine) {
+  const cv::Mat a = (cv::Mat_<float>(3, 2) << 1, 0, 0, 1, 0.8f, 0.6f);
+  const cv::Mat b = (cv::Mat_<float>(2, 2) << 0, 1, 1, 0);
+  const std::vector<LandmarkMatch> matches = matchLandmarks(a, b);
+  ASSERT_EQ(matches.size(), 2u);
+  EXPECT_EQ(matches[0].a, 0);
+  EXPECT_EQ(matches[0].b, 1);
+  EXPECT_FLOAT_EQ(matches[0].cosine, 1.0f);
+  EXPECT_EQ(matches[1].a, 1);
+  EXPECT_EQ(matches[1].b, 0);
+  EXPECT_TRUE(matchLandmarks(a, cv::Mat()).empty());
+}

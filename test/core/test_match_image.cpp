@@ -21,3 +21,16 @@ TEST(MatchImage, MissingMatchIsDrawnAsAPlaceholder) {
   EXPECT_EQ(picture.rows > 120, true);
   EXPECT_EQ(picture.cols, 160 + 160);
 }
+
+TEST(MatchImage, DrawsMatchedLandmarksInTheSameColourOnBothSides) {
+  const cv::Mat grey(120, 160, CV_8UC1, cv::Scalar(0));
+  const std::vector<std::pair<cv::Rect2f, cv::Rect2f>> pairs = {
+      {cv::Rect2f(10, 10, 40, 30), cv::Rect2f(100, 50, 40, 30)}};
+  const cv::Mat picture = renderMatchImage(grey, grey, "pairs", true, 240, pairs);
+  // Height 240 doubles the 160x120 images: the query box's corner lands at (20, 20), the match
+  // box's at (320 + 200, 100).
+  const cv::Vec3b left = picture.at<cv::Vec3b>(20, 20);
+  const cv::Vec3b right = picture.at<cv::Vec3b>(100, 320 + 200);
+  EXPECT_NE(left, cv::Vec3b(0, 0, 0));
+  EXPECT_EQ(left, right);
+}
