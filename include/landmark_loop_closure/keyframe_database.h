@@ -68,7 +68,6 @@ class KeyframeDatabase {
   const KeyframeRecord* findById(uint64_t id) const;
   /// Heap bytes of the stored keyframes (descriptors, thumbnails, records).
   size_t bytes() const;
-  void clear() { keyframes_.clear(); }
 
  private:
   int global_dimension_;

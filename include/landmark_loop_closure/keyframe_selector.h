@@ -53,7 +53,6 @@ class KeyframeSelector {
 
   bool hasKeyframe() const { return last_keyframe_.has_value(); }
   double lastKeyframeStamp() const;
-  void reset();
 
  private:
   struct Reference {

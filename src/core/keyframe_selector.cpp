@@ -82,9 +82,4 @@ double KeyframeSelector::lastKeyframeStamp() const {
   return last_keyframe_ ? last_keyframe_->stamp : -std::numeric_limits<double>::infinity();
 }
 
-void KeyframeSelector::reset() {
-  last_keyframe_.reset();
-  consecutive_jumps_ = 0;
-}
-
 }  // namespace landmark_loop_closure

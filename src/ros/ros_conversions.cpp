@@ -87,13 +87,6 @@ geometry_msgs::Pose toRos(const Pose& pose) {
 
 double toSeconds(const ros::Time& stamp) { return stamp.toSec(); }
 
-ros::Time toRosTime(double seconds) {
-  const int64_t nanoseconds = static_cast<int64_t>(std::llround(seconds * 1e9));
-  ros::Time stamp;
-  stamp.fromNSec(static_cast<uint64_t>(nanoseconds));
-  return stamp;
-}
-
 LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
                       const ros::Time& match_stamp, const std::string& frame_id) {
   LoopClosure msg;

@@ -33,7 +33,6 @@ Pose fromRos(const geometry_msgs::Pose& pose);
 geometry_msgs::Pose toRos(const Pose& pose);
 
 double toSeconds(const ros::Time& stamp);
-ros::Time toRosTime(double seconds);
 
 /// Stamps as double seconds lose nanoseconds at epoch scale, so messages carry the original
 /// ros::Time of each keyframe, passed in by the caller.
