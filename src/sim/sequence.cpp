@@ -76,5 +76,19 @@ cv::Mat SequenceGenerator::render(const SequenceFrame& frame) const {
                        options_.seed * 1000003u + static_cast<uint32_t>(frame.index));
 }
 
+SampledSequence sampleSequence(const CorridorWorld& world, const SequenceOptions& options,
+                               size_t every) {
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  SampledSequence sampled;
+  SequenceFrame frame;
+  while (sequence.next(&frame, false)) {
+    if (frame.index % every != 0) continue;
+    sampled.images.push_back(sequence.render(frame));
+    sampled.truth.push_back(planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw));
+    sampled.stamps.push_back(frame.stamp);
+  }
+  return sampled;
+}
+
 }  // namespace sim
 }  // namespace landmark_loop_closure

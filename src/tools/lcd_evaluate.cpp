@@ -1,5 +1,5 @@
 // Offline evaluation of loop-closure descriptors: precision-recall, recall at 100 % precision,
-// AUC, timing and memory, on image folders with ground truth, or on the generated corridor.
+// AUC, timing and memory, on image folders with ground truth, or on the generated memory.
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -148,29 +148,13 @@ DescriptorOptions descriptorVariant(const std::string& name, const std::string& 
   return options;
 }
 
-// A sequence held in memory (generated corridor or bag keyframes) with its poses.
-struct Corridor {
+// A sequence held in memory (generated corridor or a bag's keyframes) with its poses.
+struct MemorySequence {
   bool from_bag = false;
   std::vector<cv::Mat> images;
   std::vector<Pose> poses;
   std::vector<double> stamps;
 };
-
-Corridor makeCorridor(double laps) {
-  const sim::CorridorWorld world;
-  sim::SequenceOptions options;
-  options.laps = laps;
-  sim::SequenceGenerator sequence(world, sim::CameraModel{}, options);
-  Corridor corridor;
-  sim::SequenceFrame frame;
-  while (sequence.next(&frame, false)) {
-    if (frame.index % 3 != 0) continue;
-    corridor.images.push_back(sequence.render(frame));
-    corridor.poses.push_back(planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw));
-    corridor.stamps.push_back(frame.stamp);
-  }
-  return corridor;
-}
 
 int run(const Arguments& arguments) {
   const std::vector<std::string> names =
@@ -189,7 +173,7 @@ int run(const Arguments& arguments) {
   std::vector<std::string> database_paths;
   std::vector<std::string> query_paths;
   size_t first_traversal = 0;  // --as-sequence: images of the first traversal.
-  Corridor corridor;
+  MemorySequence memory;
   if (arguments.has("--images")) {
     database_paths = limited(listImages(arguments.get("--images")), arguments);
     run.mode = "sequence";
@@ -204,7 +188,12 @@ int run(const Arguments& arguments) {
       run.mode = "sequence";
     }
   } else if (arguments.has("--corridor")) {
-    corridor = makeCorridor(arguments.number("--corridor", 2.0));
+    sim::SequenceOptions options;
+    options.laps = arguments.number("--corridor", 2.0);
+    sim::SampledSequence sampled = sim::sampleSequence(sim::CorridorWorld{}, options, 3);
+    memory.images = std::move(sampled.images);
+    memory.poses = std::move(sampled.truth);
+    memory.stamps = std::move(sampled.stamps);
     run.mode = "sequence";
   } else if (arguments.has("--bag")) {
     BagSourceOptions bag;
@@ -227,21 +216,22 @@ int run(const Arguments& arguments) {
                    "lcd_evaluate: no --truth-topic: ground truth from the odometry, which "
                    "drifts\n");
     }
-    corridor.images = std::move(keyframes.images);
-    corridor.stamps = std::move(keyframes.stamps);
-    corridor.poses = bag.truth_topic.empty() ? keyframes.odometry : keyframes.truth;
-    corridor.from_bag = true;
+    memory.images = std::move(keyframes.images);
+    memory.stamps = std::move(keyframes.stamps);
+    memory.poses = bag.truth_topic.empty() ? keyframes.odometry : keyframes.truth;
+    memory.from_bag = true;
     run.mode = "sequence";
   } else {
     throw std::invalid_argument("give --images, --database with --queries, --corridor or --bag");
   }
   const bool traversal = run.mode == "traversal";
   const size_t database_count =
-      corridor.images.empty() ? database_paths.size() : corridor.images.size();
+      memory.images.empty() ? database_paths.size() : memory.images.size();
   run.database_images = database_count;
   run.query_images = traversal ? query_paths.size() : database_count;
   if (run.dataset.empty())
-    run.dataset = arguments.get("--images", arguments.get("--database", "corridor"));
+    run.dataset = arguments.get(
+        "--images", arguments.get("--database", arguments.get("--bag", "generated corridor")));
 
   // Ground truth.
   GroundTruth truth;
@@ -273,15 +263,15 @@ int run(const Arguments& arguments) {
     truth = poseGroundTruth(poses, stamps, gt_distance, gt_angle, gt_gap);
     run.ground_truth = arguments.get("--gt-poses");
     run.trajectory = poses;
-  } else if (corridor.from_bag) {
-    truth = poseGroundTruth(corridor.poses, corridor.stamps, gt_distance, gt_angle, gt_gap);
+  } else if (memory.from_bag) {
+    truth = poseGroundTruth(memory.poses, memory.stamps, gt_distance, gt_angle, gt_gap);
     run.ground_truth = "bag poses: within " + std::to_string(gt_distance) + " m, " +
                        std::to_string(gt_gap) + " s apart";
-    run.trajectory = corridor.poses;
-  } else if (!corridor.images.empty()) {
-    truth = poseGroundTruth(corridor.poses, corridor.stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
+    run.trajectory = memory.poses;
+  } else if (!memory.images.empty()) {
+    truth = poseGroundTruth(memory.poses, memory.stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
     run.ground_truth = "true poses: within 2.5 m and 45 deg, 20 s apart";
-    run.trajectory = corridor.poses;
+    run.trajectory = memory.poses;
   } else {
     throw std::invalid_argument("give a ground truth: --gt-mat, --gt-aligned or --gt-poses");
   }
@@ -300,9 +290,9 @@ int run(const Arguments& arguments) {
     if (!problem.empty()) throw std::invalid_argument(problem);
     const auto extractor = makeDescriptorExtractor(descriptor_options);
     DescribedImages database;
-    if (!corridor.images.empty()) {
+    if (!memory.images.empty()) {
       database = describeImages(
-          corridor.images.size(), [&](size_t i) { return corridor.images[i]; }, *extractor,
+          memory.images.size(), [&](size_t i) { return memory.images[i]; }, *extractor,
           progressPrinter("describing (" + name + ")"));
     } else {
       database = describeImageFiles(database_paths, *extractor,

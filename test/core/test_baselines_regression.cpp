@@ -82,19 +82,11 @@ TEST(BaselineRegression, GardensPointDayRightAgainstDayLeft) {
 TEST(BaselineRegression, GeneratedCorridorSequence) {
   // Generated, so it needs no data: two laps, an image every 0.3 m, poses as ground truth.
   // Measured: pixels 0.549 / 0.949 / 0.963, hog 0.221 / 0.581 / 0.766.
-  const sim::CorridorWorld world;
-  sim::SequenceGenerator sequence(world, sim::CameraModel{}, sim::SequenceOptions{});
-  std::vector<cv::Mat> images;
-  std::vector<Pose> poses;
-  std::vector<double> stamps;
-  sim::SequenceFrame frame;
-  while (sequence.next(&frame, false)) {
-    if (frame.index % 3 != 0) continue;
-    images.push_back(sequence.render(frame));
-    poses.push_back(planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw));
-    stamps.push_back(frame.stamp);
-  }
-  const GroundTruth truth = poseGroundTruth(poses, stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
+  const sim::SampledSequence corridor =
+      sim::sampleSequence(sim::CorridorWorld{}, sim::SequenceOptions{}, 3);
+  const std::vector<cv::Mat>& images = corridor.images;
+  const GroundTruth truth =
+      poseGroundTruth(corridor.truth, corridor.stamps, 2.5, 45.0 * M_PI / 180.0, 20.0);
   MatchingOptions options;
   options.exclude_recent = 60;
   for (const Floor& floor : {Floor{"pixels", 0.52, 0.92, 0.94}, Floor{"hog", 0.20, 0.55, 0.74}}) {

@@ -1,9 +1,11 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/pose.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 namespace landmark_loop_closure {
@@ -56,6 +58,16 @@ class SequenceGenerator {
   Pose2D previous_truth_;
   Pose2D odom_;
 };
+
+/// Every `every`-th frame of a generated sequence, rendered, with its true pose (the evaluation's
+/// corridor: at 1 m/s and 10 Hz, every 3rd frame is one image every 0.3 m, like the keyframes).
+struct SampledSequence {
+  std::vector<cv::Mat> images;
+  std::vector<Pose> truth;
+  std::vector<double> stamps;
+};
+SampledSequence sampleSequence(const CorridorWorld& world, const SequenceOptions& options,
+                               size_t every);
 
 }  // namespace sim
 }  // namespace landmark_loop_closure
