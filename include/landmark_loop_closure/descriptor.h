@@ -46,16 +46,23 @@ class DescriptorExtractor {
 
 /// Parameters that choose and shape the descriptor.
 struct DescriptorOptions {
-  /// "hog": HOG with CALC's settings (3648 values); "hog_whole": one 9-bin HOG window over the
-  /// whole image (9576); "pixels": 32x24 downsampled grey pixels (768); "calc": the ONNX
-  /// encoder's output (1064); "landmarks": calc to shortlist, landmark matching to re-rank.
-  std::string type = "hog";
+  /// "landmarks": the ONNX encoder's output (calc) shortlists, landmark matching re-ranks;
+  /// "calc": the encoder's output alone (1064 values); "hog": HOG with CALC's settings (3648);
+  /// "hog_whole": one 9-bin HOG window over the whole image (9576); "pixels": 32x24 grey (768).
+  std::string type = "landmarks";
   std::string model;                         ///< ONNX encoder; empty = the package's model.
   int max_landmarks = 50;                    ///< Landmarks per image (landmarks).
   int landmark_grid = 2;                     ///< Cells per side of a landmark's crop (landmarks).
   std::string landmark_layer = "conv2";      ///< Layer the crops are cut from: "conv2" or "conv3".
-  std::string landmark_pass = "shared";      ///< "shared" map crop or one pass "per_landmark".
   std::string shape_weighting = "penalise";  ///< "penalise" or "paper" (methods.md).
+  /// "hog" of the box's patch of the working image, "conv": the shared pass's maps cropped,
+  /// "conv_per_landmark": one network pass per box.
+  std::string landmark_features = "hog";
+  int working_width = 320;  ///< Image the landmark patches are cut from.
+  int working_height = 240;
+  int landmark_patch = 32;                   ///< Side of a landmark's HOG patch, a multiple of 4.
+  double max_landmark_area = 0.5;            ///< Largest landmark box, as a fraction of the image.
+  std::string landmark_storage = "float16";  ///< "float16" or "float32".
 
   std::string validate() const;
 };

@@ -23,7 +23,7 @@ struct DatabaseOptions {
   int exclude_recent_keyframes = 20;     ///< The most recent N keyframes are never candidates.
   double exclude_recent_seconds = 10.0;  ///< Nor are keyframes closer in time than this.
   int min_size = 30;                     ///< No search before the database holds this many.
-  int top_k = 5;                         ///< Candidates returned per query.
+  int top_k = 10;                        ///< Candidates returned per query.
 
   std::string validate() const;
 };

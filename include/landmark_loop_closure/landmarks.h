@@ -24,6 +24,7 @@ struct LandmarkProposalOptions {
   int max_landmarks = 50;    ///< M: the landmarks kept per image, highest energy first.
   int min_side_cells = 2;    ///< A component narrower or shorter than this (map cells) is noise.
   double max_overlap = 0.5;  ///< Non-maximum suppression: IoU above which the weaker box goes.
+  double max_area_fraction = 1.0;  ///< A box covering more of the image than this is no landmark.
 };
 
 struct LandmarkProposal {
@@ -46,6 +47,16 @@ std::vector<LandmarkProposal> proposeLandmarks(const FeatureMaps& maps, cv::Size
 cv::Mat describeLandmarks(const FeatureMaps& maps, cv::Size image_size,
                           const std::vector<cv::Rect2f>& boxes, int grid);
 
+/// One descriptor per box from the image itself: the box (in the coordinates of an image of
+/// `box_frame` size, scaled to `image`) resampled to patch_side x patch_side pixels and described
+/// by HOG (cell patch_side/4, blocks of 2x2 cells, stride one cell, 9 bins), centred and
+/// L2-normalised. Returns boxes.size() rows of CV_32F; `image` is 8-bit grey.
+cv::Mat describeLandmarksByHog(const cv::Mat& image, cv::Size box_frame,
+                               const std::vector<cv::Rect2f>& boxes, int patch_side);
+
+/// Length of a describeLandmarksByHog row: 3x3 blocks x 4 cells x 9 bins.
+constexpr int kLandmarkHogDimension = 324;
+
 /// How box shapes weight a landmark match (see methods.md, section 1, the open question).
 enum class ShapeWeighting {
   kPenalise,  ///< Sünderhauf et al.: sum [1 - s (1 - cos)]: shape disagreement lowers the score.
@@ -59,8 +70,8 @@ struct LandmarkMatch {
   double cosine = 0.0;
 };
 
-/// Mutual nearest neighbours by cosine of two landmark sets (empty when either is empty or the
-/// feature lengths differ).
+/// Mutual nearest neighbours by cosine of two landmark sets, stored as CV_32F or CV_16F (empty
+/// when either is empty or the feature lengths differ).
 std::vector<LandmarkMatch> matchLandmarks(const cv::Mat& features_a, const cv::Mat& features_b);
 
 /// Similarity of two images from their landmarks: mutual nearest neighbours by cosine, each

@@ -17,7 +17,7 @@
 namespace landmark_loop_closure {
 
 struct AcceptanceOptions {
-  double min_score = 0.7;        ///< Final similarity a candidate needs (cosine, in [-1, 1]).
+  double min_score = 0.25;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
   int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
 

@@ -63,8 +63,13 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("descriptor/max_landmarks", &detector.descriptor.max_landmarks);
   reader->read("descriptor/landmark_grid", &detector.descriptor.landmark_grid);
   reader->read("descriptor/landmark_layer", &detector.descriptor.landmark_layer);
-  reader->read("descriptor/landmark_pass", &detector.descriptor.landmark_pass);
   reader->read("descriptor/shape_weighting", &detector.descriptor.shape_weighting);
+  reader->read("descriptor/landmark_features", &detector.descriptor.landmark_features);
+  reader->read("descriptor/working_width", &detector.descriptor.working_width);
+  reader->read("descriptor/working_height", &detector.descriptor.working_height);
+  reader->read("descriptor/landmark_patch", &detector.descriptor.landmark_patch);
+  reader->read("descriptor/max_landmark_area", &detector.descriptor.max_landmark_area);
+  reader->read("descriptor/landmark_storage", &detector.descriptor.landmark_storage);
 
   reader->read("database/exclude_recent_keyframes", &detector.database.exclude_recent_keyframes);
   reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);

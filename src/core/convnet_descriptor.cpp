@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/convnet_descriptor.h"
 
+#include <chrono>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -58,37 +59,69 @@ std::vector<FeatureMaps> ConvNetDescriptor::forward(const cv::Mat& working_image
   return {toFeatureMaps(outputs[0]), toFeatureMaps(outputs[1])};
 }
 
-ImageDescriptor ConvNetDescriptor::describe(const cv::Mat& image) const {
-  const cv::Mat working = toWorkingImage(image, kWidth, kHeight);
-  const std::vector<FeatureMaps> maps = forward(working);
+ImageDescriptor ConvNetDescriptor::describe(const cv::Mat& image, DescribeStageTimes* times) const {
+  DescribeStageTimes ignored;
+  if (times == nullptr) times = &ignored;
+  auto start = std::chrono::steady_clock::now();
+  const auto lap = [&start](double* milliseconds) {
+    const auto now = std::chrono::steady_clock::now();
+    *milliseconds = std::chrono::duration<double, std::milli>(now - start).count();
+    start = now;
+  };
+  const bool hog_features = options_.landmarks && options_.features == LandmarkFeatures::kHog;
+  const cv::Mat working = hog_features ? toWorkingImage(image, options_.working_size.width,
+                                                        options_.working_size.height)
+                                       : toWorkingImage(image, kWidth, kHeight);
+  cv::Mat network_input = working;
+  if (working.cols != kWidth || working.rows != kHeight) {
+    cv::resize(working, network_input, cv::Size(kWidth, kHeight), 0, 0, cv::INTER_AREA);
+  }
+  lap(&times->prepare);
+  const std::vector<FeatureMaps> maps = forward(network_input);
   ImageDescriptor descriptor;
   descriptor.global = maps[1].values;
   centreAndNormalise(&descriptor.global);
+  lap(&times->network);
   if (!options_.landmarks) return descriptor;
 
   const cv::Size size(kWidth, kHeight);
   for (const LandmarkProposal& proposal : proposeLandmarks(maps[0], size, options_.proposals)) {
     descriptor.landmark_boxes.push_back(proposal.box);
   }
-  if (!options_.per_landmark_pass) {
+  lap(&times->proposals);
+  if (hog_features) {
+    descriptor.landmark_features =
+        describeLandmarksByHog(working, size, descriptor.landmark_boxes, options_.hog_patch_side);
+  } else if (options_.features == LandmarkFeatures::kConvMapCrop) {
     descriptor.landmark_features =
         describeLandmarks(maps[options_.crop_proposal_layer ? 0 : 1], size,
                           descriptor.landmark_boxes, options_.landmark_grid);
-    return descriptor;
+  } else {
+    descriptor.landmark_features =
+        describeLandmarksByNetwork(network_input, descriptor.landmark_boxes);
   }
+  if (options_.float16_features) {
+    descriptor.landmark_features.convertTo(descriptor.landmark_features, CV_16F);
+  }
+  lap(&times->landmark_features);
+  return descriptor;
+}
+
+cv::Mat ConvNetDescriptor::describeLandmarksByNetwork(const cv::Mat& network_input,
+                                                      const std::vector<cv::Rect2f>& boxes) const {
+  const cv::Size size(kWidth, kHeight);
   // One pass per landmark: the crop resized to the network's input, its whole descriptor layer.
-  descriptor.landmark_features =
-      cv::Mat(static_cast<int>(descriptor.landmark_boxes.size()), global_dimension_, CV_32F);
-  for (size_t i = 0; i < descriptor.landmark_boxes.size(); ++i) {
-    const cv::Rect crop = cv::Rect(descriptor.landmark_boxes[i]) & cv::Rect(0, 0, kWidth, kHeight);
+  cv::Mat features(static_cast<int>(boxes.size()), global_dimension_, CV_32F, cv::Scalar(0));
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    const cv::Rect crop = cv::Rect(boxes[i]) & cv::Rect(0, 0, kWidth, kHeight);
+    if (crop.area() == 0) continue;
     cv::Mat resized;
-    cv::resize(working(crop), resized, size, 0, 0, cv::INTER_CUBIC);
+    cv::resize(network_input(crop), resized, size, 0, 0, cv::INTER_CUBIC);
     std::vector<float> values = forward(resized)[1].values;
     normaliseL2(&values);
-    std::copy(values.begin(), values.end(),
-              descriptor.landmark_features.ptr<float>(static_cast<int>(i)));
+    std::copy(values.begin(), values.end(), features.ptr<float>(static_cast<int>(i)));
   }
-  return descriptor;
+  return features;
 }
 
 double ConvNetDescriptor::similarity(const ImageDescriptor& query,

@@ -54,13 +54,30 @@ std::string DescriptorOptions::validate() const {
     errors +=
         "descriptor/landmark_layer must be 'conv3' or 'conv2' (got '" + landmark_layer + "')\n";
   }
-  if (landmark_pass != "shared" && landmark_pass != "per_landmark") {
-    errors += "descriptor/landmark_pass must be 'shared' or 'per_landmark' (got '" + landmark_pass +
-              "')\n";
-  }
   if (shape_weighting != "penalise" && shape_weighting != "paper") {
     errors += "descriptor/shape_weighting must be 'penalise' or 'paper' (got '" + shape_weighting +
               "')\n";
+  }
+  if (landmark_features != "hog" && landmark_features != "conv" &&
+      landmark_features != "conv_per_landmark") {
+    errors += "descriptor/landmark_features must be 'hog', 'conv' or 'conv_per_landmark' (got '" +
+              landmark_features + "')\n";
+  }
+  if (working_width < 32 || working_height < 32 || working_width > 4096 || working_height > 4096) {
+    errors += "descriptor/working_width and working_height must be in [32, 4096] (got " +
+              std::to_string(working_width) + "x" + std::to_string(working_height) + ")\n";
+  }
+  if (landmark_patch < 8 || landmark_patch > 256 || landmark_patch % 4 != 0) {
+    errors += "descriptor/landmark_patch must be a multiple of 4 in [8, 256] (got " +
+              std::to_string(landmark_patch) + ")\n";
+  }
+  if (!(max_landmark_area > 0.0 && max_landmark_area <= 1.0)) {
+    errors += "descriptor/max_landmark_area must be in (0, 1] (got " +
+              std::to_string(max_landmark_area) + ")\n";
+  }
+  if (landmark_storage != "float16" && landmark_storage != "float32") {
+    errors += "descriptor/landmark_storage must be 'float16' or 'float32' (got '" +
+              landmark_storage + "')\n";
   }
   return errors;
 }
@@ -77,7 +94,15 @@ std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
     convnet.proposals.max_landmarks = options.max_landmarks;
     convnet.landmark_grid = options.landmark_grid;
     convnet.crop_proposal_layer = options.landmark_layer == "conv2";
-    convnet.per_landmark_pass = options.landmark_pass == "per_landmark";
+    convnet.features = options.landmark_features == "conv" ? LandmarkFeatures::kConvMapCrop
+                       : options.landmark_features == "conv_per_landmark"
+                           ? LandmarkFeatures::kConvPerLandmark
+                           : LandmarkFeatures::kHog;
+    convnet.working_size = cv::Size(options.working_width, options.working_height);
+    convnet.hog_patch_side = options.landmark_patch;
+    convnet.proposals.max_area_fraction = options.max_landmark_area;
+    convnet.float16_features = options.landmark_storage == "float16";
+
     convnet.weighting =
         options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
     return std::make_shared<ConvNetDescriptor>(convnet);

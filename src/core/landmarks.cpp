@@ -4,6 +4,9 @@
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/objdetect.hpp>
+
+#include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
 
@@ -38,6 +41,7 @@ std::vector<LandmarkProposal> proposeLandmarks(const FeatureMaps& maps, cv::Size
   if (maps.empty() || image_size.area() == 0) return candidates;
   const float scale_x = static_cast<float>(image_size.width) / maps.width;
   const float scale_y = static_cast<float>(image_size.height) / maps.height;
+  const double max_cells = options.max_area_fraction * maps.width * maps.height;
   cv::Mat mask(maps.height, maps.width, CV_8UC1);
   cv::Mat labels;
   cv::Mat stats;
@@ -57,6 +61,7 @@ std::vector<LandmarkProposal> proposeLandmarks(const FeatureMaps& maps, cv::Size
       const int width = stats.at<int>(label, cv::CC_STAT_WIDTH);
       const int height = stats.at<int>(label, cv::CC_STAT_HEIGHT);
       if (width < options.min_side_cells || height < options.min_side_cells) continue;
+      if (static_cast<double>(width) * height > max_cells) continue;
       LandmarkProposal proposal;
       proposal.cells = cv::Rect(stats.at<int>(label, cv::CC_STAT_LEFT),
                                 stats.at<int>(label, cv::CC_STAT_TOP), width, height);
@@ -108,11 +113,43 @@ cv::Mat describeLandmarks(const FeatureMaps& maps, cv::Size image_size,
   return features;
 }
 
-std::vector<LandmarkMatch> matchLandmarks(const cv::Mat& features_a, const cv::Mat& features_b) {
+cv::Mat describeLandmarksByHog(const cv::Mat& image, cv::Size box_frame,
+                               const std::vector<cv::Rect2f>& boxes, int patch_side) {
+  const int dimension = kLandmarkHogDimension;
+  cv::Mat features(static_cast<int>(boxes.size()), dimension, CV_32F, cv::Scalar(0));
+  if (image.empty() || box_frame.area() == 0) return features;
+  const int cell = patch_side / 4;
+  const cv::HOGDescriptor hog(cv::Size(patch_side, patch_side), cv::Size(2 * cell, 2 * cell),
+                              cv::Size(cell, cell), cv::Size(cell, cell), 9);
+  const float scale_x = static_cast<float>(image.cols) / box_frame.width;
+  const float scale_y = static_cast<float>(image.rows) / box_frame.height;
+  const cv::Rect bounds(0, 0, image.cols, image.rows);
+  cv::Mat patch;
+  std::vector<float> values;
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    const cv::Rect2f& box = boxes[i];
+    const cv::Rect crop = cv::Rect(cv::Rect2f(box.x * scale_x, box.y * scale_y, box.width * scale_x,
+                                              box.height * scale_y)) &
+                          bounds;
+    if (crop.area() == 0) continue;
+    cv::resize(image(crop), patch, cv::Size(patch_side, patch_side), 0, 0, cv::INTER_AREA);
+    hog.compute(patch, values);
+    if (static_cast<int>(values.size()) != dimension) continue;
+    centreAndNormalise(&values);
+    std::copy(values.begin(), values.end(), features.ptr<float>(static_cast<int>(i)));
+  }
+  return features;
+}
+
+std::vector<LandmarkMatch> matchLandmarks(const cv::Mat& stored_a, const cv::Mat& stored_b) {
   std::vector<LandmarkMatch> matches;
-  if (features_a.empty() || features_b.empty() || features_a.cols != features_b.cols) {
+  if (stored_a.empty() || stored_b.empty() || stored_a.cols != stored_b.cols) {
     return matches;
   }
+  cv::Mat features_a = stored_a;
+  cv::Mat features_b = stored_b;
+  if (features_a.depth() != CV_32F) stored_a.convertTo(features_a, CV_32F);
+  if (features_b.depth() != CV_32F) stored_b.convertTo(features_b, CV_32F);
   const cv::Mat cosine = features_a * features_b.t();
   std::vector<int> best_for_b(static_cast<size_t>(cosine.cols));
   for (int v = 0; v < cosine.cols; ++v) {

@@ -40,9 +40,12 @@ GROUND TRUTH, one of:
 OPTIONS:
   --descriptors LIST   comma-separated (default pixels,hog,hog_whole): pixels, hog, hog_whole,
                        calc, landmarks, and variants of landmarks: landmarks_paper (the paper's
-                       shape weighting), landmarks_per_landmark (one network pass per landmark),
-                       landmarks_gridN (crop grid N), landmarks_mN (N landmarks),
-                       landmarks_conv3 (crops from conv3 instead of conv2)
+                       shape weighting), landmarks_conv (landmarks described by conv2 crops),
+                       landmarks_conv3 (conv3 crops), landmarks_gridN (crop grid N),
+                       landmarks_per_landmark (one network pass per landmark), landmarks_mN
+                       (N landmarks), landmarks_wN (working width N, height 3N/4),
+                       landmarks_patchN (HOG patch side), landmarks_areaP (largest box P % of
+                       the image), landmarks_f32 (landmark features stored as float32)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
@@ -131,10 +134,22 @@ DescriptorOptions descriptorVariant(const std::string& name, const std::string& 
     if (part == "paper") {
       options.shape_weighting = "paper";
     } else if (part == "per") {
-      options.landmark_pass = "per_landmark";
+      options.landmark_features = "conv_per_landmark";
       std::getline(parts, part, '_');  // "landmark"
     } else if (part == "conv2" || part == "conv3") {
       options.landmark_layer = part;
+      options.landmark_features = "conv";
+    } else if (part == "conv" || part == "hog") {
+      options.landmark_features = part;
+    } else if (part == "f32") {
+      options.landmark_storage = "float32";
+    } else if (part.rfind("w", 0) == 0 && part.size() > 1 && std::isdigit(part[1])) {
+      options.working_width = std::stoi(part.substr(1));
+      options.working_height = options.working_width * 3 / 4;
+    } else if (part.rfind("patch", 0) == 0) {
+      options.landmark_patch = std::stoi(part.substr(5));
+    } else if (part.rfind("area", 0) == 0) {
+      options.max_landmark_area = std::stoi(part.substr(4)) / 100.0;
     } else if (part.rfind("grid", 0) == 0) {
       options.landmark_grid = std::stoi(part.substr(4));
     } else if (part.rfind("m", 0) == 0) {

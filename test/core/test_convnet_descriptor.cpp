@@ -73,9 +73,40 @@ TEST(ConvNetDescriptor, SamePlaceScoresHigherThanAnotherPlaceAndScoresAreSymmetr
             cosineSimilarity(here.global, elsewhere.global));
 }
 
+TEST(ConvNetDescriptor, LandmarksAreHogOfTheirPatchStoredAsFloat16ByDefault) {
+  const ConvNetDescriptor encoder(shippedModel());
+  DescribeStageTimes times;
+  const ImageDescriptor d = encoder.describe(corridorView(5.0), &times);
+  ASSERT_FALSE(d.landmark_boxes.empty());
+  EXPECT_EQ(d.landmark_features.type(), CV_16F);
+  EXPECT_EQ(d.landmark_features.cols, kLandmarkHogDimension);
+  EXPECT_GT(times.network, 0.0);
+  EXPECT_GE(times.landmark_features, 0.0);
+  // Float16 storage halves the landmark bytes and scores like float32.
+  ConvNetOptions float32 = shippedModel();
+  float32.float16_features = false;
+  const ConvNetDescriptor full(float32);
+  const ImageDescriptor here = encoder.describe(corridorView(20.0));
+  const ImageDescriptor there = encoder.describe(corridorView(20.2, 0.1));
+  const ImageDescriptor here32 = full.describe(corridorView(20.0));
+  const ImageDescriptor there32 = full.describe(corridorView(20.2, 0.1));
+  EXPECT_EQ(here32.landmark_features.size(), here.landmark_features.size());
+  EXPECT_EQ(here32.landmark_features.elemSize(), 2 * here.landmark_features.elemSize());
+  EXPECT_NEAR(encoder.similarity(here, there), full.similarity(here32, there32), 5e-3);
+}
+
+TEST(ConvNetDescriptor, SharedMapCropsAreAvailable) {
+  ConvNetOptions options = shippedModel();
+  options.features = LandmarkFeatures::kConvMapCrop;
+  const ConvNetDescriptor encoder(options);
+  const ImageDescriptor d = encoder.describe(corridorView(5.0));
+  ASSERT_FALSE(d.landmark_boxes.empty());
+  EXPECT_EQ(d.landmark_features.cols, 128 * 2 * 2);  // conv2 channels x grid 2 x 2.
+}
+
 TEST(ConvNetDescriptor, PerLandmarkPassDescribesEachCropWithTheWholeNetwork) {
   ConvNetOptions options = shippedModel();
-  options.per_landmark_pass = true;
+  options.features = LandmarkFeatures::kConvPerLandmark;
   options.proposals.max_landmarks = 5;
   const ConvNetDescriptor encoder(options);
   const ImageDescriptor d = encoder.describe(corridorView(5.0));

@@ -79,10 +79,24 @@ TEST(CosineSimilarity, MismatchedOrEmptyVectorsScoreZero) {
   EXPECT_NEAR(cosineSimilarity({0.6f, 0.8f}, {0.6f, 0.8f}), 1.0, 1e-6);
 }
 
-TEST(DescriptorFactory, KnowsHogAndRefusesUnknownTypes) {
+TEST(DescriptorFactory, DefaultsToLandmarksKnowsHogAndRefusesUnknownTypes) {
   DescriptorOptions options;
+  EXPECT_EQ(makeDescriptorExtractor(options)->name(), "landmarks");
+  options.type = "hog";
   EXPECT_EQ(makeDescriptorExtractor(options)->name(), "hog");
   options.type = "sift";
   EXPECT_NE(options.validate(), "");
   EXPECT_THROW(makeDescriptorExtractor(options), std::invalid_argument);
+  options = DescriptorOptions();
+  EXPECT_EQ(options.validate(), "");
+  options.landmark_features = "sift";
+  options.landmark_patch = 30;
+  options.max_landmark_area = 0.0;
+  options.landmark_storage = "int4";
+  options.working_width = 8;
+  const std::string errors = options.validate();
+  for (const char* key : {"landmark_features", "landmark_patch", "max_landmark_area",
+                          "landmark_storage", "working_width"}) {
+    EXPECT_NE(errors.find(key), std::string::npos) << key;
+  }
 }

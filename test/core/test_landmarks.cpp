@@ -1,6 +1,8 @@
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "landmark_loop_closure/landmarks.h"
 
@@ -160,4 +162,85 @@ TEST(LandmarkMatches, AreMutualNearestNeighboursWithTheirCosine) {
   EXPECT_EQ(matches[1].a, 1);
   EXPECT_EQ(matches[1].b, 0);
   EXPECT_TRUE(matchLandmarks(a, cv::Mat()).empty());
+}
+
+TEST(LandmarkMatches, Float16StorageMatchesLikeFloat32) {
+  cv::RNG random(7);
+  cv::Mat a(12, 40, CV_32F);
+  cv::Mat b(9, 40, CV_32F);
+  random.fill(a, cv::RNG::NORMAL, 0, 1);
+  random.fill(b, cv::RNG::NORMAL, 0, 1);
+  for (cv::Mat* m : {&a, &b}) {
+    for (int r = 0; r < m->rows; ++r) cv::normalize(m->row(r), m->row(r));
+  }
+  cv::Mat a16;
+  cv::Mat b16;
+  a.convertTo(a16, CV_16F);
+  b.convertTo(b16, CV_16F);
+  const std::vector<LandmarkMatch> full = matchLandmarks(a, b);
+  const std::vector<LandmarkMatch> half = matchLandmarks(a16, b16);
+  ASSERT_EQ(full.size(), half.size());
+  for (size_t i = 0; i < full.size(); ++i) {
+    EXPECT_EQ(full[i].a, half[i].a);
+    EXPECT_EQ(full[i].b, half[i].b);
+    EXPECT_NEAR(full[i].cosine, half[i].cosine, 2e-3);
+  }
+  // Symmetric: swapping the sets swaps the pairs.
+  const std::vector<LandmarkMatch> swapped = matchLandmarks(b16, a16);
+  ASSERT_EQ(swapped.size(), half.size());
+  for (const LandmarkMatch& m : swapped) {
+    EXPECT_NE(std::find_if(half.begin(), half.end(),
+                           [&](const LandmarkMatch& h) { return h.a == m.b && h.b == m.a; }),
+              half.end());
+  }
+}
+
+TEST(LandmarkProposals, BoxesLargerThanTheAreaLimitAreNoLandmarks) {
+  FeatureMaps maps = zeros(2, 10, 10);
+  fill(&maps, 0, cv::Rect(0, 0, 9, 9), 1.0f);  // 81 % of the map.
+  fill(&maps, 1, cv::Rect(2, 2, 3, 3), 0.5f);
+  LandmarkProposalOptions options;
+  EXPECT_EQ(proposeLandmarks(maps, cv::Size(100, 100), options).size(), 2u);
+  options.max_area_fraction = 0.5;
+  const std::vector<LandmarkProposal> kept = proposeLandmarks(maps, cv::Size(100, 100), options);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].channel, 1);
+}
+
+namespace {
+
+// A grey image with a few oriented stripes and blobs: enough gradient structure for HOG.
+cv::Mat texturedImage(cv::Size size, int seed) {
+  cv::Mat image(size, CV_8UC1, cv::Scalar(100));
+  cv::RNG random(seed);
+  for (int i = 0; i < 40; ++i) {
+    const cv::Point a(random.uniform(0, size.width), random.uniform(0, size.height));
+    const cv::Point b(random.uniform(0, size.width), random.uniform(0, size.height));
+    cv::line(image, a, b, cv::Scalar(random.uniform(0, 255)), random.uniform(1, 4));
+  }
+  return image;
+}
+
+}  // namespace
+
+TEST(LandmarkDescriptors, HogOfTheBoxPatchFollowsTheBoxAcrossScales) {
+  const cv::Mat image = texturedImage(cv::Size(320, 240), 3);
+  cv::Mat larger;
+  cv::resize(image, larger, cv::Size(640, 480), 0, 0, cv::INTER_LINEAR);
+  const cv::Size frame(160, 120);  // Boxes are given in this frame, whatever the image size.
+  const std::vector<cv::Rect2f> boxes = {{20, 20, 40, 30}, {90, 50, 50, 50}, {300, 300, 10, 10}};
+  const cv::Mat small_features = describeLandmarksByHog(image, frame, boxes, 32);
+  const cv::Mat large_features = describeLandmarksByHog(larger, frame, boxes, 32);
+  ASSERT_EQ(small_features.rows, 3);
+  ASSERT_EQ(small_features.cols, kLandmarkHogDimension);
+  for (int r = 0; r < 2; ++r) {
+    EXPECT_NEAR(cv::norm(small_features.row(r)), 1.0, 1e-4);
+    EXPECT_NEAR(cv::mean(small_features.row(r))[0], 0.0, 1e-4);  // Centred.
+    // The same patch at twice the resolution: nearly the same descriptor.
+    EXPECT_GT(small_features.row(r).dot(large_features.row(r)), 0.9);
+  }
+  // Different patches differ; a box outside the image is a zero row, not NaN.
+  EXPECT_LT(small_features.row(0).dot(small_features.row(1)), 0.5);
+  EXPECT_EQ(cv::norm(small_features.row(2)), 0.0);
+  EXPECT_EQ(describeLandmarksByHog(cv::Mat(), frame, boxes, 32).rows, 3);
 }

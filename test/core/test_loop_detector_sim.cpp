@@ -1,10 +1,11 @@
-// The whole core pipeline on the generated corridor: HOG descriptors, drifting odometry.
+// The whole core pipeline on the generated corridor with drifting odometry: the default options
+// (landmark descriptors) and HOG with its own threshold.
 #include <cmath>
 #include <map>
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/hog_descriptor.h"
+#include "landmark_loop_closure/descriptor.h"
 #include "landmark_loop_closure/loop_detector.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
@@ -22,12 +23,14 @@ struct RunSummary {
 
 // Runs a route through the detector; a loop is true when the ground-truth positions of its two
 // keyframes are within 2.5 m.
-RunSummary run(double laps) {
+RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score) {
   const CorridorWorld world;
   SequenceOptions options;
   options.laps = laps;
   SequenceGenerator sequence(world, CameraModel{}, options);
-  LoopDetector detector(LoopDetectorOptions{}, std::make_shared<HogDescriptor>());
+  LoopDetectorOptions detector_options;
+  detector_options.acceptance.min_score = min_score;
+  LoopDetector detector(detector_options, makeDescriptorExtractor(descriptor));
   std::map<uint64_t, Pose2D> truth_by_keyframe;
   RunSummary summary;
   SequenceFrame frame;
@@ -53,8 +56,16 @@ RunSummary run(double laps) {
 
 }  // namespace
 
+DescriptorOptions hog() {
+  DescriptorOptions options;
+  options.type = "hog";
+  return options;
+}
+
+const double kDefaultMinScore = LoopDetectorOptions{}.acceptance.min_score;
+
 TEST(LoopDetectorOnCorridor, RevisitGivesOnlyTrueLoops) {
-  const RunSummary summary = run(2.0);
+  const RunSummary summary = run(2.0, DescriptorOptions{}, kDefaultMinScore);
   EXPECT_GT(summary.keyframes, 300);
   EXPECT_GE(summary.loops, 5);
   EXPECT_EQ(summary.true_loops, summary.loops)
@@ -62,7 +73,14 @@ TEST(LoopDetectorOnCorridor, RevisitGivesOnlyTrueLoops) {
 }
 
 TEST(LoopDetectorOnCorridor, OneWayRouteGivesNoLoop) {
-  const RunSummary summary = run(0.9);
+  const RunSummary summary = run(0.9, DescriptorOptions{}, kDefaultMinScore);
   EXPECT_GT(summary.keyframes, 150);
   EXPECT_EQ(summary.loops, 0);
+}
+
+TEST(LoopDetectorOnCorridor, HogAtItsThresholdGivesOnlyTrueLoops) {
+  const RunSummary revisit = run(2.0, hog(), 0.7);
+  EXPECT_GE(revisit.loops, 5);
+  EXPECT_EQ(revisit.true_loops, revisit.loops) << "worst loop " << revisit.worst_loop_distance;
+  EXPECT_EQ(run(0.9, hog(), 0.7).loops, 0);
 }

@@ -16,7 +16,9 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   options.start_stamp = 1700000000.123456789;  // Epoch-scale stamps, as on a real robot.
   SequenceGenerator sequence(world, CameraModel{}, options);
   std::map<ros::Time, Pose2D> truth;
-  ros::WallRate rate(150.0);
+  // Six times real time (10 Hz camera): the worker keeps up on two cores. Fed faster than it
+  // describes keyframes, it drops the oldest queued ones by design.
+  ros::WallRate rate(60.0);
   SequenceFrame frame;
   while (ros::ok() && sequence.next(&frame)) {
     truth[ros::Time(frame.stamp)] = frame.truth;
@@ -27,6 +29,8 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   harness.waitUntilQuiet();
 
   EXPECT_GT(harness.keyframes().size(), 400u);
+  double min_score = 0.0;
+  ASSERT_TRUE(ros::param::get("/loop_closure/acceptance/min_score", min_score));
   ASSERT_GE(harness.loops().size(), 5u);
   for (const LoopClosure& loop : harness.loops()) {
     SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id));
@@ -41,7 +45,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
     const Pose2D& match = truth.at(loop.match_stamp);
     EXPECT_LT(std::hypot(query.x - match.x, query.y - match.y), 2.5);
     EXPECT_GT(loop.query_id, loop.match_id);
-    EXPECT_GE(loop.score, 0.7);
+    EXPECT_GE(loop.score, min_score);
     EXPECT_EQ(loop.header.frame_id, "odom");
   }
 }

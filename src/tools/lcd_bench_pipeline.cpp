@@ -1,0 +1,152 @@
+// Pipeline benchmark: the time one keyframe costs the worker thread with the landmark descriptor
+// (describe, shortlist from the database, landmark re-rank), stage by stage, on one core, with a
+// database of N keyframes, and the database's bytes per keyframe.
+//   lcd_bench_pipeline [--database DIR] [--queries DIR] [--keyframes 10000] [--top-k 10]
+//                      [--repeat 2] [--descriptor landmarks]
+// The database holds the descriptors of the images of --database, repeated until it has N
+// keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
+// Without folders, views of the generated corridor are used.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "landmark_loop_closure/convnet_descriptor.h"
+#include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/eval/metrics.h"
+#include "landmark_loop_closure/eval/report.h"
+#include "landmark_loop_closure/keyframe_database.h"
+#include "landmark_loop_closure/sim/corridor_world.h"
+
+namespace {
+
+using namespace landmark_loop_closure;
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::vector<cv::Mat> loadImages(const std::string& folder, double corridor_offset) {
+  std::vector<cv::Mat> images;
+  if (folder.empty()) {
+    const sim::CorridorWorld world;
+    for (int i = 0; i < 100; ++i) {
+      images.push_back(world.render(world.poseAt(corridor_offset + 1.3 * i, corridor_offset * 0.02),
+                                    sim::CameraModel{}, sim::Lighting{}, 1));
+    }
+    return images;
+  }
+  for (const std::string& path : eval::listImages(folder)) {
+    cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+    if (!image.empty()) images.push_back(image);
+  }
+  return images;
+}
+
+struct Stages {
+  std::map<std::string, std::vector<double>> times;
+  void add(const std::string& stage, double milliseconds) { times[stage].push_back(milliseconds); }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::map<std::string, std::string> arguments = {
+      {"--database", ""}, {"--queries", ""}, {"--keyframes", "10000"},
+      {"--top-k", "10"},  {"--repeat", "2"}, {"--descriptor", "landmarks"}};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (arguments.count(argv[i]) == 0) {
+      std::fprintf(stderr, "lcd_bench_pipeline: unknown option %s (see the file's header)\n",
+                   argv[i]);
+      return 2;
+    }
+    arguments[argv[i]] = argv[i + 1];
+  }
+  cv::setNumThreads(1);
+  DescriptorOptions descriptor_options;
+  descriptor_options.type = "landmarks";
+  const std::string variant = arguments["--descriptor"];
+  if (variant == "landmarks_conv") descriptor_options.landmark_features = "conv";
+  const ConvNetDescriptor* convnet = nullptr;
+  const auto extractor = makeDescriptorExtractor(descriptor_options);
+  convnet = dynamic_cast<const ConvNetDescriptor*>(extractor.get());
+  if (convnet == nullptr) return 2;
+
+  std::vector<cv::Mat> database_images = loadImages(arguments["--database"], 0.0);
+  const std::vector<cv::Mat> query_images = loadImages(arguments["--queries"], 0.6);
+  if (database_images.empty() || query_images.empty()) {
+    std::fprintf(stderr, "lcd_bench_pipeline: no readable images\n");
+    return 1;
+  }
+  std::vector<ImageDescriptor> described;
+  for (const cv::Mat& image : database_images) described.push_back(extractor->describe(image));
+  const cv::Size input = database_images.front().size();
+  database_images.clear();  // Decoded images are not part of the database's memory.
+
+  const size_t keyframes = std::stoul(arguments["--keyframes"]);
+  KeyframeDatabase database(extractor->globalDimension());
+  for (size_t id = 0; id < keyframes; ++id) {
+    KeyframeRecord keyframe;
+    keyframe.id = id;
+    keyframe.stamp = static_cast<double>(id);
+    keyframe.descriptor = described[id % described.size()];
+    // Own copies, so that the peak RSS is that of a real database.
+    keyframe.descriptor.landmark_features = keyframe.descriptor.landmark_features.clone();
+    database.add(std::move(keyframe));
+  }
+  DatabaseOptions database_options;
+  database_options.top_k = std::stoi(arguments["--top-k"]);
+  database_options.min_size = 1;
+
+  Stages stages;
+  const int repeat = std::stoi(arguments["--repeat"]);
+  for (int r = 0; r < repeat; ++r) {
+    for (const cv::Mat& image : query_images) {
+      const Clock::time_point start = Clock::now();
+      DescribeStageTimes describe_times;
+      const ImageDescriptor query = convnet->describe(image, &describe_times);
+      const double describe_ms = millisecondsSince(start);
+      const Clock::time_point shortlist_start = Clock::now();
+      const QueryResult result = database.query(query.global, 1e12, database_options);
+      const double shortlist_ms = millisecondsSince(shortlist_start);
+      const Clock::time_point rerank_start = Clock::now();
+      double best = -1.0;
+      for (const Candidate& candidate : result.candidates) {
+        best =
+            std::max(best, extractor->similarity(query, database.at(candidate.index).descriptor));
+      }
+      const double rerank_ms = millisecondsSince(rerank_start);
+      if (best < -1.0) return 1;  // Keeps the re-rank from being optimised away.
+      stages.add("1 prepare (grey, resize)", describe_times.prepare);
+      stages.add("2 network pass", describe_times.network);
+      stages.add("3 landmark proposals", describe_times.proposals);
+      stages.add("4 landmark descriptors", describe_times.landmark_features);
+      stages.add("5 describe (1-4)", describe_ms);
+      stages.add("6 shortlist (exact search)", shortlist_ms);
+      stages.add("7 re-rank top-K", rerank_ms);
+      stages.add("8 total per keyframe", millisecondsSince(start));
+    }
+  }
+  std::printf(
+      "descriptor %s, input %dx%d, working %dx%d, %zu keyframes, top-K %d, %zu queries, one "
+      "thread\n\n",
+      variant.c_str(), input.width, input.height, descriptor_options.working_width,
+      descriptor_options.working_height, database.size(), database_options.top_k,
+      stages.times.begin()->second.size());
+  std::printf("| stage | median (ms) | p99 (ms) |\n|---|---|---|\n");
+  for (const auto& [stage, times] : stages.times) {
+    const eval::Percentiles p = eval::percentiles(times);
+    std::printf("| %s | %.2f | %.2f |\n", stage.substr(2).c_str(), p.median, p.p99);
+  }
+  std::printf(
+      "\nbytes per keyframe: %.0f (database accounting), peak RSS %.0f MB (the process, query "
+      "images included)\n",
+      static_cast<double>(database.bytes()) / database.size(), eval::peakResidentBytes() / 1e6);
+  return 0;
+}
