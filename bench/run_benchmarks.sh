@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates everything in bench/: every dataset of ../shared/data that has images, the
 # generated corridor, the scaling benchmark, the results table (bench/results.md) and the plots.
-# Takes about 30 minutes on 2 cores. Needs ../shared/data; plots need python3-matplotlib
+# Takes about 35 minutes on 2 cores. Needs ../shared/data; plots need python3-matplotlib
 # (installed here when missing).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,7 +14,7 @@ if ! /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
   $sudo_cmd apt-get install -y -qq --no-install-recommends python3-matplotlib
 fi
 EVALUATE=_build/devel/lib/landmark_loop_closure/lcd_evaluate
-DESCRIPTORS=pixels,hog,hog_whole,calc,landmarks
+DESCRIPTORS=pixels,hog,hog_whole,calc,landmarks,landmarks_conv
 
 run() {  # name, then lcd_evaluate arguments
   local name=$1; shift
@@ -22,24 +22,39 @@ run() {  # name, then lcd_evaluate arguments
   "$EVALUATE" --descriptors "$DESCRIPTORS" --output "$OUT/$name" "$@" 2> >(grep -v "^lcd_evaluate: \(describing\|matching\)" >&2)
 }
 
-run nordland --name "Nordland winter vs summer (+-2)" \
-  --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" --gt-aligned 2
-run gardens_point_viewpoint --name "Gardens Point day right vs day left (+-3)" \
-  --database "$DATA/gardens_point/day_left" --queries "$DATA/gardens_point/day_right" --gt-aligned 3
-run gardens_point_day_night --name "Gardens Point night right vs day right (+-3)" \
-  --database "$DATA/gardens_point/day_right" --queries "$DATA/gardens_point/night_right" --gt-aligned 3
-run gardens_point_both --name "Gardens Point night right vs day left (+-3)" \
-  --database "$DATA/gardens_point/day_left" --queries "$DATA/gardens_point/night_right" --gt-aligned 3
-run corridor --name "Generated corridor, 2 laps (sequence)" --corridor 2 --exclude-recent 60
+GP=$DATA/gardens_point
+run_all() {  # every dataset with images; $1 = folder suffix; Nordland limited by $NORDLAND_LIMIT
+  local suffix=$1 limit=()
+  [ -n "${NORDLAND_LIMIT:-}" ] && limit=(--limit "$NORDLAND_LIMIT")
+  run "nordland$suffix" --name "Nordland winter vs summer${NORDLAND_LIMIT:+, first $NORDLAND_LIMIT} (+-2)" \
+    "${limit[@]}" --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" --gt-aligned 2
+  run "gardens_point_viewpoint$suffix" --name "Gardens Point day right vs day left (+-3)" \
+    --database "$GP/day_left" --queries "$GP/day_right" --gt-aligned 3
+  run "gardens_point_day_night$suffix" --name "Gardens Point night right vs day right (+-3)" \
+    --database "$GP/day_right" --queries "$GP/night_right" --gt-aligned 3
+  run "gardens_point_both$suffix" --name "Gardens Point night right vs day left (+-3)" \
+    --database "$GP/day_left" --queries "$GP/night_right" --gt-aligned 3
+  run "corridor$suffix" --name "Generated corridor, 2 laps (sequence)" --corridor 2 --exclude-recent 60
+}
+run_all ""
 
-# Landmark choices, each against the default (conv2 crops, grid 2, penalising shape weight,
-# shared pass): the paper's shape weighting, conv3 crops, one network pass per landmark (~50
-# passes per image, so Gardens Point and 300 Nordland frames only).
-DESCRIPTORS=landmarks,landmarks_paper,landmarks_conv3_grid4,landmarks_per_landmark
+# One network pass per landmark (~50 passes, ~0.4 s per image): Nordland's first 300 frames only.
+DESCRIPTORS=landmarks_per_landmark NORDLAND_LIMIT=300 run_all _per_landmark
+
+# Landmark choices, each against the default (HOG of 32x32 patches cut from 320x240, float16,
+# boxes up to half the image, penalising shape weight).
+DESCRIPTORS=landmarks,landmarks_paper,landmarks_conv3_grid4,landmarks_w160,landmarks_patch16,landmarks_area100,landmarks_f32
 run gardens_point_viewpoint_variants --name "Gardens Point day right vs day left (+-3)" \
-  --database "$DATA/gardens_point/day_left" --queries "$DATA/gardens_point/day_right" --gt-aligned 3
-run nordland_300_variants --name "Nordland winter vs summer, first 300 (+-2)" --limit 300 \
-  --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" --gt-aligned 2
+  --database "$GP/day_left" --queries "$GP/day_right" --gt-aligned 3
+run gardens_point_day_night_variants --name "Gardens Point night right vs day right (+-3)" \
+  --database "$GP/day_right" --queries "$GP/night_right" --gt-aligned 3
+
+echo "== pipeline"
+_build/devel/lib/landmark_loop_closure/lcd_bench_pipeline --database "$GP/day_left" \
+  --queries "$GP/day_right" --keyframes 10000 > "$OUT/pipeline.md"
+_build/devel/lib/landmark_loop_closure/lcd_bench_pipeline --database "$GP/day_left" \
+  --queries "$GP/day_right" --keyframes 10000 --descriptor landmarks_conv > "$OUT/pipeline_conv.md"
+cat "$OUT/pipeline.md"
 
 echo "== scaling"
 _build/devel/lib/landmark_loop_closure/lcd_bench_scaling 1000,10000,100000 200 > "$OUT/scaling.md"
@@ -48,7 +63,15 @@ cat "$OUT/scaling.md"
 /usr/bin/python3 scripts/plot_results.py "$OUT"/*/
 /usr/bin/python3 bench/make_table.py "$OUT"/nordland "$OUT"/gardens_point_viewpoint \
   "$OUT"/gardens_point_day_night "$OUT"/gardens_point_both "$OUT"/corridor > "$OUT/table.md"
+/usr/bin/python3 bench/make_table.py "$OUT"/nordland_per_landmark "$OUT"/gardens_point_viewpoint_per_landmark \
+  "$OUT"/gardens_point_day_night_per_landmark "$OUT"/gardens_point_both_per_landmark \
+  "$OUT"/corridor_per_landmark > "$OUT/table_per_landmark.md"
+/usr/bin/python3 bench/make_table.py --matrix "$OUT"/nordland "$OUT"/nordland_per_landmark \
+  "$OUT"/gardens_point_viewpoint "$OUT"/gardens_point_viewpoint_per_landmark \
+  "$OUT"/gardens_point_day_night "$OUT"/gardens_point_day_night_per_landmark \
+  "$OUT"/gardens_point_both "$OUT"/gardens_point_both_per_landmark \
+  "$OUT"/corridor "$OUT"/corridor_per_landmark > "$OUT/table_recall.md"
 /usr/bin/python3 bench/make_table.py "$OUT"/gardens_point_viewpoint_variants \
-  "$OUT"/nordland_300_variants > "$OUT/table_variants.md"
+  "$OUT"/gardens_point_day_night_variants > "$OUT/table_variants.md"
 cat "$OUT/table.md"
 echo "bench/results updated; copy the tables into bench/README.md when they change"

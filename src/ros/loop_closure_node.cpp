@@ -296,9 +296,20 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
   caption.precision(3);
   caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
           << std::fixed << best.score << "  " << toString(best.verdict);
+  // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
+  const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
+  std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
+  if (query && match && !query->thumbnail.empty()) {
+    for (const LandmarkMatch& pair :
+         matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features)) {
+      landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
+                                  match->descriptor.landmark_boxes[pair.b]);
+    }
+  }
+  const cv::Mat& query_picture = query && !query->thumbnail.empty() ? query->thumbnail : grey;
   const cv::Mat picture =
-      renderMatchImage(grey, match ? match->thumbnail : cv::Mat(), caption.str(),
-                       best.verdict == CandidateVerdict::kAccepted);
+      renderMatchImage(query_picture, match ? match->thumbnail : cv::Mat(), caption.str(),
+                       best.verdict == CandidateVerdict::kAccepted, 240, landmark_pairs);
   std_msgs::Header header;
   header.stamp = job.stamp;
   match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
