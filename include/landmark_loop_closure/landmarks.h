@@ -24,7 +24,7 @@ struct LandmarkProposalOptions {
   int max_landmarks = 50;    ///< M: the landmarks kept per image, highest energy first.
   int min_side_cells = 2;    ///< A component narrower or shorter than this (map cells) is noise.
   double max_overlap = 0.5;  ///< Non-maximum suppression: IoU above which the weaker box goes.
-  double max_area_fraction = 1.0;  ///< A box covering more of the image than this is no landmark.
+  double max_area_fraction = 0.5;  ///< A box covering more of the image than this is no landmark.
 };
 
 struct LandmarkProposal {

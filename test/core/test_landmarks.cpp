@@ -200,6 +200,7 @@ TEST(LandmarkProposals, BoxesLargerThanTheAreaLimitAreNoLandmarks) {
   fill(&maps, 0, cv::Rect(0, 0, 9, 9), 1.0f);  // 81 % of the map.
   fill(&maps, 1, cv::Rect(2, 2, 3, 3), 0.5f);
   LandmarkProposalOptions options;
+  options.max_area_fraction = 1.0;
   EXPECT_EQ(proposeLandmarks(maps, cv::Size(100, 100), options).size(), 2u);
   options.max_area_fraction = 0.5;
   const std::vector<LandmarkProposal> kept = proposeLandmarks(maps, cv::Size(100, 100), options);
