@@ -23,6 +23,11 @@
 namespace landmark_loop_closure {
 namespace test_support {
 
+// Frames per second the tests publish: six times the generated camera's 10 Hz, so that the
+// worker keeps up on two busy cores. Fed faster than it describes keyframes, the node drops the
+// oldest queued ones by design, and the keyframe counts the tests check would fall.
+constexpr double kPublishRateHz = 60.0;
+
 class NodeHarness {
  public:
   NodeHarness() {

@@ -16,7 +16,7 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   SequenceGenerator sequence(world, CameraModel{}, options);
   std::set<ros::Time> bad_stamps;
   double last_bad_stamp = 0.0;
-  ros::WallRate rate(150.0);
+  ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
   while (ros::ok() && sequence.next(&frame)) {
     harness.publish(frame.stamp, frame.odom, frame.image);

@@ -16,9 +16,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   options.start_stamp = 1700000000.123456789;  // Epoch-scale stamps, as on a real robot.
   SequenceGenerator sequence(world, CameraModel{}, options);
   std::map<ros::Time, Pose2D> truth;
-  // Six times real time (10 Hz camera): the worker keeps up on two cores. Fed faster than it
-  // describes keyframes, it drops the oldest queued ones by design.
-  ros::WallRate rate(60.0);
+  ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
   while (ros::ok() && sequence.next(&frame)) {
     truth[ros::Time(frame.stamp)] = frame.truth;
