@@ -38,8 +38,14 @@ run_all() {  # every dataset with images; $1 = folder suffix; Nordland limited b
 }
 run_all ""
 
-# One network pass per landmark (~50 passes, ~0.4 s per image): Nordland's first 300 frames only.
+# One network pass per landmark (~50 passes, ~0.5 s per image): Nordland's first 300 frames only,
+# all 3576 with FULL=1 (about 30 more minutes).
 DESCRIPTORS=landmarks_per_landmark NORDLAND_LIMIT=300 run_all _per_landmark
+if [ "${FULL:-0}" = 1 ]; then
+  DESCRIPTORS=landmarks_per_landmark run nordland_per_landmark_full \
+    --name "Nordland winter vs summer (+-2)" \
+    --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" --gt-aligned 2
+fi
 
 # Landmark choices, each against the default (HOG of 32x32 patches cut from 320x240, float16,
 # boxes up to half the image, penalising shape weight).
@@ -66,7 +72,9 @@ cat "$OUT/scaling.md"
 /usr/bin/python3 bench/make_table.py "$OUT"/nordland_per_landmark "$OUT"/gardens_point_viewpoint_per_landmark \
   "$OUT"/gardens_point_day_night_per_landmark "$OUT"/gardens_point_both_per_landmark \
   "$OUT"/corridor_per_landmark > "$OUT/table_per_landmark.md"
-/usr/bin/python3 bench/make_table.py --matrix "$OUT"/nordland "$OUT"/nordland_per_landmark \
+FULL_NORDLAND=()
+[ -d "$OUT/nordland_per_landmark_full" ] && FULL_NORDLAND=("$OUT/nordland_per_landmark_full")
+/usr/bin/python3 bench/make_table.py --matrix "$OUT"/nordland "${FULL_NORDLAND[@]}" "$OUT"/nordland_per_landmark \
   "$OUT"/gardens_point_viewpoint "$OUT"/gardens_point_viewpoint_per_landmark \
   "$OUT"/gardens_point_day_night "$OUT"/gardens_point_day_night_per_landmark \
   "$OUT"/gardens_point_both "$OUT"/gardens_point_both_per_landmark \
