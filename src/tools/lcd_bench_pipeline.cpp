@@ -72,11 +72,14 @@ int main(int argc, char** argv) {
   DescriptorOptions descriptor_options;
   descriptor_options.type = "landmarks";
   const std::string variant = arguments["--descriptor"];
-  if (variant == "landmarks_conv") descriptor_options.landmark_features = "conv";
-  const ConvNetDescriptor* convnet = nullptr;
+  if (variant == "landmarks_conv") {
+    descriptor_options.landmark_features = "conv";
+  } else if (variant != "landmarks") {
+    std::fprintf(stderr, "lcd_bench_pipeline: --descriptor must be landmarks or landmarks_conv\n");
+    return 2;
+  }
   const auto extractor = makeDescriptorExtractor(descriptor_options);
-  convnet = dynamic_cast<const ConvNetDescriptor*>(extractor.get());
-  if (convnet == nullptr) return 2;
+  const auto* convnet = dynamic_cast<const ConvNetDescriptor*>(extractor.get());
 
   std::vector<cv::Mat> database_images = loadImages(arguments["--database"], 0.0);
   const std::vector<cv::Mat> query_images = loadImages(arguments["--queries"], 0.6);
