@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/odometry_gate.h"
 #include "landmark_loop_closure/pose.h"
 
 namespace landmark_loop_closure {
@@ -15,6 +16,7 @@ struct KeyframeRecord {
   uint64_t id = 0;
   double stamp = 0.0;  ///< Seconds.
   Pose pose;           ///< In the odometry frame.
+  PathLength path;     ///< Odometry path travelled up to this keyframe.
   ImageDescriptor descriptor;
   cv::Mat thumbnail;  ///< Optional small grey image for debug pictures; may be empty.
 };

@@ -12,6 +12,7 @@
 #include "landmark_loop_closure/input_error.h"
 #include "landmark_loop_closure/keyframe_database.h"
 #include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/odometry_gate.h"
 #include "landmark_loop_closure/temporal_consistency.h"
 
 namespace landmark_loop_closure {
@@ -30,6 +31,7 @@ struct LoopDetectorOptions {
   DescriptorOptions descriptor;
   DatabaseOptions database;
   AcceptanceOptions acceptance;
+  OdometryGateOptions odometry_gate;
   bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
 
   /// Empty when valid, otherwise every problem, one per line.
@@ -50,6 +52,7 @@ enum class CandidateVerdict {
   kBelowThreshold,       ///< score < min_score.
   kAwaitingConsistency,  ///< Above the threshold, fewer than k consistent keyframes so far.
   kOutscored,            ///< Consistent, but another candidate of this query scored higher.
+  kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
 };
 
 const char* toString(CandidateVerdict verdict);
@@ -61,6 +64,7 @@ struct CandidateReport {
   double score = 0.0;         ///< Final stage: the extractor's similarity (re-ranked).
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
+  std::string detail;  ///< Why, when the verdict alone does not say (the odometry gate's numbers).
 };
 
 struct AcceptedLoop {
@@ -123,7 +127,9 @@ class LoopDetector {
   const DescriptorExtractor& extractor() const { return *extractor_; }
 
  private:
-  void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query);
+  /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
+  void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
+              const KeyframeRecord& query_keyframe);
 
   LoopDetectorOptions options_;
   std::shared_ptr<const DescriptorExtractor> extractor_;
@@ -136,6 +142,8 @@ class LoopDetector {
   // Search state (worker thread).
   KeyframeDatabase database_;
   TemporalConsistency consistency_;
+  std::optional<Pose> last_keyframe_pose_;
+  PathLength path_;  ///< Odometry path up to the last stored keyframe.
 };
 
 }  // namespace landmark_loop_closure

@@ -79,6 +79,11 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("acceptance/min_score", &detector.acceptance.min_score);
   reader->read("acceptance/consistent_keyframes", &detector.acceptance.consistent_keyframes);
   reader->read("acceptance/index_window", &detector.acceptance.index_window);
+  reader->read("odometry_gate/enabled", &detector.odometry_gate.enabled);
+  reader->read("odometry_gate/drift_per_metre", &detector.odometry_gate.drift_per_metre);
+  reader->read("odometry_gate/drift_per_radian", &detector.odometry_gate.drift_per_radian);
+  reader->read("odometry_gate/drift_floor_m", &detector.odometry_gate.drift_floor_m);
+  reader->read("odometry_gate/max_view_distance_m", &detector.odometry_gate.max_view_distance_m);
 }
 
 }  // namespace landmark_loop_closure

@@ -52,7 +52,7 @@ std::string LoopDetectorOptions::validate() const {
            << input.quaternion_norm_tolerance << ")\n";
   }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
-         << acceptance.validate();
+         << acceptance.validate() << odometry_gate.validate();
   return errors.str();
 }
 
@@ -66,6 +66,8 @@ const char* toString(CandidateVerdict verdict) {
       return "awaiting_consistency";
     case CandidateVerdict::kOutscored:
       return "outscored";
+    case CandidateVerdict::kOdometryRejected:
+      return "odometry_rejected";
   }
   return "unknown";
 }
@@ -142,17 +144,22 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   result.times.query_ms = millisecondsSince(query_start);
   result.query_status = query.status;
 
-  decide(&result, descriptor, query);
-  if (result.loop) {
-    result.loop->query_id = keyframe_id;
-    result.loop->query_stamp = stamp;
-    result.loop->query_pose = normalisedPose(pose);
-  }
-
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
+  keyframe.path =
+      last_keyframe_pose_ ? extendPath(path_, *last_keyframe_pose_, keyframe.pose) : path_;
+
+  decide(&result, descriptor, query, keyframe);
+  if (result.loop) {
+    result.loop->query_id = keyframe_id;
+    result.loop->query_stamp = stamp;
+    result.loop->query_pose = keyframe.pose;
+  }
+
+  path_ = keyframe.path;
+  last_keyframe_pose_ = keyframe.pose;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = toWorkingImage(image, kThumbnailWidth, kThumbnailHeight).clone();
@@ -162,7 +169,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
 }
 
 void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
-                          const QueryResult& query) {
+                          const QueryResult& query, const KeyframeRecord& query_keyframe) {
   if (query.status != QueryStatus::kSearched) {
     consistency_.reset();
     return;
@@ -185,8 +192,17 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   result->times.rerank_ms = millisecondsSince(rerank_start);
 
   std::vector<uint64_t> above_threshold;
-  for (const CandidateReport& report : reports) {
-    if (report.score >= options_.acceptance.min_score) above_threshold.push_back(report.match_id);
+  for (CandidateReport& report : reports) {
+    if (report.score < options_.acceptance.min_score) continue;
+    const KeyframeRecord* match = database_.findById(report.match_id);
+    const OdometryGateDecision gate = checkOdometry(options_.odometry_gate, query_keyframe.pose,
+                                                    query_keyframe.path, match->pose, match->path);
+    if (!gate.consistent) {
+      report.verdict = CandidateVerdict::kOdometryRejected;
+      report.detail = gate.reason();
+      continue;
+    }
+    above_threshold.push_back(report.match_id);
   }
   const std::vector<int> chains = consistency_.update(above_threshold);
 
@@ -196,6 +212,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       report.verdict = CandidateVerdict::kBelowThreshold;
       continue;
     }
+    if (report.verdict == CandidateVerdict::kOdometryRejected) continue;
     report.consistent_keyframes = chains[chain_index++];
     if (report.consistent_keyframes < options_.acceptance.consistent_keyframes) {
       report.verdict = CandidateVerdict::kAwaitingConsistency;

@@ -274,7 +274,8 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
   if (result.loop) markers_.addLoop(*result.loop);
   for (const CandidateReport& candidate : result.candidates) {
     if (candidate.verdict != CandidateVerdict::kAwaitingConsistency &&
-        candidate.verdict != CandidateVerdict::kOutscored) {
+        candidate.verdict != CandidateVerdict::kOutscored &&
+        candidate.verdict != CandidateVerdict::kOdometryRejected) {
       continue;
     }
     if (const KeyframeRecord* match = detector_.database().findById(candidate.match_id)) {
@@ -296,6 +297,7 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
   caption.precision(3);
   caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
           << std::fixed << best.score << "  " << toString(best.verdict);
+  if (!best.detail.empty()) caption << ": " << best.detail;
   // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
   const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
   std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;

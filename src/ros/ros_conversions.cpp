@@ -127,6 +127,8 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
       return LoopCandidate::AWAITING_CONSISTENCY;
     case CandidateVerdict::kOutscored:
       return LoopCandidate::OUTSCORED;
+    case CandidateVerdict::kOdometryRejected:
+      return LoopCandidate::ODOMETRY_REJECTED;
   }
   return LoopCandidate::BELOW_THRESHOLD;
 }
@@ -148,6 +150,7 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time
     candidate.consistent_frames = static_cast<uint32_t>(report.consistent_keyframes);
     candidate.verdict = toMsgVerdict(report.verdict);
     candidate.reason = toString(report.verdict);
+    if (!report.detail.empty()) candidate.reason += ": " + report.detail;
     msg.candidates.push_back(candidate);
   }
   return msg;

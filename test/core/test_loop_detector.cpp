@@ -1,5 +1,6 @@
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <gtest/gtest.h>
 
@@ -22,6 +23,9 @@ LoopDetectorOptions smallOptions() {
   options.acceptance.min_score = 0.5;
   options.acceptance.consistent_keyframes = 3;
   options.acceptance.index_window = 2;
+  // These tests drive in a straight line and revisit places by appearance only, which the
+  // odometry gate refuses; it has its own tests below.
+  options.odometry_gate.enabled = false;
   return options;
 }
 
@@ -153,4 +157,66 @@ TEST(LoopDetector, KeepsThumbnailsOnlyWhenAsked) {
   LoopDetector with_thumbnails(smallOptions(), std::make_shared<PlaceExtractor>());
   feed(&with_thumbnails, 0, 3);
   EXPECT_EQ(with_thumbnails.database().at(0).thumbnail.size(), cv::Size(160, 120));
+}
+
+TEST(LoopDetector, OdometryGateRefusesALoopTheOdometryCannotHaveDriftedInto) {
+  LoopDetectorOptions options = smallOptions();
+  options.odometry_gate.enabled = true;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  // Places 10-12 seen again 30 m further on, after 30 m of straight travel: at most
+  // 1 + 0.1 * 30 = 4 m of drift, 30 - 4 = 26 m of correction needed.
+  for (int i = 40; i < 43; ++i) {
+    const FrameResult result = feed(&detector, i, i - 30);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_FALSE(result.keyframe->loop);
+    ASSERT_FALSE(result.keyframe->candidates.empty());
+    const CandidateReport& best = result.keyframe->candidates[0];
+    EXPECT_EQ(best.match_id, static_cast<uint64_t>(i - 30));
+    EXPECT_EQ(best.verdict, CandidateVerdict::kOdometryRejected);
+    EXPECT_NE(best.detail.find("26.0 m correction"), std::string::npos) << best.detail;
+    EXPECT_NE(best.detail.find("4.0 m"), std::string::npos) << best.detail;
+  }
+}
+
+TEST(LoopDetector, OdometryGateKeepsALoopWithinTheDriftModel) {
+  LoopDetectorOptions options = smallOptions();
+  options.odometry_gate.enabled = true;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  // Out along x for 20 m, then back along y = 2 m, past the start: the places seen on the way
+  // out are seen again 2 m to the side (within the view distance) after ~40 m of travel.
+  for (int i = 0; i < 20; ++i) detector.process(i, planarPose(i, 0, 0), place(i));
+  std::optional<AcceptedLoop> loop;
+  for (int i = 20; i < 40; ++i) {
+    const double x = 39 - i;
+    const FrameResult result = detector.process(i, planarPose(x, 2.0, M_PI), place(39 - i));
+    if (result.keyframe && result.keyframe->loop) loop = result.keyframe->loop;
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      EXPECT_NE(report.verdict, CandidateVerdict::kOdometryRejected) << report.detail;
+    }
+  }
+  ASSERT_TRUE(loop);
+}
+
+TEST(OdometryGate, AllowanceGrowsWithPathAndTurning) {
+  OdometryGateOptions options;
+  PathLength start;
+  const Pose origin = planarPose(0, 0, 0);
+  PathLength path = extendPath(start, origin, planarPose(10, 0, M_PI / 2));
+  EXPECT_DOUBLE_EQ(path.metres, 10.0);
+  EXPECT_NEAR(path.radians, M_PI / 2, 1e-12);
+  // 10 m apart by odometry: 6 m beyond the 4 m view distance; allowed 1 + 1 + 0.5 * pi / 2.
+  const OdometryGateDecision decision =
+      checkOdometry(options, planarPose(10, 0, 0), path, origin, start);
+  EXPECT_NEAR(decision.implied_correction_m, 6.0, 1e-12);
+  EXPECT_NEAR(decision.allowed_drift_m, 2.0 + 0.25 * M_PI, 1e-12);
+  EXPECT_FALSE(decision.consistent);
+  EXPECT_FALSE(decision.reason().empty());
+  options.enabled = false;
+  EXPECT_TRUE(checkOdometry(options, planarPose(10, 0, 0), path, origin, start).consistent);
+  options.drift_per_metre = -1.0;
+  options.max_view_distance_m = std::nan("");
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("drift_per_metre"), std::string::npos);
+  EXPECT_NE(errors.find("max_view_distance_m"), std::string::npos);
 }
