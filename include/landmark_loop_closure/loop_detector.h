@@ -142,8 +142,6 @@ class LoopDetector {
   // Search state (worker thread).
   KeyframeDatabase database_;
   TemporalConsistency consistency_;
-  std::optional<Pose> last_keyframe_pose_;
-  PathLength path_;  ///< Odometry path up to the last stored keyframe.
 };
 
 }  // namespace landmark_loop_closure

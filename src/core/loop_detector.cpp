@@ -148,8 +148,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   keyframe.id = keyframe_id;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
-  keyframe.path =
-      last_keyframe_pose_ ? extendPath(path_, *last_keyframe_pose_, keyframe.pose) : path_;
+  if (!database_.empty()) {
+    const KeyframeRecord& previous = database_.at(database_.size() - 1);
+    keyframe.path = extendPath(previous.path, previous.pose, keyframe.pose);
+  }
 
   decide(&result, descriptor, query, keyframe);
   if (result.loop) {
@@ -158,8 +160,6 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_pose = keyframe.pose;
   }
 
-  path_ = keyframe.path;
-  last_keyframe_pose_ = keyframe.pose;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = toWorkingImage(image, kThumbnailWidth, kThumbnailHeight).clone();
