@@ -7,7 +7,6 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/descriptor.h"
-#include "landmark_loop_closure/odometry_gate.h"
 #include "landmark_loop_closure/pose.h"
 
 namespace landmark_loop_closure {

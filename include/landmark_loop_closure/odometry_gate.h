@@ -20,12 +20,6 @@ struct OdometryGateOptions {
   std::string validate() const;
 };
 
-/// Odometry path accumulated up to a keyframe, summed over consecutive keyframes.
-struct PathLength {
-  double metres = 0.0;
-  double radians = 0.0;
-};
-
 struct OdometryGateDecision {
   bool consistent = true;
   double implied_correction_m = 0.0;  ///< Least position correction the loop asks for.
@@ -37,8 +31,5 @@ struct OdometryGateDecision {
 OdometryGateDecision checkOdometry(const OdometryGateOptions& options, const Pose& query_pose,
                                    const PathLength& query_path, const Pose& match_pose,
                                    const PathLength& match_path);
-
-/// The path after moving from `from` to `to`.
-PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to);
 
 }  // namespace landmark_loop_closure

@@ -19,4 +19,13 @@ Eigen::Vector3d rollPitchYaw(const Eigen::Quaterniond& rotation);
 /// Pose with yaw only about +z, for planar robots and tests.
 Pose planarPose(double x, double y, double yaw);
 
+/// Odometry path accumulated up to a keyframe, summed over consecutive keyframes.
+struct PathLength {
+  double metres = 0.0;
+  double radians = 0.0;
+};
+
+/// The path after moving from `from` to `to`.
+PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to);
+
 }  // namespace landmark_loop_closure

@@ -44,11 +44,4 @@ OdometryGateDecision checkOdometry(const OdometryGateOptions& options, const Pos
   return decision;
 }
 
-PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
-  PathLength extended = path;
-  extended.metres += (to.position - from.position).norm();
-  extended.radians += from.orientation.angularDistance(to.orientation);
-  return extended;
-}
-
 }  // namespace landmark_loop_closure

@@ -41,4 +41,11 @@ Pose planarPose(double x, double y, double yaw) {
   return pose;
 }
 
+PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
+  PathLength extended = path;
+  extended.metres += (to.position - from.position).norm();
+  extended.radians += from.orientation.angularDistance(to.orientation);
+  return extended;
+}
+
 }  // namespace landmark_loop_closure

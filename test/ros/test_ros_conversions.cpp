@@ -123,3 +123,18 @@ TEST(RosConversions, CandidatesCarryVerdictConstants) {
   EXPECT_EQ(message.candidates[0].reason, "awaiting_consistency");
   EXPECT_EQ(message.candidates[0].match_stamp, ros::Time(2.0));
 }
+
+TEST(RosConversions, OdometryRejectionsCarryTheirNumbersInTheReason) {
+  KeyframeResult result;
+  CandidateReport report;
+  report.match_id = 4;
+  report.verdict = CandidateVerdict::kOdometryRejected;
+  report.detail = "odometry: needs a 26.0 m correction, drift allows 4.0 m";
+  result.candidates.push_back(report);
+  const LoopCandidateArray message =
+      toCandidatesMsg(result, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
+  ASSERT_EQ(message.candidates.size(), 1u);
+  EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::ODOMETRY_REJECTED);
+  EXPECT_EQ(message.candidates[0].reason,
+            "odometry_rejected: odometry: needs a 26.0 m correction, drift allows 4.0 m");
+}
