@@ -11,6 +11,7 @@ set(CORE_TESTS
   test_match_image
   test_landmarks
   test_convnet_descriptor
+  test_geometric_verification
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})

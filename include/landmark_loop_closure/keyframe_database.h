@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/geometric_verification.h"
 #include "landmark_loop_closure/pose.h"
 
 namespace landmark_loop_closure {
@@ -17,7 +18,8 @@ struct KeyframeRecord {
   Pose pose;           ///< In the odometry frame.
   PathLength path;     ///< Odometry path travelled up to this keyframe.
   ImageDescriptor descriptor;
-  cv::Mat thumbnail;  ///< Optional small grey image for debug pictures; may be empty.
+  LocalFeatures local_features;  ///< For geometric verification; empty when it is off.
+  cv::Mat thumbnail;             ///< Optional small grey image for debug pictures; may be empty.
 };
 
 struct DatabaseOptions {

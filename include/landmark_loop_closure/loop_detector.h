@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/geometric_verification.h"
 #include "landmark_loop_closure/input_error.h"
 #include "landmark_loop_closure/keyframe_database.h"
 #include "landmark_loop_closure/keyframe_selector.h"
@@ -32,6 +33,7 @@ struct LoopDetectorOptions {
   DatabaseOptions database;
   AcceptanceOptions acceptance;
   OdometryGateOptions odometry_gate;
+  VerificationOptions verification;
   bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
 
   /// Empty when valid, otherwise every problem, one per line.
@@ -53,6 +55,7 @@ enum class CandidateVerdict {
   kAwaitingConsistency,  ///< Above the threshold, fewer than k consistent keyframes so far.
   kOutscored,            ///< Consistent, but another candidate of this query scored higher.
   kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
+  kGeometryRejected,     ///< Consistent, but the geometric check refused it (see detail).
 };
 
 const char* toString(CandidateVerdict verdict);
@@ -64,7 +67,8 @@ struct CandidateReport {
   double score = 0.0;         ///< Final stage: the extractor's similarity (re-ranked).
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
-  std::string detail;  ///< Why, when the verdict alone does not say (the odometry gate's numbers).
+  std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
+  int inliers = 0;     ///< Geometric inliers, when the check ran.
 };
 
 struct AcceptedLoop {
@@ -77,13 +81,20 @@ struct AcceptedLoop {
   double global_score = 0.0;
   double score = 0.0;
   int consistent_keyframes = 0;
+  /// Set when the geometric check confirmed the place (it is absent when the check is off or no
+  /// intrinsics were known and verification/required is false); its pose may be ambiguous.
+  std::optional<VerificationResult> verification;
+  /// The verified relative pose may go to a pose graph: it is metric, or scale-free and
+  /// verification/publish_scale_free_pose is set.
+  bool relative_pose_trusted = false;
 };
 
 struct StageTimes {
   double describe_ms = 0.0;
   double query_ms = 0.0;
   double rerank_ms = 0.0;
-  double totalMs() const { return describe_ms + query_ms + rerank_ms; }
+  double verify_ms = 0.0;  ///< Keypoints of the keyframe and the geometric check.
+  double totalMs() const { return describe_ms + query_ms + rerank_ms + verify_ms; }
 };
 
 struct KeyframeResult {
@@ -116,11 +127,13 @@ class LoopDetector {
                        int image_cv_type);
 
   /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
-  /// `image` may be grey, BGR or BGRA, 8 or 16 bit.
+  /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
+  /// ones: loops are not verified, or refused when verification/required).
   KeyframeResult addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
-                             const cv::Mat& image);
+                             const cv::Mat& image, const CameraIntrinsics& intrinsics = {});
 
-  FrameResult process(double stamp, const Pose& pose, const cv::Mat& image);
+  FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
+                      const CameraIntrinsics& intrinsics = {});
 
   const KeyframeDatabase& database() const { return database_; }
   const LoopDetectorOptions& options() const { return options_; }
@@ -129,10 +142,14 @@ class LoopDetector {
  private:
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
-              const KeyframeRecord& query_keyframe);
+              const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
+  /// False when the candidate must be refused; fills report and, when verified, loop.
+  bool verify(const LocalFeatures& features, const KeyframeRecord& match,
+              const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop);
 
   LoopDetectorOptions options_;
   std::shared_ptr<const DescriptorExtractor> extractor_;
+  GeometricVerifier verifier_;
 
   // Admission state (receiving thread).
   KeyframeSelector selector_;

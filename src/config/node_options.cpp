@@ -84,6 +84,22 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("odometry_gate/drift_per_radian", &detector.odometry_gate.drift_per_radian);
   reader->read("odometry_gate/drift_floor_m", &detector.odometry_gate.drift_floor_m);
   reader->read("odometry_gate/max_view_distance_m", &detector.odometry_gate.max_view_distance_m);
+  VerificationOptions& verification = detector.verification;
+  reader->read("verification/enabled", &verification.enabled);
+  reader->read("verification/required", &verification.required);
+  reader->read("verification/max_image_width", &verification.max_image_width);
+  reader->read("verification/max_features", &verification.max_features);
+  reader->read("verification/ratio_test", &verification.ratio_test);
+  reader->read("verification/ransac_threshold_px", &verification.ransac_threshold_px);
+  reader->read("verification/min_inliers", &verification.min_inliers);
+  reader->read("verification/min_spread", &verification.min_spread);
+  reader->read("verification/min_parallax_deg", &verification.min_parallax_deg);
+  reader->read("verification/publish_scale_free_pose", &verification.publish_scale_free_pose);
+  reader->read("verification/orb_levels", &verification.orb_levels);
+  reader->read("verification/ambiguity_directions", &verification.ambiguity_directions);
+  reader->read("verification/keypoint_sigma_px", &verification.keypoint_sigma_px);
+  reader->read("verification/max_rotation_sd_deg", &verification.max_rotation_sd_deg);
+  reader->read("verification/max_direction_sd_deg", &verification.max_direction_sd_deg);
 }
 
 }  // namespace landmark_loop_closure

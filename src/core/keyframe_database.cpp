@@ -94,8 +94,8 @@ const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
 size_t KeyframeDatabase::bytes() const {
   size_t total = keyframes_.capacity() * sizeof(KeyframeRecord);
   for (const KeyframeRecord& keyframe : keyframes_) {
-    total +=
-        keyframe.descriptor.bytes() + keyframe.thumbnail.total() * keyframe.thumbnail.elemSize();
+    total += keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
+             keyframe.thumbnail.total() * keyframe.thumbnail.elemSize();
   }
   return total;
 }

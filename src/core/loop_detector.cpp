@@ -52,7 +52,7 @@ std::string LoopDetectorOptions::validate() const {
            << input.quaternion_norm_tolerance << ")\n";
   }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
-         << acceptance.validate() << odometry_gate.validate();
+         << acceptance.validate() << odometry_gate.validate() << verification.validate();
   return errors.str();
 }
 
@@ -68,6 +68,8 @@ const char* toString(CandidateVerdict verdict) {
       return "outscored";
     case CandidateVerdict::kOdometryRejected:
       return "odometry_rejected";
+    case CandidateVerdict::kGeometryRejected:
+      return "geometry_rejected";
   }
   return "unknown";
 }
@@ -76,6 +78,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                            std::shared_ptr<const DescriptorExtractor> extractor)
     : options_(options),
       extractor_(std::move(extractor)),
+      verifier_(options.verification),
       selector_(options.keyframe),
       database_(extractor_ ? extractor_->globalDimension() : 1),
       consistency_(options.acceptance.index_window) {
@@ -121,7 +124,7 @@ FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_wid
 }
 
 KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
-                                         const cv::Mat& image) {
+                                         const cv::Mat& image, const CameraIntrinsics& intrinsics) {
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) {
@@ -144,6 +147,16 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   result.times.query_ms = millisecondsSince(query_start);
   result.query_status = query.status;
 
+  const auto features_start = Clock::now();
+  LocalFeatures features;
+  if (options_.verification.enabled) {
+    const int width = std::min(image.cols, options_.verification.max_image_width);
+    const int height = std::max(
+        1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
+    features = verifier_.extract(toWorkingImage(image, width, height));
+  }
+  result.times.verify_ms = millisecondsSince(features_start);
+
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
   keyframe.stamp = stamp;
@@ -152,8 +165,9 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     const KeyframeRecord& previous = database_.at(database_.size() - 1);
     keyframe.path = extendPath(previous.path, previous.pose, keyframe.pose);
   }
+  keyframe.local_features = std::move(features);
 
-  decide(&result, descriptor, query, keyframe);
+  decide(&result, descriptor, query, keyframe, intrinsics);
   if (result.loop) {
     result.loop->query_id = keyframe_id;
     result.loop->query_stamp = stamp;
@@ -169,7 +183,8 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
 }
 
 void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
-                          const QueryResult& query, const KeyframeRecord& query_keyframe) {
+                          const QueryResult& query, const KeyframeRecord& query_keyframe,
+                          const CameraIntrinsics& intrinsics) {
   if (query.status != QueryStatus::kSearched) {
     consistency_.reset();
     return;
@@ -219,9 +234,14 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     } else if (result->loop) {
       report.verdict = CandidateVerdict::kOutscored;
     } else {
-      report.verdict = CandidateVerdict::kAccepted;
       const KeyframeRecord* match = database_.findById(report.match_id);
       AcceptedLoop loop;
+      const auto verify_start = Clock::now();
+      const bool verified =
+          verify(query_keyframe.local_features, *match, intrinsics, &report, &loop);
+      result->times.verify_ms += millisecondsSince(verify_start);
+      if (!verified) continue;
+      report.verdict = CandidateVerdict::kAccepted;
       loop.match_id = match->id;
       loop.match_stamp = match->stamp;
       loop.match_pose = match->pose;
@@ -233,11 +253,32 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   }
 }
 
-FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image) {
+bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& match,
+                          const CameraIntrinsics& intrinsics, CandidateReport* report,
+                          AcceptedLoop* loop) {
+  if (!options_.verification.enabled) return true;
+  VerificationResult check = verifier_.verify(features, match.local_features, intrinsics);
+  report->inliers = check.inliers;
+  if (check.placeConfirmed()) {
+    loop->relative_pose_trusted =
+        check.accepted() && (check.pose.metric || options_.verification.publish_scale_free_pose);
+    loop->verification = std::move(check);
+    return true;
+  }
+  if (check.verdict == VerificationVerdict::kNoIntrinsics && !options_.verification.required) {
+    return true;  // Unverified: published without a relative pose.
+  }
+  report->verdict = CandidateVerdict::kGeometryRejected;
+  report->detail = toString(check.verdict);
+  return false;
+}
+
+FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image,
+                                  const CameraIntrinsics& intrinsics) {
   FrameResult result;
   result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
   if (result.admission.isKeyframe()) {
-    result.keyframe = addKeyframe(result.admission.keyframe_id, stamp, pose, image);
+    result.keyframe = addKeyframe(result.admission.keyframe_id, stamp, pose, image, intrinsics);
   }
   return result;
 }

@@ -27,7 +27,8 @@ cv::Mat toColourAtHeight(const cv::Mat& image, int height) {
 
 cv::Mat renderMatchImage(const cv::Mat& query, const cv::Mat& match, const std::string& caption,
                          bool accepted, int height,
-                         const std::vector<std::pair<cv::Rect2f, cv::Rect2f>>& matched_boxes) {
+                         const std::vector<std::pair<cv::Rect2f, cv::Rect2f>>& matched_boxes,
+                         const std::vector<std::pair<cv::Point2f, cv::Point2f>>& matched_points) {
   constexpr int kCaptionHeight = 28;
   const cv::Mat left = toColourAtHeight(query, height);
   const cv::Mat right = toColourAtHeight(match, height);
@@ -54,6 +55,15 @@ cv::Mat renderMatchImage(const cv::Mat& query, const cv::Mat& match, const std::
     const cv::Scalar pair_colour(c[0], c[1], c[2]);
     cv::rectangle(canvas, scaled(matched_boxes[i].first, query_scale, 0), pair_colour, 1);
     cv::rectangle(canvas, scaled(matched_boxes[i].second, match_scale, left.cols), pair_colour, 1);
+  }
+  const cv::Scalar inlier_colour(60, 220, 60);
+  for (const auto& [query_point, match_point] : matched_points) {
+    const cv::Point a(cvRound(query_point.x * query_scale), cvRound(query_point.y * query_scale));
+    const cv::Point b(left.cols + cvRound(match_point.x * match_scale),
+                      cvRound(match_point.y * match_scale));
+    cv::line(canvas, a, b, inlier_colour, 1, cv::LINE_AA);
+    cv::circle(canvas, a, 2, inlier_colour, cv::FILLED);
+    cv::circle(canvas, b, 2, inlier_colour, cv::FILLED);
   }
   return canvas;
 }

@@ -200,8 +200,13 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
         static_cast<unsigned long>(admission.keyframe_id));
   }
   if (!admission.isKeyframe()) return;
+  CameraIntrinsics intrinsics;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (camera_info_) intrinsics = fromCameraInfo(*camera_info_);
+  }
   if (queue_.push(KeyframeJob{image, admission.keyframe_id, image->header.stamp,
-                              normalisedPose(pose), frame_id})) {
+                              normalisedPose(pose), frame_id, intrinsics})) {
     ++keyframes_dropped_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
@@ -236,7 +241,8 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
     return;
   }
-  const KeyframeResult result = detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey);
+  const KeyframeResult result =
+      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey, job.intrinsics);
   if (result.error) {
     reportRejected(*result.error);
     return;
@@ -298,20 +304,32 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
   caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
           << std::fixed << best.score << "  " << toString(best.verdict);
   if (!best.detail.empty()) caption << ": " << best.detail;
+  if (result.loop && result.loop->verification) {
+    caption << "  " << result.loop->verification->inliers << " inliers";
+  }
   // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
   const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
   std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
+  std::vector<std::pair<cv::Point2f, cv::Point2f>> inlier_pairs;
   if (query && match && !query->thumbnail.empty()) {
     for (const LandmarkMatch& pair :
          matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features)) {
       landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
                                   match->descriptor.landmark_boxes[pair.b]);
     }
+    if (result.loop && result.loop->match_id == match->id && result.loop->verification &&
+        query->local_features.image_size.width > 0) {
+      const float scale =
+          static_cast<float>(query->thumbnail.cols) / query->local_features.image_size.width;
+      for (const auto& [q, m] : result.loop->verification->inlier_pairs) {
+        inlier_pairs.emplace_back(q * scale, m * scale);
+      }
+    }
   }
   const cv::Mat& query_picture = query && !query->thumbnail.empty() ? query->thumbnail : grey;
-  const cv::Mat picture =
-      renderMatchImage(query_picture, match ? match->thumbnail : cv::Mat(), caption.str(),
-                       best.verdict == CandidateVerdict::kAccepted, 240, landmark_pairs);
+  const cv::Mat picture = renderMatchImage(
+      query_picture, match ? match->thumbnail : cv::Mat(), caption.str(),
+      best.verdict == CandidateVerdict::kAccepted, 240, landmark_pairs, inlier_pairs);
   std_msgs::Header header;
   header.stamp = job.stamp;
   match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());

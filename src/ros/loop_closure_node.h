@@ -53,6 +53,7 @@ class LoopClosureNode {
     ros::Time stamp;
     Pose pose;
     std::string frame_id;
+    CameraIntrinsics intrinsics;  ///< From the latest camera_info; invalid when none came.
   };
   struct PendingImage {
     sensor_msgs::ImageConstPtr image;

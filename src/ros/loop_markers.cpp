@@ -49,6 +49,11 @@ LoopMarkers::LoopMarkers(std::string frame_id, double min_score, bool show_rejec
 void LoopMarkers::addKeyframe(const Pose& pose) { keyframes_.push_back(toPoint(pose)); }
 
 void LoopMarkers::addLoop(const AcceptedLoop& loop) {
+  if (!loop.verification) {
+    unverified_ends_.push_back(toPoint(loop.query_pose));
+    unverified_ends_.push_back(toPoint(loop.match_pose));
+    return;
+  }
   loop_ends_.push_back(toPoint(loop.query_pose));
   loop_ends_.push_back(toPoint(loop.match_pose));
   const float t = static_cast<float>(
@@ -81,6 +86,13 @@ visualization_msgs::MarkerArray LoopMarkers::toMsg(const ros::Time& stamp) const
   loops.colors = loop_colours_;
   loops.color = colour(0.0f, 1.0f, 0.0f, 1.0f);
   array.markers.push_back(loops);
+
+  // Loops published without the geometric check (no camera_info): thin and orange.
+  visualization_msgs::Marker unverified = makeMarker(frame_id_, stamp, "unverified_loops",
+                                                     visualization_msgs::Marker::LINE_LIST, 0.025);
+  unverified.points = unverified_ends_;
+  unverified.color = colour(1.0f, 0.55f, 0.0f, 1.0f);
+  array.markers.push_back(unverified);
 
   if (show_rejected_) {
     visualization_msgs::Marker rejected =

@@ -29,6 +29,7 @@ class LoopMarkers {
   std::vector<geometry_msgs::Point> keyframes_;
   std::vector<geometry_msgs::Point> loop_ends_;
   std::vector<std_msgs::ColorRGBA> loop_colours_;
+  std::vector<geometry_msgs::Point> unverified_ends_;
   std::vector<geometry_msgs::Point> rejected_ends_;
 };
 

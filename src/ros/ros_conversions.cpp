@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include <sensor_msgs/image_encodings.h>
+#include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
 namespace landmark_loop_closure {
@@ -104,7 +105,41 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.match_pose = toRos(loop.match_pose);
   msg.relative_pose.pose.orientation.w = 1.0;
   msg.has_relative_pose = false;
+  if (loop.verification && loop.verification->placeConfirmed()) {
+    const VerificationResult& check = *loop.verification;
+    msg.verified = true;
+    msg.inliers = static_cast<uint32_t>(check.inliers);
+    msg.reprojection_error = check.rms_error_px;
+  }
+  if (loop.verification && loop.relative_pose_trusted) {
+    const RelativePose& relative = loop.verification->pose;
+    msg.relative_pose.pose.position.x = relative.translation.x();
+    msg.relative_pose.pose.position.y = relative.translation.y();
+    msg.relative_pose.pose.position.z = relative.translation.z();
+    const Eigen::Quaterniond rotation(relative.rotation);
+    msg.relative_pose.pose.orientation.w = rotation.w();
+    msg.relative_pose.pose.orientation.x = rotation.x();
+    msg.relative_pose.pose.orientation.y = rotation.y();
+    msg.relative_pose.pose.orientation.z = rotation.z();
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) {
+        msg.relative_pose.covariance[static_cast<size_t>(r * 6 + c)] = relative.covariance(r, c);
+      }
+    }
+    msg.has_relative_pose = true;
+    msg.relative_pose_metric = relative.metric;
+  }
   return msg;
+}
+
+CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info) {
+  CameraIntrinsics intrinsics;
+  intrinsics.fx = info.K[0];
+  intrinsics.cx = info.K[2];
+  intrinsics.fy = info.K[4];
+  intrinsics.cy = info.K[5];
+  intrinsics.image_size = cv::Size(static_cast<int>(info.width), static_cast<int>(info.height));
+  return intrinsics;
 }
 
 Keyframe toKeyframeMsg(uint64_t id, const ros::Time& stamp, const Pose& pose,
@@ -129,6 +164,8 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
       return LoopCandidate::OUTSCORED;
     case CandidateVerdict::kOdometryRejected:
       return LoopCandidate::ODOMETRY_REJECTED;
+    case CandidateVerdict::kGeometryRejected:
+      return LoopCandidate::GEOMETRY_REJECTED;
   }
   return LoopCandidate::BELOW_THRESHOLD;
 }
@@ -151,6 +188,7 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time
     candidate.verdict = toMsgVerdict(report.verdict);
     candidate.reason = toString(report.verdict);
     if (!report.detail.empty()) candidate.reason += ": " + report.detail;
+    candidate.inliers = static_cast<uint32_t>(report.inliers);
     msg.candidates.push_back(candidate);
   }
   return msg;

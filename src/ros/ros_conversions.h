@@ -8,6 +8,7 @@
 
 #include <geometry_msgs/Pose.h>
 #include <ros/time.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
 #include "landmark_loop_closure/Keyframe.h"
@@ -33,6 +34,9 @@ Pose fromRos(const geometry_msgs::Pose& pose);
 geometry_msgs::Pose toRos(const Pose& pose);
 
 double toSeconds(const ros::Time& stamp);
+
+/// Pinhole values of K; invalid (CameraIntrinsics::valid() false) for an uncalibrated camera.
+CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info);
 
 /// Stamps as double seconds lose nanoseconds at epoch scale, so messages carry the original
 /// ros::Time of each keyframe, passed in by the caller.

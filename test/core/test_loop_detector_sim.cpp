@@ -4,6 +4,7 @@
 #include <map>
 
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "landmark_loop_closure/descriptor.h"
 #include "landmark_loop_closure/loop_detector.h"
@@ -19,7 +20,19 @@ struct RunSummary {
   int loops = 0;
   int true_loops = 0;
   double worst_loop_distance = 0.0;
+  int verified_loops = 0;
+  double worst_turn_error_deg = 0.0;  ///< Rotation of loops with a well-determined pose vs truth.
 };
+
+CameraIntrinsics cameraIntrinsics() {
+  const CameraModel camera;
+  CameraIntrinsics k;
+  k.fx = k.fy = camera.focal_px;
+  k.cx = (camera.width - 1) / 2.0;
+  k.cy = (camera.height - 1) / 2.0;
+  k.image_size = cv::Size(camera.width, camera.height);
+  return k;
+}
 
 // Runs a route through the detector; a loop is true when the ground-truth positions of its two
 // keyframes are within 2.5 m.
@@ -39,8 +52,8 @@ RunSummary run(double laps, const DescriptorOptions& descriptor, double min_scor
     const FrameAdmission admission =
         detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
     if (!admission.isKeyframe()) continue;
-    const KeyframeResult result =
-        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame));
+    const KeyframeResult result = detector.addKeyframe(admission.keyframe_id, frame.stamp, odom,
+                                                       sequence.render(frame), cameraIntrinsics());
     EXPECT_FALSE(result.error);
     truth_by_keyframe[admission.keyframe_id] = frame.truth;
     ++summary.keyframes;
@@ -50,6 +63,13 @@ RunSummary run(double laps, const DescriptorOptions& descriptor, double min_scor
     ++summary.loops;
     summary.true_loops += distance < 2.5 ? 1 : 0;
     summary.worst_loop_distance = std::max(summary.worst_loop_distance, distance);
+    if (result.loop->verification) ++summary.verified_loops;
+    if (result.loop->verification && result.loop->verification->accepted()) {
+      const double true_turn = std::abs(std::remainder(match.yaw - frame.truth.yaw, 2 * M_PI));
+      const double turn = Eigen::AngleAxisd(result.loop->verification->pose.rotation).angle();
+      summary.worst_turn_error_deg =
+          std::max(summary.worst_turn_error_deg, std::abs(turn - true_turn) * 180.0 / M_PI);
+    }
   }
   return summary;
 }
@@ -70,6 +90,10 @@ TEST(LoopDetectorOnCorridor, RevisitGivesOnlyTrueLoops) {
   EXPECT_GE(summary.loops, 5);
   EXPECT_EQ(summary.true_loops, summary.loops)
       << "worst loop " << summary.worst_loop_distance << " m";
+  // Intrinsics were given: every accepted loop passed the geometric check, and its rotation is
+  // the true change of heading.
+  EXPECT_EQ(summary.verified_loops, summary.loops);
+  EXPECT_LT(summary.worst_turn_error_deg, 2.0);
 }
 
 TEST(LoopDetectorOnCorridor, OneWayRouteGivesNoLoop) {

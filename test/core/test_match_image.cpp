@@ -34,3 +34,14 @@ TEST(MatchImage, DrawsMatchedLandmarksInTheSameColourOnBothSides) {
   EXPECT_NE(left, cv::Vec3b(0, 0, 0));
   EXPECT_EQ(left, right);
 }
+
+TEST(MatchImage, DrawsGeometricInliersAsJoinedDots) {
+  const cv::Mat grey(120, 160, CV_8UC1, cv::Scalar(0));
+  const std::vector<std::pair<cv::Point2f, cv::Point2f>> inliers = {
+      {cv::Point2f(30, 40), cv::Point2f(50, 40)}};
+  const cv::Mat picture = renderMatchImage(grey, grey, "inliers", true, 240, {}, inliers);
+  // Doubled: the query dot at (60, 80), the match dot at (320 + 100, 80), the line between.
+  EXPECT_EQ(picture.at<cv::Vec3b>(80, 60), cv::Vec3b(60, 220, 60));
+  EXPECT_EQ(picture.at<cv::Vec3b>(80, 420), cv::Vec3b(60, 220, 60));
+  EXPECT_NE(picture.at<cv::Vec3b>(80, 240), cv::Vec3b(0, 0, 0));
+}

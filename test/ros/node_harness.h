@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "landmark_loop_closure/Keyframe.h"
@@ -34,6 +35,7 @@ class NodeHarness {
     image_publisher_ = node_.advertise<sensor_msgs::Image>("/camera/image_raw", 100);
     odom_publisher_ = node_.advertise<nav_msgs::Odometry>("/odom", 100);
     tf_publisher_ = node_.advertise<tf2_msgs::TFMessage>("/tf", 100);
+    camera_info_publisher_ = node_.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 100);
     keyframe_subscriber_ = node_.subscribe("/keyframes", 1000, &NodeHarness::onKeyframe, this);
     loop_subscriber_ = node_.subscribe("/loop_closures", 1000, &NodeHarness::onLoop, this);
     diagnostics_subscriber_ =
@@ -85,6 +87,22 @@ class NodeHarness {
     tf.transforms.push_back(transform);
     if (!corrupt_pose) tf_publisher_.publish(tf);  // tf itself refuses NaN transforms.
     image_publisher_.publish(message);
+    // The generated camera's intrinsics, as a calibrated driver would send them.
+    const sim::CameraModel camera;
+    sensor_msgs::CameraInfo info;
+    info.header = header;
+    info.width = static_cast<uint32_t>(camera.width);
+    info.height = static_cast<uint32_t>(camera.height);
+    info.K = {camera.focal_px,
+              0.0,
+              (camera.width - 1) / 2.0,
+              0.0,
+              camera.focal_px,
+              (camera.height - 1) / 2.0,
+              0.0,
+              0.0,
+              1.0};
+    camera_info_publisher_.publish(info);
   }
 
   /// Spins until no keyframe arrived for `quiet` seconds (or `timeout` passed).
@@ -123,6 +141,7 @@ class NodeHarness {
   ros::Publisher image_publisher_;
   ros::Publisher odom_publisher_;
   ros::Publisher tf_publisher_;
+  ros::Publisher camera_info_publisher_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber diagnostics_subscriber_;

@@ -29,6 +29,8 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   EXPECT_GT(harness.keyframes().size(), 400u);
   double min_score = 0.0;
   ASSERT_TRUE(ros::param::get("/loop_closure/acceptance/min_score", min_score));
+  bool publish_scale_free_pose = false;
+  ros::param::get("/loop_closure/verification/publish_scale_free_pose", publish_scale_free_pose);
   ASSERT_GE(harness.loops().size(), 5u);
   for (const LoopClosure& loop : harness.loops()) {
     SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id));
@@ -44,6 +46,20 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
     EXPECT_LT(std::hypot(query.x - match.x, query.y - match.y), 2.5);
     EXPECT_GT(loop.query_id, loop.match_id);
     EXPECT_GE(loop.score, min_score);
+    // camera_info came with the images, so every loop passed the geometric check.
+    EXPECT_TRUE(loop.verified);
+    EXPECT_GE(loop.inliers, 30u);
+    // The corridor's texture lies in one band at mid-height, so most of its poses are ambiguous
+    // and go out without one; a pose that is published must be the true turn.
+    if (loop.has_relative_pose) {
+      EXPECT_TRUE(publish_scale_free_pose);
+      const double true_turn =
+          std::abs(std::remainder(match.yaw - query.yaw, 2.0 * M_PI)) * 180.0 / M_PI;
+      const double estimated_turn =
+          2.0 * std::acos(std::min(1.0, std::abs(loop.relative_pose.pose.orientation.w))) * 180.0 /
+          M_PI;
+      EXPECT_NEAR(estimated_turn, true_turn, 2.0);
+    }
     EXPECT_EQ(loop.header.frame_id, "odom");
   }
 }

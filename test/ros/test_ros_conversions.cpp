@@ -1,9 +1,12 @@
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include <gtest/gtest.h>
 #include <sensor_msgs/image_encodings.h>
+#include <Eigen/Geometry>
 
+#include "../../src/ros/loop_markers.h"
 #include "../../src/ros/ros_conversions.h"
 
 using namespace landmark_loop_closure;
@@ -107,6 +110,85 @@ TEST(RosConversions, LoopMessageCarriesEveryField) {
   EXPECT_FALSE(message.has_relative_pose);
 }
 
+TEST(RosConversions, VerifiedLoopCarriesItsRelativePoseAndCovariance) {
+  AcceptedLoop loop;
+  VerificationResult check;
+  check.verdict = VerificationVerdict::kAccepted;
+  check.inliers = 57;
+  check.rms_error_px = 0.4;
+  check.pose.rotation = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  check.pose.translation = Eigen::Vector3d(0.6, 0.0, -0.8);
+  check.pose.covariance(3, 3) = 1e-4;
+  check.pose.covariance(0, 5) = check.pose.covariance(5, 0) = 2e-5;
+  loop.verification = check;
+  loop.relative_pose_trusted = true;
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  EXPECT_TRUE(message.verified);
+  EXPECT_TRUE(message.has_relative_pose);
+  EXPECT_FALSE(message.relative_pose_metric);
+  EXPECT_EQ(message.inliers, 57u);
+  EXPECT_DOUBLE_EQ(message.reprojection_error, 0.4);
+  EXPECT_DOUBLE_EQ(message.relative_pose.pose.position.z, -0.8);
+  EXPECT_NEAR(message.relative_pose.pose.orientation.y, std::sin(0.05), 1e-12);
+  EXPECT_NEAR(message.relative_pose.pose.orientation.w, std::cos(0.05), 1e-12);
+  EXPECT_DOUBLE_EQ(message.relative_pose.covariance[3 * 6 + 3], 1e-4);
+  EXPECT_DOUBLE_EQ(message.relative_pose.covariance[0 * 6 + 5], 2e-5);
+  EXPECT_DOUBLE_EQ(message.relative_pose.covariance[5 * 6 + 0], 2e-5);
+}
+
+TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {
+  AcceptedLoop loop;
+  VerificationResult check;
+  check.verdict = VerificationVerdict::kAccepted;
+  check.inliers = 41;
+  check.pose.translation = Eigen::Vector3d(1.0, 0.0, 0.0);
+  loop.verification = check;
+  loop.relative_pose_trusted = false;  // Scale-free, publish_scale_free_pose off.
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  EXPECT_TRUE(message.verified);
+  EXPECT_EQ(message.inliers, 41u);
+  EXPECT_FALSE(message.has_relative_pose);
+  EXPECT_DOUBLE_EQ(message.relative_pose.pose.position.x, 0.0);
+  EXPECT_DOUBLE_EQ(message.relative_pose.pose.orientation.w, 1.0);
+}
+
+TEST(LoopMarkers, VerifiedAndUnverifiedLoopsAreDrawnApart) {
+  LoopMarkers markers("odom", 0.25, false);
+  AcceptedLoop verified;
+  verified.score = 0.5;
+  verified.query_pose = planarPose(1.0, 2.0, 0.0);
+  VerificationResult check;
+  check.verdict = VerificationVerdict::kAmbiguous;  // Place confirmed, pose open.
+  verified.verification = check;
+  markers.addLoop(verified);
+  AcceptedLoop unverified;
+  unverified.query_pose = planarPose(5.0, 0.0, 0.0);
+  markers.addLoop(unverified);
+  const visualization_msgs::MarkerArray array = markers.toMsg(ros::Time(1.0));
+  std::map<std::string, visualization_msgs::Marker> by_namespace;
+  for (const visualization_msgs::Marker& marker : array.markers) by_namespace[marker.ns] = marker;
+  ASSERT_EQ(by_namespace.count("loops"), 1u);
+  ASSERT_EQ(by_namespace.count("unverified_loops"), 1u);
+  ASSERT_EQ(by_namespace["loops"].points.size(), 2u);
+  EXPECT_DOUBLE_EQ(by_namespace["loops"].points[0].x, 1.0);
+  ASSERT_EQ(by_namespace["unverified_loops"].points.size(), 2u);
+  EXPECT_DOUBLE_EQ(by_namespace["unverified_loops"].points[0].x, 5.0);
+  EXPECT_LT(by_namespace["unverified_loops"].scale.x, by_namespace["loops"].scale.x);
+}
+
+TEST(RosConversions, CameraInfoGivesIntrinsicsAndAnUncalibratedOneIsInvalid) {
+  sensor_msgs::CameraInfo info;
+  info.width = 640;
+  info.height = 480;
+  info.K = {500.0, 0.0, 319.5, 0.0, 510.0, 239.5, 0.0, 0.0, 1.0};
+  const CameraIntrinsics intrinsics = fromCameraInfo(info);
+  EXPECT_TRUE(intrinsics.valid());
+  EXPECT_DOUBLE_EQ(intrinsics.fy, 510.0);
+  EXPECT_DOUBLE_EQ(intrinsics.cx, 319.5);
+  EXPECT_EQ(intrinsics.image_size, cv::Size(640, 480));
+  EXPECT_FALSE(fromCameraInfo(sensor_msgs::CameraInfo{}).valid());  // K all zero.
+}
+
 TEST(RosConversions, CandidatesCarryVerdictConstants) {
   KeyframeResult result;
   result.keyframe_id = 9;
@@ -115,13 +197,20 @@ TEST(RosConversions, CandidatesCarryVerdictConstants) {
   report.match_id = 2;
   report.verdict = CandidateVerdict::kAwaitingConsistency;
   result.candidates.push_back(report);
+  report.verdict = CandidateVerdict::kGeometryRejected;
+  report.detail = "too few geometric inliers";
+  report.inliers = 12;
+  result.candidates.push_back(report);
   const LoopCandidateArray message =
       toCandidatesMsg(result, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
   EXPECT_EQ(message.query_status, "searched");
-  ASSERT_EQ(message.candidates.size(), 1u);
+  ASSERT_EQ(message.candidates.size(), 2u);
   EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::AWAITING_CONSISTENCY);
   EXPECT_EQ(message.candidates[0].reason, "awaiting_consistency");
   EXPECT_EQ(message.candidates[0].match_stamp, ros::Time(2.0));
+  EXPECT_EQ(message.candidates[1].verdict, LoopCandidate::GEOMETRY_REJECTED);
+  EXPECT_EQ(message.candidates[1].reason, "geometry_rejected: too few geometric inliers");
+  EXPECT_EQ(message.candidates[1].inliers, 12u);
 }
 
 TEST(RosConversions, OdometryRejectionsCarryTheirNumbersInTheReason) {
