@@ -80,10 +80,12 @@ Eigen::VectorXd residuals(const Correspondences& c, const RelativePose& pose, co
   return r;
 }
 
-Eigen::MatrixXd jacobian(const Correspondences& c, const RelativePose& pose, double focal) {
+// Over the first `free` parameters: 5 (rotation and direction) or 3 (rotation only).
+Eigen::MatrixXd jacobian(const Correspondences& c, const RelativePose& pose, double focal,
+                         int free = 5) {
   constexpr double kStep = 1e-6;
-  Eigen::MatrixXd j(static_cast<Eigen::Index>(c.query.size()), 5);
-  for (int k = 0; k < 5; ++k) {
+  Eigen::MatrixXd j(static_cast<Eigen::Index>(c.query.size()), free);
+  for (int k = 0; k < free; ++k) {
     Parameters plus = Parameters::Zero();
     Parameters minus = Parameters::Zero();
     plus(k) = kStep;
@@ -94,16 +96,18 @@ Eigen::MatrixXd jacobian(const Correspondences& c, const RelativePose& pose, dou
 }
 
 // Levenberg-Marquardt on the Sampson errors of the inliers, from the RANSAC solution (a minimal
-// sample's pose, not the best fit to all inliers).
-void refine(const Correspondences& c, double focal, RelativePose* pose) {
+// sample's pose, not the best fit to all inliers). `free`: 5 fits rotation and direction, 3 the
+// rotation only with the direction held.
+void refine(const Correspondences& c, double focal, RelativePose* pose, int free = 5) {
   double cost = residuals(c, *pose, Parameters::Zero(), focal).squaredNorm();
   double damping = 1e-3;
   for (int iteration = 0; iteration < 50 && damping < 1e8; ++iteration) {
     const Eigen::VectorXd r = residuals(c, *pose, Parameters::Zero(), focal);
-    const Eigen::MatrixXd j = jacobian(c, *pose, focal);
-    Eigen::Matrix<double, 5, 5> a = j.transpose() * j;
+    const Eigen::MatrixXd j = jacobian(c, *pose, focal, free);
+    Eigen::MatrixXd a = j.transpose() * j;
     a.diagonal() *= 1.0 + damping;
-    const Parameters step = a.ldlt().solve(-j.transpose() * r);
+    Parameters step = Parameters::Zero();
+    step.head(free) = a.ldlt().solve(-j.transpose() * r);
     const RelativePose candidate = perturbed(*pose, step);
     const double candidate_cost = residuals(c, candidate, Parameters::Zero(), focal).squaredNorm();
     if (candidate_cost < cost) {
@@ -179,40 +183,6 @@ void orientTranslation(const Correspondences& c, RelativePose* pose) {
   if (behind > in_front) pose->translation = -pose->translation;
 }
 
-// Levenberg-Marquardt over the rotation only, the translation direction held.
-void refineRotation(const Correspondences& c, double focal, RelativePose* pose) {
-  constexpr double kStep = 1e-6;
-  double cost = residuals(c, *pose, Parameters::Zero(), focal).squaredNorm();
-  double damping = 1e-3;
-  for (int iteration = 0; iteration < 20 && damping < 1e8; ++iteration) {
-    const Eigen::VectorXd r = residuals(c, *pose, Parameters::Zero(), focal);
-    Eigen::MatrixXd j(r.size(), 3);
-    for (int k = 0; k < 3; ++k) {
-      Parameters plus = Parameters::Zero();
-      Parameters minus = Parameters::Zero();
-      plus(k) = kStep;
-      minus(k) = -kStep;
-      j.col(k) =
-          (residuals(c, *pose, plus, focal) - residuals(c, *pose, minus, focal)) / (2.0 * kStep);
-    }
-    Eigen::Matrix3d a = j.transpose() * j;
-    a.diagonal() *= 1.0 + damping;
-    Parameters step = Parameters::Zero();
-    step.head<3>() = a.ldlt().solve(-j.transpose() * r);
-    const RelativePose candidate = perturbed(*pose, step);
-    const double candidate_cost = residuals(c, candidate, Parameters::Zero(), focal).squaredNorm();
-    if (candidate_cost < cost) {
-      const bool converged = cost - candidate_cost < 1e-7 * cost;
-      *pose = candidate;
-      cost = candidate_cost;
-      damping *= 0.1;
-      if (converged) break;
-    } else {
-      damping *= 10.0;
-    }
-  }
-}
-
 struct ProfilePoint {
   RelativePose pose;
   double cost = 0.0;
@@ -235,7 +205,7 @@ std::vector<ProfilePoint> directionProfile(const Correspondences& c, double foca
     ProfilePoint point;
     point.pose = best;
     point.pose.translation = direction;
-    refineRotation(c, focal, &point.pose);
+    refine(c, focal, &point.pose, 3);
     point.cost = cost(c, point.pose, focal);
     profile.push_back(point);
   }
