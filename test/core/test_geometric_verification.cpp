@@ -20,14 +20,7 @@ namespace {
 const CameraModel kCamera;
 const cv::Size kImageSize(kCamera.width, kCamera.height);
 
-CameraIntrinsics intrinsics() {
-  CameraIntrinsics k;
-  k.fx = k.fy = kCamera.focal_px;
-  k.cx = (kCamera.width - 1) / 2.0;
-  k.cy = (kCamera.height - 1) / 2.0;
-  k.image_size = cv::Size(kCamera.width, kCamera.height);
-  return k;
-}
+CameraIntrinsics intrinsics() { return kCamera.intrinsics(); }
 
 cv::Mat render(const Pose2D& pose, uint32_t noise_seed) {
   static const CorridorWorld world;

@@ -24,16 +24,6 @@ struct RunSummary {
   double worst_turn_error_deg = 0.0;  ///< Rotation of loops with a well-determined pose vs truth.
 };
 
-CameraIntrinsics cameraIntrinsics() {
-  const CameraModel camera;
-  CameraIntrinsics k;
-  k.fx = k.fy = camera.focal_px;
-  k.cx = (camera.width - 1) / 2.0;
-  k.cy = (camera.height - 1) / 2.0;
-  k.image_size = cv::Size(camera.width, camera.height);
-  return k;
-}
-
 // Runs a route through the detector; a loop is true when the ground-truth positions of its two
 // keyframes are within 2.5 m.
 RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score) {
@@ -52,8 +42,9 @@ RunSummary run(double laps, const DescriptorOptions& descriptor, double min_scor
     const FrameAdmission admission =
         detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
     if (!admission.isKeyframe()) continue;
-    const KeyframeResult result = detector.addKeyframe(admission.keyframe_id, frame.stamp, odom,
-                                                       sequence.render(frame), cameraIntrinsics());
+    const KeyframeResult result =
+        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame),
+                             CameraModel{}.intrinsics());
     EXPECT_FALSE(result.error);
     truth_by_keyframe[admission.keyframe_id] = frame.truth;
     ++summary.keyframes;

@@ -6,6 +6,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/geometric_verification.h"
+
 namespace landmark_loop_closure {
 namespace sim {
 
@@ -21,6 +23,16 @@ struct CameraModel {
   int height = 240;
   double focal_px = 200.0;  ///< Same in x and y; principal point at the image centre.
   double height_m = 1.2;    ///< Camera height above the floor.
+
+  /// Pinhole intrinsics of the rendered images (pixel centres at integer coordinates).
+  CameraIntrinsics intrinsics() const {
+    CameraIntrinsics k;
+    k.fx = k.fy = focal_px;
+    k.cx = (width - 1) / 2.0;
+    k.cy = (height - 1) / 2.0;
+    k.image_size = cv::Size(width, height);
+    return k;
+  }
 };
 
 struct Lighting {
