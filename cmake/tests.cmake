@@ -12,6 +12,7 @@ set(CORE_TESTS
   test_landmarks
   test_convnet_descriptor
   test_geometric_verification
+  test_metric_pose
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})

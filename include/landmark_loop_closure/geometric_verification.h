@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +28,11 @@ struct LocalFeatures {
   std::vector<cv::Point2f> points;  ///< Pixels of the image they were found in.
   cv::Mat descriptors;              ///< CV_8U, one 32-byte row per point.
   cv::Size image_size;
+  /// Each keypoint's position in this keyframe's camera frame (metres, optical axes), NaN where
+  /// unknown; empty when no depth source was available.
+  std::vector<cv::Point3f> points3d;
+  /// Standard deviation of each point's depth along its ray (metres), beside points3d.
+  std::vector<float> depth_sd;
 
   bool empty() const { return points.empty(); }
   size_t bytes() const;
@@ -106,6 +112,11 @@ struct VerificationResult {
            verdict == VerificationVerdict::kNoParallax;
   }
 };
+
+/// (query index, match index) of ORB matches passing Lowe's ratio test, at most one per match
+/// keypoint (the closest).
+std::vector<std::pair<int, int>> ratioTestMatches(const LocalFeatures& query,
+                                                  const LocalFeatures& match, double ratio_test);
 
 /// Geometric check of a loop candidate: ORB matches between the two keyframes, an essential
 /// matrix by RANSAC with the camera intrinsics, the relative rotation and translation direction,

@@ -13,6 +13,7 @@
 #include "landmark_loop_closure/input_error.h"
 #include "landmark_loop_closure/keyframe_database.h"
 #include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/metric_pose.h"
 #include "landmark_loop_closure/odometry_gate.h"
 #include "landmark_loop_closure/temporal_consistency.h"
 
@@ -34,6 +35,13 @@ struct LoopDetectorOptions {
   AcceptanceOptions acceptance;
   OdometryGateOptions odometry_gate;
   VerificationOptions verification;
+  MetricPoseOptions metric_pose;
+  /// Previous keyframes each keyframe's keypoints are triangulated against (the farther ones
+  /// add baseline), when metric_pose/triangulate_from_odometry is on and no depth image came.
+  int triangulation_keyframes = 3;
+  /// The camera on the odometry's body frame: turns the odometry's motion between keyframes into
+  /// the camera's.
+  CameraMount camera_mount;
   bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
 
   /// Empty when valid, otherwise every problem, one per line.
@@ -84,17 +92,20 @@ struct AcceptedLoop {
   /// Set when the geometric check confirmed the place (it is absent when the check is off or no
   /// intrinsics were known and verification/required is false); its pose may be ambiguous.
   std::optional<VerificationResult> verification;
-  /// The verified relative pose may go to a pose graph: it is metric, or scale-free and
-  /// verification/publish_scale_free_pose is set.
-  bool relative_pose_trusted = false;
+  /// Set when the match keyframe had keypoint depths and PnP ran (found or not, and why).
+  std::optional<MetricPoseResult> metric_pose;
+  /// The relative pose for a pose graph: the metric one when found, else the verified scale-free
+  /// one when verification/publish_scale_free_pose is set; absent otherwise.
+  std::optional<RelativePose> relative_pose;
 };
 
 struct StageTimes {
   double describe_ms = 0.0;
   double query_ms = 0.0;
   double rerank_ms = 0.0;
-  double verify_ms = 0.0;  ///< Keypoints of the keyframe and the geometric check.
-  double totalMs() const { return describe_ms + query_ms + rerank_ms + verify_ms; }
+  double features_ms = 0.0;  ///< Keypoints of the keyframe and their depths.
+  double verify_ms = 0.0;    ///< The geometric check (and PnP) of the candidates that reached it.
+  double totalMs() const { return describe_ms + query_ms + rerank_ms + features_ms + verify_ms; }
 };
 
 struct KeyframeResult {
@@ -129,11 +140,14 @@ class LoopDetector {
   /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
   /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
   /// ones: loops are not verified, or refused when verification/required).
+  /// `depth`: optional depth image registered to `image` (16-bit or float, see MetricPoseOptions);
+  /// without one, keypoint depths are triangulated from the odometry when enabled.
   KeyframeResult addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
-                             const cv::Mat& image, const CameraIntrinsics& intrinsics = {});
+                             const cv::Mat& image, const CameraIntrinsics& intrinsics = {},
+                             const cv::Mat& depth = {});
 
   FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
-                      const CameraIntrinsics& intrinsics = {});
+                      const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {});
 
   const KeyframeDatabase& database() const { return database_; }
   const LoopDetectorOptions& options() const { return options_; }
@@ -146,6 +160,10 @@ class LoopDetector {
   /// False when the candidate must be refused; fills report and, when verified, loop.
   bool verify(const LocalFeatures& features, const KeyframeRecord& match,
               const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop);
+  /// Depths for the new keyframe's keypoints: from `depth`, else triangulated against the last
+  /// stored keyframes with the odometry's motion.
+  void addDepths(const Pose& pose, const cv::Mat& depth, const CameraIntrinsics& intrinsics,
+                 LocalFeatures* features) const;
 
   LoopDetectorOptions options_;
   std::shared_ptr<const DescriptorExtractor> extractor_;

@@ -1,5 +1,8 @@
 #pragma once
 
+#include <cmath>
+#include <string>
+
 #include <Eigen/Geometry>
 
 namespace landmark_loop_closure {
@@ -15,6 +18,22 @@ struct Pose {
 
 /// Roll, pitch and yaw (radians) of a rotation, each in [-pi, pi].
 Eigen::Vector3d rollPitchYaw(const Eigen::Quaterniond& rotation);
+
+/// Where a camera's optical frame (x right, y down, z forward) sits on the robot's body frame (x
+/// forward, y left, z up): position in metres, orientation as fixed-axis roll, pitch, yaw
+/// (radians, applied in that order, as tf's static_transform_publisher takes them). The default
+/// is a camera at the body's origin looking along its x axis.
+struct CameraMount {
+  double x = 0.0;
+  double y = 0.0;
+  double z = 0.0;
+  double roll = -M_PI / 2.0;
+  double pitch = 0.0;
+  double yaw = -M_PI / 2.0;
+
+  Pose toPose() const;
+  std::string validate() const;
+};
 
 /// Pose with yaw only about +z, for planar robots and tests.
 Pose planarPose(double x, double y, double yaw);

@@ -100,6 +100,24 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("verification/keypoint_sigma_px", &verification.keypoint_sigma_px);
   reader->read("verification/max_rotation_sd_deg", &verification.max_rotation_sd_deg);
   reader->read("verification/max_direction_sd_deg", &verification.max_direction_sd_deg);
+  MetricPoseOptions& metric = detector.metric_pose;
+  reader->read("metric_pose/triangulate_from_odometry", &metric.triangulate_from_odometry);
+  reader->read("metric_pose/triangulation_keyframes", &detector.triangulation_keyframes);
+  reader->read("metric_pose/min_triangulation_angle_deg", &metric.min_triangulation_angle_deg);
+  reader->read("metric_pose/max_point_depth_m", &metric.max_point_depth_m);
+  reader->read("metric_pose/max_reprojection_px", &metric.max_reprojection_px);
+  reader->read("metric_pose/min_inliers", &metric.min_inliers);
+  reader->read("metric_pose/max_translation_sd_m", &metric.max_translation_sd_m);
+  reader->read("metric_pose/max_rotation_sd_deg", &metric.max_rotation_sd_deg);
+  reader->read("metric_pose/depth_image_metres_per_unit", &metric.depth_image_metres_per_unit);
+  reader->read("metric_pose/depth_image_sd_per_m2", &metric.depth_image_sd_per_m2);
+  CameraMount& mount = detector.camera_mount;
+  reader->read("camera_mount/x", &mount.x);
+  reader->read("camera_mount/y", &mount.y);
+  reader->read("camera_mount/z", &mount.z);
+  reader->read("camera_mount/roll", &mount.roll);
+  reader->read("camera_mount/pitch", &mount.pitch);
+  reader->read("camera_mount/yaw", &mount.yaw);
 }
 
 }  // namespace landmark_loop_closure

@@ -278,7 +278,8 @@ CameraIntrinsics CameraIntrinsics::scaledTo(cv::Size size) const {
 }
 
 size_t LocalFeatures::bytes() const {
-  return points.size() * sizeof(cv::Point2f) + descriptors.total() * descriptors.elemSize();
+  return points.size() * sizeof(cv::Point2f) + descriptors.total() * descriptors.elemSize() +
+         points3d.size() * sizeof(cv::Point3f) + depth_sd.size() * sizeof(float);
 }
 
 std::string VerificationOptions::validate() const {
@@ -342,6 +343,25 @@ const char* toString(VerificationVerdict verdict) {
   return "unknown";
 }
 
+std::vector<std::pair<int, int>> ratioTestMatches(const LocalFeatures& query,
+                                                  const LocalFeatures& match, double ratio_test) {
+  std::vector<std::pair<int, int>> matches;
+  if (query.descriptors.empty() || match.descriptors.empty()) return matches;
+  std::vector<std::vector<cv::DMatch>> knn;
+  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(query.descriptors, match.descriptors, knn, 2);
+  std::vector<cv::DMatch> best_for_match(static_cast<size_t>(match.descriptors.rows),
+                                         cv::DMatch(-1, -1, 1e9f));
+  for (const std::vector<cv::DMatch>& pair : knn) {
+    if (pair.size() < 2 || pair[0].distance > ratio_test * pair[1].distance) continue;
+    cv::DMatch& best = best_for_match[static_cast<size_t>(pair[0].trainIdx)];
+    if (pair[0].distance < best.distance) best = pair[0];
+  }
+  for (const cv::DMatch& m : best_for_match) {
+    if (m.queryIdx >= 0) matches.emplace_back(m.queryIdx, m.trainIdx);
+  }
+  return matches;
+}
+
 GeometricVerifier::GeometricVerifier(const VerificationOptions& options) : options_(options) {}
 
 LocalFeatures GeometricVerifier::extract(const cv::Mat& image) const {
@@ -370,21 +390,12 @@ VerificationResult GeometricVerifier::verify(const LocalFeatures& query, const L
     return result;
   }
 
-  // Ratio test, then one match per match-keypoint (the closest).
-  std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(query.descriptors, match.descriptors, knn, 2);
-  std::vector<cv::DMatch> best_for_train(match.points.size(), cv::DMatch(-1, -1, 1e9f));
-  for (const std::vector<cv::DMatch>& pair : knn) {
-    if (pair.size() < 2 || pair[0].distance > options_.ratio_test * pair[1].distance) continue;
-    cv::DMatch& best = best_for_train[static_cast<size_t>(pair[0].trainIdx)];
-    if (pair[0].distance < best.distance) best = pair[0];
-  }
   std::vector<cv::Point2f> query_points;
   std::vector<cv::Point2f> match_points;
-  for (const cv::DMatch& m : best_for_train) {
-    if (m.queryIdx < 0) continue;
-    query_points.push_back(query.points[static_cast<size_t>(m.queryIdx)]);
-    match_points.push_back(match.points[static_cast<size_t>(m.trainIdx)]);
+  for (const auto& [query_index, match_index] :
+       ratioTestMatches(query, match, options_.ratio_test)) {
+    query_points.push_back(query.points[static_cast<size_t>(query_index)]);
+    match_points.push_back(match.points[static_cast<size_t>(match_index)]);
   }
   result.matches = static_cast<int>(query_points.size());
   if (result.matches < needed) {

@@ -52,7 +52,12 @@ std::string LoopDetectorOptions::validate() const {
            << input.quaternion_norm_tolerance << ")\n";
   }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
-         << acceptance.validate() << odometry_gate.validate() << verification.validate();
+         << acceptance.validate() << odometry_gate.validate() << verification.validate()
+         << metric_pose.validate() << camera_mount.validate();
+  if (triangulation_keyframes < 1) {
+    errors << "metric_pose/triangulation_keyframes must be >= 1 (got " << triangulation_keyframes
+           << ")\n";
+  }
   return errors.str();
 }
 
@@ -124,7 +129,8 @@ FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_wid
 }
 
 KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
-                                         const cv::Mat& image, const CameraIntrinsics& intrinsics) {
+                                         const cv::Mat& image, const CameraIntrinsics& intrinsics,
+                                         const cv::Mat& depth) {
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) {
@@ -154,8 +160,9 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     const int height = std::max(
         1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
     features = verifier_.extract(toWorkingImage(image, width, height));
+    addDepths(normalisedPose(pose), depth, intrinsics, &features);
   }
-  result.times.verify_ms = millisecondsSince(features_start);
+  result.times.features_ms = millisecondsSince(features_start);
 
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
@@ -253,6 +260,27 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   }
 }
 
+void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
+                             const CameraIntrinsics& intrinsics, LocalFeatures* features) const {
+  if (!intrinsics.valid() || features->empty()) return;
+  if (!depth.empty()) {
+    keypointsFromDepth(depth, intrinsics, options_.metric_pose, features);
+    return;
+  }
+  if (!options_.metric_pose.triangulate_from_odometry) return;
+  const Eigen::Isometry3d mount = options_.camera_mount.toPose().toIsometry();
+  const Eigen::Isometry3d camera = pose.toIsometry() * mount;
+  const size_t stored = database_.size();
+  for (size_t back = 1;
+       back <= static_cast<size_t>(options_.triangulation_keyframes) && back <= stored; ++back) {
+    const KeyframeRecord& neighbour = database_.at(stored - back);
+    if (neighbour.local_features.empty()) continue;
+    const Eigen::Isometry3d neighbour_camera = neighbour.pose.toIsometry() * mount;
+    triangulateKeypoints(neighbour.local_features, camera.inverse() * neighbour_camera, intrinsics,
+                         options_.verification, options_.metric_pose, features);
+  }
+}
+
 bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& match,
                           const CameraIntrinsics& intrinsics, CandidateReport* report,
                           AcceptedLoop* loop) {
@@ -260,8 +288,23 @@ bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& m
   VerificationResult check = verifier_.verify(features, match.local_features, intrinsics);
   report->inliers = check.inliers;
   if (check.placeConfirmed()) {
-    loop->relative_pose_trusted =
-        check.accepted() && (check.pose.metric || options_.verification.publish_scale_free_pose);
+    // The place is confirmed; depths of the match's keypoints can still give a metric pose, even
+    // where two views left the pose ambiguous or without parallax.
+    if (!match.local_features.points3d.empty()) {
+      MetricPoseResult metric = estimateMetricPose(
+          features, match.local_features,
+          ratioTestMatches(features, match.local_features, options_.verification.ratio_test),
+          intrinsics, options_.verification, options_.metric_pose);
+      if (metric.found) {
+        loop->relative_pose = metric.pose;
+      } else {
+        report->detail = "no metric pose: " + metric.failure;
+      }
+      loop->metric_pose = std::move(metric);
+    }
+    if (!loop->relative_pose && check.accepted() && options_.verification.publish_scale_free_pose) {
+      loop->relative_pose = check.pose;
+    }
     loop->verification = std::move(check);
     return true;
   }
@@ -274,11 +317,12 @@ bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& m
 }
 
 FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image,
-                                  const CameraIntrinsics& intrinsics) {
+                                  const CameraIntrinsics& intrinsics, const cv::Mat& depth) {
   FrameResult result;
   result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
   if (result.admission.isKeyframe()) {
-    result.keyframe = addKeyframe(result.admission.keyframe_id, stamp, pose, image, intrinsics);
+    result.keyframe =
+        addKeyframe(result.admission.keyframe_id, stamp, pose, image, intrinsics, depth);
   }
   return result;
 }

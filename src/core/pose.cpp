@@ -41,6 +41,22 @@ Pose planarPose(double x, double y, double yaw) {
   return pose;
 }
 
+Pose CameraMount::toPose() const {
+  Pose pose;
+  pose.position = Eigen::Vector3d(x, y, z);
+  pose.orientation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                     Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                     Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  return pose;
+}
+
+std::string CameraMount::validate() const {
+  for (const double value : {x, y, z, roll, pitch, yaw}) {
+    if (!std::isfinite(value)) return "camera_mount values must be finite numbers\n";
+  }
+  return "";
+}
+
 PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
   PathLength extended = path;
   extended.metres += (to.position - from.position).norm();

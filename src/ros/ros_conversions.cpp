@@ -110,9 +110,13 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
     msg.verified = true;
     msg.inliers = static_cast<uint32_t>(check.inliers);
     msg.reprojection_error = check.rms_error_px;
+    if (loop.metric_pose && loop.metric_pose->found) {
+      msg.inliers = static_cast<uint32_t>(loop.metric_pose->inliers);
+      msg.reprojection_error = loop.metric_pose->rms_error_px;
+    }
   }
-  if (loop.verification && loop.relative_pose_trusted) {
-    const RelativePose& relative = loop.verification->pose;
+  if (loop.relative_pose) {
+    const RelativePose& relative = *loop.relative_pose;
     msg.relative_pose.pose.position.x = relative.translation.x();
     msg.relative_pose.pose.position.y = relative.translation.y();
     msg.relative_pose.pose.position.z = relative.translation.z();

@@ -1,12 +1,20 @@
-// Prints every loop closure the detector publishes as TRUE or FALSE against ground truth, and a
-// summary at shutdown. Ground truth: nav_msgs/Odometry on `ground_truth`; a loop is true when
-// the true positions at its two stamps are within ~true_loop_distance metres.
+// Prints every loop closure the detector publishes as TRUE or FALSE against ground truth, the
+// error of its metric relative pose, and a summary at shutdown. Ground truth: nav_msgs/Odometry
+// on `ground_truth`; a loop is true when the true positions at its two stamps are within
+// ~true_loop_distance metres.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <Eigen/Geometry>
+
+#include "landmark_loop_closure/pose.h"
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
@@ -18,6 +26,19 @@ class DemoReport {
   explicit DemoReport(ros::NodeHandle& node, ros::NodeHandle& private_node) {
     private_node.param("true_loop_distance", true_loop_distance_, 2.5);
     private_node.param("revisit_min_seconds", revisit_min_seconds_, 20.0);
+    // The detector's camera mount turns true body poses into true camera poses.
+    std::string detector;
+    private_node.param<std::string>("detector", detector, "loop_closure");
+    landmark_loop_closure::CameraMount mount;
+    for (auto& [key, value] : {std::pair<const char*, double*>{"x", &mount.x},
+                               {"y", &mount.y},
+                               {"z", &mount.z},
+                               {"roll", &mount.roll},
+                               {"pitch", &mount.pitch},
+                               {"yaw", &mount.yaw}}) {
+      node.param(detector + "/camera_mount/" + key, *value, *value);
+    }
+    camera_in_base_ = mount.toPose().toIsometry();
     truth_subscriber_ = node.subscribe("ground_truth", 1000, &DemoReport::onTruth, this);
     loop_subscriber_ = node.subscribe("loop_closures", 100, &DemoReport::onLoop, this);
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &DemoReport::onKeyframe, this);
@@ -37,11 +58,35 @@ class DemoReport {
       std::printf("recall (keyframes):   %.3f\n",
                   static_cast<double>(true_loops_) / revisited_keyframes_);
     }
+    std::printf("verified:             %d, of which %zu with a metric relative pose\n", verified_,
+                translation_errors_.size());
+    if (!translation_errors_.empty()) {
+      std::printf("metric pose error:    median %.3f m %.2f deg, 90th percentile %.3f m %.2f deg\n",
+                  percentile(translation_errors_, 0.5), percentile(rotation_errors_, 0.5),
+                  percentile(translation_errors_, 0.9), percentile(rotation_errors_, 0.9));
+    }
     std::fflush(stdout);
   }
 
  private:
-  bool truthAt(const ros::Time& stamp, geometry_msgs::Point* position) const {
+  static double percentile(std::vector<double> values, double fraction) {
+    const auto rank = static_cast<size_t>(fraction * static_cast<double>(values.size() - 1));
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank),
+                     values.end());
+    return values[rank];
+  }
+
+  static Eigen::Isometry3d toIsometry(const geometry_msgs::Pose& pose) {
+    Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+    transform.linear() = Eigen::Quaterniond(pose.orientation.w, pose.orientation.x,
+                                            pose.orientation.y, pose.orientation.z)
+                             .normalized()
+                             .toRotationMatrix();
+    transform.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+    return transform;
+  }
+
+  bool truthAt(const ros::Time& stamp, geometry_msgs::Pose* pose) const {
     if (truth_.empty()) return false;
     auto it = truth_.lower_bound(stamp);
     if (it == truth_.end()) it = std::prev(it);
@@ -50,18 +95,19 @@ class DemoReport {
       if ((stamp - before->first) < (it->first - stamp)) it = before;
     }
     if (std::abs((it->first - stamp).toSec()) > 0.5) return false;
-    *position = it->second;
+    *pose = it->second;
     return true;
   }
 
   void onTruth(const nav_msgs::OdometryConstPtr& truth) {
-    truth_[truth->header.stamp] = truth->pose.pose.position;
+    truth_[truth->header.stamp] = truth->pose.pose;
   }
 
   void onKeyframe(const landmark_loop_closure::KeyframeConstPtr& keyframe) {
     ++keyframes_;
-    geometry_msgs::Point here;
-    if (!truthAt(keyframe->header.stamp, &here)) return;
+    geometry_msgs::Pose here_pose;
+    if (!truthAt(keyframe->header.stamp, &here_pose)) return;
+    const geometry_msgs::Point& here = here_pose.position;
     for (const auto& [stamp, position] : keyframe_truth_) {
       if ((keyframe->header.stamp - stamp).toSec() < revisit_min_seconds_) break;
       if (std::hypot(position.x - here.x, position.y - here.y) < true_loop_distance_) {
@@ -74,21 +120,36 @@ class DemoReport {
 
   void onLoop(const landmark_loop_closure::LoopClosureConstPtr& loop) {
     ++loops_;
-    geometry_msgs::Point query;
-    geometry_msgs::Point match;
-    if (!truthAt(loop->query_stamp, &query) || !truthAt(loop->match_stamp, &match)) {
+    geometry_msgs::Pose query_pose;
+    geometry_msgs::Pose match_pose;
+    if (!truthAt(loop->query_stamp, &query_pose) || !truthAt(loop->match_stamp, &match_pose)) {
       std::printf("loop %lu -> %lu: no ground truth at its stamps\n",
                   static_cast<unsigned long>(loop->query_id),
                   static_cast<unsigned long>(loop->match_id));
       return;
     }
+    const geometry_msgs::Point& query = query_pose.position;
+    const geometry_msgs::Point& match = match_pose.position;
     const double distance = std::hypot(query.x - match.x, query.y - match.y);
     const bool is_true = distance < true_loop_distance_;
     true_loops_ += is_true ? 1 : 0;
-    std::printf("loop keyframe %4lu -> %4lu  score %.3f  true distance %5.2f m  %s\n",
+    verified_ += loop->verified ? 1 : 0;
+    char pose_error[96] = "";
+    if (loop->has_relative_pose && loop->relative_pose_metric) {
+      // T_query_match of the true camera poses against the published one.
+      const Eigen::Isometry3d truth = (toIsometry(query_pose) * camera_in_base_).inverse() *
+                                      toIsometry(match_pose) * camera_in_base_;
+      const Eigen::Isometry3d estimate = toIsometry(loop->relative_pose.pose);
+      translation_errors_.push_back((estimate.translation() - truth.translation()).norm());
+      rotation_errors_.push_back(
+          Eigen::AngleAxisd(estimate.linear() * truth.linear().transpose()).angle() * 180.0 / M_PI);
+      std::snprintf(pose_error, sizeof(pose_error), "  pose error %.3f m %.2f deg",
+                    translation_errors_.back(), rotation_errors_.back());
+    }
+    std::printf("loop keyframe %4lu -> %4lu  score %.3f  true distance %5.2f m  %s%s\n",
                 static_cast<unsigned long>(loop->query_id),
                 static_cast<unsigned long>(loop->match_id), loop->score, distance,
-                is_true ? "TRUE" : "FALSE");
+                is_true ? "TRUE" : "FALSE", pose_error);
     std::fflush(stdout);
   }
 
@@ -97,12 +158,16 @@ class DemoReport {
   ros::Subscriber truth_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber keyframe_subscriber_;
-  std::map<ros::Time, geometry_msgs::Point> truth_;
+  Eigen::Isometry3d camera_in_base_ = Eigen::Isometry3d::Identity();
+  std::map<ros::Time, geometry_msgs::Pose> truth_;
   std::map<ros::Time, geometry_msgs::Point> keyframe_truth_;
   int keyframes_ = 0;
   int revisited_keyframes_ = 0;
   int loops_ = 0;
   int true_loops_ = 0;
+  int verified_ = 0;
+  std::vector<double> translation_errors_;
+  std::vector<double> rotation_errors_;
 };
 
 }  // namespace

@@ -62,6 +62,26 @@ class TexturedRoom {
     return image;
   }
 
+  /// Depth (metres along the optical axis) at each pixel centre, as a registered depth camera
+  /// gives it: CV_32FC1.
+  cv::Mat renderDepth(const Eigen::Isometry3d& world_from_camera, double focal,
+                      cv::Size size) const {
+    cv::Mat depth(size, CV_32FC1);
+    const double cx = 0.5 * (size.width - 1);
+    const double cy = 0.5 * (size.height - 1);
+    for (int row = 0; row < size.height; ++row) {
+      for (int col = 0; col < size.width; ++col) {
+        const Eigen::Vector3d ray = world_from_camera.linear() *
+                                    Eigen::Vector3d((col - cx) / focal, (row - cy) / focal, 1.0);
+        int face = -1;
+        // The ray's optical z component is 1, so its multiple is the depth.
+        const double z = nearestHit(world_from_camera.translation(), ray, &face);
+        depth.at<float>(row, col) = face < 0 ? 0.0f : static_cast<float>(z);
+      }
+    }
+    return depth;
+  }
+
   static constexpr double kHalfX = 4.0;
   static constexpr double kHalfY = 3.0;
   static constexpr double kHeight = 3.0;
@@ -71,21 +91,28 @@ class TexturedRoom {
   static constexpr int kTexturePixels = 1000;
   static constexpr double kPixelsPerMetre = 120.0;
 
-  // The nearest wall the ray hits, sampled bilinearly in that wall's texture.
-  double shade(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) const {
+  // The multiple of `ray` at which it leaves the room, and through which face (-1: none).
+  static double nearestHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray, int* face) {
     const std::array<double, 3> low = {-kHalfX, -kHalfY, 0.0};
     const std::array<double, 3> high = {kHalfX, kHalfY, kHeight};
     double nearest = 1e9;
-    int face = -1;
+    *face = -1;
     for (int axis = 0; axis < 3; ++axis) {
       if (std::abs(ray(axis)) < 1e-12) continue;
       const double bound = ray(axis) > 0.0 ? high[axis] : low[axis];
       const double distance = (bound - origin(axis)) / ray(axis);
       if (distance > 0.0 && distance < nearest) {
         nearest = distance;
-        face = 2 * axis + (ray(axis) > 0.0 ? 1 : 0);
+        *face = 2 * axis + (ray(axis) > 0.0 ? 1 : 0);
       }
     }
+    return nearest;
+  }
+
+  // The nearest wall the ray hits, sampled bilinearly in that wall's texture.
+  double shade(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) const {
+    int face = -1;
+    const double nearest = nearestHit(origin, ray, &face);
     if (face < 0) return 0.0;
     const Eigen::Vector3d hit = origin + nearest * ray;
     const int axis = face / 2;

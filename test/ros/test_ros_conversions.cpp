@@ -121,7 +121,7 @@ TEST(RosConversions, VerifiedLoopCarriesItsRelativePoseAndCovariance) {
   check.pose.covariance(3, 3) = 1e-4;
   check.pose.covariance(0, 5) = check.pose.covariance(5, 0) = 2e-5;
   loop.verification = check;
-  loop.relative_pose_trusted = true;
+  loop.relative_pose = check.pose;
   const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
   EXPECT_TRUE(message.verified);
   EXPECT_TRUE(message.has_relative_pose);
@@ -142,14 +142,37 @@ TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {
   check.verdict = VerificationVerdict::kAccepted;
   check.inliers = 41;
   check.pose.translation = Eigen::Vector3d(1.0, 0.0, 0.0);
-  loop.verification = check;
-  loop.relative_pose_trusted = false;  // Scale-free, publish_scale_free_pose off.
+  loop.verification = check;  // Scale-free, publish_scale_free_pose off: no relative_pose.
   const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
   EXPECT_TRUE(message.verified);
   EXPECT_EQ(message.inliers, 41u);
   EXPECT_FALSE(message.has_relative_pose);
   EXPECT_DOUBLE_EQ(message.relative_pose.pose.position.x, 0.0);
   EXPECT_DOUBLE_EQ(message.relative_pose.pose.orientation.w, 1.0);
+}
+
+TEST(RosConversions, AMetricPoseReportsItsOwnInliersAndError) {
+  AcceptedLoop loop;
+  VerificationResult check;
+  check.verdict = VerificationVerdict::kAmbiguous;  // Two views could not tell; PnP could.
+  check.inliers = 48;
+  check.rms_error_px = 0.3;
+  loop.verification = check;
+  MetricPoseResult metric;
+  metric.found = true;
+  metric.inliers = 35;
+  metric.rms_error_px = 0.9;
+  metric.pose.metric = true;
+  metric.pose.translation = Eigen::Vector3d(0.2, 0.0, 0.45);
+  loop.metric_pose = metric;
+  loop.relative_pose = metric.pose;
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  EXPECT_TRUE(message.verified);
+  EXPECT_TRUE(message.has_relative_pose);
+  EXPECT_TRUE(message.relative_pose_metric);
+  EXPECT_EQ(message.inliers, 35u);
+  EXPECT_DOUBLE_EQ(message.reprojection_error, 0.9);
+  EXPECT_DOUBLE_EQ(message.relative_pose.pose.position.z, 0.45);
 }
 
 TEST(LoopMarkers, VerifiedAndUnverifiedLoopsAreDrawnApart) {
