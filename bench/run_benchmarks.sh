@@ -81,5 +81,9 @@ FULL_NORDLAND=()
   "$OUT"/corridor "$OUT"/corridor_per_landmark > "$OUT/table_recall.md"
 /usr/bin/python3 bench/make_table.py "$OUT"/gardens_point_viewpoint_variants \
   "$OUT"/gardens_point_day_night_variants > "$OUT/table_variants.md"
+echo "== geometric check and odometry gate (generated corridor)"
+VERIFY=_build/devel/lib/landmark_loop_closure/lcd_bench_verification
+{ "$VERIFY" --config config/demo.yaml; echo; "$VERIFY" --config config/demo.yaml --min-score 0.15; } \
+  > "$OUT/verification.md"
 cat "$OUT/table.md"
 echo "bench/results updated; copy the tables into bench/README.md when they change"
