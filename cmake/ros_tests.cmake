@@ -23,3 +23,5 @@ roslaunch_add_file_check(launch IGNORE_UNSET_ARGS)
 roslaunch_add_file_check(test/ros)
 # The same revisit, with the pose looked up in tf instead of synced odometry.
 add_rostest(test/ros/node_revisit_tf.test DEPENDENCIES test_node_revisit)
+# Again with depth images, the camera mount from tf and metric poses in the base frame.
+add_rostest(test/ros/node_revisit_depth.test DEPENDENCIES test_node_revisit)

@@ -21,13 +21,30 @@ namespace landmark_loop_closure {
 
 struct AcceptanceOptions {
   double min_score = 0.25;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  /// "keyframes": a loop needs consistent_keyframes consecutive keyframes whose matches agree
+  /// within index_window ids; "metres": the query must travel consistent_distance_m while its
+  /// matches agree within match_window_m of path (see TemporalConsistency).
+  std::string consistency_unit = "keyframes";
   int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
+  double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
+  double match_window_m = 1.0;         ///< Matches agree within this (plus the query's step).
+
+  ConsistencyUnit unit() const;  ///< consistency_unit parsed (kKeyframes when invalid).
 
   std::string validate() const;
 };
 
+/// mapping: every keyframe is searched and stored. localization: keyframes are only searched
+/// (against a map built before) and nothing is added; the odometry gate is off, since the
+/// current odometry need not share a frame or a drift history with the map's.
+enum class DetectorMode { kMapping, kLocalization };
+
+bool parseDetectorMode(const std::string& text, DetectorMode* mode);
+const char* toString(DetectorMode mode);
+
 struct LoopDetectorOptions {
+  std::string mode = "mapping";  ///< "mapping" or "localization" (DetectorMode).
   InputLimits input;
   KeyframeSelectorOptions keyframe;
   DescriptorOptions descriptor;
@@ -149,6 +166,16 @@ class LoopDetector {
   FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
                       const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {});
 
+  /// Worker thread: the camera's pose on the odometry's body frame, as it becomes known (tf); until
+  /// then (nullopt) keypoint depths are not triangulated from the odometry. Starts as
+  /// options.camera_mount.
+  void setCameraMount(const std::optional<Pose>& mount);
+  const std::optional<Pose>& cameraMount() const { return camera_mount_; }
+
+  /// Worker thread: switches between building the map and only searching it.
+  void setMode(DetectorMode mode);
+  DetectorMode mode() const { return mode_; }
+
   const KeyframeDatabase& database() const { return database_; }
   const LoopDetectorOptions& options() const { return options_; }
   const DescriptorExtractor& extractor() const { return *extractor_; }
@@ -157,6 +184,8 @@ class LoopDetector {
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
+  /// Whether a chain is long enough to believe; when not, says how far it got (metres).
+  bool consistentLongEnough(const TemporalConsistency::Chain& chain, std::string* detail) const;
   /// False when the candidate must be refused; fills report and, when verified, loop.
   bool verify(const LocalFeatures& features, const KeyframeRecord& match,
               const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop);
@@ -177,6 +206,13 @@ class LoopDetector {
   // Search state (worker thread).
   KeyframeDatabase database_;
   TemporalConsistency consistency_;
+  DetectorMode mode_ = DetectorMode::kMapping;
+  std::optional<Pose> camera_mount_;
+  struct PathEnd {
+    Pose pose;
+    PathLength path;
+  };
+  std::optional<PathEnd> last_keyframe_;  ///< The last keyframe processed (stored or not).
 };
 
 }  // namespace landmark_loop_closure

@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/geometric_verification.h"
+#include "landmark_loop_closure/pose.h"
 
 namespace landmark_loop_closure {
 
@@ -73,5 +74,10 @@ MetricPoseResult estimateMetricPose(const LocalFeatures& query, const LocalFeatu
                                     const CameraIntrinsics& intrinsics,
                                     const VerificationOptions& verification,
                                     const MetricPoseOptions& options);
+
+/// A metric T_query_match between two camera poses re-expressed between the bodies carrying the
+/// camera at `camera_mount` (the camera's pose in the body frame): M T M^-1, with the covariance
+/// carried along (same order: x, y, z, rotation about x, y, z of the query body's frame).
+RelativePose inBodyFrame(const RelativePose& in_camera, const Pose& camera_mount);
 
 }  // namespace landmark_loop_closure

@@ -10,15 +10,22 @@ namespace landmark_loop_closure {
 /// Everything the nodelet reads from its private parameters. Each key and default is documented
 /// once, in config/default.yaml; a test checks that file against these defaults.
 struct NodeOptions {
-  std::string pose_source = "odom";       ///< "odom": nav_msgs/Odometry synced with images; "tf".
-  std::string odom_frame = "odom";        ///< tf mode: fixed frame of the lookup.
-  std::string base_frame = "base_link";   ///< tf mode: robot frame whose pose is looked up.
+  std::string pose_source = "odom";  ///< "odom": nav_msgs/Odometry synced with images; "tf".
+  std::string odom_frame = "odom";   ///< tf mode: fixed frame of the lookup.
+  /// The robot's body frame: tf mode looks its pose up; camera_mount_from_tf and
+  /// relative_pose_frame "base" use it in both modes.
+  std::string base_frame = "base_link";
   double tf_timeout = 0.2;                ///< tf mode: seconds to wait for a transform, then drop.
   int sync_queue_size = 30;               ///< odom mode: ApproximateTime queue per topic.
   double sync_slop = 0.05;                ///< odom mode: seconds an image and odometry may differ.
   int worker_queue_size = 8;              ///< Keyframes waiting for the worker thread.
   double input_timeout = 5.0;             ///< Seconds without input before diagnostics warn.
   bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
+  bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
+  /// Frame of published metric relative poses: "camera" (the image's optical frame) or "base".
+  std::string relative_pose_frame = "camera";
+  /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
+  bool camera_mount_from_tf = false;
   LoopDetectorOptions detector;
 
   /// Empty when valid, otherwise every problem, one per line.

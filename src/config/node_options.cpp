@@ -15,9 +15,18 @@ std::string NodeOptions::validate() const {
   if (pose_source != "odom" && pose_source != "tf") {
     errors << "pose_source must be 'odom' or 'tf' (got '" << pose_source << "')\n";
   }
+  if (relative_pose_frame != "camera" && relative_pose_frame != "base") {
+    errors << "relative_pose_frame must be 'camera' or 'base' (got '" << relative_pose_frame
+           << "')\n";
+  }
+  const bool needs_base =
+      pose_source == "tf" || relative_pose_frame == "base" || camera_mount_from_tf;
+  if (needs_base && base_frame.empty()) {
+    errors << "base_frame must not be empty with pose_source tf, relative_pose_frame base or "
+              "camera_mount/from_tf\n";
+  }
   if (pose_source == "tf") {
     if (odom_frame.empty()) errors << "odom_frame must not be empty when pose_source is tf\n";
-    if (base_frame.empty()) errors << "base_frame must not be empty when pose_source is tf\n";
     if (odom_frame == base_frame && !odom_frame.empty()) {
       errors << "odom_frame and base_frame are both '" << odom_frame << "'\n";
     }
@@ -44,6 +53,9 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("worker_queue_size", &options->worker_queue_size);
   reader->read("input_timeout", &options->input_timeout);
   reader->read("publish_rejected_markers", &options->publish_rejected_markers);
+  reader->read("use_depth", &options->use_depth);
+  reader->read("relative_pose_frame", &options->relative_pose_frame);
+  reader->read("camera_mount/from_tf", &options->camera_mount_from_tf);
 
   LoopDetectorOptions& detector = options->detector;
   reader->read("input/min_image_side", &detector.input.min_image_side);
@@ -79,6 +91,9 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("acceptance/min_score", &detector.acceptance.min_score);
   reader->read("acceptance/consistent_keyframes", &detector.acceptance.consistent_keyframes);
   reader->read("acceptance/index_window", &detector.acceptance.index_window);
+  reader->read("acceptance/consistency_unit", &detector.acceptance.consistency_unit);
+  reader->read("acceptance/consistent_distance_m", &detector.acceptance.consistent_distance_m);
+  reader->read("acceptance/match_window_m", &detector.acceptance.match_window_m);
   reader->read("odometry_gate/enabled", &detector.odometry_gate.enabled);
   reader->read("odometry_gate/drift_per_metre", &detector.odometry_gate.drift_per_metre);
   reader->read("odometry_gate/drift_per_radian", &detector.odometry_gate.drift_per_radian);

@@ -34,11 +34,48 @@ std::string AcceptanceOptions::validate() const {
   if (index_window < 0) {
     errors << "acceptance/index_window must be >= 0 (got " << index_window << ")\n";
   }
+  ConsistencyUnit parsed;
+  if (!parseConsistencyUnit(consistency_unit, &parsed)) {
+    errors << "acceptance/consistency_unit must be keyframes or metres (got '" << consistency_unit
+           << "')\n";
+  }
+  if (!(consistent_distance_m >= 0.0)) {
+    errors << "acceptance/consistent_distance_m must be >= 0 (got " << consistent_distance_m
+           << ")\n";
+  }
+  if (!(match_window_m >= 0.0)) {
+    errors << "acceptance/match_window_m must be >= 0 (got " << match_window_m << ")\n";
+  }
   return errors.str();
+}
+
+ConsistencyUnit AcceptanceOptions::unit() const {
+  ConsistencyUnit parsed = ConsistencyUnit::kKeyframes;
+  parseConsistencyUnit(consistency_unit, &parsed);
+  return parsed;
+}
+
+bool parseDetectorMode(const std::string& text, DetectorMode* mode) {
+  if (text == "mapping") {
+    *mode = DetectorMode::kMapping;
+  } else if (text == "localization") {
+    *mode = DetectorMode::kLocalization;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+const char* toString(DetectorMode mode) {
+  return mode == DetectorMode::kMapping ? "mapping" : "localization";
 }
 
 std::string LoopDetectorOptions::validate() const {
   std::ostringstream errors;
+  DetectorMode parsed_mode;
+  if (!parseDetectorMode(mode, &parsed_mode)) {
+    errors << "mode must be mapping or localization (got '" << mode << "')\n";
+  }
   if (input.min_image_side < 1) {
     errors << "input/min_image_side must be >= 1 (got " << input.min_image_side << ")\n";
   }
@@ -86,10 +123,24 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       verifier_(options.verification),
       selector_(options.keyframe),
       database_(extractor_ ? extractor_->globalDimension() : 1),
-      consistency_(options.acceptance.index_window) {
+      consistency_(options.acceptance.unit(),
+                   options.acceptance.unit() == ConsistencyUnit::kKeyframes
+                       ? static_cast<double>(options.acceptance.index_window)
+                       : options.acceptance.match_window_m),
+      camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
+  parseDetectorMode(options.mode, &mode_);
+}
+
+void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
+  camera_mount_ = mount ? std::optional<Pose>(normalisedPose(*mount)) : std::nullopt;
+}
+
+void LoopDetector::setMode(DetectorMode mode) {
+  if (mode != mode_) consistency_.reset();  // Chains of one mode say nothing in the other.
+  mode_ = mode;
 }
 
 FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_width,
@@ -149,7 +200,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   result.times.describe_ms = millisecondsSince(describe_start);
 
   const auto query_start = Clock::now();
-  const QueryResult query = database_.query(descriptor.global, stamp, options_.database);
+  DatabaseOptions search = options_.database;
+  // Localising: the map's last keyframes are not this run's recent past (the time rule stays).
+  if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
+  const QueryResult query = database_.query(descriptor.global, stamp, search);
   result.times.query_ms = millisecondsSince(query_start);
   result.query_status = query.status;
 
@@ -160,7 +214,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     const int height = std::max(
         1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
     features = verifier_.extract(toWorkingImage(image, width, height));
-    addDepths(normalisedPose(pose), depth, intrinsics, &features);
+    // A query's own depths are never used (PnP takes the match's); only stored keyframes need them.
+    if (mode_ == DetectorMode::kMapping) {
+      addDepths(normalisedPose(pose), depth, intrinsics, &features);
+    }
   }
   result.times.features_ms = millisecondsSince(features_start);
 
@@ -168,10 +225,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   keyframe.id = keyframe_id;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
-  if (!database_.empty()) {
-    const KeyframeRecord& previous = database_.at(database_.size() - 1);
-    keyframe.path = extendPath(previous.path, previous.pose, keyframe.pose);
+  if (last_keyframe_) {
+    keyframe.path = extendPath(last_keyframe_->path, last_keyframe_->pose, keyframe.pose);
   }
+  last_keyframe_ = PathEnd{keyframe.pose, keyframe.path};
   keyframe.local_features = std::move(features);
 
   decide(&result, descriptor, query, keyframe, intrinsics);
@@ -181,6 +238,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_pose = keyframe.pose;
   }
 
+  if (mode_ == DetectorMode::kLocalization) return result;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = toWorkingImage(image, kThumbnailWidth, kThumbnailHeight).clone();
@@ -213,20 +271,24 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
   result->times.rerank_ms = millisecondsSince(rerank_start);
 
-  std::vector<uint64_t> above_threshold;
+  std::vector<PathPoint> above_threshold;
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) continue;
     const KeyframeRecord* match = database_.findById(report.match_id);
-    const OdometryGateDecision gate = checkOdometry(options_.odometry_gate, query_keyframe.pose,
-                                                    query_keyframe.path, match->pose, match->path);
-    if (!gate.consistent) {
-      report.verdict = CandidateVerdict::kOdometryRejected;
-      report.detail = gate.reason();
-      continue;
+    if (mode_ == DetectorMode::kMapping) {
+      const OdometryGateDecision gate =
+          checkOdometry(options_.odometry_gate, query_keyframe.pose, query_keyframe.path,
+                        match->pose, match->path);
+      if (!gate.consistent) {
+        report.verdict = CandidateVerdict::kOdometryRejected;
+        report.detail = gate.reason();
+        continue;
+      }
     }
-    above_threshold.push_back(report.match_id);
+    above_threshold.push_back({match->id, match->path.metres});
   }
-  const std::vector<int> chains = consistency_.update(above_threshold);
+  const std::vector<TemporalConsistency::Chain> chains =
+      consistency_.update({query_keyframe.id, query_keyframe.path.metres}, above_threshold);
 
   size_t chain_index = 0;
   for (CandidateReport& report : reports) {
@@ -235,8 +297,9 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       continue;
     }
     if (report.verdict == CandidateVerdict::kOdometryRejected) continue;
-    report.consistent_keyframes = chains[chain_index++];
-    if (report.consistent_keyframes < options_.acceptance.consistent_keyframes) {
+    const TemporalConsistency::Chain& chain = chains[chain_index++];
+    report.consistent_keyframes = chain.keyframes;
+    if (!consistentLongEnough(chain, &report.detail)) {
       report.verdict = CandidateVerdict::kAwaitingConsistency;
     } else if (result->loop) {
       report.verdict = CandidateVerdict::kOutscored;
@@ -267,8 +330,8 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
     keypointsFromDepth(depth, intrinsics, options_.metric_pose, features);
     return;
   }
-  if (!options_.metric_pose.triangulate_from_odometry) return;
-  const Eigen::Isometry3d mount = options_.camera_mount.toPose().toIsometry();
+  if (!options_.metric_pose.triangulate_from_odometry || !camera_mount_) return;
+  const Eigen::Isometry3d mount = camera_mount_->toIsometry();
   const Eigen::Isometry3d camera = pose.toIsometry() * mount;
   const size_t stored = database_.size();
   for (size_t back = 1;
@@ -279,6 +342,20 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
     triangulateKeypoints(neighbour.local_features, camera.inverse() * neighbour_camera, intrinsics,
                          options_.verification, options_.metric_pose, features);
   }
+}
+
+bool LoopDetector::consistentLongEnough(const TemporalConsistency::Chain& chain,
+                                        std::string* detail) const {
+  const AcceptanceOptions& acceptance = options_.acceptance;
+  if (acceptance.unit() == ConsistencyUnit::kKeyframes) {
+    return chain.keyframes >= acceptance.consistent_keyframes;
+  }
+  if (chain.metres >= acceptance.consistent_distance_m) return true;
+  std::ostringstream text;
+  text.precision(2);
+  text << std::fixed << chain.metres << " of " << acceptance.consistent_distance_m << " m";
+  *detail = text.str();
+  return false;
 }
 
 bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& match,

@@ -433,4 +433,24 @@ MetricPoseResult estimateMetricPose(const LocalFeatures& query, const LocalFeatu
   return result;
 }
 
+RelativePose inBodyFrame(const RelativePose& in_camera, const Pose& camera_mount) {
+  const Eigen::Matrix3d mount_rotation = camera_mount.orientation.toRotationMatrix();
+  const Eigen::Vector3d& mount_position = camera_mount.position;
+  RelativePose in_body = in_camera;
+  in_body.rotation = mount_rotation * in_camera.rotation * mount_rotation.transpose();
+  in_body.translation =
+      mount_rotation * in_camera.translation + mount_position - in_body.rotation * mount_position;
+  // A camera-frame step (dt, dphi), rotation applied on the left, moves the body-frame pose by
+  // (R_m dt + [R_b t_m]x R_m dphi, R_m dphi) to first order.
+  const Eigen::Vector3d lever = in_body.rotation * mount_position;
+  Eigen::Matrix3d lever_cross;
+  lever_cross << 0.0, -lever.z(), lever.y(), lever.z(), 0.0, -lever.x(), -lever.y(), lever.x(), 0.0;
+  Eigen::Matrix<double, 6, 6> jacobian = Eigen::Matrix<double, 6, 6>::Zero();
+  jacobian.block<3, 3>(0, 0) = mount_rotation;
+  jacobian.block<3, 3>(0, 3) = lever_cross * mount_rotation;
+  jacobian.block<3, 3>(3, 3) = mount_rotation;
+  in_body.covariance = jacobian * in_camera.covariance * jacobian.transpose();
+  return in_body;
+}
+
 }  // namespace landmark_loop_closure

@@ -1,27 +1,49 @@
 #include "landmark_loop_closure/temporal_consistency.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace landmark_loop_closure {
 
-std::vector<int> TemporalConsistency::update(const std::vector<uint64_t>& match_ids) {
-  std::vector<int> chains;
-  chains.reserve(match_ids.size());
-  std::unordered_map<uint64_t, int> current;
-  for (const uint64_t match : match_ids) {
-    int longest_previous = 0;
-    for (const auto& [previous_match, length] : previous_chains_) {
-      const uint64_t gap = match > previous_match ? match - previous_match : previous_match - match;
-      if (gap <= static_cast<uint64_t>(index_window_)) {
-        longest_previous = std::max(longest_previous, length);
-      }
-    }
-    const int chain = longest_previous + 1;
-    chains.push_back(chain);
-    int& stored = current[match];
-    stored = std::max(stored, chain);
+bool parseConsistencyUnit(const std::string& text, ConsistencyUnit* unit) {
+  if (text == "keyframes") {
+    *unit = ConsistencyUnit::kKeyframes;
+  } else if (text == "metres") {
+    *unit = ConsistencyUnit::kMetres;
+  } else {
+    return false;
   }
-  previous_chains_ = std::move(current);
+  return true;
+}
+
+bool TemporalConsistency::extends(const PathPoint& match, const PathPoint& previous,
+                                  double query_step) const {
+  if (unit_ == ConsistencyUnit::kKeyframes) {
+    const uint64_t gap = match.id > previous.id ? match.id - previous.id : previous.id - match.id;
+    return static_cast<double>(gap) <= window_;
+  }
+  return std::abs(match.metres - previous.metres) <= window_ + query_step;
+}
+
+std::vector<TemporalConsistency::Chain> TemporalConsistency::update(
+    const PathPoint& query, const std::vector<PathPoint>& matches) {
+  const double query_step = std::max(0.0, query.metres - previous_query_metres_);
+  std::vector<Chain> chains;
+  chains.reserve(matches.size());
+  std::vector<Link> current;
+  current.reserve(matches.size());
+  for (const PathPoint& match : matches) {
+    Chain chain;
+    for (const Link& previous : previous_) {
+      if (!extends(match, previous.match, query_step)) continue;
+      chain.keyframes = std::max(chain.keyframes, previous.chain.keyframes + 1);
+      chain.metres = std::max(chain.metres, previous.chain.metres + query_step);
+    }
+    chains.push_back(chain);
+    current.push_back({match, chain});
+  }
+  previous_ = std::move(current);
+  previous_query_metres_ = query.metres;
   return chains;
 }
 

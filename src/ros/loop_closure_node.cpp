@@ -13,6 +13,7 @@
 #include "landmark_loop_closure/LoopClosure.h"
 #include "landmark_loop_closure/landmarks.h"
 #include "landmark_loop_closure/match_image.h"
+#include "landmark_loop_closure/metric_pose.h"
 #include "ros_conversions.h"
 #include "ros_parameter_source.h"
 
@@ -25,6 +26,9 @@ constexpr double kWarningPeriod = 10.0;
 constexpr size_t kMaxPendingTf = 100;
 constexpr double kTfRetryPeriod = 0.02;
 constexpr double kDiagnosticsPeriod = 1.0;
+constexpr size_t kMaxBufferedDepths = 30;
+constexpr double kDepthWait = 0.2;  // Seconds the worker waits for a keyframe's depth image.
+constexpr double kDepthPollPeriod = 0.005;
 
 double wallNow() { return ros::WallTime::now().toSec(); }
 
@@ -71,6 +75,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
                             [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
 
+  // Until tf gives the mount, the configured one is not trusted for triangulation.
+  if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
   subscribe();
   ROS_INFO("Loop closure: descriptor %s, pose from %s, listening on %s%s%s",
@@ -88,9 +94,14 @@ void LoopClosureNode::subscribe() {
   image_topic_ = node_.resolveName("image");
   camera_info_subscriber_ = node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
                                             &LoopClosureNode::onCameraInfo, this);
-  if (options_.pose_source == "tf") {
+  if (options_.use_depth) {
+    depth_subscriber_ = image_transport_.subscribe("depth", 5, &LoopClosureNode::onDepth, this);
+  }
+  if (options_.pose_source == "tf" || options_.camera_mount_from_tf) {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
+  }
+  if (options_.pose_source == "tf") {
     image_subscriber_ =
         image_transport_.subscribe("image", 5, &LoopClosureNode::onImageForTf, this);
     tf_timer_ = node_.createWallTimer(ros::WallDuration(kTfRetryPeriod),
@@ -168,6 +179,12 @@ void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) 
   camera_info_seen_ = true;
 }
 
+void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
+  std::lock_guard<std::mutex> lock(depth_mutex_);
+  depth_buffer_.push_back(depth);
+  if (depth_buffer_.size() > kMaxBufferedDepths) depth_buffer_.pop_front();
+}
+
 void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
                                  const std::string& frame_id) {
   if (auto error = checkImageMessage(*image)) {
@@ -241,8 +258,15 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
     return;
   }
+  const std::string& camera_frame = job.image->header.frame_id;
+  if (options_.camera_mount_from_tf) updateCameraMount(camera_frame);
+  cv::Mat depth;
+  if (options_.use_depth) {
+    depth = depthFor(job.stamp, camera_frame);
+    ++(depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
+  }
   const KeyframeResult result =
-      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey, job.intrinsics);
+      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey, job.intrinsics, depth);
   if (result.error) {
     reportRejected(*result.error);
     return;
@@ -258,12 +282,105 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
   database_bytes_ = detector_.database().bytes();
 }
 
+cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& camera_frame) {
+  const ros::Duration slop(options_.sync_slop);
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(kDepthWait);
+  sensor_msgs::ImageConstPtr nearest;
+  while (true) {
+    bool later_arrived = false;
+    {
+      std::lock_guard<std::mutex> lock(depth_mutex_);
+      for (const sensor_msgs::ImageConstPtr& candidate : depth_buffer_) {
+        const ros::Time& depth_stamp = candidate->header.stamp;
+        const ros::Duration gap = depth_stamp > stamp ? depth_stamp - stamp : stamp - depth_stamp;
+        later_arrived |= depth_stamp > stamp + slop;
+        if (gap > slop) continue;
+        if (!nearest || gap < (nearest->header.stamp > stamp ? nearest->header.stamp - stamp
+                                                             : stamp - nearest->header.stamp)) {
+          nearest = candidate;
+        }
+      }
+    }
+    // A depth image newer than the slop means the matching one will not come any more.
+    if (nearest || later_arrived || ros::WallTime::now() > give_up || !ros::ok()) break;
+    ros::WallDuration(kDepthPollPeriod).sleep();
+  }
+  if (!nearest) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "No depth image within sync_slop %.3f s of the keyframe at %.3f: its "
+                      "keypoint depths are triangulated instead (if enabled)",
+                      options_.sync_slop, stamp.toSec());
+    return {};
+  }
+  std::string error;
+  cv::Mat depth = toDepth(*nearest, &error);
+  if (!error.empty()) {
+    ROS_WARN_THROTTLE(kWarningPeriod, "Depth image at %.3f not used: %s",
+                      nearest->header.stamp.toSec(), error.c_str());
+    return {};
+  }
+  // Depth from another camera's frame would put every point in the wrong place.
+  if (nearest->header.frame_id != camera_frame) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Depth image not used: its frame '%s' is not the image's '%s' (subscribe to "
+                      "a depth topic registered to the image)",
+                      nearest->header.frame_id.c_str(), camera_frame.c_str());
+    return {};
+  }
+  return depth;
+}
+
+void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
+  if (camera_frame == camera_mount_frame_ && detector_.cameraMount()) return;
+  if (camera_frame.empty()) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Images carry no frame_id, so camera_mount/from_tf cannot look the camera "
+                      "up in tf: keypoint depths are not triangulated");
+    return;
+  }
+  std::string error;
+  if (!tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
+    detector_.setCameraMount(std::nullopt);
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "No tf %s -> %s yet for camera_mount/from_tf (%s): keypoint depths are not "
+                      "triangulated until it comes",
+                      options_.base_frame.c_str(), camera_frame.c_str(), error.c_str());
+    return;
+  }
+  const Pose mount = Pose::fromIsometry(tf2::transformToEigen(
+      tf_buffer_->lookupTransform(options_.base_frame, camera_frame, ros::Time(0))));
+  detector_.setCameraMount(mount);
+  camera_mount_frame_ = camera_frame;
+  ROS_INFO("Camera mount from tf: %s in %s at (%.3f, %.3f, %.3f) m", camera_frame.c_str(),
+           options_.base_frame.c_str(), mount.position.x(), mount.position.y(), mount.position.z());
+}
+
+std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
+                                                 const std::string& camera_frame) const {
+  if (options_.relative_pose_frame != "base" || !loop->relative_pose ||
+      !loop->relative_pose->metric) {
+    return camera_frame;
+  }
+  const std::optional<Pose>& mount = detector_.cameraMount();
+  if (!mount) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Relative pose left in the camera frame %s: the camera mount is not known "
+                      "yet (camera_mount/from_tf)",
+                      camera_frame.c_str());
+    return camera_frame;
+  }
+  loop->relative_pose = inBodyFrame(*loop->relative_pose, *mount);
+  return options_.base_frame;
+}
+
 void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
   keyframe_publisher_.publish(toKeyframeMsg(job.id, job.stamp, job.pose, job.frame_id));
   if (result.loop) {
-    loop_publisher_.publish(toLoopMsg(*result.loop, job.stamp,
-                                      keyframe_stamps_.at(result.loop->match_id), job.frame_id));
+    AcceptedLoop loop = *result.loop;
+    const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);
+    loop_publisher_.publish(
+        toLoopMsg(loop, job.stamp, keyframe_stamps_.at(loop.match_id), job.frame_id, pose_frame));
     ++loops_published_;
     ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
              static_cast<unsigned long>(result.loop->query_id),
@@ -375,6 +492,10 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("queued keyframes", queue_.size());
   status.add("odometry jumps", odometry_jumps_.load());
   if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
+  if (options_.use_depth) {
+    status.add("keyframes with depth", keyframes_with_depth_.load());
+    status.add("keyframes without depth", keyframes_without_depth_.load());
+  }
   status.addf("last keyframe processing (ms)", "%.1f", last_processing_ms_);
   status.addf("max keyframe processing (ms)", "%.1f", max_processing_ms_);
   for (const auto& [code, count] : rejected_) {

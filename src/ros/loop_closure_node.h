@@ -52,7 +52,7 @@ class LoopClosureNode {
     uint64_t id;
     ros::Time stamp;
     Pose pose;
-    std::string frame_id;
+    std::string frame_id;         ///< The odometry frame of `pose`.
     CameraIntrinsics intrinsics;  ///< From the latest camera_info; invalid when none came.
   };
   struct PendingImage {
@@ -68,12 +68,21 @@ class LoopClosureNode {
   void onImageForTf(const sensor_msgs::ImageConstPtr& image);
   void retryPendingTf();
   void onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info);
+  void onDepth(const sensor_msgs::ImageConstPtr& depth);
   void admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
                   const std::string& frame_id);
   void reportRejected(const InputError& error);
 
   void workerLoop();
   void processKeyframe(const KeyframeJob& job);
+  /// The depth image nearest `stamp` within sync_slop, waiting briefly for one still on its way;
+  /// empty when none, or when it is not in `camera_frame` (unregistered) or unusable.
+  cv::Mat depthFor(const ros::Time& stamp, const std::string& camera_frame);
+  /// camera_mount/from_tf: looks base_frame <- `camera_frame` up until tf has it.
+  void updateCameraMount(const std::string& camera_frame);
+  /// The loop's relative pose in the frame relative_pose_frame asks for, when possible; returns
+  /// the frame it is in.
+  std::string expressRelativePose(AcceptedLoop* loop, const std::string& camera_frame) const;
   void publishResults(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -90,6 +99,10 @@ class LoopClosureNode {
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
   image_transport::Subscriber image_subscriber_;
   ros::Subscriber camera_info_subscriber_;
+  image_transport::Subscriber depth_subscriber_;
+  std::mutex depth_mutex_;  // Guards depth_buffer_ (filled by callbacks, read by the worker).
+  std::deque<sensor_msgs::ImageConstPtr> depth_buffer_;
+  std::string camera_mount_frame_;  // Worker thread only: the frame the tf mount was found for.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::deque<PendingImage> pending_tf_;
@@ -121,6 +134,8 @@ class LoopClosureNode {
   std::atomic<uint64_t> keyframes_dropped_{0};
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
+  std::atomic<uint64_t> keyframes_with_depth_{0};
+  std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<double> last_image_wall_{0.0};
   std::atomic<double> last_odometry_wall_{0.0};
   std::atomic<bool> camera_info_seen_{false};

@@ -65,6 +65,27 @@ cv::Mat toGrey(const sensor_msgs::Image& image) {
   return grey;
 }
 
+cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error) {
+  int type = -1;
+  if (image.encoding == enc::TYPE_16UC1 || image.encoding == enc::MONO16) type = CV_16UC1;
+  if (image.encoding == enc::TYPE_32FC1) type = CV_32FC1;
+  if (type < 0) {
+    *error = "depth encoding '" + image.encoding + "' is not 16UC1, mono16 or 32FC1";
+    return {};
+  }
+  const size_t row_bytes = static_cast<size_t>(image.width) * CV_ELEM_SIZE(type);
+  if (image.width == 0 || image.height == 0 || image.step < row_bytes ||
+      image.data.size() < static_cast<size_t>(image.step) * image.height) {
+    *error = "depth image " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+             " with step " + std::to_string(image.step) + " does not fit its " +
+             std::to_string(image.data.size()) + "-byte buffer";
+    return {};
+  }
+  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,
+                     const_cast<uint8_t*>(image.data.data()), image.step);
+  return view.clone();
+}
+
 Pose fromRos(const geometry_msgs::Pose& pose) {
   Pose result;
   result.position = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
@@ -89,7 +110,8 @@ geometry_msgs::Pose toRos(const Pose& pose) {
 double toSeconds(const ros::Time& stamp) { return stamp.toSec(); }
 
 LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
-                      const ros::Time& match_stamp, const std::string& frame_id) {
+                      const ros::Time& match_stamp, const std::string& frame_id,
+                      const std::string& relative_pose_frame) {
   LoopClosure msg;
   msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
@@ -132,6 +154,7 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
     }
     msg.has_relative_pose = true;
     msg.relative_pose_metric = relative.metric;
+    msg.relative_pose_frame = relative_pose_frame;
   }
   return msg;
 }

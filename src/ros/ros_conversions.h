@@ -30,6 +30,10 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image);
 /// 8-bit grey copy or view of a message that passed checkImageMessage.
 cv::Mat toGrey(const sensor_msgs::Image& image);
 
+/// A copy of a depth image (16UC1 or mono16: CV_16UC1 in the driver's unit; 32FC1: CV_32FC1
+/// metres); an empty Mat and `error` set for other encodings or a malformed buffer.
+cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error);
+
 Pose fromRos(const geometry_msgs::Pose& pose);
 geometry_msgs::Pose toRos(const Pose& pose);
 
@@ -40,8 +44,10 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info);
 
 /// Stamps as double seconds lose nanoseconds at epoch scale, so messages carry the original
 /// ros::Time of each keyframe, passed in by the caller.
+/// `relative_pose_frame`: the frame loop.relative_pose is expressed in (named in the message).
 LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
-                      const ros::Time& match_stamp, const std::string& frame_id);
+                      const ros::Time& match_stamp, const std::string& frame_id,
+                      const std::string& relative_pose_frame);
 Keyframe toKeyframeMsg(uint64_t id, const ros::Time& stamp, const Pose& pose,
                        const std::string& frame_id);
 /// `stamp_of(id)` returns a keyframe's original stamp.

@@ -215,6 +215,47 @@ void CorridorWorld::buildWall(int wall, double offset) {
   wall_textures_[wall] = texture;
 }
 
+CorridorWorld::Hit CorridorWorld::castRay(const Eigen::Vector2d& origin,
+                                          const Eigen::Vector2d& direction) const {
+  Hit hit;
+  hit.distance = std::numeric_limits<double>::infinity();
+  for (const Segment& segment : segments_) {
+    const Eigen::Vector2d edge = segment.b - segment.a;
+    const double denominator = cross2(direction, edge);
+    if (std::abs(denominator) < 1e-12) continue;
+    const Eigen::Vector2d to_start = segment.a - origin;
+    const double distance = cross2(to_start, edge) / denominator;
+    const double along = cross2(to_start, direction) / denominator;
+    if (distance > 1e-6 && along >= 0.0 && along <= 1.0 && distance < hit.distance) {
+      hit = {&segment, distance, segment.u_start + along * edge.norm()};
+    }
+  }
+  return hit;
+}
+
+cv::Mat CorridorWorld::renderDepth(const Pose2D& pose, const CameraModel& camera) const {
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
+  const double cx = 0.5 * (camera.width - 1);
+  const double cy = 0.5 * (camera.height - 1);
+  const Eigen::Vector2d origin(pose.x, pose.y);
+  for (int col = 0; col < camera.width; ++col) {
+    const double offset_angle = std::atan2(cx - col, camera.focal_px);
+    const double angle = pose.yaw + offset_angle;
+    const Hit ray = castRay(origin, Eigen::Vector2d(std::cos(angle), std::sin(angle)));
+    const double wall_depth = ray.distance * std::cos(offset_angle);
+    for (int row = 0; row < camera.height; ++row) {
+      const double dy = row - cy;
+      const double wall_z = camera.height_m - dy * wall_depth / camera.focal_px;
+      if (ray.segment && wall_z >= 0.0 && wall_z <= options_.wall_height) {
+        depth.at<float>(row, col) = static_cast<float>(wall_depth);
+      } else if (dy > 0.0) {  // The floor, at optical depth height * f / dy.
+        depth.at<float>(row, col) = static_cast<float>(camera.height_m * camera.focal_px / dy);
+      }
+    }
+  }
+  return depth;
+}
+
 cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
                               const Lighting& lighting, uint32_t noise_seed) const {
   cv::Mat image(camera.height, camera.width, CV_8UC1);
@@ -228,24 +269,11 @@ cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
     const double offset_angle = std::atan2(cx - col, camera.focal_px);
     const double angle = pose.yaw + offset_angle;
     const Eigen::Vector2d direction(std::cos(angle), std::sin(angle));
-    double nearest = std::numeric_limits<double>::infinity();
-    const Segment* hit = nullptr;
-    double hit_u = 0.0;
-    for (const Segment& segment : segments_) {
-      const Eigen::Vector2d edge = segment.b - segment.a;
-      const double denominator = cross2(direction, edge);
-      if (std::abs(denominator) < 1e-12) continue;
-      const Eigen::Vector2d to_start = segment.a - origin;
-      const double distance = cross2(to_start, edge) / denominator;
-      const double along = cross2(to_start, direction) / denominator;
-      if (distance > 1e-6 && along >= 0.0 && along <= 1.0 && distance < nearest) {
-        nearest = distance;
-        hit = &segment;
-        hit_u = segment.u_start + along * edge.norm();
-      }
-    }
+    const Hit ray = castRay(origin, direction);
+    const Segment* hit = ray.segment;
+    const double hit_u = ray.u;
     const double cos_offset = std::cos(offset_angle);
-    const double depth = nearest * cos_offset;  // Perpendicular distance: no fish-eye bend.
+    const double depth = ray.distance * cos_offset;  // Perpendicular distance: no fish-eye bend.
     for (int row = 0; row < camera.height; ++row) {
       const double dy = row - cy;
       double value = 200.0 - 0.2 * row;  // Ceiling.

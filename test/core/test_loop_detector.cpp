@@ -220,3 +220,89 @@ TEST(OdometryGate, AllowanceGrowsWithPathAndTurning) {
   EXPECT_NE(errors.find("drift_per_metre"), std::string::npos);
   EXPECT_NE(errors.find("max_view_distance_m"), std::string::npos);
 }
+
+TEST(LoopDetector, LocalizationModeSearchesTheMapAddsNothingAndSkipsTheGate) {
+  LoopDetectorOptions options = smallOptions();
+  options.odometry_gate.enabled = true;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  ASSERT_EQ(detector.database().size(), 40u);
+  // The same revisit the gate refuses in mapping (26 m of correction): a new run's odometry
+  // shares nothing with the map's, so localising does not gate.
+  detector.setMode(DetectorMode::kLocalization);
+  std::optional<AcceptedLoop> loop;
+  for (int i = 40; i < 43; ++i) {
+    const FrameResult result = feed(&detector, i, i - 30);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_FALSE(result.keyframe->error);
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      EXPECT_NE(report.verdict, CandidateVerdict::kOdometryRejected);
+    }
+    if (result.keyframe->loop) loop = result.keyframe->loop;
+  }
+  ASSERT_TRUE(loop);
+  EXPECT_EQ(loop->query_id, 42u);
+  EXPECT_EQ(loop->match_id, 12u);
+  EXPECT_EQ(detector.database().size(), 40u);
+  // The map's last keyframes are candidates too: they are not this run's recent past.
+  bool searched_latest = false;
+  for (int i = 43; i < 46; ++i) {
+    const FrameResult result = feed(&detector, i, 39);
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      searched_latest |= report.match_id == 39u;
+    }
+  }
+  EXPECT_TRUE(searched_latest);
+  EXPECT_EQ(detector.database().size(), 40u);
+
+  detector.setMode(DetectorMode::kMapping);
+  feed(&detector, 46, 46);
+  EXPECT_EQ(detector.database().size(), 41u);
+  EXPECT_EQ(detector.database().at(40).id, 46u);
+}
+
+TEST(LoopDetector, MetreConsistencyWaitsForTheDistanceNotTheKeyframeCount) {
+  LoopDetectorOptions options = smallOptions();
+  options.acceptance.consistency_unit = "metres";
+  options.acceptance.consistent_distance_m = 2.5;
+  options.acceptance.match_window_m = 0.5;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  // Keyframes 1 m apart: three consistent keyframes cover 2 m, not yet 2.5.
+  for (int i = 40; i < 43; ++i) {
+    const FrameResult result = feed(&detector, i, i - 30);
+    EXPECT_FALSE(result.keyframe->loop);
+    const CandidateReport& best = result.keyframe->candidates[0];
+    EXPECT_EQ(best.verdict, CandidateVerdict::kAwaitingConsistency);
+    EXPECT_NE(best.detail.find(" of 2.50 m"), std::string::npos) << best.detail;
+  }
+  const FrameResult fourth = feed(&detector, 43, 13);
+  ASSERT_TRUE(fourth.keyframe->loop);
+  EXPECT_EQ(fourth.keyframe->loop->match_id, 13u);
+  EXPECT_EQ(fourth.keyframe->loop->consistent_keyframes, 4);
+}
+
+TEST(LoopDetector, MetreConsistencyIsBrokenByAJumpAlongTheOldPath) {
+  LoopDetectorOptions options = smallOptions();
+  options.acceptance.consistency_unit = "metres";
+  options.acceptance.consistent_distance_m = 1.5;
+  options.acceptance.match_window_m = 0.5;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  // Matches hopping 5 m along the old path per 1 m of travel are not one stretch of the map.
+  for (int i = 40; i < 45; ++i) {
+    EXPECT_FALSE(feed(&detector, i, 5 * (i - 40)).keyframe->loop);
+  }
+}
+
+TEST(LoopDetector, AcceptanceOptionsAreValidated) {
+  LoopDetectorOptions options;
+  options.mode = "relocalise";
+  options.acceptance.consistency_unit = "meters";
+  options.acceptance.consistent_distance_m = -1.0;
+  options.acceptance.match_window_m = std::numeric_limits<double>::quiet_NaN();
+  const std::string problems = options.validate();
+  for (const char* key : {"mode", "consistency_unit", "consistent_distance_m", "match_window_m"}) {
+    EXPECT_NE(problems.find(key), std::string::npos) << key << "\n" << problems;
+  }
+}

@@ -99,3 +99,37 @@ TEST(LoopDetectorOnCorridor, HogAtItsThresholdGivesOnlyTrueLoops) {
   EXPECT_EQ(revisit.true_loops, revisit.loops) << "worst loop " << revisit.worst_loop_distance;
   EXPECT_EQ(run(0.9, hog(), 0.7).loops, 0);
 }
+
+namespace {
+
+// Keypoints of the stored keyframes that got a triangulated depth, over the first metres.
+int triangulatedKeypoints(LoopDetector* detector) {
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = 0.1;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  SequenceFrame frame;
+  while (sequence.next(&frame)) {
+    detector->process(frame.stamp, planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw),
+                      frame.image, CameraModel{}.intrinsics());
+  }
+  int with_depth = 0;
+  for (size_t i = 0; i < detector->database().size(); ++i) {
+    for (const cv::Point3f& point : detector->database().at(i).local_features.points3d) {
+      with_depth += std::isfinite(point.z) ? 1 : 0;
+    }
+  }
+  return with_depth;
+}
+
+}  // namespace
+
+TEST(LoopDetectorOnCorridor, DepthsAreTriangulatedOnlyOnceTheCameraMountIsKnown) {
+  LoopDetector known(LoopDetectorOptions{}, makeDescriptorExtractor(DescriptorOptions{}));
+  EXPECT_GT(triangulatedKeypoints(&known), 200);
+  // A mount still awaited from tf: no guessed depths.
+  LoopDetector awaiting(LoopDetectorOptions{}, makeDescriptorExtractor(DescriptorOptions{}));
+  awaiting.setCameraMount(std::nullopt);
+  EXPECT_FALSE(awaiting.cameraMount());
+  EXPECT_EQ(triangulatedKeypoints(&awaiting), 0);
+}

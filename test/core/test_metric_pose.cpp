@@ -268,3 +268,69 @@ TEST(MetricPoseOptions, AreValidated) {
     EXPECT_NE(problems.find(key), std::string::npos) << key;
   }
 }
+
+namespace {
+
+Eigen::Isometry3d isometry(const RelativePose& pose) {
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = pose.rotation;
+  transform.translation() = pose.translation;
+  return transform;
+}
+
+RelativePose relative(const Eigen::Isometry3d& transform) {
+  RelativePose pose;
+  pose.rotation = transform.linear();
+  pose.translation = transform.translation();
+  pose.metric = true;
+  return pose;
+}
+
+}  // namespace
+
+TEST(InBodyFrame, GivesTheBodiesRelativePoseAndCarriesTheCovariance) {
+  // A camera 0.3 m ahead, 0.1 m left and 1.2 m up on the body, pitched down 10 degrees.
+  CameraMount mount;
+  mount.x = 0.3;
+  mount.y = 0.1;
+  mount.z = 1.2;
+  mount.pitch = 10.0 / kRadiansToDegrees;
+  const Eigen::Isometry3d m = mount.toPose().toIsometry();
+  const Eigen::Isometry3d query_body = planarPose(1.0, 2.0, 0.3).toIsometry();
+  Eigen::Isometry3d match_body = planarPose(1.8, 1.5, -0.4).toIsometry();
+  match_body.translate(Eigen::Vector3d(0.0, 0.0, 0.05));
+  RelativePose in_camera = relative((query_body * m).inverse() * match_body * m);
+  Eigen::Matrix<double, 6, 6> spread = Eigen::Matrix<double, 6, 6>::Random();
+  in_camera.covariance = 1e-4 * spread * spread.transpose();
+
+  const RelativePose in_body = inBodyFrame(in_camera, mount.toPose());
+  const Eigen::Isometry3d truth = query_body.inverse() * match_body;
+  EXPECT_TRUE(in_body.metric);
+  EXPECT_LT((in_body.translation - truth.translation()).norm(), 1e-12);
+  EXPECT_LT((in_body.rotation - truth.linear()).norm(), 1e-12);
+
+  // The covariance follows a small step of the camera-frame pose (translation added, rotation
+  // applied on the left) to the step it makes in the body frame.
+  Eigen::Matrix<double, 6, 6> jacobian;
+  for (int axis = 0; axis < 6; ++axis) {
+    constexpr double kStep = 1e-6;
+    RelativePose moved = in_camera;
+    if (axis < 3) {
+      moved.translation[axis] += kStep;
+    } else {
+      moved.rotation = Eigen::AngleAxisd(kStep, Eigen::Vector3d::Unit(axis - 3)) * moved.rotation;
+    }
+    const RelativePose moved_body = inBodyFrame(moved, mount.toPose());
+    const Eigen::AngleAxisd turn(moved_body.rotation * in_body.rotation.transpose());
+    jacobian.col(axis).head<3>() = (moved_body.translation - in_body.translation) / kStep;
+    jacobian.col(axis).tail<3>() = turn.angle() * turn.axis() / kStep;
+  }
+  const Eigen::Matrix<double, 6, 6> expected =
+      jacobian * in_camera.covariance * jacobian.transpose();
+  EXPECT_LT((in_body.covariance - expected).norm(), 1e-6 * expected.norm());
+
+  // The mount's inverse takes it back.
+  const RelativePose back = inBodyFrame(in_body, Pose::fromIsometry(m.inverse()));
+  EXPECT_LT((isometry(back).matrix() - isometry(in_camera).matrix()).norm(), 1e-12);
+  EXPECT_LT((back.covariance - in_camera.covariance).norm(), 1e-12);
+}

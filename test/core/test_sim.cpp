@@ -32,6 +32,31 @@ TEST(CorridorWorld, RendersTexturedImagesThatDependOnPlace) {
   EXPECT_GT(cv::norm(a, b, cv::NORM_L1) / a.total(), 10.0);
 }
 
+TEST(CorridorWorld, DepthImageGivesDistancesAlongTheOpticalAxis) {
+  const CorridorWorld world;
+  const CameraModel camera;
+  // On a straight stretch, 0.5 m left of the centre line, facing the left wall: 1.5 - 0.5 m away.
+  Pose2D pose = world.poseAt(8.0, 0.5);
+  pose.yaw += M_PI / 2.0;
+  const cv::Mat depth = world.renderDepth(pose, camera);
+  ASSERT_EQ(depth.type(), CV_32FC1);
+  ASSERT_EQ(depth.size(), cv::Size(camera.width, camera.height));
+  const int cx = camera.width / 2;
+  const int cy = camera.height / 2;
+  EXPECT_NEAR(depth.at<float>(cy, cx), 1.0, 1e-3);
+  // A flat wall faces the camera: the same optical depth across the row (no fish-eye bend).
+  EXPECT_NEAR(depth.at<float>(cy, cx - 60), 1.0, 1e-3);
+  EXPECT_NEAR(depth.at<float>(cy, cx + 60), 1.0, 1e-3);
+  // Looking along the corridor: the floor at row r lies at height * f / (r - cy); the ceiling
+  // has no depth.
+  const Pose2D along = world.poseAt(8.0, 0.0);
+  const cv::Mat corridor = world.renderDepth(along, camera);
+  const int floor_row = camera.height - 1;
+  const double dy = floor_row - 0.5 * (camera.height - 1);
+  EXPECT_NEAR(corridor.at<float>(floor_row, cx), camera.height_m * camera.focal_px / dy, 1e-3);
+  EXPECT_EQ(corridor.at<float>(0, cx), 0.0f);
+}
+
 TEST(SequenceGenerator, OdometryDriftsAwayFromTruth) {
   const CorridorWorld world;
   SequenceOptions options;

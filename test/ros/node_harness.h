@@ -19,6 +19,7 @@
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/pose.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace landmark_loop_closure {
@@ -36,6 +37,9 @@ class NodeHarness {
     odom_publisher_ = node_.advertise<nav_msgs::Odometry>("/odom", 100);
     tf_publisher_ = node_.advertise<tf2_msgs::TFMessage>("/tf", 100);
     camera_info_publisher_ = node_.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 100);
+    depth_publisher_ = node_.advertise<sensor_msgs::Image>("/camera/depth/image_raw", 100);
+    static_tf_publisher_ = node_.advertise<tf2_msgs::TFMessage>("/tf_static", 1, true);
+    publishCameraMount();
     keyframe_subscriber_ = node_.subscribe("/keyframes", 1000, &NodeHarness::onKeyframe, this);
     loop_subscriber_ = node_.subscribe("/loop_closures", 1000, &NodeHarness::onLoop, this);
     diagnostics_subscriber_ =
@@ -105,6 +109,17 @@ class NodeHarness {
     camera_info_publisher_.publish(info);
   }
 
+  /// Whether the node listens to depth images (parameter use_depth).
+  bool depthWanted() const { return depth_publisher_.getNumSubscribers() > 0; }
+
+  /// A depth image (32FC1, metres) registered to the image of the same stamp.
+  void publishDepth(double stamp, const cv::Mat& depth) {
+    std_msgs::Header header;
+    header.stamp = ros::Time(stamp);
+    header.frame_id = "camera";
+    depth_publisher_.publish(cv_bridge::CvImage(header, "32FC1", depth).toImageMsg());
+  }
+
   /// Spins until no keyframe arrived for `quiet` seconds (or `timeout` passed).
   void waitUntilQuiet(double quiet = 2.0, double timeout = 60.0) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
@@ -125,6 +140,25 @@ class NodeHarness {
   }
 
  private:
+  // The generated camera on the robot, latched on /tf_static as a robot description would: the
+  // default camera_mount rotation, 1.2 m above base_link (sim::CameraModel::height_m).
+  void publishCameraMount() {
+    const Pose mount = CameraMount{0.0, 0.0, sim::CameraModel{}.height_m}.toPose();
+    geometry_msgs::TransformStamped transform;
+    transform.header.frame_id = "base_link";
+    transform.child_frame_id = "camera";
+    transform.transform.translation.x = mount.position.x();
+    transform.transform.translation.y = mount.position.y();
+    transform.transform.translation.z = mount.position.z();
+    transform.transform.rotation.w = mount.orientation.w();
+    transform.transform.rotation.x = mount.orientation.x();
+    transform.transform.rotation.y = mount.orientation.y();
+    transform.transform.rotation.z = mount.orientation.z();
+    tf2_msgs::TFMessage tf;
+    tf.transforms.push_back(transform);
+    static_tf_publisher_.publish(tf);
+  }
+
   void onKeyframe(const KeyframeConstPtr& keyframe) {
     keyframes_[keyframe->id] = keyframe->header.stamp;
     last_output_ = ros::WallTime::now();
@@ -142,6 +176,8 @@ class NodeHarness {
   ros::Publisher odom_publisher_;
   ros::Publisher tf_publisher_;
   ros::Publisher camera_info_publisher_;
+  ros::Publisher depth_publisher_;
+  ros::Publisher static_tf_publisher_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber diagnostics_subscriber_;

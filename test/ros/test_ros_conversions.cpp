@@ -96,7 +96,7 @@ TEST(RosConversions, LoopMessageCarriesEveryField) {
   loop.match_pose = planarPose(1.1, 2.1, 0.2);
   const ros::Time query_stamp(1700000000, 123456789);
   const ros::Time match_stamp(1699999990, 987654321);
-  const LoopClosure message = toLoopMsg(loop, query_stamp, match_stamp, "odom");
+  const LoopClosure message = toLoopMsg(loop, query_stamp, match_stamp, "odom", "camera");
   EXPECT_EQ(message.header.frame_id, "odom");
   EXPECT_EQ(message.header.stamp, query_stamp);
   EXPECT_EQ(message.query_stamp, query_stamp);
@@ -122,7 +122,7 @@ TEST(RosConversions, VerifiedLoopCarriesItsRelativePoseAndCovariance) {
   check.pose.covariance(0, 5) = check.pose.covariance(5, 0) = 2e-5;
   loop.verification = check;
   loop.relative_pose = check.pose;
-  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom", "camera");
   EXPECT_TRUE(message.verified);
   EXPECT_TRUE(message.has_relative_pose);
   EXPECT_FALSE(message.relative_pose_metric);
@@ -134,6 +134,37 @@ TEST(RosConversions, VerifiedLoopCarriesItsRelativePoseAndCovariance) {
   EXPECT_DOUBLE_EQ(message.relative_pose.covariance[3 * 6 + 3], 1e-4);
   EXPECT_DOUBLE_EQ(message.relative_pose.covariance[0 * 6 + 5], 2e-5);
   EXPECT_DOUBLE_EQ(message.relative_pose.covariance[5 * 6 + 0], 2e-5);
+  EXPECT_EQ(message.relative_pose_frame, "camera");
+}
+
+TEST(RosConversions, DepthImagesOf16And32BitsAreCopied) {
+  std::string error;
+  sensor_msgs::Image millimetres = makeImage("16UC1", 4, 3, 2);
+  reinterpret_cast<uint16_t*>(millimetres.data.data())[5] = 1234;
+  const cv::Mat depth16 = toDepth(millimetres, &error);
+  ASSERT_EQ(depth16.type(), CV_16UC1) << error;
+  EXPECT_EQ(depth16.at<uint16_t>(1, 1), 1234);
+  EXPECT_EQ(toDepth(makeImage("mono16", 4, 3, 2), &error).type(), CV_16UC1);
+  sensor_msgs::Image metres = makeImage("32FC1", 4, 3, 4);
+  metres.step = 20;  // Padded rows.
+  metres.data.assign(60, 0);
+  reinterpret_cast<float*>(metres.data.data() + 20)[2] = 2.5f;
+  const cv::Mat depth32 = toDepth(metres, &error);
+  ASSERT_EQ(depth32.type(), CV_32FC1) << error;
+  EXPECT_FLOAT_EQ(depth32.at<float>(1, 2), 2.5f);
+  metres.data.clear();  // The copy does not point into the message.
+  EXPECT_FLOAT_EQ(depth32.at<float>(1, 2), 2.5f);
+}
+
+TEST(RosConversions, UnusableDepthImagesSayWhy) {
+  std::string error;
+  EXPECT_TRUE(toDepth(makeImage("mono8", 4, 3, 1), &error).empty());
+  EXPECT_NE(error.find("'mono8'"), std::string::npos) << error;
+  sensor_msgs::Image truncated = makeImage("32FC1", 4, 3, 4);
+  truncated.data.resize(20);
+  EXPECT_TRUE(toDepth(truncated, &error).empty());
+  EXPECT_NE(error.find("20-byte buffer"), std::string::npos) << error;
+  EXPECT_TRUE(toDepth(makeImage("16UC1", 0, 0, 2), &error).empty());
 }
 
 TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {
@@ -143,7 +174,7 @@ TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {
   check.inliers = 41;
   check.pose.translation = Eigen::Vector3d(1.0, 0.0, 0.0);
   loop.verification = check;  // Scale-free, publish_scale_free_pose off: no relative_pose.
-  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom", "camera");
   EXPECT_TRUE(message.verified);
   EXPECT_EQ(message.inliers, 41u);
   EXPECT_FALSE(message.has_relative_pose);
@@ -166,7 +197,7 @@ TEST(RosConversions, AMetricPoseReportsItsOwnInliersAndError) {
   metric.pose.translation = Eigen::Vector3d(0.2, 0.0, 0.45);
   loop.metric_pose = metric;
   loop.relative_pose = metric.pose;
-  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom");
+  const LoopClosure message = toLoopMsg(loop, ros::Time(2.0), ros::Time(1.0), "odom", "camera");
   EXPECT_TRUE(message.verified);
   EXPECT_TRUE(message.has_relative_pose);
   EXPECT_TRUE(message.relative_pose_metric);

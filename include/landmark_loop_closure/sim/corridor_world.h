@@ -69,6 +69,9 @@ class CorridorWorld {
   /// Renders an 8-bit grey image from a camera at `pose` looking along its x axis.
   cv::Mat render(const Pose2D& pose, const CameraModel& camera, const Lighting& lighting,
                  uint32_t noise_seed) const;
+  /// The depth image (32-bit float, metres along the optical axis) registered to render()'s
+  /// image; 0 where nothing is hit (the ceiling).
+  cv::Mat renderDepth(const Pose2D& pose, const CameraModel& camera) const;
 
  private:
   struct Segment {
@@ -77,6 +80,12 @@ class CorridorWorld {
     double u_start = 0.0;  ///< Texture coordinate (metres along the wall) at a.
   };
 
+  struct Hit {
+    const Segment* segment = nullptr;  ///< Null: the ray hits no wall.
+    double distance = 0.0;             ///< Along the ray, metres.
+    double u = 0.0;                    ///< Texture coordinate on the wall.
+  };
+  Hit castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction) const;
   Eigen::Vector2d centreAt(double s, Eigen::Vector2d* tangent) const;
   void buildWall(int wall, double offset);
 
