@@ -31,3 +31,8 @@ foreach(name test_ground_truth test_evaluation test_baselines_regression)
 endforeach()
 
 include(cmake/ros_tests.cmake OPTIONAL)
+
+# The verification benchmark on a sequence in KITTI's layout (the corridor exported that way).
+add_test(NAME tool_bench_verification_kitti_layout
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/bench_verification_kitti.sh
+    $<TARGET_FILE:lcd_bench_verification>)

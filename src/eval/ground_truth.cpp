@@ -156,6 +156,32 @@ std::vector<Pose> readKittiPoses(const std::string& path) {
   return poses;
 }
 
+CameraIntrinsics readKittiIntrinsics(const std::string& path, const std::string& camera,
+                                     const cv::Size& image_size) {
+  std::ifstream file(path);
+  if (!file) throw GroundTruthError("cannot open calibration file " + path);
+  const std::string label = camera + ":";
+  std::string line;
+  while (std::getline(file, line)) {
+    std::istringstream values(line);
+    std::string first;
+    if (!(values >> first) || first != label) continue;
+    double p[12];
+    for (double& v : p) {
+      if (!(values >> v)) throw GroundTruthError(path + ": " + label + " needs 12 numbers");
+    }
+    CameraIntrinsics intrinsics;
+    intrinsics.fx = p[0];
+    intrinsics.cx = p[2];
+    intrinsics.fy = p[5];
+    intrinsics.cy = p[6];
+    intrinsics.image_size = image_size;
+    if (!intrinsics.valid()) throw GroundTruthError(path + ": " + label + " is not a camera");
+    return intrinsics;
+  }
+  throw GroundTruthError(path + " has no line " + label);
+}
+
 std::vector<double> readNumbers(const std::string& path) {
   std::ifstream file(path);
   if (!file) throw GroundTruthError("cannot open " + path);

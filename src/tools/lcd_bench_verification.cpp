@@ -1,23 +1,39 @@
-// Geometric-check benchmark on the generated corridor (two laps, drifting odometry, camera_info
-// known): the whole detector with the shipped settings (config/default.yaml, then --config),
-// run once per variant - check and gate on, check off, gate off, both off - on one core.
+// Geometric-check benchmark: the whole detector with the shipped settings (config/default.yaml,
+// then --config), run once per variant - check and gate on, check off, gate off, both off - on
+// one core, on a sequence with true poses: the generated corridor (two laps, drifting odometry,
+// camera_info known) or a KITTI odometry sequence (grey left images, poses, times, calib).
 // Reports for each: loops published, true and false against the truth, recall of revisited
 // keyframes; for the shipped variant also the time of keypoints + depths per keyframe and of the
 // check per keyframe that ran it (median, p99), and the error of every metric relative pose.
 //   lcd_bench_verification [--config config/demo.yaml] [--laps 2] [--min-score S]
+//   lcd_bench_verification --kitti-images dataset/sequences/00/image_0 --kitti-poses
+//       dataset/poses/00.txt --kitti-times dataset/sequences/00/times.txt --kitti-calib
+//       dataset/sequences/00/calib.txt [--true-distance 5] [--variants shipped]
+//   lcd_bench_verification --export-kitti DIR [--laps L]   (the corridor in KITTI's layout)
 // --min-score lowers the acceptance threshold to where false loops appear, to show what the
-// check and the gate stop.
+// check and the gate stop. KITTI's true poses stand in for the odometry (no drift, so the gate
+// has nothing to stop and triangulated depths are as good as the images allow); the camera sits
+// on the body as camera_mount says.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/eval/ground_truth.h"
 #include "landmark_loop_closure/loop_detector.h"
 #include "landmark_loop_closure/node_options.h"
 #include "landmark_loop_closure/sim/sequence.h"
@@ -27,7 +43,6 @@ namespace {
 
 using namespace landmark_loop_closure;
 
-constexpr double kTrueLoopDistance = 2.5;  // Metres, as the demo report counts them.
 constexpr double kRevisitMinSeconds = 20.0;
 
 double percentile(std::vector<double> values, double fraction) {
@@ -38,9 +53,99 @@ double percentile(std::vector<double> values, double fraction) {
   return values[rank];
 }
 
-Eigen::Isometry3d cameraPose(const sim::Pose2D& body, const CameraMount& mount) {
-  return planarPose(body.x, body.y, body.yaw).toIsometry() * mount.toPose().toIsometry();
-}
+// One frame of a sequence: its odometry and, for scoring only, its camera's true pose.
+struct BenchFrame {
+  double stamp = 0.0;
+  Pose odometry;
+  Eigen::Isometry3d true_camera = Eigen::Isometry3d::Identity();
+  size_t index = 0;
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual bool next(BenchFrame* frame) = 0;
+  virtual cv::Mat image(const BenchFrame& frame) const = 0;
+  virtual CameraIntrinsics intrinsics() const = 0;
+};
+
+class CorridorSource : public FrameSource {
+ public:
+  CorridorSource(double laps, const CameraMount& mount)
+      : sequence_(world_, camera_, optionsFor(laps)), mount_(mount.toPose().toIsometry()) {}
+
+  bool next(BenchFrame* frame) override {
+    if (!sequence_.next(&current_, false)) return false;
+    frame->stamp = current_.stamp;
+    frame->odometry = planarPose(current_.odom.x, current_.odom.y, current_.odom.yaw);
+    frame->true_camera =
+        planarPose(current_.truth.x, current_.truth.y, current_.truth.yaw).toIsometry() * mount_;
+    frame->index = frames_.size();
+    frames_.push_back(current_);
+    return true;
+  }
+  cv::Mat image(const BenchFrame& frame) const override {
+    return sequence_.render(frames_.at(frame.index));
+  }
+  CameraIntrinsics intrinsics() const override { return camera_.intrinsics(); }
+
+ private:
+  static sim::SequenceOptions optionsFor(double laps) {
+    sim::SequenceOptions options;
+    options.laps = laps;
+    return options;
+  }
+
+  const sim::CorridorWorld world_;
+  const sim::CameraModel camera_;
+  sim::SequenceGenerator sequence_;
+  Eigen::Isometry3d mount_;
+  sim::SequenceFrame current_;
+  std::vector<sim::SequenceFrame> frames_;
+};
+
+// KITTI odometry: poses are the left camera's, in the first camera's frame; the body carrying the
+// camera at `mount` stands in for the robot whose odometry the detector gets.
+class KittiSource : public FrameSource {
+ public:
+  KittiSource(const std::string& images, const std::string& poses, const std::string& times,
+              const std::string& calib, const CameraMount& mount)
+      : paths_(eval::listImages(images)),
+        poses_(eval::readKittiPoses(poses)),
+        stamps_(eval::readNumbers(times)),
+        mount_(mount.toPose().toIsometry()) {
+    if (paths_.empty()) throw std::invalid_argument("no images in " + images);
+    if (poses_.size() != paths_.size() || stamps_.size() != paths_.size()) {
+      throw std::invalid_argument(std::to_string(paths_.size()) + " images, " +
+                                  std::to_string(poses_.size()) + " poses and " +
+                                  std::to_string(stamps_.size()) + " times do not match");
+    }
+    const cv::Mat first = cv::imread(paths_.front(), cv::IMREAD_GRAYSCALE);
+    if (first.empty()) throw std::invalid_argument("cannot read " + paths_.front());
+    intrinsics_ = eval::readKittiIntrinsics(calib, "P0", first.size());
+  }
+
+  bool next(BenchFrame* frame) override {
+    if (next_ >= paths_.size()) return false;
+    frame->index = next_++;
+    frame->stamp = stamps_[frame->index];
+    frame->true_camera = poses_[frame->index].toIsometry();
+    frame->odometry = Pose::fromIsometry(frame->true_camera * mount_.inverse());
+    return true;
+  }
+  cv::Mat image(const BenchFrame& frame) const override {
+    return cv::imread(paths_.at(frame.index), cv::IMREAD_GRAYSCALE);
+  }
+  CameraIntrinsics intrinsics() const override { return intrinsics_; }
+
+ private:
+  std::vector<std::string> paths_;
+  std::vector<Pose> poses_;
+  std::vector<double> stamps_;
+  Eigen::Isometry3d mount_;
+  CameraIntrinsics intrinsics_;
+  size_t next_ = 0;
+};
 
 struct Outcome {
   int keyframes = 0;
@@ -54,29 +159,27 @@ struct Outcome {
   std::vector<double> rotation_error_deg;
 };
 
-Outcome run(const LoopDetectorOptions& options, double laps) {
-  const sim::CorridorWorld world;
-  const sim::CameraModel camera;
-  sim::SequenceOptions sequence_options;
-  sequence_options.laps = laps;
-  sim::SequenceGenerator sequence(world, camera, sequence_options);
+Outcome run(const LoopDetectorOptions& options, FrameSource* source, double true_distance) {
   LoopDetector detector(options, makeDescriptorExtractor(options.descriptor));
-  std::map<uint64_t, sim::SequenceFrame> keyframe_truth;
+  const CameraIntrinsics intrinsics = source->intrinsics();
+  const cv::Size size = intrinsics.image_size;
+  std::map<uint64_t, BenchFrame> keyframe_truth;
   Outcome outcome;
-  sim::SequenceFrame frame;
-  while (sequence.next(&frame, false)) {
-    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+  BenchFrame frame;
+  const auto distance = [](const BenchFrame& a, const BenchFrame& b) {
+    return (a.true_camera.translation() - b.true_camera.translation()).norm();
+  };
+  while (source->next(&frame)) {
     const FrameAdmission admission =
-        detector.admit(frame.stamp, odom, camera.width, camera.height, CV_8UC1);
+        detector.admit(frame.stamp, frame.odometry, size.width, size.height, CV_8UC1);
     if (!admission.isKeyframe()) continue;
-    const KeyframeResult result = detector.addKeyframe(admission.keyframe_id, frame.stamp, odom,
-                                                       sequence.render(frame), camera.intrinsics());
+    const KeyframeResult result = detector.addKeyframe(
+        admission.keyframe_id, frame.stamp, frame.odometry, source->image(frame), intrinsics);
     if (result.error) continue;
     ++outcome.keyframes;
     for (const auto& [id, earlier] : keyframe_truth) {
       if (frame.stamp - earlier.stamp >= kRevisitMinSeconds &&
-          std::hypot(earlier.truth.x - frame.truth.x, earlier.truth.y - frame.truth.y) <
-              kTrueLoopDistance) {
+          distance(earlier, frame) < true_distance) {
         ++outcome.revisited;
         break;
       }
@@ -92,13 +195,11 @@ Outcome run(const LoopDetectorOptions& options, double laps) {
       outcome.verify_ms.push_back(result.times.verify_ms);
     if (!result.loop) continue;
     ++outcome.loops;
-    const sim::SequenceFrame& match = keyframe_truth.at(result.loop->match_id);
-    outcome.true_loops += std::hypot(match.truth.x - frame.truth.x, match.truth.y - frame.truth.y) <
-                          kTrueLoopDistance;
+    const BenchFrame& match = keyframe_truth.at(result.loop->match_id);
+    outcome.true_loops += distance(match, frame) < true_distance ? 1 : 0;
     if (result.loop->relative_pose && result.loop->relative_pose->metric) {
       ++outcome.metric_poses;
-      const Eigen::Isometry3d truth = cameraPose(frame.truth, options.camera_mount).inverse() *
-                                      cameraPose(match.truth, options.camera_mount);
+      const Eigen::Isometry3d truth = frame.true_camera.inverse() * match.true_camera;
       const RelativePose& estimate = *result.loop->relative_pose;
       outcome.translation_error_m.push_back((estimate.translation - truth.translation()).norm());
       outcome.rotation_error_deg.push_back(
@@ -108,11 +209,42 @@ Outcome run(const LoopDetectorOptions& options, double laps) {
   return outcome;
 }
 
+// Writes a sequence as KITTI odometry lays it out: image_0/NNNNNN.png, poses.txt (camera poses
+// relative to the first camera), times.txt, calib.txt (P0).
+void exportKitti(FrameSource* source, const std::string& folder) {
+  namespace fs = std::filesystem;
+  fs::create_directories(fs::path(folder) / "image_0");
+  std::ofstream poses(fs::path(folder) / "poses.txt");
+  std::ofstream times(fs::path(folder) / "times.txt");
+  std::ofstream calib(fs::path(folder) / "calib.txt");
+  const CameraIntrinsics k = source->intrinsics();
+  calib.precision(12);
+  calib << "P0: " << k.fx << " 0 " << k.cx << " 0 0 " << k.fy << " " << k.cy << " 0 0 0 1 0\n";
+  poses.precision(12);
+  times.precision(12);
+  BenchFrame frame;
+  std::optional<Eigen::Isometry3d> first;
+  while (source->next(&frame)) {
+    if (!first) first = frame.true_camera;
+    const Eigen::Matrix<double, 3, 4> pose =
+        (first->inverse() * frame.true_camera).matrix().topRows<3>();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) poses << pose(r, c) << (r == 2 && c == 3 ? "\n" : " ");
+    }
+    times << frame.stamp << "\n";
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06zu.png", frame.index);
+    cv::imwrite((fs::path(folder) / "image_0" / name).string(), source->image(frame));
+  }
+}
+
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
   std::map<std::string, std::string> arguments = {
-      {"--config", ""}, {"--laps", "2"}, {"--min-score", ""}};
+      {"--config", ""},      {"--laps", "2"},       {"--min-score", ""},   {"--kitti-images", ""},
+      {"--kitti-poses", ""}, {"--kitti-times", ""}, {"--kitti-calib", ""}, {"--true-distance", ""},
+      {"--variants", "all"}, {"--export-kitti", ""}};
   for (int i = 1; i + 1 < argc; i += 2) arguments[argv[i]] = argv[i + 1];
   cv::setNumThreads(1);
 
@@ -130,6 +262,17 @@ int main(int argc, char** argv) {
     }
   }
   const double laps = std::stod(arguments["--laps"]);
+  const bool kitti = !arguments["--kitti-images"].empty();
+  const double true_distance = !arguments["--true-distance"].empty()
+                                   ? std::stod(arguments["--true-distance"])
+                                   : (kitti ? 5.0 : 2.5);  // The demo report's 2.5 m.
+  const CameraMount& mount = node_options.detector.camera_mount;
+  const auto makeSource = [&]() -> std::unique_ptr<FrameSource> {
+    if (!kitti) return std::make_unique<CorridorSource>(laps, mount);
+    return std::make_unique<KittiSource>(arguments["--kitti-images"], arguments["--kitti-poses"],
+                                         arguments["--kitti-times"], arguments["--kitti-calib"],
+                                         mount);
+  };
   if (!arguments["--min-score"].empty()) {
     node_options.detector.acceptance.min_score = std::stod(arguments["--min-score"]);
   }
@@ -139,25 +282,39 @@ int main(int argc, char** argv) {
     bool check;
     bool gate;
   };
-  std::printf("Generated corridor, %.1f laps, min_score %.3f, one core\n\n", laps,
-              node_options.detector.acceptance.min_score);
+  if (!arguments["--export-kitti"].empty()) {
+    CorridorSource corridor(laps, mount);
+    exportKitti(&corridor, arguments["--export-kitti"]);
+    return 0;
+  }
+  if (kitti) {
+    std::printf("KITTI %s, true loops within %.1f m, min_score %.3f, one core\n\n",
+                arguments["--kitti-images"].c_str(), true_distance,
+                node_options.detector.acceptance.min_score);
+  } else {
+    std::printf("Generated corridor, %.1f laps, min_score %.3f, one core\n\n", laps,
+                node_options.detector.acceptance.min_score);
+  }
   std::printf("| variant | keyframes | revisited | loops | true | false | precision | recall |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   Outcome shipped;
   for (const Variant& variant :
        {Variant{"check + gate (shipped)", true, true}, Variant{"gate only", false, true},
         Variant{"check only", true, false}, Variant{"neither", false, false}}) {
+    const bool is_shipped = variant.check && variant.gate;
+    if (arguments["--variants"] == "shipped" && !is_shipped) continue;
     LoopDetectorOptions options = node_options.detector;
     options.verification.enabled = variant.check;
     options.odometry_gate.enabled = variant.gate;
-    const Outcome outcome = run(options, laps);
+    const std::unique_ptr<FrameSource> source = makeSource();
+    const Outcome outcome = run(options, source.get(), true_distance);
     std::printf(
         "| %s | %d | %d | %d | %d | %d | %.3f | %.3f |\n", variant.name, outcome.keyframes,
         outcome.revisited, outcome.loops, outcome.true_loops, outcome.loops - outcome.true_loops,
         outcome.loops > 0 ? static_cast<double>(outcome.true_loops) / outcome.loops : NAN,
         outcome.revisited > 0 ? static_cast<double>(outcome.true_loops) / outcome.revisited : NAN);
     std::fflush(stdout);
-    if (variant.check && variant.gate) shipped = outcome;
+    if (is_shipped) shipped = outcome;
   }
   std::printf(
       "\nShipped variant, per keyframe: keypoints + depths median %.2f ms, p99 %.2f ms "
@@ -174,4 +331,7 @@ int main(int argc, char** argv) {
       percentile(shipped.rotation_error_deg, 0.9), percentile(shipped.translation_error_m, 1.0),
       percentile(shipped.rotation_error_deg, 1.0));
   return 0;
+} catch (const std::exception& error) {
+  std::fprintf(stderr, "lcd_bench_verification: %s\n", error.what());
+  return 2;
 }

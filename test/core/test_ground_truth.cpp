@@ -182,6 +182,34 @@ TEST(GroundTruth, FromPosesNeedsDistanceHeadingAndTimeGap) {
 
 // Every ground-truth file shipped in ../shared/data, checked against counts computed with an
 // independent parser: shape, number of positive pairs, images that have a loop, triangle.
+TEST(KittiCalibration, GivesTheNamedCamerasIntrinsics) {
+  const fs::path path = fs::temp_directory_path() / "lcd_test_kitti_calib.txt";
+  {
+    std::ofstream file(path);
+    // KITTI odometry sequence 00's calib.txt, first two lines.
+    file << "P0: 7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 0.000000000000e+00 "
+            "0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 0.000000000000e+00 "
+            "0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 0.000000000000e+00\n"
+         << "P1: 7.188560000000e+02 0 6.071928000000e+02 -3.861448000000e+02 0 "
+            "7.188560000000e+02 1.852157000000e+02 0 0 0 1 0\n";
+  }
+  const CameraIntrinsics k = readKittiIntrinsics(path.string(), "P0", cv::Size(1241, 376));
+  EXPECT_DOUBLE_EQ(k.fx, 718.856);
+  EXPECT_DOUBLE_EQ(k.fy, 718.856);
+  EXPECT_DOUBLE_EQ(k.cx, 607.1928);
+  EXPECT_DOUBLE_EQ(k.cy, 185.2157);
+  EXPECT_EQ(k.image_size, cv::Size(1241, 376));
+  EXPECT_THROW(readKittiIntrinsics(path.string(), "P2", cv::Size(1241, 376)), GroundTruthError);
+  EXPECT_THROW(readKittiIntrinsics("/nonexistent/calib.txt", "P0", cv::Size(1, 1)),
+               GroundTruthError);
+  {
+    std::ofstream file(path);
+    file << "P0: 718.856 0 607.19\n";
+  }
+  EXPECT_THROW(readKittiIntrinsics(path.string(), "P0", cv::Size(1241, 376)), GroundTruthError);
+  fs::remove(path);
+}
+
 TEST(SharedGroundTruthFiles, ReadWithTheExpectedShapeAndLoops) {
   const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / ".." / "shared" / "data" / "gt_matrices";
   if (!fs::exists(folder)) GTEST_SKIP() << folder << " is absent";

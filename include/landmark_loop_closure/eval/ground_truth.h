@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "landmark_loop_closure/geometric_verification.h"
 #include "landmark_loop_closure/pose.h"
 
 namespace landmark_loop_closure {
@@ -67,6 +68,11 @@ GroundTruth poseGroundTruth(const std::vector<Pose>& poses, const std::vector<do
 
 /// KITTI odometry poses: one row-major 3x4 [R|t] per line. Throws GroundTruthError.
 std::vector<Pose> readKittiPoses(const std::string& path);
+/// Pinhole intrinsics of one camera from a KITTI odometry calib.txt: the line "`camera`: " holds
+/// its row-major 3x4 projection matrix (P0: left grey). `image_size` is the images' size (the file
+/// does not say). Throws GroundTruthError.
+CameraIntrinsics readKittiIntrinsics(const std::string& path, const std::string& camera,
+                                     const cv::Size& image_size);
 /// One number per line (KITTI times.txt). Throws GroundTruthError.
 std::vector<double> readNumbers(const std::string& path);
 
