@@ -58,6 +58,7 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("camera_mount/from_tf", &options->camera_mount_from_tf);
 
   LoopDetectorOptions& detector = options->detector;
+  reader->read("mode", &detector.mode);
   reader->read("input/min_image_side", &detector.input.min_image_side);
   reader->read("input/max_image_pixels", &detector.input.max_image_pixels);
   reader->read("input/quaternion_norm_tolerance", &detector.input.quaternion_norm_tolerance);

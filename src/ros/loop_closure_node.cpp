@@ -79,9 +79,14 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
   subscribe();
-  ROS_INFO("Loop closure: descriptor %s, pose from %s, listening on %s%s%s",
-           detector_.extractor().name().c_str(), options_.pose_source.c_str(), image_topic_.c_str(),
-           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+  ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
+           toString(detector_.mode()), detector_.extractor().name().c_str(),
+           options_.pose_source.c_str(), image_topic_.c_str(), odom_topic_.empty() ? "" : " and ",
+           odom_topic_.c_str());
+  if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
+    ROS_WARN("mode is localization but the keyframe database is empty: nothing will be found "
+             "and nothing is added");
+  }
 }
 
 LoopClosureNode::~LoopClosureNode() {
