@@ -4,6 +4,7 @@ set(CORE_TESTS
   test_keyframe_selector
   test_hog_descriptor
   test_keyframe_database
+  test_database_file
   test_temporal_consistency
   test_loop_detector
   test_loop_detector_sim

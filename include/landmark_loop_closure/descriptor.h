@@ -73,6 +73,11 @@ std::string defaultModelPath();
 /// Every value DescriptorOptions::type accepts.
 const std::vector<std::string>& descriptorTypes();
 
+/// Everything that decides what descriptors look like: every DescriptorOptions value and, for the
+/// ConvNet types, a hash of the model file's bytes. Descriptors with different identities cannot
+/// be compared, so a saved database carries it and a load checks it.
+std::string descriptorIdentity(const DescriptorOptions& options);
+
 /// Builds the extractor named by options.type; throws std::invalid_argument for an unknown type.
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
     const DescriptorOptions& options);

@@ -14,7 +14,8 @@ namespace landmark_loop_closure {
 
 struct KeyframeRecord {
   uint64_t id = 0;
-  double stamp = 0.0;  ///< Seconds.
+  uint32_t session = 0;  ///< The run that stored it; a loaded database holds earlier ones.
+  double stamp = 0.0;    ///< Seconds.
   Pose pose;           ///< In the odometry frame.
   PathLength path;     ///< Odometry path travelled up to this keyframe.
   ImageDescriptor descriptor;
@@ -61,9 +62,12 @@ class KeyframeDatabase {
   /// than the last id or its global descriptor has the wrong length.
   void add(KeyframeRecord keyframe);
 
-  QueryResult query(const std::vector<float>& global, double stamp,
-                    const DatabaseOptions& options) const;
+  /// `session`: the querying run; only its own newest keyframes count as recent (the last ones
+  /// of a loaded earlier run are not).
+  QueryResult query(const std::vector<float>& global, double stamp, const DatabaseOptions& options,
+                    uint32_t session = 0) const;
 
+  int globalDimension() const { return global_dimension_; }
   size_t size() const { return keyframes_.size(); }
   bool empty() const { return keyframes_.empty(); }
   const KeyframeRecord& at(size_t index) const { return keyframes_.at(index); }

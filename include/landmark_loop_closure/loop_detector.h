@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -101,6 +102,7 @@ struct AcceptedLoop {
   double query_stamp = 0.0;
   Pose query_pose;
   uint64_t match_id = 0;
+  uint32_t match_session = 0;  ///< The run that stored the match (earlier ones come from a file).
   double match_stamp = 0.0;
   Pose match_pose;
   double global_score = 0.0;
@@ -172,6 +174,20 @@ class LoopDetector {
   void setCameraMount(const std::optional<Pose>& mount);
   const std::optional<Pose>& cameraMount() const { return camera_mount_; }
 
+  /// Worker thread: writes the database to `path` (database_file.h, atomically). Returns "" or why.
+  std::string saveDatabase(const std::string& path) const;
+  /// Worker thread: replaces the database with the one in `path`, as earlier sessions: new
+  /// keyframes get the next session number and ids after every loaded one, chains and the path
+  /// start again, and the odometry gate leaves loops into earlier sessions alone (their odometry
+  /// frame is another). On refusal returns why and changes nothing; "" on success.
+  /// Call it before frames are admitted: ids already handed out below the loaded ones are refused.
+  std::string loadDatabase(const std::string& path);
+  /// Worker thread: forgets every keyframe, chain and session.
+  void reset();
+  uint32_t session() const { return session_; }
+  /// What a saved database must have been made with (extractor name and descriptorIdentity()).
+  const std::string& descriptorIdentity() const { return descriptor_identity_; }
+
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);
   DetectorMode mode() const { return mode_; }
@@ -201,12 +217,14 @@ class LoopDetector {
   // Admission state (receiving thread).
   KeyframeSelector selector_;
   std::optional<cv::Size> image_size_;
-  uint64_t next_keyframe_id_ = 0;
+  std::atomic<uint64_t> next_keyframe_id_{0};
 
   // Search state (worker thread).
   KeyframeDatabase database_;
   TemporalConsistency consistency_;
   DetectorMode mode_ = DetectorMode::kMapping;
+  uint32_t session_ = 0;
+  std::string descriptor_identity_;
   std::optional<Pose> camera_mount_;
   struct PathEnd {
     Pose pose;

@@ -1,6 +1,9 @@
 #include "landmark_loop_closure/descriptor.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Core>
@@ -80,6 +83,33 @@ std::string DescriptorOptions::validate() const {
               landmark_storage + "')\n";
   }
   return errors;
+}
+
+std::string descriptorIdentity(const DescriptorOptions& options) {
+  std::ostringstream identity;
+  identity << "type=" << options.type;
+  if (options.type == "calc" || options.type == "landmarks") {
+    const std::string path = options.model.empty() ? defaultModelPath() : options.model;
+    std::ifstream model(path, std::ios::binary);
+    uint64_t hash = 1469598103934665603ull;  // FNV-1a, 64 bit.
+    char byte = 0;
+    while (model.get(byte)) {
+      hash = (hash ^ static_cast<unsigned char>(byte)) * 1099511628211ull;
+    }
+    identity << " model_fnv1a=" << std::hex << hash << std::dec;
+  }
+  if (options.type == "landmarks") {
+    identity << " max_landmarks=" << options.max_landmarks
+             << " landmark_grid=" << options.landmark_grid
+             << " landmark_layer=" << options.landmark_layer
+             << " shape_weighting=" << options.shape_weighting
+             << " landmark_features=" << options.landmark_features
+             << " working=" << options.working_width << "x" << options.working_height
+             << " landmark_patch=" << options.landmark_patch
+             << " max_landmark_area=" << options.max_landmark_area
+             << " landmark_storage=" << options.landmark_storage;
+  }
+  return identity.str();
 }
 
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(

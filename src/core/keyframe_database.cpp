@@ -53,15 +53,17 @@ void KeyframeDatabase::add(KeyframeRecord keyframe) {
 }
 
 QueryResult KeyframeDatabase::query(const std::vector<float>& global, double stamp,
-                                    const DatabaseOptions& options) const {
+                                    const DatabaseOptions& options, uint32_t session) const {
   QueryResult result;
   if (keyframes_.size() < static_cast<size_t>(options.min_size)) {
     result.status = QueryStatus::kDatabaseTooSmall;
     return result;
   }
-  const size_t recent =
-      std::min(keyframes_.size(), static_cast<size_t>(options.exclude_recent_keyframes));
-  const size_t end = keyframes_.size() - recent;
+  size_t end = keyframes_.size();
+  const size_t limit = static_cast<size_t>(options.exclude_recent_keyframes);
+  while (end > 0 && keyframes_.size() - end < limit && keyframes_[end - 1].session == session) {
+    --end;
+  }
   std::vector<Candidate> scored;
   scored.reserve(end);
   for (size_t index = 0; index < end; ++index) {

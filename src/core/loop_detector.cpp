@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "landmark_loop_closure/database_file.h"
 #include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
@@ -132,6 +133,40 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
   if (!problems.empty()) throw std::invalid_argument(problems);
   if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
   parseDetectorMode(options.mode, &mode_);
+  descriptor_identity_ = "extractor=" + extractor_->name() + " " +
+                         landmark_loop_closure::descriptorIdentity(options.descriptor);
+}
+
+std::string LoopDetector::saveDatabase(const std::string& path) const {
+  return landmark_loop_closure::saveDatabase(database_, descriptor_identity_, path);
+}
+
+std::string LoopDetector::loadDatabase(const std::string& path) {
+  LoadedDatabase loaded =
+      landmark_loop_closure::loadDatabase(path, descriptor_identity_, database_.globalDimension());
+  if (!loaded.database) return loaded.error;
+  database_ = std::move(*loaded.database);
+  uint32_t last_session = 0;
+  uint64_t last_id = 0;
+  for (size_t i = 0; i < database_.size(); ++i) {
+    last_session = std::max(last_session, database_.at(i).session);
+    last_id = std::max(last_id, database_.at(i).id);
+  }
+  session_ = database_.empty() ? 0 : last_session + 1;
+  uint64_t next = next_keyframe_id_.load();
+  while (!database_.empty() && next <= last_id &&
+         !next_keyframe_id_.compare_exchange_weak(next, last_id + 1)) {
+  }
+  consistency_.reset();
+  last_keyframe_.reset();
+  return "";
+}
+
+void LoopDetector::reset() {
+  database_ = KeyframeDatabase(database_.globalDimension());
+  session_ = 0;
+  consistency_.reset();
+  last_keyframe_.reset();
 }
 
 void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
@@ -203,7 +238,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   DatabaseOptions search = options_.database;
   // Localising: the map's last keyframes are not this run's recent past (the time rule stays).
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
-  const QueryResult query = database_.query(descriptor.global, stamp, search);
+  const QueryResult query = database_.query(descriptor.global, stamp, search, session_);
   result.times.query_ms = millisecondsSince(query_start);
   result.query_status = query.status;
 
@@ -223,6 +258,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
 
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
+  keyframe.session = session_;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
   if (last_keyframe_) {
@@ -275,7 +311,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) continue;
     const KeyframeRecord* match = database_.findById(report.match_id);
-    if (mode_ == DetectorMode::kMapping) {
+    // Earlier sessions' odometry is another frame with its own drift: nothing to compare.
+    if (mode_ == DetectorMode::kMapping && match->session == session_) {
       const OdometryGateDecision gate =
           checkOdometry(options_.odometry_gate, query_keyframe.pose, query_keyframe.path,
                         match->pose, match->path);
@@ -313,6 +350,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       if (!verified) continue;
       report.verdict = CandidateVerdict::kAccepted;
       loop.match_id = match->id;
+      loop.match_session = match->session;
       loop.match_stamp = match->stamp;
       loop.match_pose = match->pose;
       loop.global_score = report.global_score;

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <optional>
 
@@ -305,4 +306,76 @@ TEST(LoopDetector, AcceptanceOptionsAreValidated) {
   for (const char* key : {"mode", "consistency_unit", "consistent_distance_m", "match_window_m"}) {
     EXPECT_NE(problems.find(key), std::string::npos) << key << "\n" << problems;
   }
+}
+
+namespace {
+
+std::string temporaryPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("lcd_detector_" + name)).string();
+}
+
+}  // namespace
+
+TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
+  const std::string path = temporaryPath("saved_map.lcdb");
+  LoopDetectorOptions options = smallOptions();
+  options.odometry_gate.enabled = true;
+  {
+    LoopDetector first_run(options, std::make_shared<PlaceExtractor>());
+    for (int i = 0; i < 40; ++i) feed(&first_run, i, i);
+    ASSERT_EQ(first_run.saveDatabase(path), "");
+  }
+  // The next day: the odometry starts again at another origin, stamps go on.
+  LoopDetector next_run(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(next_run.loadDatabase(path), "");
+  EXPECT_EQ(next_run.database().size(), 40u);
+  EXPECT_EQ(next_run.session(), 1u);
+  std::optional<AcceptedLoop> loop;
+  bool found_the_maps_last_keyframe = false;
+  for (int i = 0; i < 3; ++i) {
+    const FrameResult result =
+        next_run.process(100000.0 + i, planarPose(500.0 + i, 0, 0), place(37 + i));
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_GE(result.keyframe->keyframe_id, 40u);  // Never an id of the loaded map.
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      // 500 m from the map's poses, but the map's odometry frame is another run's: no gate.
+      EXPECT_NE(report.verdict, CandidateVerdict::kOdometryRejected) << report.detail;
+      found_the_maps_last_keyframe |= report.match_id == 39u;
+    }
+    if (result.keyframe->loop) loop = result.keyframe->loop;
+  }
+  EXPECT_TRUE(found_the_maps_last_keyframe);  // Not excluded as "recent".
+  ASSERT_TRUE(loop);
+  EXPECT_EQ(loop->match_id, 39u);
+  EXPECT_EQ(loop->match_session, 0u);
+  ASSERT_EQ(next_run.database().size(), 43u);
+  EXPECT_EQ(next_run.database().at(42).session, 1u);
+  EXPECT_EQ(next_run.database().at(42).id, 42u);
+  std::filesystem::remove(path);
+}
+
+TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+  const std::string error = detector.loadDatabase(temporaryPath("missing.lcdb"));
+  EXPECT_NE(error.find("missing.lcdb"), std::string::npos) << error;
+  EXPECT_EQ(detector.database().size(), 12u);
+  EXPECT_EQ(detector.session(), 0u);
+
+  // A map made with other descriptors is refused the same way.
+  const std::string path = temporaryPath("other_descriptors.lcdb");
+  LoopDetectorOptions hog = smallOptions();
+  hog.descriptor.type = "hog";
+  {
+    LoopDetector other(hog, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(other.saveDatabase(path), "");
+  }
+  EXPECT_NE(detector.loadDatabase(path).find("other descriptors"), std::string::npos);
+  EXPECT_EQ(detector.database().size(), 12u);
+  std::filesystem::remove(path);
+
+  detector.reset();
+  EXPECT_TRUE(detector.database().empty());
+  EXPECT_FALSE(feed(&detector, 12, 12).keyframe->error);
+  EXPECT_EQ(detector.database().size(), 1u);
 }

@@ -1,0 +1,40 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "landmark_loop_closure/keyframe_database.h"
+
+namespace landmark_loop_closure {
+
+/// The keyframe database on disk, version 1. Little-endian throughout, whatever the host:
+///   header: magic "LLCKFDB\n", u32 version, u32 byte-order mark 0x01020304, u64 payload bytes,
+///           u32 CRC-32 (IEEE) of the payload;
+///   payload: descriptor identity (descriptorIdentity()), u32 global dimension, u64 keyframes,
+///           then each keyframe: id, session, stamp, pose, path, descriptor (global vector,
+///           landmark boxes and features), local features (keypoints, ORB rows, image size, 3D
+///           points, depth sd) and thumbnail.
+/// Strings and vectors are a u32 count then the items; matrices are i32 rows, cols and type, then
+/// the elements row by row.
+constexpr uint32_t kDatabaseFileVersion = 1;
+
+/// Writes `database` to `path` atomically: into `path`.tmp, flushed and closed, then renamed over
+/// `path`, so a crash mid-write leaves the previous file whole. Returns "" on success, else why
+/// (the previous file is untouched).
+std::string saveDatabase(const KeyframeDatabase& database, const std::string& descriptor_identity,
+                         const std::string& path);
+
+struct LoadedDatabase {
+  std::optional<KeyframeDatabase> database;  ///< Set on success.
+  std::string error;                         ///< Why the file was refused, naming it.
+};
+
+/// Reads a file written by saveDatabase. Refuses - nothing is half-loaded - a missing, truncated
+/// or corrupt file (checksum), another byte order, a newer version, and a database made with
+/// another descriptor identity or global dimension. Lengths inside the file are checked against
+/// the bytes left before anything is allocated, so a corrupt file cannot exhaust memory.
+LoadedDatabase loadDatabase(const std::string& path, const std::string& descriptor_identity,
+                            int global_dimension);
+
+}  // namespace landmark_loop_closure

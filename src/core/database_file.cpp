@@ -1,0 +1,440 @@
+#include "landmark_loop_closure/database_file.h"
+
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+namespace landmark_loop_closure {
+
+namespace {
+
+constexpr char kMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
+constexpr uint32_t kByteOrderMark = 0x01020304;
+constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
+
+bool hostIsLittleEndian() {
+  const uint16_t probe = 1;
+  uint8_t first = 0;
+  std::memcpy(&first, &probe, 1);
+  return first == 1;
+}
+
+class Crc32 {
+ public:
+  void update(const uint8_t* data, size_t size) {
+    static const std::array<uint32_t, 256> table = makeTable();
+    for (size_t i = 0; i < size; ++i) value_ = table[(value_ ^ data[i]) & 0xFFu] ^ (value_ >> 8);
+  }
+  uint32_t value() const { return value_ ^ 0xFFFFFFFFu; }
+
+ private:
+  static std::array<uint32_t, 256> makeTable() {
+    std::array<uint32_t, 256> table{};
+    for (uint32_t n = 0; n < 256; ++n) {
+      uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      table[n] = c;
+    }
+    return table;
+  }
+  uint32_t value_ = 0xFFFFFFFFu;
+};
+
+// Why a file cannot be read; caught at the top and turned into LoadedDatabase::error.
+struct FormatError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct FileCloser {
+  void operator()(std::FILE* file) const {
+    if (file) std::fclose(file);
+  }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+template <typename Unsigned>
+void encode(Unsigned value, uint8_t* out) {
+  for (size_t i = 0; i < sizeof(Unsigned); ++i) out[i] = static_cast<uint8_t>(value >> (8 * i));
+}
+
+template <typename Unsigned>
+Unsigned decode(const uint8_t* in) {
+  Unsigned value = 0;
+  for (size_t i = 0; i < sizeof(Unsigned); ++i) value |= static_cast<Unsigned>(in[i]) << (8 * i);
+  return value;
+}
+
+// Bytes of a matrix element in the file: elements are stored as the host's, swapped to little
+// endian on big-endian hosts.
+void swapElements(uint8_t* data, size_t bytes, size_t element) {
+  if (element <= 1) return;
+  for (size_t start = 0; start + element <= bytes; start += element) {
+    for (size_t i = 0; i < element / 2; ++i)
+      std::swap(data[start + i], data[start + element - 1 - i]);
+  }
+}
+
+bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
+
+class PayloadWriter {
+ public:
+  explicit PayloadWriter(std::FILE* file) : file_(file) {}
+
+  void bytes(const void* data, size_t size) {
+    if (size == 0) return;
+    if (std::fwrite(data, 1, size, file_) != size) throw FormatError(std::strerror(errno));
+    crc_.update(static_cast<const uint8_t*>(data), size);
+    written_ += size;
+  }
+  void u32(uint32_t value) {
+    uint8_t buffer[4];
+    encode(value, buffer);
+    bytes(buffer, 4);
+  }
+  void u64(uint64_t value) {
+    uint8_t buffer[8];
+    encode(value, buffer);
+    bytes(buffer, 8);
+  }
+  void i32(int value) { u32(static_cast<uint32_t>(value)); }
+  void f32(float value) {
+    uint32_t bits = 0;
+    std::memcpy(&bits, &value, 4);
+    u32(bits);
+  }
+  void f64(double value) {
+    uint64_t bits = 0;
+    std::memcpy(&bits, &value, 8);
+    u64(bits);
+  }
+  void count(size_t value) {
+    if (value > UINT32_MAX) throw FormatError("more than 2^32 items in one list");
+    u32(static_cast<uint32_t>(value));
+  }
+  void string(const std::string& text) {
+    count(text.size());
+    bytes(text.data(), text.size());
+  }
+  void mat(const cv::Mat& matrix) {
+    if (!matrix.empty() && !supportedMatType(matrix.type())) {
+      throw FormatError("cannot store a matrix of type " + std::to_string(matrix.type()));
+    }
+    i32(matrix.rows);
+    i32(matrix.cols);
+    i32(matrix.empty() ? CV_8UC1 : matrix.type());
+    const size_t row_bytes = static_cast<size_t>(matrix.cols) * matrix.elemSize();
+    std::vector<uint8_t> row(row_bytes);
+    for (int r = 0; r < matrix.rows; ++r) {
+      std::memcpy(row.data(), matrix.ptr(r), row_bytes);
+      if (!hostIsLittleEndian()) swapElements(row.data(), row_bytes, matrix.elemSize1());
+      bytes(row.data(), row_bytes);
+    }
+  }
+
+  uint32_t crc() const { return crc_.value(); }
+  uint64_t written() const { return written_; }
+
+ private:
+  std::FILE* file_;
+  Crc32 crc_;
+  uint64_t written_ = 0;
+};
+
+class PayloadReader {
+ public:
+  PayloadReader(std::FILE* file, uint64_t payload_bytes) : file_(file), remaining_(payload_bytes) {}
+
+  void bytes(void* out, size_t size) {
+    if (size > remaining_) throw FormatError("an entry runs past the end of the payload");
+    if (size > 0 && std::fread(out, 1, size, file_) != size) {
+      throw FormatError("truncated: the file ends inside its payload");
+    }
+    crc_.update(static_cast<const uint8_t*>(out), size);
+    remaining_ -= size;
+  }
+  uint32_t u32() {
+    uint8_t buffer[4];
+    bytes(buffer, 4);
+    return decode<uint32_t>(buffer);
+  }
+  uint64_t u64() {
+    uint8_t buffer[8];
+    bytes(buffer, 8);
+    return decode<uint64_t>(buffer);
+  }
+  int i32() { return static_cast<int>(u32()); }
+  float f32() {
+    const uint32_t bits = u32();
+    float value = 0.0f;
+    std::memcpy(&value, &bits, 4);
+    return value;
+  }
+  double f64() {
+    const uint64_t bits = u64();
+    double value = 0.0;
+    std::memcpy(&value, &bits, 8);
+    return value;
+  }
+  /// A list length whose items take at least `item_bytes` each: refused when they cannot fit in
+  /// what is left, before anything is allocated.
+  size_t count(size_t item_bytes) {
+    const uint64_t n = u32();
+    if (n * item_bytes > remaining_) throw FormatError("a list is longer than the file");
+    return static_cast<size_t>(n);
+  }
+  std::string string() {
+    std::string text(count(1), '\0');
+    bytes(text.data(), text.size());
+    return text;
+  }
+  cv::Mat mat() {
+    const int rows = i32();
+    const int cols = i32();
+    const int type = i32();
+    if (rows < 0 || cols < 0 || !supportedMatType(type)) {
+      throw FormatError("a matrix has a bad shape or type");
+    }
+    const uint64_t total = static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) *
+                           static_cast<uint64_t>(CV_ELEM_SIZE(type));
+    if (total > remaining_) throw FormatError("a matrix is larger than the file");
+    if (rows == 0 || cols == 0) return {};
+    cv::Mat matrix(rows, cols, type);
+    const size_t row_bytes = static_cast<size_t>(cols) * matrix.elemSize();
+    for (int r = 0; r < rows; ++r) {
+      bytes(matrix.ptr(r), row_bytes);
+      if (!hostIsLittleEndian()) swapElements(matrix.ptr(r), row_bytes, matrix.elemSize1());
+    }
+    return matrix;
+  }
+
+  uint32_t crc() const { return crc_.value(); }
+  uint64_t remaining() const { return remaining_; }
+
+ private:
+  std::FILE* file_;
+  uint64_t remaining_;
+  Crc32 crc_;
+};
+
+void writePose(PayloadWriter* out, const Pose& pose) {
+  for (int i = 0; i < 3; ++i) out->f64(pose.position[i]);
+  out->f64(pose.orientation.w());
+  out->f64(pose.orientation.x());
+  out->f64(pose.orientation.y());
+  out->f64(pose.orientation.z());
+}
+
+Pose readPose(PayloadReader* in) {
+  Pose pose;
+  for (int i = 0; i < 3; ++i) pose.position[i] = in->f64();
+  const double w = in->f64();
+  const double x = in->f64();
+  const double y = in->f64();
+  const double z = in->f64();
+  pose.orientation = Eigen::Quaterniond(w, x, y, z);
+  return pose;
+}
+
+void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe) {
+  out->u64(keyframe.id);
+  out->u32(keyframe.session);
+  out->f64(keyframe.stamp);
+  writePose(out, keyframe.pose);
+  out->f64(keyframe.path.metres);
+  out->f64(keyframe.path.radians);
+
+  const ImageDescriptor& descriptor = keyframe.descriptor;
+  out->count(descriptor.global.size());
+  for (const float value : descriptor.global) out->f32(value);
+  out->count(descriptor.landmark_boxes.size());
+  for (const cv::Rect2f& box : descriptor.landmark_boxes) {
+    out->f32(box.x);
+    out->f32(box.y);
+    out->f32(box.width);
+    out->f32(box.height);
+  }
+  out->mat(descriptor.landmark_features);
+
+  const LocalFeatures& local = keyframe.local_features;
+  out->count(local.points.size());
+  for (const cv::Point2f& point : local.points) {
+    out->f32(point.x);
+    out->f32(point.y);
+  }
+  out->mat(local.descriptors);
+  out->i32(local.image_size.width);
+  out->i32(local.image_size.height);
+  out->count(local.points3d.size());
+  for (const cv::Point3f& point : local.points3d) {
+    out->f32(point.x);
+    out->f32(point.y);
+    out->f32(point.z);
+  }
+  out->count(local.depth_sd.size());
+  for (const float sd : local.depth_sd) out->f32(sd);
+
+  out->mat(keyframe.thumbnail);
+}
+
+KeyframeRecord readKeyframe(PayloadReader* in) {
+  KeyframeRecord keyframe;
+  keyframe.id = in->u64();
+  keyframe.session = in->u32();
+  keyframe.stamp = in->f64();
+  keyframe.pose = readPose(in);
+  keyframe.path.metres = in->f64();
+  keyframe.path.radians = in->f64();
+
+  ImageDescriptor& descriptor = keyframe.descriptor;
+  descriptor.global.resize(in->count(4));
+  for (float& value : descriptor.global) value = in->f32();
+  descriptor.landmark_boxes.resize(in->count(16));
+  for (cv::Rect2f& box : descriptor.landmark_boxes) {
+    box.x = in->f32();
+    box.y = in->f32();
+    box.width = in->f32();
+    box.height = in->f32();
+  }
+  descriptor.landmark_features = in->mat();
+  if (descriptor.landmark_features.rows != static_cast<int>(descriptor.landmark_boxes.size())) {
+    throw FormatError("keyframe " + std::to_string(keyframe.id) +
+                      ": landmark boxes and features disagree");
+  }
+
+  LocalFeatures& local = keyframe.local_features;
+  local.points.resize(in->count(8));
+  for (cv::Point2f& point : local.points) {
+    point.x = in->f32();
+    point.y = in->f32();
+  }
+  local.descriptors = in->mat();
+  local.image_size.width = in->i32();
+  local.image_size.height = in->i32();
+  local.points3d.resize(in->count(12));
+  for (cv::Point3f& point : local.points3d) {
+    point.x = in->f32();
+    point.y = in->f32();
+    point.z = in->f32();
+  }
+  local.depth_sd.resize(in->count(4));
+  for (float& sd : local.depth_sd) sd = in->f32();
+  const size_t points = local.points.size();
+  if (local.descriptors.rows != static_cast<int>(points) ||
+      (!local.points3d.empty() && local.points3d.size() != points) ||
+      local.depth_sd.size() != local.points3d.size()) {
+    throw FormatError("keyframe " + std::to_string(keyframe.id) +
+                      ": keypoints, descriptors and depths disagree");
+  }
+
+  keyframe.thumbnail = in->mat();
+  return keyframe;
+}
+
+void writeHeader(std::FILE* file, uint64_t payload_bytes, uint32_t crc) {
+  uint8_t header[kHeaderBytes];
+  std::memcpy(header, kMagic, 8);
+  encode(kDatabaseFileVersion, header + 8);
+  encode(kByteOrderMark, header + 12);
+  encode(payload_bytes, header + 16);
+  encode(crc, header + 24);
+  if (std::fseek(file, 0, SEEK_SET) != 0 ||
+      std::fwrite(header, 1, kHeaderBytes, file) != kHeaderBytes) {
+    throw FormatError(std::strerror(errno));
+  }
+}
+
+}  // namespace
+
+std::string saveDatabase(const KeyframeDatabase& database, const std::string& descriptor_identity,
+                         const std::string& path) {
+  const std::string temporary = path + ".tmp";
+  try {
+    File file(std::fopen(temporary.c_str(), "wb"));
+    if (!file) throw FormatError(std::string("cannot create it: ") + std::strerror(errno));
+    writeHeader(file.get(), 0, 0);  // Placeholder until the payload's size and CRC are known.
+    PayloadWriter out(file.get());
+    out.string(descriptor_identity);
+    out.u32(static_cast<uint32_t>(database.globalDimension()));
+    out.u64(database.size());
+    for (size_t i = 0; i < database.size(); ++i) writeKeyframe(&out, database.at(i));
+    writeHeader(file.get(), out.written(), out.crc());
+    if (std::fflush(file.get()) != 0 || ::fsync(fileno(file.get())) != 0) {
+      throw FormatError(std::strerror(errno));
+    }
+    std::FILE* raw = file.release();
+    if (std::fclose(raw) != 0) throw FormatError(std::strerror(errno));
+  } catch (const FormatError& error) {
+    std::remove(temporary.c_str());
+    return "cannot write " + temporary + ": " + error.what();
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(temporary.c_str());
+    return "cannot rename " + temporary + " to " + path + ": " + reason;
+  }
+  return "";
+}
+
+LoadedDatabase loadDatabase(const std::string& path, const std::string& descriptor_identity,
+                            int global_dimension) {
+  LoadedDatabase loaded;
+  try {
+    File file(std::fopen(path.c_str(), "rb"));
+    if (!file) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
+    uint8_t header[kHeaderBytes];
+    if (std::fread(header, 1, kHeaderBytes, file.get()) != kHeaderBytes) {
+      throw FormatError("truncated: shorter than the header");
+    }
+    if (std::memcmp(header, kMagic, 8) != 0) throw FormatError("not a keyframe database file");
+    const uint32_t version = decode<uint32_t>(header + 8);
+    const uint32_t byte_order = decode<uint32_t>(header + 12);
+    if (byte_order != kByteOrderMark) {
+      throw FormatError("byte-order mark is not little-endian 0x01020304");
+    }
+    if (version > kDatabaseFileVersion) {
+      throw FormatError("format version " + std::to_string(version) +
+                        " is newer than this build reads (" + std::to_string(kDatabaseFileVersion) +
+                        ")");
+    }
+    if (version == 0) throw FormatError("format version 0 does not exist");
+    const uint64_t payload_bytes = decode<uint64_t>(header + 16);
+    const uint32_t expected_crc = decode<uint32_t>(header + 24);
+
+    PayloadReader in(file.get(), payload_bytes);
+    const std::string identity = in.string();
+    if (identity != descriptor_identity) {
+      throw FormatError("made with other descriptors (" + identity +
+                        "), not the ones configured (" + descriptor_identity + ")");
+    }
+    const int dimension = static_cast<int>(in.u32());
+    if (dimension != global_dimension) {
+      throw FormatError("global descriptors have " + std::to_string(dimension) +
+                        " values, the configured ones " + std::to_string(global_dimension));
+    }
+    KeyframeDatabase database(global_dimension);
+    const uint64_t keyframes = in.u64();
+    for (uint64_t i = 0; i < keyframes; ++i) {
+      KeyframeRecord keyframe = readKeyframe(&in);
+      try {
+        database.add(std::move(keyframe));
+      } catch (const std::invalid_argument& error) {
+        throw FormatError(error.what());
+      }
+    }
+    if (in.remaining() != 0) throw FormatError("bytes left over after the last keyframe");
+    if (in.crc() != expected_crc) throw FormatError("checksum mismatch: the file is corrupt");
+    if (std::fgetc(file.get()) != EOF) throw FormatError("bytes after the payload");
+    loaded.database = std::move(database);
+  } catch (const FormatError& error) {
+    loaded.error = "refused " + path + ": " + error.what();
+  }
+  return loaded;
+}
+
+}  // namespace landmark_loop_closure

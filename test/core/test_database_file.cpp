@@ -1,0 +1,277 @@
+// The keyframe database on disk: every field survives a round trip, and every damaged, foreign or
+// newer file is refused with a reason, never half-loaded.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/database_file.h"
+#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/sim/corridor_world.h"
+
+using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kDimension = 6;
+const std::string kIdentity = "type=test dimension=6";
+
+KeyframeRecord makeKeyframe(uint64_t id, uint32_t session) {
+  KeyframeRecord keyframe;
+  keyframe.id = id;
+  keyframe.session = session;
+  keyframe.stamp = 1700000000.25 + static_cast<double>(id);
+  keyframe.pose.position = Eigen::Vector3d(1.5 * id, -2.0, 0.125);
+  keyframe.pose.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * id, Eigen::Vector3d::UnitZ()));
+  keyframe.path = {0.3 * id, 0.01 * id};
+  for (int i = 0; i < kDimension; ++i) keyframe.descriptor.global.push_back(0.1f * i + id);
+  keyframe.descriptor.landmark_boxes = {{1.0f, 2.0f, 30.5f, 40.25f}, {5.0f, 6.0f, 7.0f, 8.0f}};
+  cv::Mat features(2, 4, CV_32F);
+  cv::randu(features, -1.0, 1.0);
+  features.convertTo(keyframe.descriptor.landmark_features, CV_16F);
+  LocalFeatures& local = keyframe.local_features;
+  local.points = {{10.5f, 20.25f}, {300.0f, 200.0f}, {0.0f, 0.0f}};
+  local.descriptors = cv::Mat(3, 32, CV_8U);
+  cv::randu(local.descriptors, 0, 256);
+  local.image_size = cv::Size(320, 240);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  local.points3d = {{0.1f, 0.2f, 3.0f}, {nan, nan, nan}, {-1.0f, 0.5f, 12.0f}};
+  local.depth_sd = {0.02f, nan, 0.4f};
+  keyframe.thumbnail = cv::Mat(12, 16, CV_8U, cv::Scalar(static_cast<double>(id % 200)));
+  return keyframe;
+}
+
+KeyframeDatabase makeDatabase(int keyframes) {
+  KeyframeDatabase database(kDimension);
+  for (int i = 0; i < keyframes; ++i) database.add(makeKeyframe(10 + 3 * i, i < 2 ? 0 : 1));
+  return database;
+}
+
+bool sameMat(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  if (a.empty()) return true;
+  const size_t row_bytes = static_cast<size_t>(a.cols) * a.elemSize();
+  for (int r = 0; r < a.rows; ++r) {
+    if (std::memcmp(a.ptr(r), b.ptr(r), row_bytes) != 0) return false;
+  }
+  return true;
+}
+
+bool sameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+void expectSame(const KeyframeRecord& a, const KeyframeRecord& b) {
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.session, b.session);
+  EXPECT_EQ(a.stamp, b.stamp);
+  EXPECT_EQ(a.pose.position, b.pose.position);
+  EXPECT_EQ(a.pose.orientation.coeffs(), b.pose.orientation.coeffs());
+  EXPECT_EQ(a.path.metres, b.path.metres);
+  EXPECT_EQ(a.path.radians, b.path.radians);
+  EXPECT_EQ(a.descriptor.global, b.descriptor.global);
+  EXPECT_EQ(a.descriptor.landmark_boxes, b.descriptor.landmark_boxes);
+  EXPECT_TRUE(sameMat(a.descriptor.landmark_features, b.descriptor.landmark_features));
+  EXPECT_EQ(a.local_features.points, b.local_features.points);
+  EXPECT_TRUE(sameMat(a.local_features.descriptors, b.local_features.descriptors));
+  EXPECT_EQ(a.local_features.image_size, b.local_features.image_size);
+  ASSERT_EQ(a.local_features.points3d.size(), b.local_features.points3d.size());
+  for (size_t i = 0; i < a.local_features.points3d.size(); ++i) {
+    const cv::Point3f& p = a.local_features.points3d[i];
+    const cv::Point3f& q = b.local_features.points3d[i];
+    EXPECT_TRUE(sameFloat(p.x, q.x) && sameFloat(p.y, q.y) && sameFloat(p.z, q.z)) << i;
+    EXPECT_TRUE(sameFloat(a.local_features.depth_sd[i], b.local_features.depth_sd[i])) << i;
+  }
+  EXPECT_TRUE(sameMat(a.thumbnail, b.thumbnail));
+}
+
+std::vector<char> readBytes(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+}
+
+void writeBytes(const fs::path& path, const std::vector<char>& bytes) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+class DatabaseFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ =
+        fs::temp_directory_path() /
+        ("lcd_database_file_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+         "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_);
+    path_ = (folder_ / "keyframes.lcdb").string();
+  }
+  void TearDown() override { fs::remove_all(folder_); }
+
+  fs::path folder_;
+  std::string path_;
+};
+
+}  // namespace
+
+TEST_F(DatabaseFileTest, EveryFieldSurvivesARoundTrip) {
+  const KeyframeDatabase saved = makeDatabase(4);
+  ASSERT_EQ(saveDatabase(saved, kIdentity, path_), "");
+  EXPECT_FALSE(fs::exists(path_ + ".tmp"));
+  const LoadedDatabase loaded = loadDatabase(path_, kIdentity, kDimension);
+  ASSERT_TRUE(loaded.database) << loaded.error;
+  ASSERT_EQ(loaded.database->size(), saved.size());
+  for (size_t i = 0; i < saved.size(); ++i) expectSame(saved.at(i), loaded.database->at(i));
+  EXPECT_NE(loaded.database->findById(19), nullptr);
+}
+
+TEST_F(DatabaseFileTest, AnEmptyDatabaseRoundTrips) {
+  ASSERT_EQ(saveDatabase(KeyframeDatabase(kDimension), kIdentity, path_), "");
+  const LoadedDatabase loaded = loadDatabase(path_, kIdentity, kDimension);
+  ASSERT_TRUE(loaded.database) << loaded.error;
+  EXPECT_TRUE(loaded.database->empty());
+}
+
+TEST_F(DatabaseFileTest, EveryTruncationIsRefused) {
+  ASSERT_EQ(saveDatabase(makeDatabase(2), kIdentity, path_), "");
+  const std::vector<char> whole = readBytes(path_);
+  const fs::path cut = folder_ / "cut.lcdb";
+  for (size_t length = 0; length < whole.size(); ++length) {
+    writeBytes(cut, std::vector<char>(whole.begin(), whole.begin() + length));
+    const LoadedDatabase loaded = loadDatabase(cut.string(), kIdentity, kDimension);
+    ASSERT_FALSE(loaded.database) << "accepted " << length << " of " << whole.size() << " bytes";
+    EXPECT_NE(loaded.error.find(cut.string()), std::string::npos);
+  }
+}
+
+TEST_F(DatabaseFileTest, EveryDamagedByteIsRefused) {
+  ASSERT_EQ(saveDatabase(makeDatabase(2), kIdentity, path_), "");
+  const std::vector<char> whole = readBytes(path_);
+  const fs::path damaged = folder_ / "damaged.lcdb";
+  int said_checksum = 0;
+  for (size_t i = 0; i < whole.size(); ++i) {
+    std::vector<char> bytes = whole;
+    bytes[i] = static_cast<char>(bytes[i] ^ 0x5A);
+    writeBytes(damaged, bytes);
+    const LoadedDatabase loaded = loadDatabase(damaged.string(), kIdentity, kDimension);
+    ASSERT_FALSE(loaded.database) << "accepted a file damaged at byte " << i;
+    said_checksum += loaded.error.find("checksum") != std::string::npos ? 1 : 0;
+  }
+  // Most damage lands in descriptors and pixels, where only the checksum can see it.
+  EXPECT_GT(said_checksum, static_cast<int>(whole.size()) / 2);
+  // Appended bytes too.
+  std::vector<char> longer = whole;
+  longer.push_back('x');
+  writeBytes(damaged, longer);
+  EXPECT_FALSE(loadDatabase(damaged.string(), kIdentity, kDimension).database);
+}
+
+TEST_F(DatabaseFileTest, ForeignNewerAndOtherByteOrderFilesAreRefusedWithAReason) {
+  ASSERT_EQ(saveDatabase(makeDatabase(2), kIdentity, path_), "");
+  const LoadedDatabase other_model =
+      loadDatabase(path_, "type=test dimension=6 model=2", kDimension);
+  EXPECT_FALSE(other_model.database);
+  EXPECT_NE(other_model.error.find("other descriptors"), std::string::npos) << other_model.error;
+  const LoadedDatabase other_dimension = loadDatabase(path_, kIdentity, kDimension + 1);
+  EXPECT_FALSE(other_dimension.database);
+  EXPECT_NE(other_dimension.error.find("6 values"), std::string::npos) << other_dimension.error;
+
+  std::vector<char> bytes = readBytes(path_);
+  std::vector<char> newer = bytes;
+  newer[8] = 2;  // Version, little-endian u32 after the 8-byte magic.
+  writeBytes(path_, newer);
+  const LoadedDatabase from_future = loadDatabase(path_, kIdentity, kDimension);
+  EXPECT_FALSE(from_future.database);
+  EXPECT_NE(from_future.error.find("version 2 is newer"), std::string::npos) << from_future.error;
+
+  std::vector<char> big_endian = bytes;
+  std::swap(big_endian[12], big_endian[15]);
+  std::swap(big_endian[13], big_endian[14]);
+  writeBytes(path_, big_endian);
+  const LoadedDatabase swapped = loadDatabase(path_, kIdentity, kDimension);
+  EXPECT_FALSE(swapped.database);
+  EXPECT_NE(swapped.error.find("byte-order"), std::string::npos) << swapped.error;
+
+  writeBytes(path_, std::vector<char>{'h', 'e', 'l', 'l', 'o', '\n'});
+  EXPECT_FALSE(loadDatabase(path_, kIdentity, kDimension).database);
+  const LoadedDatabase missing =
+      loadDatabase((folder_ / "none.lcdb").string(), kIdentity, kDimension);
+  EXPECT_FALSE(missing.database);
+  EXPECT_NE(missing.error.find("none.lcdb"), std::string::npos) << missing.error;
+}
+
+TEST_F(DatabaseFileTest, AFailedSaveLeavesThePreviousFileWhole) {
+  ASSERT_EQ(saveDatabase(makeDatabase(2), kIdentity, path_), "");
+  // The temporary file cannot be created (a folder is in its way): the save fails, says why, and
+  // the previous file still loads with its two keyframes.
+  fs::create_directories(path_ + ".tmp");
+  const std::string error = saveDatabase(makeDatabase(4), kIdentity, path_);
+  EXPECT_NE(error.find(path_ + ".tmp"), std::string::npos) << error;
+  const LoadedDatabase previous = loadDatabase(path_, kIdentity, kDimension);
+  ASSERT_TRUE(previous.database) << previous.error;
+  EXPECT_EQ(previous.database->size(), 2u);
+  fs::remove_all(path_ + ".tmp");
+  // A temporary file left by a crash mid-write changes nothing, and the next save replaces it.
+  writeBytes(path_ + ".tmp", std::vector<char>(100, 'x'));
+  EXPECT_EQ(loadDatabase(path_, kIdentity, kDimension).database->size(), 2u);
+  ASSERT_EQ(saveDatabase(makeDatabase(4), kIdentity, path_), "");
+  EXPECT_EQ(loadDatabase(path_, kIdentity, kDimension).database->size(), 4u);
+}
+
+TEST_F(DatabaseFileTest, RealDescriptorsCompareTheSameAfterLoading) {
+  const DescriptorOptions options;
+  const auto extractor = makeDescriptorExtractor(options);
+  const sim::CorridorWorld world;
+  KeyframeDatabase database(extractor->globalDimension());
+  for (int i = 0; i < 3; ++i) {
+    KeyframeRecord keyframe;
+    keyframe.id = static_cast<uint64_t>(i);
+    keyframe.descriptor = extractor->describe(
+        world.render(world.poseAt(4.0 + 1.5 * i, 0.0), sim::CameraModel{}, sim::Lighting{}, 1));
+    database.add(std::move(keyframe));
+  }
+  const std::string identity = descriptorIdentity(options);
+  ASSERT_EQ(saveDatabase(database, identity, path_), "");
+  const LoadedDatabase loaded = loadDatabase(path_, identity, extractor->globalDimension());
+  ASSERT_TRUE(loaded.database) << loaded.error;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) {
+      EXPECT_EQ(extractor->similarity(database.at(a).descriptor, database.at(b).descriptor),
+                extractor->similarity(loaded.database->at(a).descriptor,
+                                      loaded.database->at(b).descriptor));
+    }
+  }
+}
+
+TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheModel) {
+  const DescriptorOptions defaults;
+  const std::string identity = descriptorIdentity(defaults);
+  EXPECT_EQ(identity, descriptorIdentity(defaults));
+  DescriptorOptions fewer = defaults;
+  fewer.max_landmarks = 20;
+  EXPECT_NE(descriptorIdentity(fewer), identity);
+  DescriptorOptions storage = defaults;
+  storage.landmark_storage = "float32";
+  EXPECT_NE(descriptorIdentity(storage), identity);
+  DescriptorOptions hog = defaults;
+  hog.type = "hog";
+  EXPECT_NE(descriptorIdentity(hog), identity);
+
+  // Same settings, a model file one byte different.
+  const fs::path copy = fs::temp_directory_path() / "lcd_identity_model.onnx";
+  std::vector<char> model = readBytes(defaultModelPath());
+  ASSERT_FALSE(model.empty());
+  writeBytes(copy, model);
+  DescriptorOptions copied = defaults;
+  copied.model = copy.string();
+  EXPECT_EQ(descriptorIdentity(copied), identity);
+  model.back() = static_cast<char>(model.back() ^ 1);
+  writeBytes(copy, model);
+  EXPECT_NE(descriptorIdentity(copied), identity);
+  fs::remove(copy);
+}
