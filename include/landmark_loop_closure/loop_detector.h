@@ -99,6 +99,7 @@ struct CandidateReport {
 
 struct AcceptedLoop {
   uint64_t query_id = 0;
+  uint32_t query_session = 0;
   double query_stamp = 0.0;
   Pose query_pose;
   uint64_t match_id = 0;

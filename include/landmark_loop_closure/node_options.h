@@ -26,6 +26,12 @@ struct NodeOptions {
   std::string relative_pose_frame = "camera";
   /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
   bool camera_mount_from_tf = false;
+  /// Keyframe database file: loaded at start when it exists (autoload), saved every
+  /// autosave_every keyframes and at shutdown (save_on_shutdown); "" = none.
+  std::string database_path;
+  bool autoload = true;
+  int autosave_every = 0;  ///< Keyframes between saves; 0 = only at shutdown and on request.
+  bool save_on_shutdown = true;
   LoopDetectorOptions detector;
 
   /// Empty when valid, otherwise every problem, one per line.

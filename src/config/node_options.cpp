@@ -39,6 +39,9 @@ std::string NodeOptions::validate() const {
     errors << "worker_queue_size must be >= 1 (got " << worker_queue_size << ")\n";
   }
   if (!(input_timeout > 0.0)) errors << "input_timeout must be > 0 (got " << input_timeout << ")\n";
+  if (autosave_every < 0) {
+    errors << "autosave_every must be >= 0 (got " << autosave_every << ")\n";
+  }
   errors << detector.validate();
   return errors.str();
 }
@@ -56,6 +59,10 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("use_depth", &options->use_depth);
   reader->read("relative_pose_frame", &options->relative_pose_frame);
   reader->read("camera_mount/from_tf", &options->camera_mount_from_tf);
+  reader->read("database_path", &options->database_path);
+  reader->read("autoload", &options->autoload);
+  reader->read("autosave_every", &options->autosave_every);
+  reader->read("save_on_shutdown", &options->save_on_shutdown);
 
   LoopDetectorOptions& detector = options->detector;
   reader->read("mode", &detector.mode);

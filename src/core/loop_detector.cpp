@@ -270,6 +270,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   decide(&result, descriptor, query, keyframe, intrinsics);
   if (result.loop) {
     result.loop->query_id = keyframe_id;
+    result.loop->query_session = session_;
     result.loop->query_stamp = stamp;
     result.loop->query_pose = keyframe.pose;
   }

@@ -1,7 +1,9 @@
 #include "loop_closure_node.h"
 
 #include <chrono>
+#include <filesystem>
 #include <sstream>
+#include <stdexcept>
 
 #include <cv_bridge/cv_bridge.h>
 #include <image_transport/camera_common.h>
@@ -77,21 +79,121 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
+  if (!options_.database_path.empty() && options_.autoload &&
+      std::filesystem::exists(options_.database_path)) {
+    // Refusing to start keeps a file that cannot be read from being overwritten by the next save.
+    const std::string error = detector_.loadDatabase(options_.database_path);
+    if (!error.empty()) {
+      throw std::runtime_error(error + " (move the file away or set autoload false)");
+    }
+    database_status_ = "loaded " + options_.database_path;
+    session_ = detector_.session();
+    ROS_INFO("Loaded %zu keyframes from %s; this run is session %u", detector_.database().size(),
+             options_.database_path.c_str(), detector_.session());
+  }
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
+  advertiseServices();
   subscribe();
   ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
            toString(detector_.mode()), detector_.extractor().name().c_str(),
            options_.pose_source.c_str(), image_topic_.c_str(), odom_topic_.empty() ? "" : " and ",
            odom_topic_.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
-    ROS_WARN("mode is localization but the keyframe database is empty: nothing will be found "
-             "and nothing is added");
+    ROS_WARN(
+        "mode is localization but the keyframe database is empty: nothing will be found "
+        "and nothing is added");
   }
 }
 
 LoopClosureNode::~LoopClosureNode() {
+  if (service_spinner_) service_spinner_->stop();
   queue_.close();
   if (worker_.joinable()) worker_.join();
+  if (options_.save_on_shutdown && !options_.database_path.empty()) {
+    std::lock_guard<std::mutex> lock(detector_mutex_);
+    const std::string error = saveDatabase("");
+    if (error.empty()) {
+      ROS_INFO("Saved %zu keyframes to %s", detector_.database().size(),
+               options_.database_path.c_str());
+    } else {
+      ROS_ERROR("Could not save the keyframe database at shutdown: %s", error.c_str());
+    }
+  }
+}
+
+void LoopClosureNode::advertiseServices() {
+  ros::NodeHandle services(private_node_);
+  services.setCallbackQueue(&service_queue_);
+  save_service_ =
+      services.advertiseService("save_database", &LoopClosureNode::onSaveDatabase, this);
+  load_service_ =
+      services.advertiseService("load_database", &LoopClosureNode::onLoadDatabase, this);
+  reset_service_ = services.advertiseService("reset", &LoopClosureNode::onResetDatabase, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
+}
+
+std::string LoopClosureNode::saveDatabase(const std::string& path) {
+  const std::string& target = path.empty() ? options_.database_path : path;
+  if (target.empty()) return "no path given and the parameter database_path is empty";
+  const std::string error = detector_.saveDatabase(target);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  database_status_ = error.empty() ? "saved " + target : error;
+  if (error.empty()) stored_since_save_ = 0;
+  return error;
+}
+
+bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
+                                     DatabaseFile::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const std::string error = saveDatabase(request.path);
+  response.success = error.empty();
+  response.keyframes = detector_.database().size();
+  response.message =
+      error.empty() ? "saved " + std::to_string(response.keyframes) + " keyframes" : error;
+  return true;
+}
+
+bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
+                                     DatabaseFile::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const std::string& path = request.path.empty() ? options_.database_path : request.path;
+  const std::string error = path.empty() ? "no path given and the parameter database_path is empty"
+                                         : detector_.loadDatabase(path);
+  response.success = error.empty();
+  response.keyframes = detector_.database().size();
+  if (error.empty()) {
+    keyframe_stamps_.clear();
+    markers_.clear();
+    response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
+                       std::to_string(detector_.session());
+    session_ = detector_.session();
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    database_status_ = "loaded " + path;
+  } else {
+    response.message = error;
+    ROS_ERROR("%s", error.c_str());
+  }
+  return true;
+}
+
+bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const size_t forgotten = detector_.database().size();
+  detector_.reset();
+  session_ = detector_.session();
+  keyframe_stamps_.clear();
+  markers_.clear();
+  response.success = true;
+  response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+  return true;
+}
+
+ros::Time LoopClosureNode::stampOf(uint64_t id) const {
+  const auto known = keyframe_stamps_.find(id);
+  if (known != keyframe_stamps_.end()) return known->second;
+  const KeyframeRecord* record = detector_.database().findById(id);
+  return record ? ros::Time(record->stamp) : ros::Time();
 }
 
 void LoopClosureNode::subscribe() {
@@ -256,6 +358,7 @@ void LoopClosureNode::workerLoop() {
 
 void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
   const auto start = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> detector_lock(detector_mutex_);
   cv::Mat grey;
   try {
     grey = toGrey(*job.image);
@@ -279,6 +382,12 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
   ++keyframes_stored_;
   keyframe_stamps_[job.id] = job.stamp;
   publishResults(job, result, grey);
+  if (options_.autosave_every > 0 && !options_.database_path.empty() &&
+      detector_.mode() == DetectorMode::kMapping &&
+      ++stored_since_save_ >= options_.autosave_every) {
+    const std::string error = saveDatabase("");
+    if (!error.empty()) ROS_ERROR_THROTTLE(kWarningPeriod, "Autosave failed: %s", error.c_str());
+  }
   const double elapsed =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -380,12 +489,13 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
 
 void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
-  keyframe_publisher_.publish(toKeyframeMsg(job.id, job.stamp, job.pose, job.frame_id));
+  keyframe_publisher_.publish(
+      toKeyframeMsg(job.id, detector_.session(), job.stamp, job.pose, job.frame_id));
   if (result.loop) {
     AcceptedLoop loop = *result.loop;
     const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);
     loop_publisher_.publish(
-        toLoopMsg(loop, job.stamp, keyframe_stamps_.at(loop.match_id), job.frame_id, pose_frame));
+        toLoopMsg(loop, job.stamp, stampOf(loop.match_id), job.frame_id, pose_frame));
     ++loops_published_;
     ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
              static_cast<unsigned long>(result.loop->query_id),
@@ -393,20 +503,24 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
              result.loop->consistent_keyframes);
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
-    candidates_publisher_.publish(toCandidatesMsg(
-        result, job.stamp, job.frame_id, [this](uint64_t id) { return keyframe_stamps_.at(id); }));
+    candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id,
+                                                  [this](uint64_t id) { return stampOf(id); }));
   }
 
   markers_.setFrameId(job.frame_id);
   markers_.addKeyframe(job.pose);
-  if (result.loop) markers_.addLoop(*result.loop);
+  // A loop into an earlier session joins two odometry frames: no line can be drawn in this one.
+  if (result.loop && result.loop->match_session == result.loop->query_session) {
+    markers_.addLoop(*result.loop);
+  }
   for (const CandidateReport& candidate : result.candidates) {
     if (candidate.verdict != CandidateVerdict::kAwaitingConsistency &&
         candidate.verdict != CandidateVerdict::kOutscored &&
         candidate.verdict != CandidateVerdict::kOdometryRejected) {
       continue;
     }
-    if (const KeyframeRecord* match = detector_.database().findById(candidate.match_id)) {
+    const KeyframeRecord* match = detector_.database().findById(candidate.match_id);
+    if (match && match->session == detector_.session()) {
       markers_.addRejected(job.pose, match->pose);
     }
   }
@@ -492,6 +606,8 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("frames admitted", frames_admitted_.load());
   status.add("keyframes", keyframes_stored_.load());
   status.add("database bytes", database_bytes_);
+  status.add("database file", database_status_);
+  status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", keyframes_dropped_.load());
   status.add("queued keyframes", queue_.size());

@@ -16,12 +16,15 @@
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "landmark_loop_closure/DatabaseFile.h"
+#include "landmark_loop_closure/ResetDatabase.h"
 #include "landmark_loop_closure/bounded_queue.h"
 #include "landmark_loop_closure/loop_detector.h"
 #include "landmark_loop_closure/node_options.h"
@@ -40,6 +43,7 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node);
 /// thread fed by a bounded queue, so a callback never waits for it.
 class LoopClosureNode {
  public:
+  /// Throws std::runtime_error when database_path exists but cannot be loaded (autoload).
   LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_node, const NodeOptions& options);
   ~LoopClosureNode();
 
@@ -87,10 +91,22 @@ class LoopClosureNode {
   void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
 
+  // Database file. Services run on their own thread and take detector_mutex_, so a save or load
+  // waits for the keyframe in hand and never blocks the image callbacks.
+  void advertiseServices();
+  bool onSaveDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
+  bool onLoadDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
+  bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
+  /// Saves to `path` (or database_path); returns "" or why. Caller holds detector_mutex_.
+  std::string saveDatabase(const std::string& path);
+  /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
+  ros::Time stampOf(uint64_t id) const;
+
   ros::NodeHandle node_;
   ros::NodeHandle private_node_;
   NodeOptions options_;
   LoopDetector detector_;
+  std::mutex detector_mutex_;  // Held by the worker per keyframe and by the database services.
 
   // Inputs.
   image_transport::ImageTransport image_transport_;
@@ -122,6 +138,14 @@ class LoopClosureNode {
   // Worker.
   BoundedQueue<KeyframeJob> queue_;
   std::thread worker_;
+  int stored_since_save_ = 0;  // Guarded by detector_mutex_.
+
+  // Database services.
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  ros::ServiceServer save_service_;
+  ros::ServiceServer load_service_;
+  ros::ServiceServer reset_service_;
 
   // Diagnostics; counters are written by both threads.
   diagnostic_updater::Updater diagnostics_;
@@ -139,7 +163,8 @@ class LoopClosureNode {
   std::atomic<double> last_image_wall_{0.0};
   std::atomic<double> last_odometry_wall_{0.0};
   std::atomic<bool> camera_info_seen_{false};
-  std::mutex stats_mutex_;  // Guards what follows.
+  std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
+  std::mutex stats_mutex_;            // Guards what follows.
   std::map<InputErrorCode, uint64_t> rejected_;
   std::map<InputErrorCode, ros::WallTime> last_rejection_log_;
   double last_processing_ms_ = 0.0;
@@ -149,6 +174,7 @@ class LoopClosureNode {
   uint64_t last_odometry_for_rate_ = 0;
   ros::WallTime last_rate_time_;
   sensor_msgs::CameraInfoConstPtr camera_info_;
+  std::string database_status_ = "in memory only";
 };
 
 }  // namespace landmark_loop_closure

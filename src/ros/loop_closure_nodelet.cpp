@@ -1,5 +1,6 @@
 // The nodelet only builds the node; everything else lives in LoopClosureNode.
 #include <memory>
+#include <stdexcept>
 
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -18,7 +19,12 @@ class LoopClosureNodelet : public nodelet::Nodelet {
       NODELET_FATAL("Refusing to start, fix these parameters:\n%s", problems.what());
       throw;
     }
-    node_ = std::make_unique<LoopClosureNode>(getNodeHandle(), getPrivateNodeHandle(), options);
+    try {
+      node_ = std::make_unique<LoopClosureNode>(getNodeHandle(), getPrivateNodeHandle(), options);
+    } catch (const std::runtime_error& error) {
+      NODELET_FATAL("Refusing to start: %s", error.what());
+      throw;
+    }
   }
 
   std::unique_ptr<LoopClosureNode> node_;

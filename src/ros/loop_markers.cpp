@@ -48,6 +48,14 @@ LoopMarkers::LoopMarkers(std::string frame_id, double min_score, bool show_rejec
 
 void LoopMarkers::addKeyframe(const Pose& pose) { keyframes_.push_back(toPoint(pose)); }
 
+void LoopMarkers::clear() {
+  keyframes_.clear();
+  loop_ends_.clear();
+  loop_colours_.clear();
+  unverified_ends_.clear();
+  rejected_ends_.clear();
+}
+
 void LoopMarkers::addLoop(const AcceptedLoop& loop) {
   if (!loop.verification) {
     unverified_ends_.push_back(toPoint(loop.query_pose));

@@ -19,6 +19,8 @@ class LoopMarkers {
   void addLoop(const AcceptedLoop& loop);
   void addRejected(const Pose& query, const Pose& match);
   void setFrameId(const std::string& frame_id) { frame_id_ = frame_id; }
+  /// Forgets everything drawn (a database loaded or reset).
+  void clear();
 
   visualization_msgs::MarkerArray toMsg(const ros::Time& stamp) const;
 

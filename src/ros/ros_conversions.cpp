@@ -116,6 +116,8 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
   msg.query_id = loop.query_id;
+  msg.query_session = loop.query_session;
+  msg.match_session = loop.match_session;
   msg.query_stamp = query_stamp;
   msg.match_id = loop.match_id;
   msg.match_stamp = match_stamp;
@@ -169,12 +171,13 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info) {
   return intrinsics;
 }
 
-Keyframe toKeyframeMsg(uint64_t id, const ros::Time& stamp, const Pose& pose,
+Keyframe toKeyframeMsg(uint64_t id, uint32_t session, const ros::Time& stamp, const Pose& pose,
                        const std::string& frame_id) {
   Keyframe msg;
   msg.header.stamp = stamp;
   msg.header.frame_id = frame_id;
   msg.id = id;
+  msg.session = session;
   msg.pose = toRos(pose);
   return msg;
 }

@@ -62,6 +62,21 @@ class NodeHarness {
     return false;
   }
 
+  /// Waits until no node listens to the images any more (after stopping one); false after
+  /// `timeout` seconds.
+  bool waitForNodeGone(double timeout = 30.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    while (ros::ok() && ros::WallTime::now() < end) {
+      if (image_publisher_.getNumSubscribers() == 0 &&
+          keyframe_subscriber_.getNumPublishers() == 0) {
+        return true;
+      }
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+    return false;
+  }
+
   /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
   /// the same stamp; `corrupt_pose` puts NaN in x.
   void publish(double stamp, const sim::Pose2D& odom, const cv::Mat& image,
@@ -132,6 +147,8 @@ class NodeHarness {
   }
 
   const std::map<uint64_t, ros::Time>& keyframes() const { return keyframes_; }
+  /// Session of each keyframe published, by id.
+  const std::map<uint64_t, uint32_t>& keyframeSessions() const { return keyframe_sessions_; }
   const std::vector<LoopClosure>& loops() const { return loops_; }
   /// Last value of a key in the node's diagnostics; empty when never seen.
   std::string diagnostic(const std::string& key) const {
@@ -161,6 +178,7 @@ class NodeHarness {
 
   void onKeyframe(const KeyframeConstPtr& keyframe) {
     keyframes_[keyframe->id] = keyframe->header.stamp;
+    keyframe_sessions_[keyframe->id] = keyframe->session;
     last_output_ = ros::WallTime::now();
   }
   void onLoop(const LoopClosureConstPtr& loop) { loops_.push_back(*loop); }
@@ -182,6 +200,7 @@ class NodeHarness {
   ros::Subscriber loop_subscriber_;
   ros::Subscriber diagnostics_subscriber_;
   std::map<uint64_t, ros::Time> keyframes_;
+  std::map<uint64_t, uint32_t> keyframe_sessions_;
   std::vector<LoopClosure> loops_;
   std::map<std::string, std::string> diagnostics_;
   ros::WallTime last_output_;

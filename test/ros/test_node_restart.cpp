@@ -1,0 +1,209 @@
+// Robots map, stop, and come back: the node is stopped after the first lap of the corridor
+// (saving its database at shutdown) and started again for the second lap with its odometry
+// restarted at the origin. The second run loads the first run's keyframes as session 0 and finds
+// loops into them.
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "landmark_loop_closure/DatabaseFile.h"
+#include "landmark_loop_closure/ResetDatabase.h"
+#include "node_harness.h"
+
+extern char** environ;
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::sim;
+
+namespace {
+
+// Starts the node as roslaunch would, with the parameters the .test file loaded.
+pid_t startNode() {
+  std::vector<std::string> arguments = {"rosrun",
+                                        "landmark_loop_closure",
+                                        "loop_closure_node",
+                                        "__name:=loop_closure",
+                                        "image:=/camera/image_raw",
+                                        "odom:=/odom"};
+  std::vector<char*> argv;
+  for (std::string& argument : arguments) argv.push_back(argument.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, "rosrun", nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  return pid;
+}
+
+// SIGINT, as roslaunch stops a node; true when it exits within `timeout` seconds.
+bool stopNode(pid_t pid, double timeout = 30.0) {
+  kill(pid, SIGINT);
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::WallTime::now() < end) {
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) || WIFSIGNALED(status);
+    ros::WallDuration(0.05).sleep();
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  return false;
+}
+
+// The true pose of the frame nearest `stamp` (stamps of loaded keyframes are stored as seconds).
+const Pose2D* truthAt(const std::map<double, Pose2D>& truth, const ros::Time& stamp) {
+  const auto after = truth.lower_bound(stamp.toSec() - 1e-3);
+  if (after == truth.end() || std::abs(after->first - stamp.toSec()) > 1e-3) return nullptr;
+  return &after->second;
+}
+
+}  // namespace
+
+TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lcd_node_restart.lcdb").string();
+  std::filesystem::remove(path);
+  ros::param::set("/loop_closure/database_path", path);
+
+  test_support::NodeHarness harness;
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = 2.0;
+  options.start_stamp = 1700000000.0;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  std::map<double, Pose2D> truth;
+  ros::WallRate rate(test_support::kPublishRateHz);
+
+  // First run: the first lap.
+  const pid_t first = startNode();
+  ASSERT_GT(first, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the first run did not subscribe";
+  SequenceFrame frame;
+  while (ros::ok() && sequence.next(&frame) && frame.lap == 0) {
+    truth[frame.stamp] = frame.truth;
+    harness.publish(frame.stamp, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+  }
+  harness.waitUntilQuiet();
+  ASSERT_TRUE(stopNode(first));
+  ASSERT_TRUE(std::filesystem::exists(path)) << "nothing saved at shutdown";
+  const size_t first_run_keyframes = harness.keyframes().size();
+  EXPECT_GT(first_run_keyframes, 150u);
+  const size_t first_run_loops = harness.loops().size();  // The lap's end meets its start.
+  uint64_t last_first_run_id = harness.keyframes().rbegin()->first;
+  ASSERT_TRUE(harness.waitForNodeGone());
+
+  // Second run: odometry restarted at the origin, where the robot is now.
+  const pid_t second = startNode();
+  ASSERT_GT(second, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the second run did not subscribe";
+  const Eigen::Isometry3d restart =
+      planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw).toIsometry();
+  do {
+    truth[frame.stamp] = frame.truth;
+    const Eigen::Isometry3d odom =
+        restart.inverse() * planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw).toIsometry();
+    const Pose2D restarted{odom.translation().x(), odom.translation().y(),
+                           std::atan2(odom.linear()(1, 0), odom.linear()(0, 0))};
+    harness.publish(frame.stamp, restarted, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+  } while (ros::ok() && sequence.next(&frame));
+  harness.waitUntilQuiet();
+
+  // The services: save a copy, forget everything, load the copy back.
+  const std::string copy = path + ".copy";
+  DatabaseFile save;
+  save.request.path = copy;
+  ASSERT_TRUE(ros::service::call("/loop_closure/save_database", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  const uint64_t stored = save.response.keyframes;
+  EXPECT_EQ(stored, harness.keyframes().size());
+  ResetDatabase reset;
+  ASSERT_TRUE(ros::service::call("/loop_closure/reset", reset));
+  EXPECT_TRUE(reset.response.success);
+  DatabaseFile load;
+  load.request.path = copy;
+  ASSERT_TRUE(ros::service::call("/loop_closure/load_database", load));
+  EXPECT_TRUE(load.response.success) << load.response.message;
+  EXPECT_EQ(load.response.keyframes, stored);
+  DatabaseFile missing;
+  missing.request.path = path + ".missing";
+  ASSERT_TRUE(ros::service::call("/loop_closure/load_database", missing));
+  EXPECT_FALSE(missing.response.success);
+  EXPECT_NE(missing.response.message.find(".missing"), std::string::npos);
+  EXPECT_EQ(missing.response.keyframes, stored);  // A refused load changes nothing.
+  std::filesystem::remove(copy);
+  EXPECT_TRUE(stopNode(second));
+
+  size_t second_run_keyframes = 0;
+  for (const auto& [id, session] : harness.keyframeSessions()) {
+    if (id <= last_first_run_id) {
+      EXPECT_EQ(session, 0u) << id;
+    } else {
+      EXPECT_EQ(session, 1u) << id;
+      ++second_run_keyframes;
+    }
+  }
+  EXPECT_GT(second_run_keyframes, 150u);
+  size_t true_loops = 0;
+  const std::vector<LoopClosure> second_run_loops(harness.loops().begin() + first_run_loops,
+                                                  harness.loops().end());
+  for (const LoopClosure& loop : second_run_loops) {
+    SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id));
+    EXPECT_EQ(loop.query_session, 1u);
+    EXPECT_EQ(loop.match_session, 0u);  // The second lap revisits only the first.
+    EXPECT_GT(loop.query_id, last_first_run_id);
+    EXPECT_LE(loop.match_id, last_first_run_id);
+    const Pose2D* query = truthAt(truth, loop.query_stamp);
+    const Pose2D* match = truthAt(truth, loop.match_stamp);
+    ASSERT_TRUE(query && match);
+    const double distance = std::hypot(query->x - match->x, query->y - match->y);
+    EXPECT_LT(distance, 2.5);
+    true_loops += distance < 2.5 ? 1 : 0;
+  }
+  std::printf("first run %zu keyframes, second run %zu keyframes, %zu loops across the restart\n",
+              first_run_keyframes, second_run_keyframes, second_run_loops.size());
+  EXPECT_GE(true_loops, 20u);
+  std::filesystem::remove(path);
+}
+
+TEST(LoopClosureNode, ACorruptDatabaseFileStopsTheNodeAndIsLeftAlone) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lcd_node_corrupt.lcdb").string();
+  const std::string garbage = "LLCKFDB\nnot really a database";
+  {
+    std::ofstream file(path, std::ios::binary);
+    file << garbage;
+  }
+  ros::param::set("/loop_closure/database_path", path);
+  const pid_t node = startNode();
+  ASSERT_GT(node, 0);
+  int status = 0;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(30.0);
+  while (waitpid(node, &status, WNOHANG) != node) {
+    if (ros::WallTime::now() > end) {
+      stopNode(node);
+      FAIL() << "the node started with a corrupt database file";
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0);
+  std::ifstream file(path, std::ios::binary);
+  const std::string kept((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(kept, garbage);  // Not overwritten by a save at shutdown.
+  std::filesystem::remove(path);
+}
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_node_restart");
+  return RUN_ALL_TESTS();
+}
