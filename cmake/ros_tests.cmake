@@ -6,6 +6,8 @@ catkin_add_gtest(test_ros_conversions test/ros/test_ros_conversions.cpp)
 target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(test_ros_conversions ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES}
   GTest::gtest_main)
+target_compile_definitions(test_ros_conversions PRIVATE
+  PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
 catkin_add_gtest(test_bag_source test/ros/test_bag_source.cpp src/tools/bag_source.cpp)
 target_include_directories(test_bag_source SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

@@ -10,7 +10,7 @@ namespace landmark_loop_closure {
 
 /// The keyframe database on disk, version 1. Little-endian throughout, whatever the host:
 ///   header: magic "LLCKFDB\n", u32 version, u32 byte-order mark 0x01020304, u64 payload bytes,
-///           u32 CRC-32 (IEEE) of the payload;
+///           u32 CRC-32C (Castagnoli) of the payload;
 ///   payload: descriptor identity (descriptorIdentity()), u32 global dimension, u64 keyframes,
 ///           then each keyframe: id, session, stamp, pose, path, descriptor (global vector,
 ///           landmark boxes and features), local features (keypoints, ORB rows, image size, 3D

@@ -1,8 +1,9 @@
 #include "landmark_loop_closure/database_file.h"
 
+#include "crc32c.h"
+
 #include <unistd.h>
 
-#include <array>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -17,6 +18,7 @@ namespace {
 constexpr char kMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
 constexpr uint32_t kByteOrderMark = 0x01020304;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
+constexpr size_t kFileBuffer = 1 << 20;
 
 bool hostIsLittleEndian() {
   const uint16_t probe = 1;
@@ -25,25 +27,14 @@ bool hostIsLittleEndian() {
   return first == 1;
 }
 
-class Crc32 {
+// CRC-32C of everything passed through it.
+class Checksum {
  public:
-  void update(const uint8_t* data, size_t size) {
-    static const std::array<uint32_t, 256> table = makeTable();
-    for (size_t i = 0; i < size; ++i) value_ = table[(value_ ^ data[i]) & 0xFFu] ^ (value_ >> 8);
-  }
-  uint32_t value() const { return value_ ^ 0xFFFFFFFFu; }
+  void update(const uint8_t* data, size_t size) { value_ = crc32c(value_, data, size); }
+  uint32_t value() const { return value_; }
 
  private:
-  static std::array<uint32_t, 256> makeTable() {
-    std::array<uint32_t, 256> table{};
-    for (uint32_t n = 0; n < 256; ++n) {
-      uint32_t c = n;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      table[n] = c;
-    }
-    return table;
-  }
-  uint32_t value_ = 0xFFFFFFFFu;
+  uint32_t value_ = 0;
 };
 
 // Why a file cannot be read; caught at the top and turned into LoadedDatabase::error.
@@ -80,6 +71,11 @@ void swapElements(uint8_t* data, size_t bytes, size_t element) {
   }
 }
 
+static_assert(sizeof(cv::Point2f) == 2 * sizeof(float) &&
+                  sizeof(cv::Point3f) == 3 * sizeof(float) &&
+                  sizeof(cv::Rect2f) == 4 * sizeof(float),
+              "points and boxes are stored as their floats");
+
 bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
 
 class PayloadWriter {
@@ -103,11 +99,6 @@ class PayloadWriter {
     bytes(buffer, 8);
   }
   void i32(int value) { u32(static_cast<uint32_t>(value)); }
-  void f32(float value) {
-    uint32_t bits = 0;
-    std::memcpy(&bits, &value, 4);
-    u32(bits);
-  }
   void f64(double value) {
     uint64_t bits = 0;
     std::memcpy(&bits, &value, 8);
@@ -116,6 +107,14 @@ class PayloadWriter {
   void count(size_t value) {
     if (value > UINT32_MAX) throw FormatError("more than 2^32 items in one list");
     u32(static_cast<uint32_t>(value));
+  }
+  /// `n` floats in one write: the bulk of a keyframe (descriptors, keypoints, depths).
+  void floats(const float* values, size_t n) {
+    if (n == 0) return;
+    std::vector<uint8_t> buffer(n * 4);
+    std::memcpy(buffer.data(), values, n * 4);
+    if (!hostIsLittleEndian()) swapElements(buffer.data(), buffer.size(), 4);
+    bytes(buffer.data(), buffer.size());
   }
   void string(const std::string& text) {
     count(text.size());
@@ -142,7 +141,7 @@ class PayloadWriter {
 
  private:
   std::FILE* file_;
-  Crc32 crc_;
+  Checksum crc_;
   uint64_t written_ = 0;
 };
 
@@ -169,12 +168,6 @@ class PayloadReader {
     return decode<uint64_t>(buffer);
   }
   int i32() { return static_cast<int>(u32()); }
-  float f32() {
-    const uint32_t bits = u32();
-    float value = 0.0f;
-    std::memcpy(&value, &bits, 4);
-    return value;
-  }
   double f64() {
     const uint64_t bits = u64();
     double value = 0.0;
@@ -187,6 +180,11 @@ class PayloadReader {
     const uint64_t n = u32();
     if (n * item_bytes > remaining_) throw FormatError("a list is longer than the file");
     return static_cast<size_t>(n);
+  }
+  void floats(float* values, size_t n) {
+    if (n == 0) return;
+    bytes(values, n * 4);
+    if (!hostIsLittleEndian()) swapElements(reinterpret_cast<uint8_t*>(values), n * 4, 4);
   }
   std::string string() {
     std::string text(count(1), '\0');
@@ -219,7 +217,7 @@ class PayloadReader {
  private:
   std::FILE* file_;
   uint64_t remaining_;
-  Crc32 crc_;
+  Checksum crc_;
 };
 
 void writePose(PayloadWriter* out, const Pose& pose) {
@@ -249,35 +247,25 @@ void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe) {
   out->f64(keyframe.path.metres);
   out->f64(keyframe.path.radians);
 
+  // Points and boxes are plain floats side by side (static_asserts below).
   const ImageDescriptor& descriptor = keyframe.descriptor;
   out->count(descriptor.global.size());
-  for (const float value : descriptor.global) out->f32(value);
+  out->floats(descriptor.global.data(), descriptor.global.size());
   out->count(descriptor.landmark_boxes.size());
-  for (const cv::Rect2f& box : descriptor.landmark_boxes) {
-    out->f32(box.x);
-    out->f32(box.y);
-    out->f32(box.width);
-    out->f32(box.height);
-  }
+  out->floats(reinterpret_cast<const float*>(descriptor.landmark_boxes.data()),
+              4 * descriptor.landmark_boxes.size());
   out->mat(descriptor.landmark_features);
 
   const LocalFeatures& local = keyframe.local_features;
   out->count(local.points.size());
-  for (const cv::Point2f& point : local.points) {
-    out->f32(point.x);
-    out->f32(point.y);
-  }
+  out->floats(reinterpret_cast<const float*>(local.points.data()), 2 * local.points.size());
   out->mat(local.descriptors);
   out->i32(local.image_size.width);
   out->i32(local.image_size.height);
   out->count(local.points3d.size());
-  for (const cv::Point3f& point : local.points3d) {
-    out->f32(point.x);
-    out->f32(point.y);
-    out->f32(point.z);
-  }
+  out->floats(reinterpret_cast<const float*>(local.points3d.data()), 3 * local.points3d.size());
   out->count(local.depth_sd.size());
-  for (const float sd : local.depth_sd) out->f32(sd);
+  out->floats(local.depth_sd.data(), local.depth_sd.size());
 
   out->mat(keyframe.thumbnail);
 }
@@ -293,14 +281,10 @@ KeyframeRecord readKeyframe(PayloadReader* in) {
 
   ImageDescriptor& descriptor = keyframe.descriptor;
   descriptor.global.resize(in->count(4));
-  for (float& value : descriptor.global) value = in->f32();
+  in->floats(descriptor.global.data(), descriptor.global.size());
   descriptor.landmark_boxes.resize(in->count(16));
-  for (cv::Rect2f& box : descriptor.landmark_boxes) {
-    box.x = in->f32();
-    box.y = in->f32();
-    box.width = in->f32();
-    box.height = in->f32();
-  }
+  in->floats(reinterpret_cast<float*>(descriptor.landmark_boxes.data()),
+             4 * descriptor.landmark_boxes.size());
   descriptor.landmark_features = in->mat();
   if (descriptor.landmark_features.rows != static_cast<int>(descriptor.landmark_boxes.size())) {
     throw FormatError("keyframe " + std::to_string(keyframe.id) +
@@ -309,21 +293,14 @@ KeyframeRecord readKeyframe(PayloadReader* in) {
 
   LocalFeatures& local = keyframe.local_features;
   local.points.resize(in->count(8));
-  for (cv::Point2f& point : local.points) {
-    point.x = in->f32();
-    point.y = in->f32();
-  }
+  in->floats(reinterpret_cast<float*>(local.points.data()), 2 * local.points.size());
   local.descriptors = in->mat();
   local.image_size.width = in->i32();
   local.image_size.height = in->i32();
   local.points3d.resize(in->count(12));
-  for (cv::Point3f& point : local.points3d) {
-    point.x = in->f32();
-    point.y = in->f32();
-    point.z = in->f32();
-  }
+  in->floats(reinterpret_cast<float*>(local.points3d.data()), 3 * local.points3d.size());
   local.depth_sd.resize(in->count(4));
-  for (float& sd : local.depth_sd) sd = in->f32();
+  in->floats(local.depth_sd.data(), local.depth_sd.size());
   const size_t points = local.points.size();
   if (local.descriptors.rows != static_cast<int>(points) ||
       (!local.points3d.empty() && local.points3d.size() != points) ||
@@ -357,6 +334,7 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
   try {
     File file(std::fopen(temporary.c_str(), "wb"));
     if (!file) throw FormatError(std::string("cannot create it: ") + std::strerror(errno));
+    std::setvbuf(file.get(), nullptr, _IOFBF, kFileBuffer);
     writeHeader(file.get(), 0, 0);  // Placeholder until the payload's size and CRC are known.
     PayloadWriter out(file.get());
     out.string(descriptor_identity);
@@ -387,6 +365,7 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
   try {
     File file(std::fopen(path.c_str(), "rb"));
     if (!file) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
+    std::setvbuf(file.get(), nullptr, _IOFBF, kFileBuffer);
     uint8_t header[kHeaderBytes];
     if (std::fread(header, 1, kHeaderBytes, file.get()) != kHeaderBytes) {
       throw FormatError("truncated: shorter than the header");
@@ -405,6 +384,19 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
     if (version == 0) throw FormatError("format version 0 does not exist");
     const uint64_t payload_bytes = decode<uint64_t>(header + 16);
     const uint32_t expected_crc = decode<uint32_t>(header + 24);
+    // Every length inside is checked against the payload's size, so it must be the real one.
+    if (fseeko(file.get(), 0, SEEK_END) != 0) throw FormatError(std::strerror(errno));
+    const off_t file_bytes = ftello(file.get());
+    if (file_bytes < 0 || fseeko(file.get(), static_cast<off_t>(kHeaderBytes), SEEK_SET) != 0) {
+      throw FormatError(std::strerror(errno));
+    }
+    const uint64_t held = static_cast<uint64_t>(file_bytes) - kHeaderBytes;
+    if (payload_bytes != held) {
+      throw FormatError(
+          std::string(payload_bytes > held ? "truncated" : "bytes after the payload") +
+          ": the header announces " + std::to_string(payload_bytes) +
+          " payload bytes, the file holds " + std::to_string(held));
+    }
 
     PayloadReader in(file.get(), payload_bytes);
     const std::string identity = in.string();

@@ -40,6 +40,13 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image) {
             << " bytes of data, which cannot hold it";
     return InputError{InputErrorCode::kEmptyImage, message.str()};
   }
+  // Rows of 16-bit samples must start on a sample: OpenCV cannot view them otherwise.
+  if (image.step % CV_ELEM_SIZE1(*type) != 0) {
+    std::ostringstream message;
+    message << "image " << image.encoding << " has step " << image.step
+            << ", not a multiple of its " << CV_ELEM_SIZE1(*type) << "-byte samples";
+    return InputError{InputErrorCode::kEmptyImage, message.str()};
+  }
   return std::nullopt;
 }
 
@@ -75,6 +82,7 @@ cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error) {
   }
   const size_t row_bytes = static_cast<size_t>(image.width) * CV_ELEM_SIZE(type);
   if (image.width == 0 || image.height == 0 || image.step < row_bytes ||
+      image.step % CV_ELEM_SIZE(type) != 0 ||
       image.data.size() < static_cast<size_t>(image.step) * image.height) {
     *error = "depth image " + std::to_string(image.width) + "x" + std::to_string(image.height) +
              " with step " + std::to_string(image.step) + " does not fit its " +

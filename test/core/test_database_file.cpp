@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../src/core/crc32c.h"
 #include "landmark_loop_closure/database_file.h"
 #include "landmark_loop_closure/descriptor.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
@@ -274,4 +275,35 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
   writeBytes(copy, model);
   EXPECT_NE(descriptorIdentity(copied), identity);
   fs::remove(copy);
+}
+
+TEST(DatabaseFileFuzzSeeds, EverySeedAndKeptCrashInputIsHandled) {
+  // scripts/fuzz.sh starts from these files and keeps inputs that once crashed the loader here.
+  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_database_file";
+  ASSERT_TRUE(fs::is_directory(folder));
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    SCOPED_TRACE(entry.path().string());
+    const LoadedDatabase loaded = loadDatabase(entry.path().string(), "fuzz", 6);
+    EXPECT_TRUE(loaded.database || !loaded.error.empty());
+    ++files;
+  }
+  EXPECT_GT(files, 0);
+}
+
+TEST(Crc32c, MatchesTheStandardCheckValueOnEveryPath) {
+  const std::string check = "123456789";
+  const auto* bytes = reinterpret_cast<const uint8_t*>(check.data());
+  EXPECT_EQ(crc32c(0, bytes, check.size()), 0xE3069283u);
+  EXPECT_EQ(crc32cPortable(0, bytes, check.size()), 0xE3069283u);
+  // Any length and split: the CPU instruction and the table agree, and updates chain.
+  std::vector<uint8_t> data(1031);
+  for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<uint8_t>(i * 131 + 7);
+  for (size_t length : {0, 1, 7, 8, 9, 64, 1031}) {
+    EXPECT_EQ(crc32c(0, data.data(), length), crc32cPortable(0, data.data(), length)) << length;
+  }
+  const uint32_t whole = crc32c(0, data.data(), data.size());
+  EXPECT_EQ(crc32c(crc32c(0, data.data(), 100), data.data() + 100, data.size() - 100), whole);
+  EXPECT_EQ(crc32cPortable(crc32cPortable(0, data.data(), 13), data.data() + 13, data.size() - 13),
+            whole);
 }

@@ -1,4 +1,7 @@
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 
@@ -6,6 +9,7 @@
 #include <sensor_msgs/image_encodings.h>
 #include <Eigen/Geometry>
 
+#include "../../fuzz/image_message_input.h"
 #include "../../src/ros/loop_markers.h"
 #include "../../src/ros/ros_conversions.h"
 
@@ -165,6 +169,16 @@ TEST(RosConversions, UnusableDepthImagesSayWhy) {
   EXPECT_TRUE(toDepth(truncated, &error).empty());
   EXPECT_NE(error.find("20-byte buffer"), std::string::npos) << error;
   EXPECT_TRUE(toDepth(makeImage("16UC1", 0, 0, 2), &error).empty());
+  // Found by scripts/fuzz.sh: rows that do not start on a sample made OpenCV throw.
+  sensor_msgs::Image odd_step = makeImage("16UC1", 4, 3, 2);
+  odd_step.step = 9;
+  odd_step.data.assign(27, 0);
+  EXPECT_TRUE(toDepth(odd_step, &error).empty());
+  EXPECT_NE(error.find("step 9"), std::string::npos) << error;
+  odd_step.encoding = "mono16";
+  const auto refused = checkImageMessage(odd_step);
+  ASSERT_TRUE(refused);
+  EXPECT_NE(refused->message.find("2-byte samples"), std::string::npos) << refused->message;
 }
 
 TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {
@@ -280,4 +294,26 @@ TEST(RosConversions, OdometryRejectionsCarryTheirNumbersInTheReason) {
   EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::ODOMETRY_REJECTED);
   EXPECT_EQ(message.candidates[0].reason,
             "odometry_rejected: odometry: needs a 26.0 m correction, drift allows 4.0 m");
+}
+
+TEST(RosConversions, EveryKeptFuzzInputIsRefusedOrConverted) {
+  // scripts/fuzz.sh starts from these inputs and keeps the ones that once crashed here.
+  namespace fs = std::filesystem;
+  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_image_message";
+  int inputs = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    SCOPED_TRACE(entry.path().string());
+    std::ifstream file(entry.path(), std::ios::binary);
+    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(file)),
+                                     std::istreambuf_iterator<char>());
+    const sensor_msgs::Image image = fuzz::imageFromBytes(bytes.data(), bytes.size());
+    if (!checkImageMessage(image)) {
+      EXPECT_EQ(toGrey(image).type(), CV_8UC1);
+    }
+    std::string error;
+    const cv::Mat depth = toDepth(image, &error);
+    EXPECT_NE(depth.empty(), error.empty());  // A depth image or a reason, never both.
+    ++inputs;
+  }
+  EXPECT_GE(inputs, 5);
 }
