@@ -38,6 +38,15 @@ std::vector<float> randomUnitVector(int dimension, std::mt19937* random) {
   return values;
 }
 
+// A keyframe with only an id, a stamp and a random global descriptor.
+KeyframeRecord syntheticKeyframe(size_t id, int dimension, std::mt19937* random) {
+  KeyframeRecord keyframe;
+  keyframe.id = id;
+  keyframe.stamp = static_cast<double>(id);
+  keyframe.descriptor.global = randomUnitVector(dimension, random);
+  return keyframe;
+}
+
 std::vector<size_t> parseSizes(const std::string& text) {
   std::vector<size_t> sizes;
   std::istringstream list(text);
@@ -75,10 +84,7 @@ int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) 
     std::mt19937 random(7);
     KeyframeDatabase database(dimension);
     for (size_t id = 0; id < size; ++id) {
-      KeyframeRecord keyframe;
-      keyframe.id = id;
-      keyframe.stamp = static_cast<double>(id);
-      keyframe.descriptor.global = randomUnitVector(dimension, &random);
+      KeyframeRecord keyframe = syntheticKeyframe(id, dimension, &random);
       keyframe.descriptor.landmark_boxes = model.descriptor.landmark_boxes;
       keyframe.descriptor.landmark_features = model.descriptor.landmark_features.clone();
       keyframe.local_features = model.local_features;
@@ -140,11 +146,7 @@ int main(int argc, char** argv) {
       std::mt19937 random(42);
       KeyframeDatabase database(dimension);
       for (size_t id = 0; id < size; ++id) {
-        KeyframeRecord keyframe;
-        keyframe.id = id;
-        keyframe.stamp = static_cast<double>(id);
-        keyframe.descriptor.global = randomUnitVector(dimension, &random);
-        database.add(std::move(keyframe));
+        database.add(syntheticKeyframe(id, dimension, &random));
       }
       DatabaseOptions options;
       options.min_size = 1;
