@@ -1,6 +1,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 
 #include <gtest/gtest.h>
@@ -262,13 +263,24 @@ TEST(LoopDetector, LocalizationModeSearchesTheMapAddsNothingAndSkipsTheGate) {
   EXPECT_EQ(detector.database().at(40).id, 46u);
 }
 
-TEST(LoopDetector, MetreConsistencyWaitsForTheDistanceNotTheKeyframeCount) {
+namespace {
+
+// A detector counting consistency in metres, after 40 keyframes 1 m apart showing places 0-39.
+std::unique_ptr<LoopDetector> mappedInMetres(double consistent_distance_m) {
   LoopDetectorOptions options = smallOptions();
   options.acceptance.consistency_unit = "metres";
-  options.acceptance.consistent_distance_m = 2.5;
+  options.acceptance.consistent_distance_m = consistent_distance_m;
   options.acceptance.match_window_m = 0.5;
-  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  auto detector = std::make_unique<LoopDetector>(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(detector.get(), i, i);
+  return detector;
+}
+
+}  // namespace
+
+TEST(LoopDetector, MetreConsistencyWaitsForTheDistanceNotTheKeyframeCount) {
+  const std::unique_ptr<LoopDetector> detector_in_metres = mappedInMetres(2.5);
+  LoopDetector& detector = *detector_in_metres;
   // Keyframes 1 m apart: three consistent keyframes cover 2 m, not yet 2.5.
   for (int i = 40; i < 43; ++i) {
     const FrameResult result = feed(&detector, i, i - 30);
@@ -284,12 +296,8 @@ TEST(LoopDetector, MetreConsistencyWaitsForTheDistanceNotTheKeyframeCount) {
 }
 
 TEST(LoopDetector, MetreConsistencyIsBrokenByAJumpAlongTheOldPath) {
-  LoopDetectorOptions options = smallOptions();
-  options.acceptance.consistency_unit = "metres";
-  options.acceptance.consistent_distance_m = 1.5;
-  options.acceptance.match_window_m = 0.5;
-  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  const std::unique_ptr<LoopDetector> detector_in_metres = mappedInMetres(1.5);
+  LoopDetector& detector = *detector_in_metres;
   // Matches hopping 5 m along the old path per 1 m of travel are not one stretch of the map.
   for (int i = 40; i < 45; ++i) {
     EXPECT_FALSE(feed(&detector, i, 5 * (i - 40)).keyframe->loop);

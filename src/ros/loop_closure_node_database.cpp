@@ -1,0 +1,83 @@
+// The node's keyframe database file: the services and the stamps of loaded keyframes.
+#include <string>
+
+#include "loop_closure_node.h"
+
+namespace landmark_loop_closure {
+
+void LoopClosureNode::advertiseServices() {
+  ros::NodeHandle services(private_node_);
+  services.setCallbackQueue(&service_queue_);
+  save_service_ =
+      services.advertiseService("save_database", &LoopClosureNode::onSaveDatabase, this);
+  load_service_ =
+      services.advertiseService("load_database", &LoopClosureNode::onLoadDatabase, this);
+  reset_service_ = services.advertiseService("reset", &LoopClosureNode::onResetDatabase, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
+}
+
+std::string LoopClosureNode::saveDatabase(const std::string& path) {
+  const std::string& target = path.empty() ? options_.database_path : path;
+  if (target.empty()) return "no path given and the parameter database_path is empty";
+  const std::string error = detector_.saveDatabase(target);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  database_status_ = error.empty() ? "saved " + target : error;
+  if (error.empty()) stored_since_save_ = 0;
+  return error;
+}
+
+bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
+                                     DatabaseFile::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const std::string error = saveDatabase(request.path);
+  response.success = error.empty();
+  response.keyframes = detector_.database().size();
+  response.message =
+      error.empty() ? "saved " + std::to_string(response.keyframes) + " keyframes" : error;
+  return true;
+}
+
+bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
+                                     DatabaseFile::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const std::string& path = request.path.empty() ? options_.database_path : request.path;
+  const std::string error = path.empty() ? "no path given and the parameter database_path is empty"
+                                         : detector_.loadDatabase(path);
+  response.success = error.empty();
+  response.keyframes = detector_.database().size();
+  if (error.empty()) {
+    keyframe_stamps_.clear();
+    markers_.clear();
+    response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
+                       std::to_string(detector_.session());
+    session_ = detector_.session();
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    database_status_ = "loaded " + path;
+  } else {
+    response.message = error;
+    ROS_ERROR("%s", error.c_str());
+  }
+  return true;
+}
+
+bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
+  std::lock_guard<std::mutex> lock(detector_mutex_);
+  const size_t forgotten = detector_.database().size();
+  detector_.reset();
+  session_ = detector_.session();
+  keyframe_stamps_.clear();
+  markers_.clear();
+  response.success = true;
+  response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+  return true;
+}
+
+ros::Time LoopClosureNode::stampOf(uint64_t id) const {
+  const auto known = keyframe_stamps_.find(id);
+  if (known != keyframe_stamps_.end()) return known->second;
+  const KeyframeRecord* record = detector_.database().findById(id);
+  return record ? ros::Time(record->stamp) : ros::Time();
+}
+
+}  // namespace landmark_loop_closure
