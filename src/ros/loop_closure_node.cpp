@@ -31,6 +31,7 @@ constexpr double kDiagnosticsPeriod = 1.0;
 constexpr size_t kMaxBufferedDepths = 30;
 constexpr double kDepthWait = 0.2;  // Seconds the worker waits for a keyframe's depth image.
 constexpr double kDepthPollPeriod = 0.005;
+constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the stream stopped.
 
 double wallNow() { return ros::WallTime::now().toSec(); }
 
@@ -327,8 +328,15 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
   sensor_msgs::ImageConstPtr nearest;
   while (true) {
     bool later_arrived = false;
+    bool stream_alive = false;
     {
       std::lock_guard<std::mutex> lock(depth_mutex_);
+      // Waiting only helps while depth comes: none for a second before this keyframe, or nobody
+      // publishing it, and waiting would only slow the worker down.
+      stream_alive =
+          depth_buffer_.empty()
+              ? depth_subscriber_.getNumPublishers() > 0
+              : depth_buffer_.back()->header.stamp + ros::Duration(kDepthSilence) > stamp;
       for (const sensor_msgs::ImageConstPtr& candidate : depth_buffer_) {
         const ros::Time& depth_stamp = candidate->header.stamp;
         const ros::Duration gap = depth_stamp > stamp ? depth_stamp - stamp : stamp - depth_stamp;
@@ -341,7 +349,9 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
       }
     }
     // A depth image newer than the slop means the matching one will not come any more.
-    if (nearest || later_arrived || ros::WallTime::now() > give_up || !ros::ok()) break;
+    if (nearest || later_arrived || !stream_alive || ros::WallTime::now() > give_up || !ros::ok()) {
+      break;
+    }
     ros::WallDuration(kDepthPollPeriod).sleep();
   }
   if (!nearest) {
