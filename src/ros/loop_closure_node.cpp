@@ -337,13 +337,13 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
           depth_buffer_.empty()
               ? depth_subscriber_.getNumPublishers() > 0
               : depth_buffer_.back()->header.stamp + ros::Duration(kDepthSilence) > stamp;
+      const auto gap = [&stamp](const sensor_msgs::ImageConstPtr& depth) {
+        const ros::Time& other = depth->header.stamp;
+        return other > stamp ? other - stamp : stamp - other;
+      };
       for (const sensor_msgs::ImageConstPtr& candidate : depth_buffer_) {
-        const ros::Time& depth_stamp = candidate->header.stamp;
-        const ros::Duration gap = depth_stamp > stamp ? depth_stamp - stamp : stamp - depth_stamp;
-        later_arrived |= depth_stamp > stamp + slop;
-        if (gap > slop) continue;
-        if (!nearest || gap < (nearest->header.stamp > stamp ? nearest->header.stamp - stamp
-                                                             : stamp - nearest->header.stamp)) {
+        later_arrived |= candidate->header.stamp > stamp + slop;
+        if (gap(candidate) <= slop && (!nearest || gap(candidate) < gap(nearest))) {
           nearest = candidate;
         }
       }
