@@ -131,6 +131,8 @@ struct StageTimes {
 struct KeyframeResult {
   std::optional<InputError> error;  ///< Set: the keyframe was refused and not stored.
   uint64_t keyframe_id = 0;
+  /// Added to the database: false when refused, localising, or the memory budget is spent.
+  bool stored = false;
   QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
@@ -188,6 +190,9 @@ class LoopDetector {
   uint32_t session() const { return session_; }
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
+
+  /// The database holds database/memory_budget_mb: new keyframes are searched, not stored.
+  bool overMemoryBudget() const;
 
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);

@@ -95,6 +95,13 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);
   reader->read("database/min_size", &detector.database.min_size);
   reader->read("database/top_k", &detector.database.top_k);
+  reader->read("database/memory_budget_mb", &detector.database.memory_budget_mb);
+  IndexOptions& index = detector.database.index;
+  reader->read("database/index/type", &index.type);
+  reader->read("database/index/approximate_from", &index.approximate_from);
+  reader->read("database/index/neighbors", &index.neighbors);
+  reader->read("database/index/ef_construction", &index.ef_construction);
+  reader->read("database/index/ef_search", &index.ef_search);
 
   reader->read("acceptance/min_score", &detector.acceptance.min_score);
   reader->read("acceptance/consistent_keyframes", &detector.acceptance.consistent_keyframes);

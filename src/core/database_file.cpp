@@ -267,10 +267,11 @@ void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe) {
   out->count(local.depth_sd.size());
   out->floats(local.depth_sd.data(), local.depth_sd.size());
 
-  out->mat(keyframe.thumbnail);
+  out->count(keyframe.thumbnail_jpeg.size());
+  out->bytes(keyframe.thumbnail_jpeg.data(), keyframe.thumbnail_jpeg.size());
 }
 
-KeyframeRecord readKeyframe(PayloadReader* in) {
+KeyframeRecord readKeyframe(PayloadReader* in, uint32_t version) {
   KeyframeRecord keyframe;
   keyframe.id = in->u64();
   keyframe.session = in->u32();
@@ -309,7 +310,12 @@ KeyframeRecord readKeyframe(PayloadReader* in) {
                       ": keypoints, descriptors and depths disagree");
   }
 
-  keyframe.thumbnail = in->mat();
+  if (version == 1) {
+    keyframe.thumbnail_jpeg = encodeThumbnail(in->mat());  // Version 1 kept raw pixels.
+  } else {
+    keyframe.thumbnail_jpeg.resize(in->count(1));
+    in->bytes(keyframe.thumbnail_jpeg.data(), keyframe.thumbnail_jpeg.size());
+  }
   return keyframe;
 }
 
@@ -341,6 +347,15 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
     out.u32(static_cast<uint32_t>(database.globalDimension()));
     out.u64(database.size());
     for (size_t i = 0; i < database.size(); ++i) writeKeyframe(&out, database.at(i));
+    // The graph takes minutes to rebuild at 100 000 keyframes and milliseconds to read.
+    if (database.graph()) {
+      out.string(database.indexOptions().graphIdentity());
+      const std::vector<uint8_t> graph = database.graph()->toBytes();
+      out.u64(graph.size());
+      out.bytes(graph.data(), graph.size());
+    } else {
+      out.string("");
+    }
     writeHeader(file.get(), out.written(), out.crc());
     if (std::fflush(file.get()) != 0 || ::fsync(fileno(file.get())) != 0) {
       throw FormatError(std::strerror(errno));
@@ -360,7 +375,7 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
 }
 
 LoadedDatabase loadDatabase(const std::string& path, const std::string& descriptor_identity,
-                            int global_dimension) {
+                            int global_dimension, const IndexOptions& index) {
   LoadedDatabase loaded;
   try {
     File file(std::fopen(path.c_str(), "rb"));
@@ -409,19 +424,48 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
       throw FormatError("global descriptors have " + std::to_string(dimension) +
                         " values, the configured ones " + std::to_string(global_dimension));
     }
-    KeyframeDatabase database(global_dimension);
+    IndexOptions exact;
+    exact.type = "exact";  // The graph is read or built once every keyframe is in.
+    KeyframeDatabase database(global_dimension, exact);
     const uint64_t keyframes = in.u64();
     for (uint64_t i = 0; i < keyframes; ++i) {
-      KeyframeRecord keyframe = readKeyframe(&in);
+      KeyframeRecord keyframe = readKeyframe(&in, version);
       try {
         database.add(std::move(keyframe));
       } catch (const std::invalid_argument& error) {
         throw FormatError(error.what());
       }
     }
+    std::string graph_identity;
+    std::vector<uint8_t> graph_bytes;
+    if (version >= 2) {
+      graph_identity = in.string();
+      if (!graph_identity.empty()) {
+        const uint64_t size = in.u64();
+        if (size > in.remaining()) throw FormatError("the graph is larger than the file");
+        graph_bytes.resize(static_cast<size_t>(size));
+        in.bytes(graph_bytes.data(), graph_bytes.size());
+      }
+    }
     if (in.remaining() != 0) throw FormatError("bytes left over after the last keyframe");
     if (in.crc() != expected_crc) throw FormatError("checksum mismatch: the file is corrupt");
     if (std::fgetc(file.get()) != EOF) throw FormatError("bytes after the payload");
+    // Only checked bytes reach the graph reader.
+    std::unique_ptr<ApproximateIndex> graph;
+    if (index.buildsGraph() && graph_identity == index.graphIdentity()) {
+      try {
+        graph =
+            ApproximateIndex::fromBytes(std::move(graph_bytes), global_dimension, index.neighbors);
+      } catch (const std::runtime_error& error) {
+        throw FormatError(error.what());
+      }
+      if (graph->size() != database.size()) {
+        throw FormatError("the graph holds " + std::to_string(graph->size()) + " of " +
+                          std::to_string(database.size()) + " keyframes");
+      }
+    }
+    loaded.graph_rebuilt = index.buildsGraph() && !graph;
+    database.setIndex(index, std::move(graph));
     loaded.database = std::move(database);
   } catch (const FormatError& error) {
     loaded.error = "refused " + path + ": " + error.what();

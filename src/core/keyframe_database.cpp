@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <opencv2/imgcodecs.hpp>
+
 namespace landmark_loop_closure {
 
 std::string DatabaseOptions::validate() const {
@@ -19,6 +21,10 @@ std::string DatabaseOptions::validate() const {
   }
   if (min_size < 1) errors << "database/min_size must be >= 1 (got " << min_size << ")\n";
   if (top_k < 1) errors << "database/top_k must be >= 1 (got " << top_k << ")\n";
+  if (!(memory_budget_mb >= 0.0)) {
+    errors << "database/memory_budget_mb must be >= 0 (got " << memory_budget_mb << ")\n";
+  }
+  errors << index.validate();
   return errors.str();
 }
 
@@ -34,8 +40,59 @@ const char* toString(QueryStatus status) {
   return "unknown";
 }
 
-KeyframeDatabase::KeyframeDatabase(int global_dimension) : global_dimension_(global_dimension) {
+std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey) {
+  std::vector<uint8_t> jpeg;
+  if (!grey.empty()) cv::imencode(".jpg", grey, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  return jpeg;
+}
+
+cv::Mat decodeThumbnail(const std::vector<uint8_t>& jpeg) {
+  if (jpeg.empty()) return {};
+  try {
+    return cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception&) {
+    return {};
+  }
+}
+
+namespace {
+
+// More excluded keyframes than this and the graph would have to return most of its neighbours
+// only to drop them: exact search is then the cheaper and surer way.
+constexpr size_t kMaxExcludedForGraph = 2000;
+
+}  // namespace
+
+KeyframeDatabase::KeyframeDatabase(int global_dimension, IndexOptions index)
+    : global_dimension_(global_dimension) {
   if (global_dimension <= 0) throw std::invalid_argument("global descriptor dimension must be > 0");
+  setIndex(index);
+}
+
+KeyframeDatabase::KeyframeDatabase(KeyframeDatabase&&) noexcept = default;
+KeyframeDatabase& KeyframeDatabase::operator=(KeyframeDatabase&&) noexcept = default;
+KeyframeDatabase::~KeyframeDatabase() = default;
+
+void KeyframeDatabase::setIndex(const IndexOptions& index,
+                                std::unique_ptr<ApproximateIndex> graph) {
+  const std::string problems = index.validate();
+  if (!problems.empty()) throw std::invalid_argument(problems);
+  if (graph && (graph->size() != keyframes_.size() || graph->dimension() != global_dimension_)) {
+    throw std::invalid_argument("the graph holds " + std::to_string(graph->size()) +
+                                " vectors, the database " + std::to_string(keyframes_.size()) +
+                                " keyframes");
+  }
+  index_options_ = index;
+  if (!index.buildsGraph()) {
+    graph_.reset();
+    return;
+  }
+  if (!graph) {
+    graph = std::make_unique<ApproximateIndex>(global_dimension_, index.neighbors,
+                                               index.ef_construction);
+    for (const KeyframeRecord& keyframe : keyframes_) graph->add(keyframe.descriptor.global.data());
+  }
+  graph_ = std::move(graph);
 }
 
 void KeyframeDatabase::add(KeyframeRecord keyframe) {
@@ -49,6 +106,10 @@ void KeyframeDatabase::add(KeyframeRecord keyframe) {
                                 std::to_string(keyframe.descriptor.global.size()) +
                                 " values, the database holds " + std::to_string(global_dimension_));
   }
+  if (graph_) graph_->add(keyframe.descriptor.global.data());
+  stamps_.push_back(keyframe.stamp);
+  content_bytes_ += keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
+                    keyframe.thumbnail_jpeg.capacity();
   keyframes_.push_back(std::move(keyframe));
 }
 
@@ -59,22 +120,44 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
     result.status = QueryStatus::kDatabaseTooSmall;
     return result;
   }
+  if (static_cast<int>(global.size()) != global_dimension_) {
+    throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
+                                " values, the database holds " + std::to_string(global_dimension_));
+  }
   size_t end = keyframes_.size();
   const size_t limit = static_cast<size_t>(options.exclude_recent_keyframes);
   while (end > 0 && keyframes_.size() - end < limit && keyframes_[end - 1].session == session) {
     --end;
   }
-  std::vector<Candidate> scored;
-  scored.reserve(end);
-  for (size_t index = 0; index < end; ++index) {
-    const KeyframeRecord& keyframe = keyframes_[index];
-    if (std::abs(stamp - keyframe.stamp) < options.exclude_recent_seconds) continue;
-    scored.push_back({index, keyframe.id, cosineSimilarity(global, keyframe.descriptor.global)});
-  }
-  result.searched = scored.size();
-  if (scored.empty()) {
+  const auto outside_time_window = [&](size_t index) {
+    return std::abs(stamp - stamps_[index]) >= options.exclude_recent_seconds;
+  };
+  for (size_t index = 0; index < end; ++index) result.searched += outside_time_window(index);
+  if (result.searched == 0) {
     result.status = QueryStatus::kAllExcluded;
     return result;
+  }
+  const bool use_graph =
+      graph_ && (index_options_.type == "approximate" ||
+                 keyframes_.size() >= static_cast<size_t>(index_options_.approximate_from));
+  std::vector<Candidate> scored;
+  const size_t excluded = keyframes_.size() - result.searched;
+  if (use_graph && excluded <= kMaxExcludedForGraph) {
+    result.approximate = true;
+    const size_t wanted = static_cast<size_t>(options.top_k) + excluded;
+    for (const auto& [index, score] :
+         graph_->search(global.data(), wanted, index_options_.ef_search)) {
+      if (index < end && outside_time_window(index)) {
+        scored.push_back({index, keyframes_[index].id, static_cast<double>(score)});
+      }
+    }
+  } else {
+    scored.reserve(result.searched);
+    for (size_t index = 0; index < end; ++index) {
+      if (!outside_time_window(index)) continue;
+      scored.push_back({index, keyframes_[index].id,
+                        cosineSimilarity(global, keyframes_[index].descriptor.global)});
+    }
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(options.top_k));
   std::partial_sort(
@@ -94,12 +177,8 @@ const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
 }
 
 size_t KeyframeDatabase::bytes() const {
-  size_t total = keyframes_.capacity() * sizeof(KeyframeRecord);
-  for (const KeyframeRecord& keyframe : keyframes_) {
-    total += keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
-             keyframe.thumbnail.total() * keyframe.thumbnail.elemSize();
-  }
-  return total;
+  return keyframes_.capacity() * sizeof(KeyframeRecord) + stamps_.capacity() * sizeof(double) +
+         content_bytes_ + (graph_ ? graph_->bytes() : 0);
 }
 
 }  // namespace landmark_loop_closure

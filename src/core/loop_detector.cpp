@@ -123,7 +123,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       extractor_(std::move(extractor)),
       verifier_(options.verification),
       selector_(options.keyframe),
-      database_(extractor_ ? extractor_->globalDimension() : 1),
+      database_(extractor_ ? extractor_->globalDimension() : 1, options.database.index),
       consistency_(options.acceptance.unit(),
                    options.acceptance.unit() == ConsistencyUnit::kKeyframes
                        ? static_cast<double>(options.acceptance.index_window)
@@ -142,8 +142,8 @@ std::string LoopDetector::saveDatabase(const std::string& path) const {
 }
 
 std::string LoopDetector::loadDatabase(const std::string& path) {
-  LoadedDatabase loaded =
-      landmark_loop_closure::loadDatabase(path, descriptor_identity_, database_.globalDimension());
+  LoadedDatabase loaded = landmark_loop_closure::loadDatabase(
+      path, descriptor_identity_, database_.globalDimension(), database_.indexOptions());
   if (!loaded.database) return loaded.error;
   database_ = std::move(*loaded.database);
   uint32_t last_session = 0;
@@ -163,7 +163,7 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
 }
 
 void LoopDetector::reset() {
-  database_ = KeyframeDatabase(database_.globalDimension());
+  database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   consistency_.reset();
   last_keyframe_.reset();
@@ -275,13 +275,20 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_pose = keyframe.pose;
   }
 
-  if (mode_ == DetectorMode::kLocalization) return result;
+  if (mode_ == DetectorMode::kLocalization || overMemoryBudget()) return result;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
-    keyframe.thumbnail = toWorkingImage(image, kThumbnailWidth, kThumbnailHeight).clone();
+    keyframe.thumbnail_jpeg =
+        encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
   }
   database_.add(std::move(keyframe));
+  result.stored = true;
   return result;
+}
+
+bool LoopDetector::overMemoryBudget() const {
+  const double budget = options_.database.memory_budget_mb;
+  return budget > 0.0 && static_cast<double>(database_.bytes()) >= budget * 1e6;
 }
 
 void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,

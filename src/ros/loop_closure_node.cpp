@@ -83,14 +83,18 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   if (!options_.database_path.empty() && options_.autoload &&
       std::filesystem::exists(options_.database_path)) {
     // Refusing to start keeps a file that cannot be read from being overwritten by the next save.
+    const auto load_start = std::chrono::steady_clock::now();
     const std::string error = detector_.loadDatabase(options_.database_path);
+    const double load_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     if (!error.empty()) {
       throw std::runtime_error(error + " (move the file away or set autoload false)");
     }
     database_status_ = "loaded " + options_.database_path;
     session_ = detector_.session();
-    ROS_INFO("Loaded %zu keyframes from %s; this run is session %u", detector_.database().size(),
-             options_.database_path.c_str(), detector_.session());
+    ROS_INFO("Loaded %zu keyframes from %s in %.2f s; this run is session %u",
+             detector_.database().size(), options_.database_path.c_str(), load_s,
+             detector_.session());
   }
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
   advertiseServices();
@@ -306,6 +310,13 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     return;
   }
   ++keyframes_stored_;
+  if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
+    ++keyframes_over_budget_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Database memory budget of %.0f MB reached (%zu keyframes): keyframes are "
+                      "searched for loops but no longer stored",
+                      options_.detector.database.memory_budget_mb, detector_.database().size());
+  }
   keyframe_stamps_[job.id] = job.stamp;
   publishResults(job, result, grey);
   if (options_.autosave_every > 0 && !options_.database_path.empty() &&
@@ -480,9 +491,11 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
   }
   // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
   const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
+  const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail_jpeg) : cv::Mat();
+  const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail_jpeg) : cv::Mat();
   std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
   std::vector<std::pair<cv::Point2f, cv::Point2f>> inlier_pairs;
-  if (query && match && !query->thumbnail.empty()) {
+  if (query && match && !query_thumbnail.empty()) {
     for (const LandmarkMatch& pair :
          matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features)) {
       landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
@@ -491,16 +504,16 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
     if (result.loop && result.loop->match_id == match->id && result.loop->verification &&
         query->local_features.image_size.width > 0) {
       const float scale =
-          static_cast<float>(query->thumbnail.cols) / query->local_features.image_size.width;
+          static_cast<float>(query_thumbnail.cols) / query->local_features.image_size.width;
       for (const auto& [q, m] : result.loop->verification->inlier_pairs) {
         inlier_pairs.emplace_back(q * scale, m * scale);
       }
     }
   }
-  const cv::Mat& query_picture = query && !query->thumbnail.empty() ? query->thumbnail : grey;
-  const cv::Mat picture = renderMatchImage(
-      query_picture, match ? match->thumbnail : cv::Mat(), caption.str(),
-      best.verdict == CandidateVerdict::kAccepted, 240, landmark_pairs, inlier_pairs);
+  const cv::Mat& query_picture = query_thumbnail.empty() ? grey : query_thumbnail;
+  const cv::Mat picture = renderMatchImage(query_picture, match_thumbnail, caption.str(),
+                                           best.verdict == CandidateVerdict::kAccepted, 240,
+                                           landmark_pairs, inlier_pairs);
   std_msgs::Header header;
   header.stamp = job.stamp;
   match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
@@ -541,6 +554,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("frames admitted", frames_admitted_.load());
   status.add("keyframes", keyframes_stored_.load());
   status.add("database bytes", database_bytes_);
+  status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
   status.add("database file", database_status_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());

@@ -154,6 +154,7 @@ class LoopClosureNode {
   std::atomic<uint64_t> odometry_received_{0};
   std::atomic<uint64_t> frames_admitted_{0};
   std::atomic<uint64_t> keyframes_stored_{0};
+  std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};
   std::atomic<uint64_t> keyframes_dropped_{0};
   std::atomic<uint64_t> tf_timeouts_{0};

@@ -70,7 +70,9 @@ KeyframeRecord realisticKeyframe() {
   const size_t points = keyframe.local_features.points.size();
   keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
   keyframe.local_features.depth_sd.assign(points, 0.05f);
-  cv::resize(image, keyframe.thumbnail, cv::Size(160, 120));
+  cv::Mat thumbnail;
+  cv::resize(image, thumbnail, cv::Size(160, 120));
+  keyframe.thumbnail_jpeg = encodeThumbnail(thumbnail);
   return keyframe;
 }
 
@@ -89,7 +91,7 @@ int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) 
       keyframe.descriptor.landmark_features = model.descriptor.landmark_features.clone();
       keyframe.local_features = model.local_features;
       keyframe.local_features.descriptors = model.local_features.descriptors.clone();
-      keyframe.thumbnail = model.thumbnail.clone();
+      keyframe.thumbnail_jpeg = model.thumbnail_jpeg;
       database.add(std::move(keyframe));
     }
     const std::string path = folder + "/lcd_bench_scaling.lcdb";

@@ -45,7 +45,8 @@ KeyframeRecord makeKeyframe(uint64_t id, uint32_t session) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   local.points3d = {{0.1f, 0.2f, 3.0f}, {nan, nan, nan}, {-1.0f, 0.5f, 12.0f}};
   local.depth_sd = {0.02f, nan, 0.4f};
-  keyframe.thumbnail = cv::Mat(12, 16, CV_8U, cv::Scalar(static_cast<double>(id % 200)));
+  keyframe.thumbnail_jpeg =
+      encodeThumbnail(cv::Mat(12, 16, CV_8U, cv::Scalar(static_cast<double>(id % 200))));
   return keyframe;
 }
 
@@ -88,7 +89,7 @@ void expectSame(const KeyframeRecord& a, const KeyframeRecord& b) {
     EXPECT_TRUE(sameFloat(p.x, q.x) && sameFloat(p.y, q.y) && sameFloat(p.z, q.z)) << i;
     EXPECT_TRUE(sameFloat(a.local_features.depth_sd[i], b.local_features.depth_sd[i])) << i;
   }
-  EXPECT_TRUE(sameMat(a.thumbnail, b.thumbnail));
+  EXPECT_EQ(a.thumbnail_jpeg, b.thumbnail_jpeg);
 }
 
 std::vector<char> readBytes(const fs::path& path) {
@@ -184,11 +185,13 @@ TEST_F(DatabaseFileTest, ForeignNewerAndOtherByteOrderFilesAreRefusedWithAReason
 
   std::vector<char> bytes = readBytes(path_);
   std::vector<char> newer = bytes;
-  newer[8] = 2;  // Version, little-endian u32 after the 8-byte magic.
+  newer[8] = static_cast<char>(kDatabaseFileVersion + 1);  // u32 after the 8-byte magic.
   writeBytes(path_, newer);
   const LoadedDatabase from_future = loadDatabase(path_, kIdentity, kDimension);
   EXPECT_FALSE(from_future.database);
-  EXPECT_NE(from_future.error.find("version 2 is newer"), std::string::npos) << from_future.error;
+  const std::string newer_text =
+      "version " + std::to_string(kDatabaseFileVersion + 1) + " is newer";
+  EXPECT_NE(from_future.error.find(newer_text), std::string::npos) << from_future.error;
 
   std::vector<char> big_endian = bytes;
   std::swap(big_endian[12], big_endian[15]);
@@ -275,6 +278,53 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
   writeBytes(copy, model);
   EXPECT_NE(descriptorIdentity(copied), identity);
   fs::remove(copy);
+}
+
+TEST_F(DatabaseFileTest, TheGraphIsStoredAndReusedWhenItsSettingsMatch) {
+  const KeyframeDatabase saved = makeDatabase(40);
+  ASSERT_NE(saved.graph(), nullptr);
+  ASSERT_EQ(saveDatabase(saved, kIdentity, path_), "");
+
+  const LoadedDatabase same = loadDatabase(path_, kIdentity, kDimension, saved.indexOptions());
+  ASSERT_TRUE(same.database) << same.error;
+  EXPECT_FALSE(same.graph_rebuilt);
+  ASSERT_NE(same.database->graph(), nullptr);
+  EXPECT_EQ(same.database->graph()->toBytes(), saved.graph()->toBytes());
+
+  IndexOptions denser = saved.indexOptions();
+  denser.neighbors = 24;
+  const LoadedDatabase other = loadDatabase(path_, kIdentity, kDimension, denser);
+  ASSERT_TRUE(other.database) << other.error;
+  EXPECT_TRUE(other.graph_rebuilt);
+  ASSERT_NE(other.database->graph(), nullptr);
+  EXPECT_EQ(other.database->graph()->size(), 40u);
+
+  IndexOptions exact;
+  exact.type = "exact";
+  const LoadedDatabase without = loadDatabase(path_, kIdentity, kDimension, exact);
+  ASSERT_TRUE(without.database) << without.error;
+  EXPECT_FALSE(without.graph_rebuilt);
+  EXPECT_EQ(without.database->graph(), nullptr);
+  // Saved without a graph, loaded with one: built while loading.
+  ASSERT_EQ(saveDatabase(*without.database, kIdentity, path_), "");
+  const LoadedDatabase built = loadDatabase(path_, kIdentity, kDimension);
+  ASSERT_TRUE(built.database) << built.error;
+  EXPECT_TRUE(built.graph_rebuilt);
+  EXPECT_EQ(built.database->graph()->size(), 40u);
+}
+
+TEST(DatabaseFileVersion1, IsStillReadAndItsThumbnailsBecomeJpeg) {
+  // Written by the version-1 build (two keyframes of six values, 4x3 raw thumbnails).
+  const fs::path file = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_database_file" /
+                        "two_keyframes_v1.lcdb";
+  const LoadedDatabase loaded = loadDatabase(file.string(), "fuzz", 6);
+  ASSERT_TRUE(loaded.database) << loaded.error;
+  ASSERT_EQ(loaded.database->size(), 2u);
+  EXPECT_TRUE(loaded.graph_rebuilt);
+  for (size_t i = 0; i < 2; ++i) {
+    const cv::Mat thumbnail = decodeThumbnail(loaded.database->at(i).thumbnail_jpeg);
+    EXPECT_EQ(thumbnail.size(), cv::Size(4, 3)) << i;
+  }
 }
 
 TEST(DatabaseFileFuzzSeeds, EverySeedAndKeptCrashInputIsHandled) {

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <random>
+#include <set>
+
 #include "landmark_loop_closure/keyframe_database.h"
 
 using namespace landmark_loop_closure;
@@ -113,4 +116,155 @@ TEST(DatabaseOptions, ValidateNamesTheKey) {
   DatabaseOptions options;
   options.top_k = 0;
   EXPECT_NE(options.validate().find("database/top_k"), std::string::npos);
+}
+
+namespace {
+
+// A route through descriptor space: each keyframe a small random step from the last, as
+// neighbouring keyframes of a real sequence are.
+std::vector<std::vector<float>> route(int keyframes, int dimension, std::mt19937* random) {
+  std::normal_distribution<float> normal;
+  std::vector<float> current(static_cast<size_t>(dimension));
+  for (float& v : current) v = normal(*random);
+  std::vector<std::vector<float>> vectors;
+  for (int i = 0; i < keyframes; ++i) {
+    for (float& v : current) v = 0.9f * v + 0.45f * normal(*random);
+    std::vector<float> unit = current;
+    double norm = 0.0;
+    for (float v : unit) norm += static_cast<double>(v) * v;
+    for (float& v : unit) v = static_cast<float>(v / std::sqrt(norm));
+    vectors.push_back(unit);
+  }
+  return vectors;
+}
+
+KeyframeDatabase routeDatabase(const std::vector<std::vector<float>>& vectors,
+                               const IndexOptions& index) {
+  KeyframeDatabase database(static_cast<int>(vectors.front().size()), index);
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    KeyframeRecord k;
+    k.id = i;
+    k.stamp = static_cast<double>(i);
+    k.descriptor.global = vectors[i];
+    database.add(std::move(k));
+  }
+  return database;
+}
+
+}  // namespace
+
+TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
+  std::mt19937 random(3);
+  const auto vectors = route(3000, 64, &random);
+  IndexOptions approximate;
+  approximate.type = "approximate";
+  IndexOptions exact;
+  exact.type = "exact";
+  const KeyframeDatabase graph = routeDatabase(vectors, approximate);
+  const KeyframeDatabase plain = routeDatabase(vectors, exact);
+  ASSERT_NE(graph.graph(), nullptr);
+  EXPECT_EQ(plain.graph(), nullptr);
+  EXPECT_GT(graph.bytes(), plain.bytes());
+
+  DatabaseOptions options = noExclusion();
+  options.top_k = 10;
+  std::normal_distribution<float> noise(0.0f, 0.05f);
+  int shared = 0;
+  int best_same = 0;
+  const int queries = 100;
+  for (int q = 0; q < queries; ++q) {
+    std::vector<float> query = vectors[static_cast<size_t>(q * 29)];
+    for (float& v : query) v += noise(random);
+    double norm = 0.0;
+    for (float v : query) norm += static_cast<double>(v) * v;
+    for (float& v : query) v = static_cast<float>(v / std::sqrt(norm));
+    const QueryResult a = graph.query(query, 1e9, options);
+    const QueryResult b = plain.query(query, 1e9, options);
+    EXPECT_TRUE(a.approximate);
+    EXPECT_FALSE(b.approximate);
+    ASSERT_EQ(a.candidates.size(), 10u);
+    std::set<uint64_t> exact_ids;
+    for (const Candidate& c : b.candidates) exact_ids.insert(c.id);
+    for (const Candidate& c : a.candidates) shared += static_cast<int>(exact_ids.count(c.id));
+    best_same += a.candidates.front().id == b.candidates.front().id;
+    // Scores are the same cosine either way.
+    EXPECT_NEAR(a.candidates.front().global_score,
+                cosineSimilarity(query, vectors[a.candidates.front().id]), 1e-5);
+  }
+  EXPECT_GE(shared, queries * 10 * 95 / 100);
+  EXPECT_GE(best_same, queries * 98 / 100);
+}
+
+TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
+  std::mt19937 random(5);
+  const auto vectors = route(500, 32, &random);
+  IndexOptions approximate;
+  approximate.type = "approximate";
+  const KeyframeDatabase database = routeDatabase(vectors, approximate);
+  DatabaseOptions options = noExclusion();
+  options.top_k = 5;
+  options.exclude_recent_keyframes = 50;   // ids 450..499
+  options.exclude_recent_seconds = 100.0;  // stamps within 100 s of 520: ids 421..499
+  // The query is the newest keyframe: its nearest neighbours are all excluded.
+  const QueryResult result = database.query(vectors.back(), 520.0, options);
+  EXPECT_TRUE(result.approximate);
+  EXPECT_EQ(result.searched, 421u);
+  ASSERT_EQ(result.candidates.size(), 5u);
+  for (const Candidate& c : result.candidates) EXPECT_LE(c.id, 420u);
+  IndexOptions exact;
+  exact.type = "exact";
+  const QueryResult expected = routeDatabase(vectors, exact).query(vectors.back(), 520.0, options);
+  EXPECT_EQ(result.candidates.front().id, expected.candidates.front().id);
+}
+
+TEST(KeyframeDatabase, AutoSearchesExactlyUntilTheDatabaseIsLarge) {
+  std::mt19937 random(9);
+  const auto vectors = route(120, 16, &random);
+  IndexOptions automatic;
+  automatic.approximate_from = 100;
+  const std::vector<std::vector<float>> first(vectors.begin(), vectors.begin() + 99);
+  const KeyframeDatabase small = routeDatabase(first, automatic);
+  ASSERT_NE(small.graph(), nullptr);  // Kept up to date all along, so switching costs nothing.
+  EXPECT_FALSE(small.query(vectors[5], 1e9, noExclusion()).approximate);
+  const KeyframeDatabase large = routeDatabase(vectors, automatic);
+  EXPECT_TRUE(large.query(vectors[5], 1e9, noExclusion()).approximate);
+  EXPECT_EQ(large.query(vectors[5], 1e9, noExclusion()).candidates.front().id, 5u);
+}
+
+TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
+  std::mt19937 random(11);
+  const auto vectors = route(50, 8, &random);
+  IndexOptions exact;
+  exact.type = "exact";
+  KeyframeDatabase database = routeDatabase(vectors, exact);
+  EXPECT_EQ(database.graph(), nullptr);
+  database.setIndex(IndexOptions{});
+  ASSERT_NE(database.graph(), nullptr);
+  EXPECT_EQ(database.graph()->size(), 50u);
+  EXPECT_THROW(database.setIndex(IndexOptions{}, std::make_unique<ApproximateIndex>(8, 16, 64)),
+               std::invalid_argument);
+  EXPECT_NE(database.graph(), nullptr);  // Unchanged by the refused call.
+  IndexOptions bad;
+  bad.type = "fast";
+  EXPECT_THROW(database.setIndex(bad), std::invalid_argument);
+  database.setIndex(exact);
+  EXPECT_EQ(database.graph(), nullptr);
+}
+
+TEST(KeyframeDatabase, AQueryOfTheWrongLengthIsRefused) {
+  KeyframeDatabase database(2);
+  database.add(keyframe(1, 1.0, 0.0));
+  EXPECT_THROW(database.query({1.0f, 0.0f, 0.0f}, 100.0, noExclusion()), std::invalid_argument);
+}
+
+TEST(IndexOptions, ValidateNamesTheKey) {
+  IndexOptions options;
+  EXPECT_EQ(options.validate(), "");
+  options.type = "fast";
+  options.neighbors = 2;
+  options.ef_search = 0;
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("database/index/type"), std::string::npos);
+  EXPECT_NE(errors.find("database/index/neighbors"), std::string::npos);
+  EXPECT_NE(errors.find("database/index/ef_search"), std::string::npos);
 }

@@ -155,10 +155,32 @@ TEST(LoopDetector, KeepsThumbnailsOnlyWhenAsked) {
   options.keep_thumbnails = false;
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
   feed(&detector, 0, 3);
-  EXPECT_TRUE(detector.database().at(0).thumbnail.empty());
+  EXPECT_TRUE(detector.database().at(0).thumbnail_jpeg.empty());
   LoopDetector with_thumbnails(smallOptions(), std::make_shared<PlaceExtractor>());
   feed(&with_thumbnails, 0, 3);
-  EXPECT_EQ(with_thumbnails.database().at(0).thumbnail.size(), cv::Size(160, 120));
+  EXPECT_EQ(decodeThumbnail(with_thumbnails.database().at(0).thumbnail_jpeg).size(),
+            cv::Size(160, 120));
+}
+
+TEST(LoopDetector, PastTheMemoryBudgetKeyframesAreSearchedButNotStored) {
+  LoopDetector probe(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&probe, i, i);
+  LoopDetectorOptions options = smallOptions();
+  options.database.memory_budget_mb = static_cast<double>(probe.database().bytes()) / 1e6;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) EXPECT_TRUE(feed(&detector, i, i).keyframe->stored) << i;
+  EXPECT_TRUE(detector.overMemoryBudget());
+  // The map still closes loops; nothing more is added.
+  FrameResult last;
+  for (int i = 40; i < 43; ++i) {
+    last = feed(&detector, i, i - 30);
+    EXPECT_FALSE(last.keyframe->stored) << i;
+  }
+  ASSERT_TRUE(last.keyframe->loop);
+  EXPECT_EQ(last.keyframe->loop->match_id, 12u);
+  EXPECT_EQ(detector.database().size(), 40u);
+  options.database.memory_budget_mb = -1.0;
+  EXPECT_NE(options.validate().find("database/memory_budget_mb"), std::string::npos);
 }
 
 TEST(LoopDetector, OdometryGateRefusesALoopTheOdometryCannotHaveDriftedInto) {
