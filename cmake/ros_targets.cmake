@@ -5,6 +5,7 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_markers.cpp
   src/ros/loop_closure_node.cpp
   src/ros/loop_closure_node_database.cpp
+  src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_config ${catkin_LIBRARIES})

@@ -27,7 +27,8 @@ struct IndexOptions {
 };
 
 /// An HNSW graph over L2-normalised vectors, searched by inner product (cosine). Positions are
-/// insertion order. Not thread-safe for writes; search() may run beside other searches.
+/// insertion order. Not thread-safe: search() sets the graph's search effort, so one thread at a
+/// time (the database's owner).
 class ApproximateIndex {
  public:
   ApproximateIndex(int dimension, int neighbors, int ef_construction);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,7 +41,9 @@ struct DatabaseOptions {
   /// Database bytes (KeyframeDatabase::bytes) past which keyframes are searched but no longer
   /// stored, in MB; 0: no limit.
   double memory_budget_mb = 0.0;
-  /// Search structure; fixed when the database is made (KeyframeDatabase's constructor).
+  /// Search structure. Whether a graph is kept and its shape (neighbors, ef_construction) are
+  /// fixed when the database is made; at query time type "exact" searches exactly even when a
+  /// graph is kept, and approximate_from and ef_search apply.
   IndexOptions index;
 
   std::string validate() const;
@@ -108,7 +111,9 @@ class KeyframeDatabase {
  private:
   int global_dimension_;
   IndexOptions index_options_;
-  std::vector<KeyframeRecord> keyframes_;
+  /// A deque: growing never moves the stored keyframes (a vector would copy them all, since
+  /// cv::Mat's move may throw, stalling the worker for seconds at 100 000 keyframes).
+  std::deque<KeyframeRecord> keyframes_;
   std::vector<double> stamps_;  ///< keyframes_[i].stamp, contiguous for the exclusion scan.
   size_t content_bytes_ = 0;    ///< Heap bytes the records point to (descriptors, features).
   std::unique_ptr<ApproximateIndex> graph_;

@@ -187,6 +187,11 @@ class LoopDetector {
   std::string loadDatabase(const std::string& path);
   /// Worker thread: forgets every keyframe, chain and session.
   void reset();
+  /// Receiving thread: forgets the last keyframe and image size, so that the next frame starts the
+  /// keyframe rule afresh whatever its stamp (time jumped back). Pair it with reset().
+  void restartAdmission();
+  /// Receiving thread: stamp of the last admitted keyframe, if any.
+  std::optional<double> lastKeyframeStamp() const;
   uint32_t session() const { return session_; }
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }

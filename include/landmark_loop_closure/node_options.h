@@ -15,11 +15,17 @@ struct NodeOptions {
   /// The robot's body frame: tf mode looks its pose up; camera_mount_from_tf and
   /// relative_pose_frame "base" use it in both modes.
   std::string base_frame = "base_link";
-  double tf_timeout = 0.2;                ///< tf mode: seconds to wait for a transform, then drop.
-  int sync_queue_size = 30;               ///< odom mode: ApproximateTime queue per topic.
-  double sync_slop = 0.05;                ///< odom mode: seconds an image and odometry may differ.
-  int worker_queue_size = 8;              ///< Keyframes waiting for the worker thread.
-  double input_timeout = 5.0;             ///< Seconds without input before diagnostics warn.
+  double tf_timeout = 0.2;     ///< tf mode: seconds to wait for a transform, then drop.
+  int sync_queue_size = 30;    ///< odom mode: ApproximateTime queue per topic.
+  double sync_slop = 0.05;     ///< odom mode: seconds an image and odometry may differ.
+  int worker_queue_size = 8;   ///< Keyframes waiting for the worker thread.
+  double input_timeout = 5.0;  ///< Seconds without input before diagnostics warn.
+  /// A frame stamped more than time_jump_back_s before the last keyframe (bag restarted, simulated
+  /// clock reset): "drop" it (and every frame until time passes the last keyframe again), or
+  /// "reset": forget every keyframe, as ~reset does, and start over from it. Smaller steps back
+  /// are out-of-order frames and always dropped.
+  std::string time_jump_back = "drop";
+  double time_jump_back_s = 1.0;
   bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
   bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
   /// Frame of published metric relative poses: "camera" (the image's optical frame) or "base".

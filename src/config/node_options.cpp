@@ -39,6 +39,12 @@ std::string NodeOptions::validate() const {
     errors << "worker_queue_size must be >= 1 (got " << worker_queue_size << ")\n";
   }
   if (!(input_timeout > 0.0)) errors << "input_timeout must be > 0 (got " << input_timeout << ")\n";
+  if (time_jump_back != "drop" && time_jump_back != "reset") {
+    errors << "time_jump_back must be 'drop' or 'reset' (got '" << time_jump_back << "')\n";
+  }
+  if (!(time_jump_back_s > 0.0)) {
+    errors << "time_jump_back_s must be > 0 (got " << time_jump_back_s << ")\n";
+  }
   if (autosave_every < 0) {
     errors << "autosave_every must be >= 0 (got " << autosave_every << ")\n";
   }
@@ -55,6 +61,8 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("sync_slop", &options->sync_slop);
   reader->read("worker_queue_size", &options->worker_queue_size);
   reader->read("input_timeout", &options->input_timeout);
+  reader->read("time_jump_back", &options->time_jump_back);
+  reader->read("time_jump_back_s", &options->time_jump_back_s);
   reader->read("publish_rejected_markers", &options->publish_rejected_markers);
   reader->read("use_depth", &options->use_depth);
   reader->read("relative_pose_frame", &options->relative_pose_frame);
@@ -69,6 +77,7 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("input/min_image_side", &detector.input.min_image_side);
   reader->read("input/max_image_pixels", &detector.input.max_image_pixels);
   reader->read("input/quaternion_norm_tolerance", &detector.input.quaternion_norm_tolerance);
+  reader->read("input/min_image_contrast", &detector.input.min_image_contrast);
 
   reader->read("keyframe/translation_weight", &detector.keyframe.translation_weight);
   reader->read("keyframe/rotation_weight", &detector.keyframe.rotation_weight);

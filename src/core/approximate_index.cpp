@@ -75,12 +75,12 @@ std::vector<std::pair<size_t, float>> ApproximateIndex::search(const float* quer
   std::vector<std::pair<size_t, float>> found;
   if (k == 0 || size() == 0) return found;
   oneThread();
-  faiss::SearchParametersHNSW parameters;
-  parameters.efSearch = std::max(ef_search, static_cast<int>(k));
+  // faiss 1.7.3 reads the search effort from the index, not from SearchParametersHNSW.
+  graph_->index->hnsw.efSearch = std::max(ef_search, static_cast<int>(k));
   std::vector<float> scores(k);
   std::vector<faiss::Index::idx_t> labels(k);
-  graph_->index->search(1, query, static_cast<faiss::Index::idx_t>(k), scores.data(), labels.data(),
-                        &parameters);
+  graph_->index->search(1, query, static_cast<faiss::Index::idx_t>(k), scores.data(),
+                        labels.data());
   for (size_t i = 0; i < k; ++i) {
     if (labels[i] >= 0) found.emplace_back(static_cast<size_t>(labels[i]), scores[i]);
   }

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -84,9 +85,19 @@ class PayloadWriter {
 
   void bytes(const void* data, size_t size) {
     if (size == 0) return;
-    if (std::fwrite(data, 1, size, file_) != size) throw FormatError(std::strerror(errno));
-    crc_.update(static_cast<const uint8_t*>(data), size);
+    const auto* bytes = static_cast<const uint8_t*>(data);
+    chunk_.insert(chunk_.end(), bytes, bytes + size);
     written_ += size;
+    if (chunk_.size() >= kFileBuffer * 4) flush();
+  }
+  /// Checksums and writes what is buffered; call before the header is written.
+  void flush() {
+    if (chunk_.empty()) return;
+    crc_.update(chunk_.data(), chunk_.size());
+    if (std::fwrite(chunk_.data(), 1, chunk_.size(), file_) != chunk_.size()) {
+      throw FormatError(std::strerror(errno));
+    }
+    chunk_.clear();
   }
   void u32(uint32_t value) {
     uint8_t buffer[4];
@@ -143,19 +154,26 @@ class PayloadWriter {
   std::FILE* file_;
   Checksum crc_;
   uint64_t written_ = 0;
+  std::vector<uint8_t> chunk_;  ///< Fields gathered into large writes and checksum calls.
 };
 
 class PayloadReader {
  public:
-  PayloadReader(std::FILE* file, uint64_t payload_bytes) : file_(file), remaining_(payload_bytes) {}
+  PayloadReader(std::FILE* file, uint64_t payload_bytes)
+      : file_(file), remaining_(payload_bytes), unread_(payload_bytes) {}
 
   void bytes(void* out, size_t size) {
     if (size > remaining_) throw FormatError("an entry runs past the end of the payload");
-    if (size > 0 && std::fread(out, 1, size, file_) != size) {
-      throw FormatError("truncated: the file ends inside its payload");
-    }
-    crc_.update(static_cast<const uint8_t*>(out), size);
     remaining_ -= size;
+    auto* target = static_cast<uint8_t*>(out);
+    while (size > 0) {
+      if (position_ == chunk_.size()) refill();
+      const size_t take = std::min(size, chunk_.size() - position_);
+      std::memcpy(target, chunk_.data() + position_, take);
+      position_ += take;
+      target += take;
+      size -= take;
+    }
   }
   uint32_t u32() {
     uint8_t buffer[4];
@@ -215,8 +233,24 @@ class PayloadReader {
   uint64_t remaining() const { return remaining_; }
 
  private:
+  // Reads the next chunk of the payload and checksums it whole (one call per megabytes, not
+  // per field: loading is bound by memory speed, not by call overhead).
+  void refill() {
+    const size_t size = static_cast<size_t>(std::min<uint64_t>(unread_, kFileBuffer * 4));
+    chunk_.resize(size);
+    if (size == 0 || std::fread(chunk_.data(), 1, size, file_) != size) {
+      throw FormatError("truncated: the file ends inside its payload");
+    }
+    crc_.update(chunk_.data(), size);
+    unread_ -= size;
+    position_ = 0;
+  }
+
   std::FILE* file_;
-  uint64_t remaining_;
+  uint64_t remaining_;  ///< Payload bytes not yet handed out.
+  uint64_t unread_;     ///< Payload bytes not yet read from the file.
+  std::vector<uint8_t> chunk_;
+  size_t position_ = 0;
   Checksum crc_;
 };
 
@@ -356,6 +390,7 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
     } else {
       out.string("");
     }
+    out.flush();
     writeHeader(file.get(), out.written(), out.crc());
     if (std::fflush(file.get()) != 0 || ::fsync(fileno(file.get())) != 0) {
       throw FormatError(std::strerror(errno));

@@ -1,7 +1,10 @@
 #include "landmark_loop_closure/input_error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+
+#include <opencv2/core.hpp>
 
 namespace landmark_loop_closure {
 
@@ -25,6 +28,8 @@ const char* toString(InputErrorCode code) {
       return "non_finite_pose";
     case InputErrorCode::kNonUnitQuaternion:
       return "non_unit_quaternion";
+    case InputErrorCode::kNoTexture:
+      return "no_texture";
   }
   return "unknown";
 }
@@ -54,6 +59,22 @@ std::optional<InputError> checkImage(int width, int height, int cv_type,
     return InputError{InputErrorCode::kUnsupportedImageType, message.str()};
   }
   return std::nullopt;
+}
+
+std::optional<InputError> checkTexture(const cv::Mat& image, const InputLimits& limits) {
+  if (limits.min_image_contrast <= 0.0 || image.empty()) return std::nullopt;
+  cv::Scalar mean;
+  cv::Scalar spread;
+  cv::meanStdDev(image, mean, spread);
+  double contrast = 0.0;
+  for (int c = 0; c < image.channels(); ++c) contrast = std::max(contrast, spread[c]);
+  if (image.depth() == CV_16U) contrast /= 257.0;
+  if (contrast >= limits.min_image_contrast) return std::nullopt;
+  std::ostringstream message;
+  message.precision(3);
+  message << "image has no texture: grey-level spread " << contrast << " (mean " << mean[0]
+          << ") is below input/min_image_contrast " << limits.min_image_contrast;
+  return InputError{InputErrorCode::kNoTexture, message.str()};
 }
 
 std::optional<InputError> checkPose(const Pose& pose, const InputLimits& limits) {

@@ -137,16 +137,16 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
     result.status = QueryStatus::kAllExcluded;
     return result;
   }
-  const bool use_graph =
-      graph_ && (index_options_.type == "approximate" ||
-                 keyframes_.size() >= static_cast<size_t>(index_options_.approximate_from));
+  const IndexOptions& index = options.index;
+  const bool use_graph = graph_ && index.type != "exact" &&
+                         (index.type == "approximate" ||
+                          keyframes_.size() >= static_cast<size_t>(index.approximate_from));
   std::vector<Candidate> scored;
   const size_t excluded = keyframes_.size() - result.searched;
   if (use_graph && excluded <= kMaxExcludedForGraph) {
     result.approximate = true;
     const size_t wanted = static_cast<size_t>(options.top_k) + excluded;
-    for (const auto& [index, score] :
-         graph_->search(global.data(), wanted, index_options_.ef_search)) {
+    for (const auto& [index, score] : graph_->search(global.data(), wanted, index.ef_search)) {
       if (index < end && outside_time_window(index)) {
         scored.push_back({index, keyframes_[index].id, static_cast<double>(score)});
       }
@@ -177,7 +177,7 @@ const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
 }
 
 size_t KeyframeDatabase::bytes() const {
-  return keyframes_.capacity() * sizeof(KeyframeRecord) + stamps_.capacity() * sizeof(double) +
+  return keyframes_.size() * sizeof(KeyframeRecord) + stamps_.capacity() * sizeof(double) +
          content_bytes_ + (graph_ ? graph_->bytes() : 0);
 }
 

@@ -85,6 +85,9 @@ std::string LoopDetectorOptions::validate() const {
     errors << "input/max_image_pixels (" << input.max_image_pixels
            << ") is smaller than a minimum-size image\n";
   }
+  if (!(input.min_image_contrast >= 0.0)) {
+    errors << "input/min_image_contrast must be >= 0 (got " << input.min_image_contrast << ")\n";
+  }
   if (!(input.quaternion_norm_tolerance > 0.0 && input.quaternion_norm_tolerance < 1.0)) {
     errors << "input/quaternion_norm_tolerance must be in (0, 1) (got "
            << input.quaternion_norm_tolerance << ")\n";
@@ -169,6 +172,16 @@ void LoopDetector::reset() {
   last_keyframe_.reset();
 }
 
+void LoopDetector::restartAdmission() {
+  selector_ = KeyframeSelector(options_.keyframe);
+  image_size_.reset();
+}
+
+std::optional<double> LoopDetector::lastKeyframeStamp() const {
+  if (!selector_.hasKeyframe()) return std::nullopt;
+  return selector_.lastKeyframeStamp();
+}
+
 void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
   camera_mount_ = mount ? std::optional<Pose>(normalisedPose(*mount)) : std::nullopt;
 }
@@ -220,6 +233,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) {
+    result.error = std::move(error);
+    return result;
+  }
+  if (auto error = checkTexture(image, options_.input)) {
     result.error = std::move(error);
     return result;
   }

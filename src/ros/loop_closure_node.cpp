@@ -24,7 +24,6 @@ namespace landmark_loop_closure {
 namespace {
 
 constexpr double kRejectionLogPeriod = 5.0;  // Seconds between log lines for one kind of error.
-constexpr double kWarningPeriod = 10.0;
 constexpr size_t kMaxPendingTf = 100;
 constexpr double kTfRetryPeriod = 0.02;
 constexpr double kDiagnosticsPeriod = 1.0;
@@ -33,9 +32,9 @@ constexpr double kDepthWait = 0.2;  // Seconds the worker waits for a keyframe's
 constexpr double kDepthPollPeriod = 0.005;
 constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the stream stopped.
 
-double wallNow() { return ros::WallTime::now().toSec(); }
-
 }  // namespace
+
+double LoopClosureNode::wallNow() { return ros::WallTime::now().toSec(); }
 
 NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   const RosParameterSource source(private_node);
@@ -74,6 +73,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
   last_rate_time_ = ros::WallTime::now();
+  last_paired_wall_ = wallNow();  // Inputs get input_timeout to pair before a warning.
   diagnostics_timer_ =
       node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
                             [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
@@ -150,14 +150,16 @@ void LoopClosureNode::subscribe() {
   image_filter_.subscribe(image_transport_, "image", queue);
   odom_filter_.subscribe(node_, "odom", queue);
   image_filter_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this](const sensor_msgs::ImageConstPtr&) {
+      [this](const sensor_msgs::ImageConstPtr& image) {
         ++images_received_;
         last_image_wall_ = wallNow();
+        newest_image_stamp_ = image->header.stamp.toSec();
       }));
   odom_filter_.registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
-      [this](const nav_msgs::OdometryConstPtr&) {
+      [this](const nav_msgs::OdometryConstPtr& odometry) {
         ++odometry_received_;
         last_odometry_wall_ = wallNow();
+        newest_odometry_stamp_ = odometry->header.stamp.toSec();
       }));
   sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
                                                                       image_filter_, odom_filter_);
@@ -168,6 +170,7 @@ void LoopClosureNode::subscribe() {
 
 void LoopClosureNode::onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
                                           const nav_msgs::OdometryConstPtr& odometry) {
+  last_paired_wall_ = wallNow();
   const std::string& frame =
       odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
   admitFrame(image, fromRos(odometry->pose.pose), frame);
@@ -229,9 +232,26 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     return;
   }
   const double stamp = toSeconds(image->header.stamp);
-  const FrameAdmission admission =
-      detector_.admit(stamp, pose, static_cast<int>(image->width), static_cast<int>(image->height),
-                      *cvTypeOfEncoding(image->encoding));
+  const auto admit = [&] {
+    return detector_.admit(stamp, pose, static_cast<int>(image->width),
+                           static_cast<int>(image->height), *cvTypeOfEncoding(image->encoding));
+  };
+  FrameAdmission admission = admit();
+  if (admission.error && admission.error->code == InputErrorCode::kStampNotIncreasing &&
+      options_.time_jump_back == "reset") {
+    const double back = detector_.lastKeyframeStamp().value_or(stamp) - stamp;
+    if (back > options_.time_jump_back_s) {
+      ROS_WARN(
+          "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
+          "keyframe and starting over (time_jump_back: reset)",
+          back);
+      // The worker resets the database when it takes the first keyframe of the new timeline and
+      // drops keyframes of the old one still queued.
+      ++time_generation_;
+      detector_.restartAdmission();
+      admission = admit();
+    }
+  }
   if (admission.error) {
     reportRejected(*admission.error);
     return;
@@ -260,7 +280,8 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     if (camera_info_) intrinsics = fromCameraInfo(*camera_info_);
   }
   if (queue_.push(KeyframeJob{image, admission.keyframe_id, image->header.stamp,
-                              normalisedPose(pose), frame_id, intrinsics})) {
+                              normalisedPose(pose), frame_id, intrinsics,
+                              time_generation_.load()})) {
     ++keyframes_dropped_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
@@ -289,6 +310,14 @@ void LoopClosureNode::workerLoop() {
 void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
   const auto start = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> detector_lock(detector_mutex_);
+  if (job.generation < time_generation_) return;  // From before time jumped back.
+  if (job.generation > worker_generation_) {
+    worker_generation_ = job.generation;
+    detector_.reset();
+    session_ = detector_.session();
+    keyframe_stamps_.clear();
+    markers_.clear();
+  }
   cv::Mat grey;
   try {
     grey = toGrey(*job.image);
@@ -517,60 +546,6 @@ void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeRe
   std_msgs::Header header;
   header.stamp = job.stamp;
   match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
-}
-
-void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  const double now = wallNow();
-  const bool use_odom = options_.pose_source == "odom";
-  std::ostringstream waiting;
-  if (now - last_image_wall_ > options_.input_timeout) waiting << image_topic_;
-  if (use_odom && now - last_odometry_wall_ > options_.input_timeout) {
-    waiting << (waiting.tellp() > 0 ? " and " : "") << odom_topic_;
-  }
-  if (!use_odom && tf_timeouts_ > 0 && now - last_odometry_wall_ > options_.input_timeout) {
-    waiting << (waiting.tellp() > 0 ? " and " : "") << "tf " << options_.odom_frame << " -> "
-            << options_.base_frame;
-  }
-  if (waiting.tellp() > 0) {
-    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
-                    options_.input_timeout, waiting.str().c_str());
-  } else if (keyframes_dropped_ > 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "Running; the worker has dropped keyframes");
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
-  }
-
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  const double elapsed = std::max(1e-3, (ros::WallTime::now() - last_rate_time_).toSec());
-  status.add("image topic", image_topic_);
-  if (use_odom) status.add("odometry topic", odom_topic_);
-  status.addf("image rate (Hz)", "%.1f", (images_received_ - last_images_for_rate_) / elapsed);
-  status.addf("pose rate (Hz)", "%.1f", (odometry_received_ - last_odometry_for_rate_) / elapsed);
-  last_images_for_rate_ = images_received_;
-  last_odometry_for_rate_ = odometry_received_;
-  last_rate_time_ = ros::WallTime::now();
-  status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
-  status.add("frames admitted", frames_admitted_.load());
-  status.add("keyframes", keyframes_stored_.load());
-  status.add("database bytes", database_bytes_);
-  status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
-  status.add("database file", database_status_);
-  status.add("session", session_.load());
-  status.add("loops published", loops_published_.load());
-  status.add("keyframes dropped (worker busy)", keyframes_dropped_.load());
-  status.add("queued keyframes", queue_.size());
-  status.add("odometry jumps", odometry_jumps_.load());
-  if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
-  if (options_.use_depth) {
-    status.add("keyframes with depth", keyframes_with_depth_.load());
-    status.add("keyframes without depth", keyframes_without_depth_.load());
-  }
-  status.addf("last keyframe processing (ms)", "%.1f", last_processing_ms_);
-  status.addf("max keyframe processing (ms)", "%.1f", max_processing_ms_);
-  for (const auto& [code, count] : rejected_) {
-    status.add(std::string("rejected: ") + toString(code), count);
-  }
 }
 
 }  // namespace landmark_loop_closure

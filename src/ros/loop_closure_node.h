@@ -58,6 +58,7 @@ class LoopClosureNode {
     Pose pose;
     std::string frame_id;         ///< The odometry frame of `pose`.
     CameraIntrinsics intrinsics;  ///< From the latest camera_info; invalid when none came.
+    uint64_t generation;          ///< time_generation_ when it was admitted.
   };
   struct PendingImage {
     sensor_msgs::ImageConstPtr image;
@@ -90,6 +91,10 @@ class LoopClosureNode {
   void publishResults(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// odom mode: "" or why images and odometry both arrive but never pair (stamps compared).
+  std::string unpairedInputs(double now) const;
+  static double wallNow();
+  static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
 
   // Database file. Services run on their own thread and take detector_mutex_, so a save or load
   // waits for the keyframe in hand and never blocks the image callbacks.
@@ -163,6 +168,13 @@ class LoopClosureNode {
   std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<double> last_image_wall_{0.0};
   std::atomic<double> last_odometry_wall_{0.0};
+  std::atomic<double> last_paired_wall_{0.0};  ///< odom mode: an image met its odometry.
+  std::atomic<double> newest_image_stamp_{0.0};
+  std::atomic<double> newest_odometry_stamp_{0.0};
+  /// Bumped each time the stamps jump back and time_jump_back is reset; the worker resets the
+  /// database when it meets a newer one (worker_generation_ is its own copy).
+  std::atomic<uint64_t> time_generation_{0};
+  uint64_t worker_generation_ = 0;
   std::atomic<bool> camera_info_seen_{false};
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
   std::mutex stats_mutex_;            // Guards what follows.

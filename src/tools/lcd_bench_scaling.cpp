@@ -1,15 +1,22 @@
-// Scaling benchmark: query time and memory of the keyframe database as it grows, with synthetic
-// descriptors (random unit vectors of the real descriptors' lengths). One thread.
-//   lcd_bench_scaling [sizes=1000,10000,100000] [queries=200]
-// With --persistence: save and load time and file size of databases of realistic keyframes (one
-// described corridor keyframe - landmarks, keypoints with depths, thumbnail - copied with its own
-// buffers and a random global vector), written to --folder (default /tmp).
+// Scaling benchmark: query time, shortlist recall and memory of the keyframe database as it
+// grows, one thread. Keyframes are realistic in size (one described corridor keyframe's landmarks,
+// keypoints with depths and thumbnail, copied with their own buffers) with synthetic global
+// descriptors: a route through descriptor space (each keyframe a small random step from the last,
+// cosine ~0.9, as neighbouring keyframes of a sequence are). Each query revisits a random stored
+// keyframe (cosine ~0.9 to it). Exact search and the HNSW graph at several ef_search values are
+// timed with the landmark re-ranking of the top_k, and the graph's top_k is compared with exact's.
+//   lcd_bench_scaling [sizes=1000,10000,100000] [queries=200] [--descriptor landmarks|hog|both]
+// With --persistence: save and load time and file size of the same databases, written to --folder
+// (default /tmp).
 //   lcd_bench_scaling --persistence [sizes=1000,10000,100000] [--folder /tmp]
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <random>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -30,22 +37,47 @@ namespace {
 
 using namespace landmark_loop_closure;
 
-std::vector<float> randomUnitVector(int dimension, std::mt19937* random) {
-  std::normal_distribution<float> normal;
-  std::vector<float> values(static_cast<size_t>(dimension));
-  for (float& v : values) v = normal(*random);
-  normaliseL2(&values);
-  return values;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// A keyframe with only an id, a stamp and a random global descriptor.
-KeyframeRecord syntheticKeyframe(size_t id, int dimension, std::mt19937* random) {
-  KeyframeRecord keyframe;
-  keyframe.id = id;
-  keyframe.stamp = static_cast<double>(id);
-  keyframe.descriptor.global = randomUnitVector(dimension, random);
-  return keyframe;
+void normalise(std::vector<float>* values) {
+  double norm = 0.0;
+  for (const float v : *values) norm += static_cast<double>(v) * v;
+  const double scale = norm > 0.0 ? 1.0 / std::sqrt(norm) : 0.0;
+  for (float& v : *values) v = static_cast<float>(v * scale);
 }
+
+// Successive global descriptors along a route: x <- 0.9 x + 0.45 n keeps each dimension's
+// variance steady and the cosine of neighbours near 0.9, falling to ~0.35 ten keyframes apart.
+class Route {
+ public:
+  Route(int dimension, unsigned seed) : state_(static_cast<size_t>(dimension)), random_(seed) {
+    for (float& v : state_) v = normal_(random_);
+  }
+  std::vector<float> next() {
+    for (float& v : state_) v = 0.9f * v + 0.45f * normal_(random_);
+    std::vector<float> unit = state_;
+    normalise(&unit);
+    return unit;
+  }
+  // `place` seen again: cosine ~0.9 to it.
+  std::vector<float> revisit(const std::vector<float>& place) {
+    const float sigma = std::sqrt(0.2346f / static_cast<float>(place.size()));
+    std::vector<float> seen = place;
+    for (float& v : seen) v += sigma * normal_(random_);
+    normalise(&seen);
+    return seen;
+  }
+  std::mt19937& random() { return random_; }
+
+ private:
+  std::vector<float> state_;
+  std::mt19937 random_;
+  std::normal_distribution<float> normal_;
+};
 
 std::vector<size_t> parseSizes(const std::string& text) {
   std::vector<size_t> sizes;
@@ -55,17 +87,13 @@ std::vector<size_t> parseSizes(const std::string& text) {
   return sizes;
 }
 
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// One keyframe as the node stores it with the shipped settings.
-KeyframeRecord realisticKeyframe() {
+// One keyframe as the node stores it with the shipped settings (landmarks descriptor).
+KeyframeRecord realisticKeyframe(const DescriptorExtractor& extractor) {
   const sim::CorridorWorld world;
   const cv::Mat image =
       world.render(world.poseAt(5.0, 0.0), sim::CameraModel{}, sim::Lighting{}, 1);
   KeyframeRecord keyframe;
-  keyframe.descriptor = makeDescriptorExtractor(DescriptorOptions{})->describe(image);
+  keyframe.descriptor = extractor.describe(image);
   keyframe.local_features = GeometricVerifier(VerificationOptions{}).extract(image);
   const size_t points = keyframe.local_features.points.size();
   keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
@@ -76,43 +104,151 @@ KeyframeRecord realisticKeyframe() {
   return keyframe;
 }
 
-int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) {
-  const KeyframeRecord model = realisticKeyframe();
-  const int dimension = static_cast<int>(model.descriptor.global.size());
+struct Workload {
+  std::string name;
+  int dimension = 0;
+  std::shared_ptr<const DescriptorExtractor> extractor;
+  KeyframeRecord model;  ///< What every keyframe carries besides its global vector.
+};
+
+Workload landmarksWorkload() {
+  Workload workload;
+  workload.extractor = makeDescriptorExtractor(DescriptorOptions{});
+  workload.model = realisticKeyframe(*workload.extractor);
+  workload.dimension = static_cast<int>(workload.model.descriptor.global.size());
+  workload.name = "landmarks (shipped)";
+  return workload;
+}
+
+Workload hogWorkload() {
+  Workload workload;
+  DescriptorOptions options;
+  options.type = "hog";
+  workload.extractor = makeDescriptorExtractor(options);
+  workload.dimension = HogDescriptor::kDimension;
+  workload.name = "hog, global only";
+  return workload;
+}
+
+KeyframeDatabase buildDatabase(const Workload& workload, size_t size, Route* route,
+                               double* insert_ms) {
+  KeyframeDatabase database(workload.dimension, IndexOptions{});
+  const KeyframeRecord& model = workload.model;
+  const auto start = Clock::now();
+  for (size_t id = 0; id < size; ++id) {
+    KeyframeRecord keyframe;
+    keyframe.id = id;
+    keyframe.stamp = static_cast<double>(id);
+    keyframe.descriptor.global = route->next();
+    keyframe.descriptor.landmark_boxes = model.descriptor.landmark_boxes;
+    keyframe.descriptor.landmark_features = model.descriptor.landmark_features.clone();
+    keyframe.local_features = model.local_features;
+    keyframe.local_features.descriptors = model.local_features.descriptors.clone();
+    keyframe.thumbnail_jpeg = model.thumbnail_jpeg;
+    database.add(std::move(keyframe));
+  }
+  if (insert_ms) *insert_ms = msSince(start) / static_cast<double>(size);
+  return database;
+}
+
+struct SearchRow {
+  std::string search;
+  int ef_search = 0;  ///< 0: exact search.
+  std::vector<double> query_ms;
+  std::vector<double> total_ms;  ///< Query and re-ranking of the top_k.
+  int shared_with_exact = 0;     ///< Top-k ids the exact search also returned.
+  int revisits_found = 0;        ///< Queries whose revisited keyframe is in the top_k.
+};
+
+int runQueries(const std::vector<size_t>& sizes, int queries, const std::vector<Workload>& loads) {
   std::printf(
-      "| keyframes | bytes per keyframe (memory) | file MB | save (s) | load (s) | load per 1000 "
-      "(ms) |\n|---|---|---|---|---|---|\n");
-  for (const size_t size : sizes) {
-    std::mt19937 random(7);
-    KeyframeDatabase database(dimension);
-    for (size_t id = 0; id < size; ++id) {
-      KeyframeRecord keyframe = syntheticKeyframe(id, dimension, &random);
-      keyframe.descriptor.landmark_boxes = model.descriptor.landmark_boxes;
-      keyframe.descriptor.landmark_features = model.descriptor.landmark_features.clone();
-      keyframe.local_features = model.local_features;
-      keyframe.local_features.descriptors = model.local_features.descriptors.clone();
-      keyframe.thumbnail_jpeg = model.thumbnail_jpeg;
-      database.add(std::move(keyframe));
+      "| descriptor | keyframes | search | query median (ms) | query p99 (ms) | + re-rank median "
+      "(ms) | + re-rank p99 (ms) | top-10 shared with exact | revisit in top-10 | insert (ms) | "
+      "bytes per keyframe | peak RSS (MB) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Workload& workload : loads) {
+    for (const size_t size : sizes) {
+      Route route(workload.dimension, 42);
+      double insert_ms = 0.0;
+      const KeyframeDatabase database = buildDatabase(workload, size, &route, &insert_ms);
+      DatabaseOptions options;  // Shipped exclusions and top_k.
+      std::vector<SearchRow> rows;
+      for (const int ef : {0, 64, 128, 256}) {
+        SearchRow row;
+        row.search = ef == 0 ? "exact" : "hnsw ef_search " + std::to_string(ef);
+        row.ef_search = ef;
+        rows.push_back(row);
+      }
+      std::uniform_int_distribution<size_t> pick(0, size - 100);
+      for (int q = 0; q < queries; ++q) {
+        const size_t place = pick(route.random());
+        ImageDescriptor query = workload.model.descriptor;
+        query.global = route.revisit(database.at(place).descriptor.global);
+        const double stamp = static_cast<double>(size) + 100.0;
+        std::set<uint64_t> exact_ids;
+        for (size_t r = 0; r < rows.size(); ++r) {
+          DatabaseOptions search = options;
+          search.index.type = rows[r].ef_search == 0 ? "exact" : "approximate";
+          search.index.ef_search = std::max(1, rows[r].ef_search);
+          const auto start = Clock::now();
+          const QueryResult result = database.query(query.global, stamp, search);
+          rows[r].query_ms.push_back(msSince(start));
+          if (workload.extractor->reranks()) {
+            for (const Candidate& candidate : result.candidates) {
+              workload.extractor->similarity(query, database.at(candidate.index).descriptor);
+            }
+          }
+          rows[r].total_ms.push_back(msSince(start));
+          for (const Candidate& candidate : result.candidates) {
+            if (r == 0) exact_ids.insert(candidate.id);
+            rows[r].shared_with_exact += static_cast<int>(exact_ids.count(candidate.id));
+            rows[r].revisits_found += candidate.id == place;
+          }
+        }
+      }
+      for (const SearchRow& row : rows) {
+        const eval::Percentiles query = eval::percentiles(row.query_ms);
+        const eval::Percentiles total = eval::percentiles(row.total_ms);
+        std::printf(
+            "| %s (%d values) | %zu | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %.2f | %.0f | "
+            "%.0f |\n",
+            workload.name.c_str(), workload.dimension, size, row.search.c_str(), query.median,
+            query.p99, total.median, total.p99, row.shared_with_exact / (10.0 * queries),
+            row.revisits_found / double(queries), insert_ms,
+            static_cast<double>(database.bytes()) / size, eval::peakResidentBytes() / 1e6);
+      }
+      std::fflush(stdout);
     }
+  }
+  return 0;
+}
+
+int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) {
+  const Workload workload = landmarksWorkload();
+  std::printf(
+      "| keyframes | bytes per keyframe (memory) | file MB | save (s) | load (s) | graph read, not "
+      "rebuilt |\n|---|---|---|---|---|---|\n");
+  for (const size_t size : sizes) {
+    Route route(workload.dimension, 7);
+    const KeyframeDatabase database = buildDatabase(workload, size, &route, nullptr);
     const std::string path = folder + "/lcd_bench_scaling.lcdb";
-    auto start = std::chrono::steady_clock::now();
+    auto start = Clock::now();
     const std::string error = saveDatabase(database, "bench", path);
-    const double save_s = secondsSince(start);
+    const double save_s = msSince(start) / 1000.0;
     if (!error.empty()) {
       std::fprintf(stderr, "%s\n", error.c_str());
       return 1;
     }
-    start = std::chrono::steady_clock::now();
-    const LoadedDatabase loaded = loadDatabase(path, "bench", dimension);
-    const double load_s = secondsSince(start);
+    start = Clock::now();
+    const LoadedDatabase loaded = loadDatabase(path, "bench", workload.dimension, IndexOptions{});
+    const double load_s = msSince(start) / 1000.0;
     if (!loaded.database || loaded.database->size() != size) {
       std::fprintf(stderr, "%s\n", loaded.error.c_str());
       return 1;
     }
-    std::printf("| %zu | %.0f | %.0f | %.2f | %.2f | %.1f |\n", size,
+    std::printf("| %zu | %.0f | %.0f | %.2f | %.2f | %s |\n", size,
                 static_cast<double>(database.bytes()) / size,
                 static_cast<double>(std::filesystem::file_size(path)) / 1e6, save_s, load_s,
-                1000.0 * load_s / size * 1000.0);
+                loaded.graph_rebuilt ? "no" : "yes");
     std::fflush(stdout);
     std::filesystem::remove(path);
   }
@@ -122,54 +258,30 @@ int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc > 1 && std::string(argv[1]) == "--persistence") {
-    std::vector<size_t> persistence_sizes = {1000, 10000, 100000};
-    std::string folder = "/tmp";
-    for (int i = 2; i < argc; ++i) {
-      if (std::string(argv[i]) == "--folder" && i + 1 < argc) {
-        folder = argv[++i];
-      } else {
-        persistence_sizes = parseSizes(argv[i]);
-      }
-    }
-    cv::setNumThreads(1);
-    return runPersistence(persistence_sizes, folder);
-  }
+  bool persistence = false;
   std::vector<size_t> sizes = {1000, 10000, 100000};
-  if (argc > 1) sizes = parseSizes(argv[1]);
-  const int queries = argc > 2 ? std::atoi(argv[2]) : 200;
-  cv::setNumThreads(1);
-  std::printf(
-      "| descriptor | keyframes | query median (ms) | query p99 (ms) | bytes per keyframe |"
-      " peak RSS (MB) |\n|---|---|---|---|---|---|\n");
-  for (const auto& [name, dimension] :
-       {std::pair<const char*, int>{"hog", HogDescriptor::kDimension}}) {
-    for (const size_t size : sizes) {
-      std::mt19937 random(42);
-      KeyframeDatabase database(dimension);
-      for (size_t id = 0; id < size; ++id) {
-        database.add(syntheticKeyframe(id, dimension, &random));
-      }
-      DatabaseOptions options;
-      options.min_size = 1;
-      options.exclude_recent_keyframes = 0;
-      options.exclude_recent_seconds = 0.0;
-      std::vector<double> times;
-      for (int q = 0; q < queries; ++q) {
-        const std::vector<float> query = randomUnitVector(dimension, &random);
-        const auto start = std::chrono::steady_clock::now();
-        const QueryResult result = database.query(query, 1e12, options);
-        times.push_back(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count());
-        if (result.candidates.empty()) return 1;
-      }
-      const eval::Percentiles p = eval::percentiles(times);
-      std::printf("| %s (%d values) | %zu | %.2f | %.2f | %.0f | %.0f |\n", name, dimension, size,
-                  p.median, p.p99, static_cast<double>(database.bytes()) / size,
-                  eval::peakResidentBytes() / 1e6);
-      std::fflush(stdout);
+  std::string folder = "/tmp";
+  std::string descriptor = "both";
+  int queries = 200;
+  int positional = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--persistence") {
+      persistence = true;
+    } else if (arg == "--folder" && i + 1 < argc) {
+      folder = argv[++i];
+    } else if (arg == "--descriptor" && i + 1 < argc) {
+      descriptor = argv[++i];
+    } else if (positional++ == 0) {
+      sizes = parseSizes(arg);
+    } else {
+      queries = std::atoi(arg.c_str());
     }
   }
-  return 0;
+  cv::setNumThreads(1);
+  if (persistence) return runPersistence(sizes, folder);
+  std::vector<Workload> loads;
+  if (descriptor != "hog") loads.push_back(landmarksWorkload());
+  if (descriptor != "landmarks") loads.push_back(hogWorkload());
+  return runQueries(sizes, std::max(1, queries), loads);
 }

@@ -1,7 +1,8 @@
 #pragma once
 
-// A descriptor for tests: each image is filled with one grey value, its "place"; descriptors are
-// one-hot in that value, so two images match exactly when they show the same place.
+// A descriptor for tests: each image's top-left pixel holds its "place"; descriptors are one-hot in
+// that value, so two images match exactly when they show the same place. The rest is striped so
+// that the image has texture (uniform images are refused as input).
 
 #include <opencv2/core.hpp>
 
@@ -23,7 +24,9 @@ class PlaceExtractor : public DescriptorExtractor {
 };
 
 inline cv::Mat place(int value, cv::Size size = cv::Size(64, 48)) {
-  return cv::Mat(size, CV_8UC1, cv::Scalar(value));
+  cv::Mat image(size, CV_8UC1, cv::Scalar(value));
+  for (int row = 1; row < size.height; row += 2) image.row(row).setTo((value + 128) % 256);
+  return image;
 }
 
 }  // namespace test_support

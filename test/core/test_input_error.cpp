@@ -50,8 +50,34 @@ TEST(CheckPose, RefusesNonUnitQuaternionButToleratesRounding) {
   EXPECT_NEAR(normalisedPose(pose).orientation.norm(), 1.0, 1e-12);
 }
 
+TEST(CheckTexture, RefusesUniformImagesOfEveryKind) {
+  const InputLimits limits;
+  EXPECT_EQ(checkTexture(cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)), limits)->code,
+            InputErrorCode::kNoTexture);
+  EXPECT_TRUE(checkTexture(cv::Mat(480, 640, CV_8UC3, cv::Scalar(255, 255, 255)), limits));
+  EXPECT_TRUE(checkTexture(cv::Mat(480, 640, CV_16UC1, cv::Scalar(30000)), limits));
+  // Sensor noise of one grey level is still no texture.
+  cv::Mat noisy(480, 640, CV_8UC1);
+  cv::randn(noisy, 20, 1);
+  const auto error = checkTexture(noisy, limits);
+  ASSERT_TRUE(error);
+  EXPECT_NE(error->message.find("input/min_image_contrast"), std::string::npos) << error->message;
+}
+
+TEST(CheckTexture, AcceptsTexturedImagesAndCanBeTurnedOff) {
+  cv::Mat textured(480, 640, CV_8UC1);
+  cv::randu(textured, 0, 256);
+  EXPECT_FALSE(checkTexture(textured, InputLimits{}));
+  cv::Mat wide(480, 640, CV_16UC1);
+  cv::randu(wide, 0, 65535);
+  EXPECT_FALSE(checkTexture(wide, InputLimits{}));
+  InputLimits off;
+  off.min_image_contrast = 0.0;
+  EXPECT_FALSE(checkTexture(cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)), off));
+}
+
 TEST(InputErrorCode, EveryCodeHasAName) {
-  for (int code = 0; code <= static_cast<int>(InputErrorCode::kNonUnitQuaternion); ++code) {
+  for (int code = 0; code <= static_cast<int>(InputErrorCode::kNoTexture); ++code) {
     EXPECT_STRNE(toString(static_cast<InputErrorCode>(code)), "unknown");
   }
 }

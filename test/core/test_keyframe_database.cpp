@@ -168,6 +168,7 @@ TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
 
   DatabaseOptions options = noExclusion();
   options.top_k = 10;
+  options.index = approximate;
   std::normal_distribution<float> noise(0.0f, 0.05f);
   int shared = 0;
   int best_same = 0;
@@ -202,6 +203,7 @@ TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
   approximate.type = "approximate";
   const KeyframeDatabase database = routeDatabase(vectors, approximate);
   DatabaseOptions options = noExclusion();
+  options.index = approximate;
   options.top_k = 5;
   options.exclude_recent_keyframes = 50;   // ids 450..499
   options.exclude_recent_seconds = 100.0;  // stamps within 100 s of 520: ids 421..499
@@ -211,9 +213,9 @@ TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
   EXPECT_EQ(result.searched, 421u);
   ASSERT_EQ(result.candidates.size(), 5u);
   for (const Candidate& c : result.candidates) EXPECT_LE(c.id, 420u);
-  IndexOptions exact;
-  exact.type = "exact";
-  const QueryResult expected = routeDatabase(vectors, exact).query(vectors.back(), 520.0, options);
+  options.index.type = "exact";
+  const QueryResult expected = database.query(vectors.back(), 520.0, options);
+  EXPECT_FALSE(expected.approximate);
   EXPECT_EQ(result.candidates.front().id, expected.candidates.front().id);
 }
 
@@ -223,12 +225,14 @@ TEST(KeyframeDatabase, AutoSearchesExactlyUntilTheDatabaseIsLarge) {
   IndexOptions automatic;
   automatic.approximate_from = 100;
   const std::vector<std::vector<float>> first(vectors.begin(), vectors.begin() + 99);
+  DatabaseOptions options = noExclusion();
+  options.index = automatic;
   const KeyframeDatabase small = routeDatabase(first, automatic);
   ASSERT_NE(small.graph(), nullptr);  // Kept up to date all along, so switching costs nothing.
-  EXPECT_FALSE(small.query(vectors[5], 1e9, noExclusion()).approximate);
+  EXPECT_FALSE(small.query(vectors[5], 1e9, options).approximate);
   const KeyframeDatabase large = routeDatabase(vectors, automatic);
-  EXPECT_TRUE(large.query(vectors[5], 1e9, noExclusion()).approximate);
-  EXPECT_EQ(large.query(vectors[5], 1e9, noExclusion()).candidates.front().id, 5u);
+  EXPECT_TRUE(large.query(vectors[5], 1e9, options).approximate);
+  EXPECT_EQ(large.query(vectors[5], 1e9, options).candidates.front().id, 5u);
 }
 
 TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {

@@ -162,6 +162,19 @@ TEST(LoopDetector, KeepsThumbnailsOnlyWhenAsked) {
             cv::Size(160, 120));
 }
 
+TEST(LoopDetector, ABlackKeyframeIsRefusedAndNothingStoredChanges) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+  const FrameResult black =
+      detector.process(12, planarPose(12, 0, 0), cv::Mat(48, 64, CV_8UC1, cv::Scalar(0)));
+  ASSERT_TRUE(black.keyframe);
+  ASSERT_TRUE(black.keyframe->error);
+  EXPECT_EQ(black.keyframe->error->code, InputErrorCode::kNoTexture);
+  EXPECT_FALSE(black.keyframe->stored);
+  EXPECT_EQ(detector.database().size(), 12u);
+  EXPECT_TRUE(feed(&detector, 13, 13).keyframe->stored);  // And carries on.
+}
+
 TEST(LoopDetector, PastTheMemoryBudgetKeyframesAreSearchedButNotStored) {
   LoopDetector probe(smallOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 40; ++i) feed(&probe, i, i);

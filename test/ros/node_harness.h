@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -78,16 +79,17 @@ class NodeHarness {
   }
 
   /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
-  /// the same stamp; `corrupt_pose` puts NaN in x.
+  /// the same stamp, or the odometry `odometry_offset` seconds later; `corrupt_pose` puts NaN in x.
   void publish(double stamp, const sim::Pose2D& odom, const cv::Mat& image,
-               const std::string& encoding = "mono8", bool corrupt_pose = false) {
+               const std::string& encoding = "mono8", bool corrupt_pose = false,
+               double odometry_offset = 0.0) {
     std_msgs::Header header;
     header.stamp = ros::Time(stamp);
     header.frame_id = "camera";
     sensor_msgs::ImagePtr message = cv_bridge::CvImage(header, "mono8", image).toImageMsg();
     message->encoding = encoding;
     nav_msgs::Odometry odometry;
-    odometry.header.stamp = header.stamp;
+    odometry.header.stamp = ros::Time(stamp + odometry_offset);
     odometry.header.frame_id = "odom";
     odometry.child_frame_id = "base_link";
     odometry.pose.pose.position.x =
@@ -155,6 +157,13 @@ class NodeHarness {
     const auto it = diagnostics_.find(key);
     return it == diagnostics_.end() ? std::string() : it->second;
   }
+  /// Whether a diagnostics summary of the node ever contained `text`.
+  bool summarySaid(const std::string& text) const {
+    for (const std::string& summary : summaries_) {
+      if (summary.find(text) != std::string::npos) return true;
+    }
+    return false;
+  }
 
  private:
   // The generated camera on the robot, latched on /tf_static as a robot description would: the
@@ -186,6 +195,7 @@ class NodeHarness {
     for (const auto& status : array->status) {
       if (status.name.find("loop closure") == std::string::npos) continue;
       for (const auto& value : status.values) diagnostics_[value.key] = value.value;
+      summaries_.insert(status.message);
     }
   }
 
@@ -203,6 +213,7 @@ class NodeHarness {
   std::map<uint64_t, uint32_t> keyframe_sessions_;
   std::vector<LoopClosure> loops_;
   std::map<std::string, std::string> diagnostics_;
+  std::set<std::string> summaries_;
   ros::WallTime last_output_;
 };
 

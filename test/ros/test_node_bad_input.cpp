@@ -1,5 +1,6 @@
-// The running node, fed a one-way route with bad frames mixed in, publishes no loop, drops every
-// bad frame without output, keeps working after them and counts them in its diagnostics.
+// The running node, fed a one-way route with bad frames mixed in (unsupported encoding, NaN pose,
+// a stamp 10 s back, black frames), publishes no loop, drops every bad frame without output, keeps
+// working after them and counts them in its diagnostics.
 #include <set>
 
 #include "node_harness.h"
@@ -19,7 +20,13 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
   while (ros::ok() && sequence.next(&frame)) {
-    harness.publish(frame.stamp, frame.odom, frame.image);
+    if (frame.index >= 400 && frame.index < 440) {  // Lens cap on: black frames, moving on.
+      harness.publish(frame.stamp, frame.odom, cv::Mat::zeros(frame.image.size(), CV_8UC1));
+      bad_stamps.insert(ros::Time(frame.stamp));
+      last_bad_stamp = frame.stamp;
+    } else {
+      harness.publish(frame.stamp, frame.odom, frame.image);
+    }
     const double between = frame.stamp + 0.5 / options.rate;  // Its own stamp, after this frame.
     if (frame.index == 100 || frame.index == 101) {           // Float image: unsupported encoding.
       harness.publish(between, frame.odom, frame.image, "32FC1");
@@ -49,6 +56,7 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   EXPECT_GT(newest.toSec(), last_bad_stamp + 10.0) << "the node stopped after the bad input";
   EXPECT_NE(harness.diagnostic("rejected: unsupported_image_type"), "");
   EXPECT_NE(harness.diagnostic("rejected: non_finite_pose"), "");
+  EXPECT_NE(harness.diagnostic("rejected: no_texture"), "");
 }
 
 int main(int argc, char** argv) {

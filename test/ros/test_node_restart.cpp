@@ -1,10 +1,13 @@
 // Robots map, stop, and come back: the node is stopped after the first lap of the corridor
 // (saving its database at shutdown) and started again for the second lap with its odometry
 // restarted at the origin. The second run loads the first run's keyframes as session 0 and finds
-// loops into them.
+// loops into them. Also: a killed node keeps what autosave wrote; a corrupt database or a missing
+// or corrupt model stops the node at start, saying which file.
+#include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -26,8 +29,9 @@ using namespace landmark_loop_closure::sim;
 
 namespace {
 
-// Starts the node as roslaunch would, with the parameters the .test file loaded.
-pid_t startNode() {
+// Starts the node as roslaunch would, with the parameters the .test file loaded; its output goes
+// to `log` when given.
+pid_t startNode(const std::string& log = "") {
   std::vector<std::string> arguments = {"rosrun",
                                         "landmark_loop_closure",
                                         "loop_closure_node",
@@ -37,9 +41,43 @@ pid_t startNode() {
   std::vector<char*> argv;
   for (std::string& argument : arguments) argv.push_back(argument.data());
   argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  // Its own process group, so that a kill reaches the node behind rosrun too.
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
+  if (!log.empty()) {
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  }
   pid_t pid = 0;
-  if (posix_spawnp(&pid, "rosrun", nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  return pid;
+  const int failed = posix_spawnp(&pid, "rosrun", &actions, &attributes, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
+  return failed == 0 ? pid : -1;
+}
+
+// Waits up to `timeout` s for the node to exit on its own; its exit status, or -1 (then killed).
+int exitStatus(pid_t pid, double timeout = 30.0) {
+  int status = 0;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (waitpid(pid, &status, WNOHANG) != pid) {
+    if (ros::WallTime::now() > end) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+      return -1;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
 }
 
 // SIGINT, as roslaunch stops a node; true when it exits within `timeout` seconds.
@@ -186,20 +224,89 @@ TEST(LoopClosureNode, ACorruptDatabaseFileStopsTheNodeAndIsLeftAlone) {
   ros::param::set("/loop_closure/database_path", path);
   const pid_t node = startNode();
   ASSERT_GT(node, 0);
-  int status = 0;
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (waitpid(node, &status, WNOHANG) != node) {
-    if (ros::WallTime::now() > end) {
-      stopNode(node);
-      FAIL() << "the node started with a corrupt database file";
-    }
-    ros::WallDuration(0.05).sleep();
-  }
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0);
-  std::ifstream file(path, std::ios::binary);
-  const std::string kept((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(kept, garbage);  // Not overwritten by a save at shutdown.
+  const int status = exitStatus(node);
+  EXPECT_NE(status, -1) << "the node started with a corrupt database file";
+  EXPECT_NE(status, 0);
+  EXPECT_EQ(readFile(path), garbage);  // Not overwritten by a save at shutdown.
   std::filesystem::remove(path);
+  ros::param::set("/loop_closure/database_path", std::string());
+}
+
+TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
+  const std::filesystem::path folder = std::filesystem::temp_directory_path();
+  const std::string missing = (folder / "lcd_no_such_model.onnx").string();
+  const std::string corrupt = (folder / "lcd_corrupt_model.onnx").string();
+  std::filesystem::remove(missing);
+  {
+    std::ofstream file(corrupt, std::ios::binary);
+    file << "not an ONNX protobuf";
+  }
+  ros::param::set("/loop_closure/database_path", std::string());
+  const std::string log = (folder / "lcd_model_node.log").string();
+  for (const std::string& model : {missing, corrupt}) {
+    SCOPED_TRACE(model);
+    ros::param::set("/loop_closure/descriptor/model", model);
+    const pid_t node = startNode(log);
+    ASSERT_GT(node, 0);
+    const int status = exitStatus(node);
+    EXPECT_NE(status, -1) << "the node started without a usable model";
+    EXPECT_NE(status, 0);
+    const std::string output = readFile(log);
+    EXPECT_NE(output.find(model), std::string::npos) << output;
+  }
+  ros::param::set("/loop_closure/descriptor/model", std::string());
+  std::filesystem::remove(corrupt);
+  std::filesystem::remove(log);
+}
+
+TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItAutosaved) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lcd_node_killed.lcdb").string();
+  std::filesystem::remove(path);
+  ros::param::set("/loop_closure/database_path", path);
+  ros::param::set("/loop_closure/autosave_every", 1);
+
+  test_support::NodeHarness harness;
+  const pid_t first = startNode();
+  ASSERT_GT(first, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the first run did not subscribe";
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.start_stamp = 1700000000.0;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  ros::WallRate rate(test_support::kPublishRateHz);
+  SequenceFrame frame;
+  while (ros::ok() && sequence.next(&frame) && frame.index < 400) {
+    harness.publish(frame.stamp, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+  }
+  harness.waitUntilQuiet();
+  const size_t keyframes = harness.keyframes().size();
+  ASSERT_GT(keyframes, 50u);
+  kill(-first, SIGKILL);  // No shutdown save: only what autosave wrote survives.
+  waitpid(first, nullptr, 0);
+
+  // The master still lists the killed node until the new one takes its name: call until the new
+  // one answers.
+  const pid_t second = startNode();
+  ASSERT_GT(second, 0);
+  DatabaseFile save;
+  save.request.path = path + ".copy";
+  bool answered = false;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
+  while (!answered && ros::WallTime::now() < end) {
+    answered = ros::service::call("/loop_closure/save_database", save);
+    if (!answered) ros::WallDuration(0.2).sleep();
+  }
+  ASSERT_TRUE(answered) << "the restarted node did not answer";
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  EXPECT_EQ(save.response.keyframes, keyframes);
+  EXPECT_TRUE(stopNode(second));
+  ros::param::set("/loop_closure/autosave_every", 0);
+  ros::param::set("/loop_closure/database_path", std::string());
+  std::filesystem::remove(path);
+  std::filesystem::remove(save.request.path);
 }
 
 int main(int argc, char** argv) {

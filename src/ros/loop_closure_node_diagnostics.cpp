@@ -1,0 +1,85 @@
+// The node's diagnostics: input health, counters, timings.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "loop_closure_node.h"
+
+namespace landmark_loop_closure {
+
+std::string LoopClosureNode::unpairedInputs(double now) const {
+  const double timeout = options_.input_timeout;
+  const bool both_arrive =
+      now - last_image_wall_ <= timeout && now - last_odometry_wall_ <= timeout;
+  if (!both_arrive || now - last_paired_wall_ <= timeout) return "";
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "Images and odometry arrive but none paired within sync_slop %.3f s for %.0f s: "
+                "newest image stamp %.3f, newest odometry stamp %.3f (%.3f s apart); frames are "
+                "dropped until their stamps agree",
+                options_.sync_slop, timeout, newest_image_stamp_.load(),
+                newest_odometry_stamp_.load(),
+                std::abs(newest_image_stamp_.load() - newest_odometry_stamp_.load()));
+  return text;
+}
+
+void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  const double now = wallNow();
+  const bool use_odom = options_.pose_source == "odom";
+  std::ostringstream waiting;
+  if (now - last_image_wall_ > options_.input_timeout) waiting << image_topic_;
+  if (use_odom && now - last_odometry_wall_ > options_.input_timeout) {
+    waiting << (waiting.tellp() > 0 ? " and " : "") << odom_topic_;
+  }
+  if (!use_odom && tf_timeouts_ > 0 && now - last_odometry_wall_ > options_.input_timeout) {
+    waiting << (waiting.tellp() > 0 ? " and " : "") << "tf " << options_.odom_frame << " -> "
+            << options_.base_frame;
+  }
+  const std::string unpaired = use_odom ? unpairedInputs(now) : "";
+  if (waiting.tellp() > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
+                    options_.input_timeout, waiting.str().c_str());
+  } else if (!unpaired.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
+    ROS_WARN_THROTTLE(kWarningPeriod, "%s", unpaired.c_str());
+  } else if (keyframes_dropped_ > 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "Running; the worker has dropped keyframes");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
+  }
+
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const double elapsed = std::max(1e-3, (ros::WallTime::now() - last_rate_time_).toSec());
+  status.add("image topic", image_topic_);
+  if (use_odom) status.add("odometry topic", odom_topic_);
+  status.addf("image rate (Hz)", "%.1f", (images_received_ - last_images_for_rate_) / elapsed);
+  status.addf("pose rate (Hz)", "%.1f", (odometry_received_ - last_odometry_for_rate_) / elapsed);
+  last_images_for_rate_ = images_received_;
+  last_odometry_for_rate_ = odometry_received_;
+  last_rate_time_ = ros::WallTime::now();
+  status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
+  status.add("frames admitted", frames_admitted_.load());
+  status.add("keyframes", keyframes_stored_.load());
+  status.add("database bytes", database_bytes_);
+  status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
+  status.add("database file", database_status_);
+  status.add("session", session_.load());
+  status.add("loops published", loops_published_.load());
+  status.add("keyframes dropped (worker busy)", keyframes_dropped_.load());
+  status.add("queued keyframes", queue_.size());
+  status.add("odometry jumps", odometry_jumps_.load());
+  if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
+  if (options_.use_depth) {
+    status.add("keyframes with depth", keyframes_with_depth_.load());
+    status.add("keyframes without depth", keyframes_without_depth_.load());
+  }
+  status.addf("last keyframe processing (ms)", "%.1f", last_processing_ms_);
+  status.addf("max keyframe processing (ms)", "%.1f", max_processing_ms_);
+  for (const auto& [code, count] : rejected_) {
+    status.add(std::string("rejected: ") + toString(code), count);
+  }
+}
+
+}  // namespace landmark_loop_closure
