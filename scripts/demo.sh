@@ -25,11 +25,7 @@ if [ "$RVIZ" = true ] && ! command -v rviz > /dev/null; then
 fi
 scripts/build.sh
 
-export ROS_HOSTNAME=${ROS_HOSTNAME:-localhost}
-export ROS_MASTER_URI=${ROS_MASTER_URI:-http://localhost:11311}
-set +u
-source _build/devel/setup.bash
-set -u
+source scripts/ros_env.sh
 mkdir -p _demo
 BAG=_demo/corridor_${LAPS}laps.bag
 if [ ! -f "$BAG" ]; then

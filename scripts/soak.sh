@@ -17,11 +17,7 @@ done
 
 scripts/install_deps.sh
 scripts/build.sh
-export ROS_HOSTNAME=${ROS_HOSTNAME:-localhost}
-export ROS_MASTER_URI=${ROS_MASTER_URI:-http://localhost:11311}
-set +u
-source _build/devel/setup.bash
-set -u
+source scripts/ros_env.sh
 mkdir -p _soak
 TOOLS=_build/devel/lib/landmark_loop_closure
 # One lap of the corridor is FRAMES_PER_LAP frames at 30 Hz (make_demo_bag prints it).
