@@ -39,4 +39,10 @@ add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/bag_source.cpp)
 target_include_directories(lcd_evaluate SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(lcd_evaluate ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim ${PROJECT_NAME}_nodelet
   ${catkin_LIBRARIES})
-install(TARGETS lcd_evaluate RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+
+add_executable(lcd_train src/tools/lcd_train.cpp src/tools/bag_source.cpp)
+target_include_directories(lcd_train SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(lcd_train ${PROJECT_NAME}_eval ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+target_compile_definitions(lcd_train PRIVATE
+  LANDMARK_LOOP_CLOSURE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+install(TARGETS lcd_evaluate lcd_train RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

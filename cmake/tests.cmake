@@ -12,6 +12,9 @@ set(CORE_TESTS
   test_match_image
   test_landmarks
   test_convnet_descriptor
+  test_pca_whitening
+  test_cnn_global_descriptor
+  test_broad_autoencoder
   test_geometric_verification
   test_metric_pose
   test_shipped_config

@@ -8,6 +8,8 @@
 
 namespace landmark_loop_closure {
 
+struct CnnGlobalOptions;
+
 /// What a descriptor extractor says about one image.
 struct ImageDescriptor {
   /// Whole-image vector, L2-normalised; the database shortlists by its cosine similarity.
@@ -37,9 +39,12 @@ class DescriptorExtractor {
   virtual int globalDimension() const = 0;
   /// `image`: 8-bit grey (CV_8UC1), any size; implementations resize to their working size.
   virtual ImageDescriptor describe(const cv::Mat& image) const = 0;
-  /// Final similarity, higher is more alike. The default is the cosine of the global vectors;
-  /// landmark descriptors override it to re-rank a shortlist.
+  /// Final similarity, higher is more alike. The default is globalScore() of the global
+  /// vectors' cosine; landmark descriptors override it to re-rank a shortlist.
   virtual double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const;
+  /// The method's similarity for a global cosine (monotone; the identity unless the method
+  /// defines its score another way, e.g. from the Euclidean distance).
+  virtual double globalScore(double cosine) const { return cosine; }
   /// True when similarity() is more than the global cosine, so re-ranking is worth its time.
   virtual bool reranks() const { return false; }
 };
@@ -48,7 +53,9 @@ class DescriptorExtractor {
 struct DescriptorOptions {
   /// "landmarks": the ONNX encoder's output (calc) shortlists, landmark matching re-ranks;
   /// "calc": the encoder's output alone (1064 values); "hog": HOG with CALC's settings (3648);
-  /// "hog_whole": one 9-bin HOG window over the whole image (9576); "pixels": 32x24 grey (768).
+  /// "hog_whole": one 9-bin HOG window over the whole image (9576); "pixels": 32x24 grey (768);
+  /// "cnn_pca": a CNN layer with PCA whitening (options in `cnn`); "broad": the broad
+  /// autoencoder's output layer (`broad`).
   std::string type = "landmarks";
   std::string model;                         ///< ONNX encoder; empty = the package's model.
   int max_landmarks = 50;                    ///< Landmarks per image (landmarks).
@@ -64,6 +71,28 @@ struct DescriptorOptions {
   double max_landmark_area = 0.5;            ///< Largest landmark box, as a fraction of the image.
   std::string landmark_storage = "float16";  ///< "float16" or "float32".
 
+  /// cnn_pca: any ONNX CNN's layer, pooled, PCA-whitened (methods.md section 2). The defaults
+  /// run the package's encoder; README.md shows the settings for a ResNet-50.
+  struct Cnn {
+    std::string model;            ///< "" = the package's encoder.
+    std::string layer = "conv3";  ///< Output read; "" = the network's last layer.
+    int input_width = 160;
+    int input_height = 120;
+    std::string colour = "grey";  ///< Channel order the network expects: rgb, bgr or grey.
+    std::string mean = "0";       ///< Per channel, pixels in [0, 1]: (pixel - mean) / std.
+    std::string std = "1";
+    std::string pooling = "none";  ///< "average", "max" or "none" (the whole layer).
+    /// lcd_fit_whitening's file; "" = the model's path + ".whitening" when that exists;
+    /// "none" = no whitening.
+    std::string whitening;
+    std::string similarity = "distance";  ///< "distance" (1 - D / 2, the paper's) or "cosine".
+  } cnn;
+
+  /// broad: FLCD-BA's broad autoencoder (methods.md section 3).
+  struct Broad {
+    std::string model;  ///< File written by `lcd_train broad`; required.
+  } broad;
+
   std::string validate() const;
 };
 
@@ -77,6 +106,12 @@ const std::vector<std::string>& descriptorTypes();
 /// ConvNet types, a hash of the model file's bytes. Descriptors with different identities cannot
 /// be compared, so a saved database carries it and a load checks it.
 std::string descriptorIdentity(const DescriptorOptions& options);
+
+/// cnn_pca: the model file (the package's encoder when options.model is empty), the whitening
+/// file in use ("" = none) and the extractor's options.
+std::string cnnModelPath(const DescriptorOptions::Cnn& cnn);
+std::string whiteningPathFor(const DescriptorOptions::Cnn& cnn);
+CnnGlobalOptions cnnGlobalOptions(const DescriptorOptions::Cnn& cnn);
 
 /// Builds the extractor named by options.type; throws std::invalid_argument for an unknown type.
 std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(

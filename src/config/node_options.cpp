@@ -99,6 +99,18 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("descriptor/landmark_patch", &detector.descriptor.landmark_patch);
   reader->read("descriptor/max_landmark_area", &detector.descriptor.max_landmark_area);
   reader->read("descriptor/landmark_storage", &detector.descriptor.landmark_storage);
+  DescriptorOptions::Cnn& cnn = detector.descriptor.cnn;
+  reader->read("descriptor/cnn/model", &cnn.model);
+  reader->read("descriptor/cnn/layer", &cnn.layer);
+  reader->read("descriptor/cnn/input_width", &cnn.input_width);
+  reader->read("descriptor/cnn/input_height", &cnn.input_height);
+  reader->read("descriptor/cnn/colour", &cnn.colour);
+  reader->read("descriptor/cnn/mean", &cnn.mean);
+  reader->read("descriptor/cnn/std", &cnn.std);
+  reader->read("descriptor/cnn/pooling", &cnn.pooling);
+  reader->read("descriptor/cnn/whitening", &cnn.whitening);
+  reader->read("descriptor/cnn/similarity", &cnn.similarity);
+  reader->read("descriptor/broad/model", &detector.descriptor.broad.model);
 
   reader->read("database/exclude_recent_keyframes", &detector.database.exclude_recent_keyframes);
   reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);

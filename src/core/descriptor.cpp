@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -9,6 +10,8 @@
 #include <Eigen/Core>
 
 #include "landmark_loop_closure/baseline_descriptors.h"
+#include "landmark_loop_closure/broad_autoencoder.h"
+#include "landmark_loop_closure/cnn_global_descriptor.h"
 #include "landmark_loop_closure/convnet_descriptor.h"
 #include "landmark_loop_closure/hog_descriptor.h"
 
@@ -28,15 +31,58 @@ double cosineSimilarity(const std::vector<float>& a, const std::vector<float>& b
 
 double DescriptorExtractor::similarity(const ImageDescriptor& query,
                                        const ImageDescriptor& candidate) const {
-  return cosineSimilarity(query.global, candidate.global);
+  return globalScore(cosineSimilarity(query.global, candidate.global));
 }
 
 const std::vector<std::string>& descriptorTypes() {
-  static const std::vector<std::string> types = {"hog", "hog_whole", "pixels", "calc", "landmarks"};
+  static const std::vector<std::string> types = {"hog",       "hog_whole", "pixels", "calc",
+                                                 "landmarks", "cnn_pca",   "broad"};
   return types;
 }
 
 std::string defaultModelPath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/calc_encoder.onnx"; }
+
+namespace {
+
+std::string validateCnn(const DescriptorOptions::Cnn& cnn) {
+  std::string errors;
+  if (cnn.input_width < 8 || cnn.input_height < 8 || cnn.input_width > 4096 ||
+      cnn.input_height > 4096) {
+    errors += "descriptor/cnn/input_width and input_height must be in [8, 4096] (got " +
+              std::to_string(cnn.input_width) + "x" + std::to_string(cnn.input_height) + ")\n";
+  }
+  if (cnn.colour != "rgb" && cnn.colour != "bgr" && cnn.colour != "grey") {
+    errors += "descriptor/cnn/colour must be 'rgb', 'bgr' or 'grey' (got '" + cnn.colour + "')\n";
+  }
+  const size_t channels = cnn.colour == "grey" ? 1 : 3;
+  for (const auto& [key, text] : {std::pair<const char*, const std::string&>{"mean", cnn.mean},
+                                  std::pair<const char*, const std::string&>{"std", cnn.std}}) {
+    std::vector<double> values;
+    try {
+      values = parseNumberList(text);
+    } catch (const std::invalid_argument&) {
+    }
+    const bool positive = std::string(key) == "mean" ||
+                          std::all_of(values.begin(), values.end(), [](double v) { return v > 0; });
+    if (values.size() != channels || !positive) {
+      errors += std::string("descriptor/cnn/") + key + " must be " + std::to_string(channels) +
+                (channels == 1 ? " number" : " numbers") +
+                (std::string(key) == "std" ? " > 0" : "") + " for colour '" + cnn.colour +
+                "' (got '" + text + "')\n";
+    }
+  }
+  if (cnn.pooling != "average" && cnn.pooling != "max" && cnn.pooling != "none") {
+    errors +=
+        "descriptor/cnn/pooling must be 'average', 'max' or 'none' (got '" + cnn.pooling + "')\n";
+  }
+  if (cnn.similarity != "distance" && cnn.similarity != "cosine") {
+    errors +=
+        "descriptor/cnn/similarity must be 'distance' or 'cosine' (got '" + cnn.similarity + "')\n";
+  }
+  return errors;
+}
+
+}  // namespace
 
 std::string DescriptorOptions::validate() const {
   std::string errors;
@@ -82,7 +128,39 @@ std::string DescriptorOptions::validate() const {
     errors += "descriptor/landmark_storage must be 'float16' or 'float32' (got '" +
               landmark_storage + "')\n";
   }
+  if (type == "cnn_pca") errors += validateCnn(cnn);
+  if (type == "broad" && broad.model.empty()) {
+    errors += "descriptor/broad/model is empty: train one with `lcd_train broad` (README.md)\n";
+  }
   return errors;
+}
+
+std::string whiteningPathFor(const DescriptorOptions::Cnn& cnn) {
+  if (cnn.whitening == "none") return "";
+  if (!cnn.whitening.empty()) return cnn.whitening;
+  const std::string beside_model = cnnModelPath(cnn) + ".whitening";
+  return std::filesystem::exists(beside_model) ? beside_model : "";
+}
+
+std::string cnnModelPath(const DescriptorOptions::Cnn& cnn) {
+  return cnn.model.empty() ? defaultModelPath() : cnn.model;
+}
+
+CnnGlobalOptions cnnGlobalOptions(const DescriptorOptions::Cnn& cnn) {
+  CnnGlobalOptions options;
+  options.model_path = cnnModelPath(cnn);
+  options.layer = cnn.layer;
+  options.input_size = cv::Size(cnn.input_width, cnn.input_height);
+  options.colour = cnn.colour;
+  options.mean = parseNumberList(cnn.mean);
+  options.std = parseNumberList(cnn.std);
+  options.pooling = cnn.pooling == "average" ? FeaturePooling::kAverage
+                    : cnn.pooling == "max"   ? FeaturePooling::kMax
+                                             : FeaturePooling::kNone;
+  options.whitening_path = whiteningPathFor(cnn);
+  options.similarity =
+      cnn.similarity == "cosine" ? GlobalSimilarity::kCosine : GlobalSimilarity::kDistance;
+  return options;
 }
 
 std::string descriptorIdentity(const DescriptorOptions& options) {
@@ -90,13 +168,7 @@ std::string descriptorIdentity(const DescriptorOptions& options) {
   identity << "type=" << options.type;
   if (options.type == "calc" || options.type == "landmarks") {
     const std::string path = options.model.empty() ? defaultModelPath() : options.model;
-    std::ifstream model(path, std::ios::binary);
-    uint64_t hash = 1469598103934665603ull;  // FNV-1a, 64 bit.
-    char byte = 0;
-    while (model.get(byte)) {
-      hash = (hash ^ static_cast<unsigned char>(byte)) * 1099511628211ull;
-    }
-    identity << " model_fnv1a=" << std::hex << hash << std::dec;
+    identity << " model_fnv1a=" << fileHash(path);
   }
   if (options.type == "landmarks") {
     identity << " max_landmarks=" << options.max_landmarks
@@ -109,6 +181,16 @@ std::string descriptorIdentity(const DescriptorOptions& options) {
              << " max_landmark_area=" << options.max_landmark_area
              << " landmark_storage=" << options.landmark_storage;
   }
+  if (options.type == "cnn_pca") {
+    const DescriptorOptions::Cnn& cnn = options.cnn;
+    const std::string whitening = whiteningPathFor(cnn);
+    identity << " model_fnv1a=" << fileHash(cnnModelPath(cnn)) << " layer=" << cnn.layer
+             << " input=" << cnn.input_width << "x" << cnn.input_height << " colour=" << cnn.colour
+             << " mean=" << cnn.mean << " std=" << cnn.std << " pooling=" << cnn.pooling
+             << " similarity=" << cnn.similarity
+             << " whitening_fnv1a=" << (whitening.empty() ? "none" : fileHash(whitening));
+  }
+  if (options.type == "broad") identity << " model_fnv1a=" << fileHash(options.broad.model);
   return identity.str();
 }
 
@@ -136,6 +218,12 @@ std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
     convnet.weighting =
         options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
     return std::make_shared<ConvNetDescriptor>(convnet);
+  }
+  if (options.type == "cnn_pca") {
+    return std::make_shared<CnnGlobalDescriptor>(cnnGlobalOptions(options.cnn));
+  }
+  if (options.type == "broad") {
+    return std::make_shared<BroadDescriptor>(BroadModel::load(options.broad.model));
   }
   throw std::invalid_argument("unknown descriptor type '" + options.type + "'");
 }

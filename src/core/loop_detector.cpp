@@ -324,7 +324,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     report.match_stamp = stored.stamp;
     report.global_score = candidate.global_score;
     report.score = extractor_->reranks() ? extractor_->similarity(descriptor, stored.descriptor)
-                                         : candidate.global_score;
+                                         : extractor_->globalScore(candidate.global_score);
     reports.push_back(report);
   }
   std::stable_sort(

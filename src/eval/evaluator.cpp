@@ -75,7 +75,8 @@ QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
   scored.reserve(end);
   for (size_t j = 0; j < end; ++j) {
     if (!database.valid[j]) continue;
-    const double score = cosineSimilarity(query.global, database.descriptors[j].global);
+    const double score =
+        extractor.globalScore(cosineSimilarity(query.global, database.descriptors[j].global));
     scored.push_back({j, score});
     grid->add(query_index, j, score);
   }

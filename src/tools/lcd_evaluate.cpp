@@ -3,13 +3,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <sstream>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "bag_source.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/report.h"
+#include "landmark_loop_closure/eval/training.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace {
@@ -46,7 +50,18 @@ OPTIONS:
                        (N landmarks), landmarks_wN (working width N, height 3N/4),
                        landmarks_patchN (HOG patch side), landmarks_areaP (largest box P % of
                        the image), landmarks_f32 (landmark features stored as float32)
+                       cnn_pca: a CNN layer with PCA whitening (methods.md section 2; the
+                       package's encoder's conv3 unless --cnn-model), variants cnn_pca_raw (no
+                       whitening), cnn_pca_cosine, cnn_pca_cN (N whitened dimensions, default
+                       256); broad: the broad autoencoder (section 3), broad_eN (N enhancement
+                       nodes, default 2000)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
+  --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (descriptor/cnn defaults otherwise)
+                       and whitening; without a whitening file it is fitted on the training
+                       images and written to the output folder
+  --broad-model FILE   broad's model; without one it is trained on the training images
+  --train-images DIR   training images of cnn_pca and broad (default: the database images, or
+                       the whole sequence); no labels are used
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
   --limit N            use the first N images of each folder
@@ -123,10 +138,49 @@ std::vector<std::string> limited(std::vector<std::string> paths, const Arguments
   return paths;
 }
 
-// "landmarks_paper_grid2_m30" -> type landmarks, paper weighting, grid 2, 30 landmarks.
-DescriptorOptions descriptorVariant(const std::string& name, const std::string& model) {
+// A descriptor to evaluate, and how to train it when it learns from images.
+struct Variant {
   DescriptorOptions options;
-  options.model = model;
+  int components = 256;  // cnn_pca: whitened dimensions.
+  BroadOptions broad;
+};
+
+// "cnn_pca_raw_cosine", "cnn_pca_c64", "broad_e10000": the methods of methods.md sections 2, 3.
+Variant learnedVariant(const std::string& name, const Arguments& arguments) {
+  Variant variant;
+  DescriptorOptions& options = variant.options;
+  const bool cnn = name.rfind("cnn_pca", 0) == 0;
+  options.type = cnn ? "cnn_pca" : "broad";
+  options.cnn.model = arguments.get("--cnn-model");
+  options.cnn.whitening = arguments.get("--cnn-whitening");
+  options.broad.model = arguments.get("--broad-model");
+  std::istringstream parts(name.substr(options.type.size()));
+  std::string part;
+  while (std::getline(parts, part, '_')) {
+    if (part.empty()) continue;
+    if (cnn && part == "raw") {
+      options.cnn.whitening = "none";
+    } else if (cnn && part == "cosine") {
+      options.cnn.similarity = "cosine";
+    } else if (cnn && part.size() > 1 && part[0] == 'c' && std::isdigit(part[1])) {
+      variant.components = std::stoi(part.substr(1));
+    } else if (!cnn && part.size() > 1 && part[0] == 'e' && std::isdigit(part[1])) {
+      variant.broad.enhancement_nodes = std::stoi(part.substr(1));
+    } else {
+      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
+    }
+  }
+  return variant;
+}
+
+// "landmarks_paper_grid2_m30" -> type landmarks, paper weighting, grid 2, 30 landmarks.
+Variant descriptorVariant(const std::string& name, const Arguments& arguments) {
+  if (name.rfind("cnn_pca", 0) == 0 || name.rfind("broad", 0) == 0) {
+    return learnedVariant(name, arguments);
+  }
+  Variant variant;
+  DescriptorOptions& options = variant.options;
+  options.model = arguments.get("--model");
   std::istringstream parts(name);
   std::getline(parts, options.type, '_');
   std::string part;
@@ -160,8 +214,52 @@ DescriptorOptions descriptorVariant(const std::string& name, const std::string& 
       options.type = "hog_whole";
     }
   }
-  return options;
+  return variant;
 }
+
+// cnn_pca without a whitening file and broad without a model learn from `training` first (no
+// labels: the map's own images, as a user would train on a bag of the robot's environment); the
+// result is written into the output folder and used like a user's file.
+void trainWhereNeeded(Variant* variant, const std::string& name, size_t count,
+                      const eval::ImageLoader& load, const std::string& output_folder) {
+  DescriptorOptions& options = variant->options;
+  const bool fit = options.type == "cnn_pca" && options.cnn.whitening.empty();
+  const bool train = options.type == "broad" && options.broad.model.empty();
+  if (!fit && !train) return;
+  std::filesystem::create_directories(output_folder);
+  const auto start = std::chrono::steady_clock::now();
+  std::string file = output_folder + "/" + name + (fit ? ".whitening" : ".broad");
+  std::string summary;
+  if (fit) {
+    DescriptorOptions::Cnn raw = options.cnn;
+    raw.whitening = "none";
+    const CnnGlobalDescriptor network(cnnGlobalOptions(raw));
+    const PcaWhitening whitening =
+        eval::fitWhitening(network, count, load, variant->components, 1e-3,
+                           progressPrinter("fitting the whitening (" + name + ")"));
+    whitening.save(file, network.featureIdentity());
+    options.cnn.whitening = file;
+    summary = std::to_string(whitening.inputDimension()) + " -> " +
+              std::to_string(whitening.outputDimension()) + " dimensions";
+  } else {
+    double error = 0.0;
+    const BroadModel model = eval::trainBroad(variant->broad, count, load, &error,
+                                              progressPrinter("training (" + name + ")"));
+    model.save(file);
+    options.broad.model = file;
+    summary = std::to_string(model.outputDimension()) + " output nodes, reconstruction error " +
+              std::to_string(error);
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::fprintf(stderr, "lcd_evaluate: %s trained on %zu images in %.1f s (%s)\n", name.c_str(),
+               count, seconds, summary.c_str());
+}
+
+struct Training {
+  size_t count = 0;
+  eval::ImageLoader load;
+};
 
 // A sequence held in memory (generated corridor or a bag's keyframes) with its poses.
 struct MemorySequence {
@@ -298,9 +396,28 @@ int run(const Arguments& arguments) {
                            " database images (wrong file, or --limit?)");
   }
 
+  // Training images of the learned descriptors: --train-images, else the database (traversals)
+  // or the whole sequence.
+  const std::string output_folder = arguments.get("--output", "lcd_results");
+  Training training;
+  if (arguments.has("--train-images")) {
+    auto paths =
+        std::make_shared<std::vector<std::string>>(listImages(arguments.get("--train-images")));
+    training = {paths->size(),
+                [paths](size_t i) { return cv::imread((*paths)[i], cv::IMREAD_GRAYSCALE); }};
+  } else if (!memory.images.empty()) {
+    training = {memory.images.size(), [&memory](size_t i) { return memory.images[i]; }};
+  } else {
+    training = {database_paths.size(), [&database_paths](size_t i) {
+                  return cv::imread(database_paths[i], cv::IMREAD_GRAYSCALE);
+                }};
+  }
+
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
-    const DescriptorOptions descriptor_options = descriptorVariant(name, arguments.get("--model"));
+    Variant variant = descriptorVariant(name, arguments);
+    trainWhereNeeded(&variant, name, training.count, training.load, output_folder);
+    const DescriptorOptions& descriptor_options = variant.options;
     const std::string problem = descriptor_options.validate();
     if (!problem.empty()) throw std::invalid_argument(problem);
     const auto extractor = makeDescriptorExtractor(descriptor_options);
@@ -339,8 +456,8 @@ int run(const Arguments& arguments) {
         evaluation.query_ms.p99, evaluation.bytes_per_image);
     evaluations.push_back(std::move(evaluation));
   }
-  const std::string results = writeReport(arguments.get("--output", "lcd_results"), run,
-                                          evaluations, truth, matching.matrix_size);
+  const std::string results =
+      writeReport(output_folder, run, evaluations, truth, matching.matrix_size);
   std::printf("results: %s\n", results.c_str());
   return 0;
 }

@@ -1,0 +1,80 @@
+#pragma once
+
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <opencv2/dnn.hpp>
+
+#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/pca_whitening.h"
+
+namespace landmark_loop_closure {
+
+/// How a feature-map layer becomes one vector.
+enum class FeaturePooling {
+  kAverage,  ///< Mean of each channel (global average pooling, as ResNet's own head).
+  kMax,      ///< Maximum of each channel.
+  kNone,     ///< Every value, flattened (for small maps such as the package encoder's conv3).
+};
+
+/// Similarity of two whitened, L2-normalised vectors.
+enum class GlobalSimilarity {
+  kDistance,  ///< The paper's S = 1 - D / max(D) with D the Euclidean distance; online max(D)
+              ///< is its bound for unit vectors, 2. Ranks exactly as cosine does.
+  kCosine,
+};
+
+struct CnnGlobalOptions {
+  std::string model_path;         ///< Any ONNX network OpenCV's dnn module runs.
+  std::string layer;              ///< Output the vector is read from; "" = the last layer.
+  cv::Size input_size{224, 224};  ///< The network's input, width x height.
+  std::string colour = "rgb";     ///< Channel order the network expects: rgb, bgr or grey.
+  std::vector<double> mean{0.485, 0.456, 0.406};  ///< Per channel, pixels scaled to [0, 1].
+  std::vector<double> std{0.229, 0.224, 0.225};   ///< Per channel: (pixel - mean) / std.
+  FeaturePooling pooling = FeaturePooling::kAverage;
+  std::string whitening_path;  ///< PCA whitening fitted by lcd_fit_whitening; "" = none.
+  GlobalSimilarity similarity = GlobalSimilarity::kDistance;
+};
+
+/// Methods.md section 2: a CNN's layer pooled into one global vector, L2-normalised, then PCA
+/// whitened and normalised again. Without a whitening file the normalised vector itself is the
+/// descriptor (what lcd_fit_whitening fits on).
+class CnnGlobalDescriptor : public DescriptorExtractor {
+ public:
+  /// Throws std::runtime_error naming the file when the model cannot be loaded, lacks the layer,
+  /// or the whitening file does not fit it.
+  explicit CnnGlobalDescriptor(const CnnGlobalOptions& options);
+
+  std::string name() const override { return "cnn_pca"; }
+  int globalDimension() const override { return global_dimension_; }
+  /// `image`: 8-bit grey, BGR or BGRA; converted to the network's colour order.
+  ImageDescriptor describe(const cv::Mat& image) const override;
+  double globalScore(double cosine) const override;
+
+  /// The pooled layer, L2-normalised, before whitening.
+  Eigen::VectorXf rawFeature(const cv::Mat& image) const;
+  int rawDimension() const { return raw_dimension_; }
+  /// What the raw features depend on (model bytes, layer, input, normalisation, pooling); a
+  /// whitening file records it and is refused for other features.
+  std::string featureIdentity() const { return feature_identity_; }
+
+ private:
+  cv::Mat networkInput(const cv::Mat& image) const;
+
+  CnnGlobalOptions options_;
+  PcaWhitening whitening_;
+  int raw_dimension_ = 0;
+  int global_dimension_ = 0;
+  std::string feature_identity_;
+  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable cv::dnn::Net net_;
+};
+
+/// FNV-1a hash (64 bit) of a file's bytes in hex ("missing" when it cannot be read).
+std::string fileHash(const std::string& path);
+
+/// "0.485, 0.456 0.406" -> {0.485, 0.456, 0.406}; throws std::invalid_argument on other text.
+std::vector<double> parseNumberList(const std::string& text);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,30 @@
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/broad_autoencoder.h"
+#include "landmark_loop_closure/cnn_global_descriptor.h"
+#include "landmark_loop_closure/eval/evaluator.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+/// `load(i)` returns training image i (empty when it cannot be read: skipped).
+using ImageLoader = std::function<cv::Mat(size_t)>;
+
+/// PCA whitening of a network's raw features (CnnGlobalDescriptor::rawFeature) over the images.
+/// Throws std::invalid_argument when fewer than 2 images can be read.
+PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, const ImageLoader& load,
+                          int components, double regularisation, const Progress& progress = {});
+
+/// A broad autoencoder trained on the images; `training_error` (when not null) receives the
+/// reconstruction's mean squared error. Throws std::invalid_argument when fewer than 2 images
+/// can be read.
+BroadModel trainBroad(const BroadOptions& options, size_t count, const ImageLoader& load,
+                      double* training_error = nullptr, const Progress& progress = {});
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

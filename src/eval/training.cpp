@@ -1,0 +1,57 @@
+#include "landmark_loop_closure/eval/training.h"
+
+#include <stdexcept>
+#include <vector>
+
+namespace landmark_loop_closure {
+namespace eval {
+
+namespace {
+
+// One row per readable image; unreadable ones are skipped.
+template <typename RowOf>
+Eigen::MatrixXf collectRows(size_t count, const ImageLoader& load, const Progress& progress,
+                            const RowOf& row_of) {
+  std::vector<Eigen::RowVectorXf> rows;
+  rows.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    const cv::Mat image = load(i);
+    if (!image.empty()) {
+      Eigen::RowVectorXf row = row_of(image);
+      if (row.size() > 0) rows.push_back(std::move(row));
+    }
+    if (progress) progress(i + 1, count);
+  }
+  if (rows.size() < 2) {
+    throw std::invalid_argument("training needs at least 2 readable images, got " +
+                                std::to_string(rows.size()));
+  }
+  Eigen::MatrixXf matrix(static_cast<Eigen::Index>(rows.size()), rows.front().size());
+  for (size_t i = 0; i < rows.size(); ++i) matrix.row(static_cast<Eigen::Index>(i)) = rows[i];
+  return matrix;
+}
+
+}  // namespace
+
+PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, const ImageLoader& load,
+                          int components, double regularisation, const Progress& progress) {
+  const Eigen::MatrixXf features =
+      collectRows(count, load, progress, [&network](const cv::Mat& image) {
+        return Eigen::RowVectorXf(network.rawFeature(image).transpose());
+      });
+  return PcaWhitening::fit(features, components, regularisation);
+}
+
+BroadModel trainBroad(const BroadOptions& options, size_t count, const ImageLoader& load,
+                      double* training_error, const Progress& progress) {
+  BroadTrainer trainer(options);
+  const Eigen::MatrixXf inputs =
+      collectRows(count, load, progress,
+                  [&trainer](const cv::Mat& image) { return trainer.model().preprocess(image); });
+  trainer.train(inputs);
+  if (training_error) *training_error = trainer.trainingError();
+  return trainer.model();
+}
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,200 @@
+// Offline training of the descriptors that learn from the user's own images: the PCA whitening of
+// a CNN layer (descriptor type cnn_pca) and the broad autoencoder (descriptor type broad).
+#include <chrono>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "bag_source.h"
+#include "landmark_loop_closure/eval/training.h"
+#include "landmark_loop_closure/node_options.h"
+#include "landmark_loop_closure/yaml_parameter_source.h"
+
+namespace {
+
+using namespace landmark_loop_closure;
+
+constexpr char kUsage[] = R"(usage: lcd_train whitening|broad SOURCE [OPTIONS]
+
+whitening   PCA whitening of descriptor/cnn's layer (type cnn_pca), written beside the model
+            (MODEL.whitening, where the node looks by default) or to --output
+broad       a broad autoencoder (type broad) written to --output (default broad.model)
+
+SOURCE, one of:
+  --images DIR         every image of a folder (png, jpg, ...)
+  --bag FILE           the keyframes a node would keep from a bag (--image-topic, default
+                       /camera/image_raw; --odom-topic, default /odom)
+
+OPTIONS:
+  --config FILE        node parameters (the package's config/default.yaml layout) whose
+                       descriptor/cnn settings the whitening is for (default: the shipped file)
+  --limit N            use the first N images
+  --output FILE        where the result goes
+whitening:
+  --components N       whitened dimensions kept (default 256; at most images - 1)
+  --regularisation R   added to every eigenvalue, fraction of the largest (default 1e-3)
+broad:
+  --input WxH          image size the network sees (default 40x30)
+  --groups N --nodes N mapped feature groups and nodes per group (default 10 x 90)
+  --enhancement N      enhancement nodes (default 2000; the paper: 10000)
+  --alpha A            output nodes = A * (mapped + enhancement) (default 0.667)
+  --lasso L --ridge R  regularisers (defaults 1e-3, 1e-2)   --seed S   (default 1)
+)";
+
+std::map<std::string, std::string> parse(int argc, char** argv) {
+  std::map<std::string, std::string> values;
+  for (int i = 2; i < argc; ++i) {
+    const std::string key = argv[i];
+    if (key.rfind("--", 0) != 0 || i + 1 >= argc) {
+      throw std::invalid_argument("unexpected argument '" + key + "'");
+    }
+    values[key] = argv[++i];
+  }
+  return values;
+}
+
+double number(const std::map<std::string, std::string>& values, const std::string& key,
+              double fallback) {
+  const auto it = values.find(key);
+  if (it == values.end()) return fallback;
+  char* end = nullptr;
+  const double value = std::strtod(it->second.c_str(), &end);
+  if (end == it->second.c_str() || *end != '\0') {
+    throw std::invalid_argument(key + " needs a number, not '" + it->second + "'");
+  }
+  return value;
+}
+
+eval::Progress progress(const std::string& what) {
+  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  return [what, last](size_t done, size_t total) {
+    const auto now = std::chrono::steady_clock::now();
+    if (done != total && now - *last < std::chrono::seconds(5)) return;
+    *last = now;
+    std::cerr << "lcd_train: " << what << " " << done << "/" << total << "\n";
+  };
+}
+
+struct Images {
+  size_t count = 0;
+  eval::ImageLoader load;
+};
+
+Images images(const std::map<std::string, std::string>& values, bool colour) {
+  Images source;
+  const size_t limit = static_cast<size_t>(number(values, "--limit", 0));
+  if (values.count("--images")) {
+    auto paths =
+        std::make_shared<std::vector<std::string>>(eval::listImages(values.at("--images")));
+    if (limit > 0 && limit < paths->size()) paths->resize(limit);
+    source.count = paths->size();
+    source.load = [paths, colour](size_t i) {
+      return cv::imread((*paths)[i], colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+    };
+  } else if (values.count("--bag")) {
+    BagSourceOptions bag;
+    bag.path = values.at("--bag");
+    if (values.count("--image-topic")) bag.image_topic = values.at("--image-topic");
+    if (values.count("--odom-topic")) bag.odom_topic = values.at("--odom-topic");
+    auto keyframes = std::make_shared<BagKeyframes>(readBagKeyframes(bag));
+    if (limit > 0 && limit < keyframes->images.size()) keyframes->images.resize(limit);
+    source.count = keyframes->images.size();
+    source.load = [keyframes](size_t i) { return keyframes->images[i]; };
+  } else {
+    throw std::invalid_argument("give --images DIR or --bag FILE");
+  }
+  std::cerr << "lcd_train: " << source.count << " training images\n";
+  return source;
+}
+
+int fitWhitening(const std::map<std::string, std::string>& values) {
+  const std::string config = values.count("--config") ? values.at("--config")
+                                                      : std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR
+                                                                    "/config/default.yaml");
+  const YamlParameterSource source = YamlParameterSource::fromFile(config);
+  OptionReader reader(source);
+  NodeOptions node;
+  readNodeOptions(&reader, &node);
+  DescriptorOptions descriptor = node.detector.descriptor;
+  descriptor.type = "cnn_pca";
+  descriptor.cnn.whitening = "none";
+  const std::string problem = descriptor.validate() + reader.errors();
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  const CnnGlobalDescriptor network(cnnGlobalOptions(descriptor.cnn));
+  const Images training = images(values, descriptor.cnn.colour != "grey");
+
+  const auto start = std::chrono::steady_clock::now();
+  const PcaWhitening whitening = eval::fitWhitening(
+      network, training.count, training.load, static_cast<int>(number(values, "--components", 256)),
+      number(values, "--regularisation", 1e-3), progress("describing"));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::string output = values.count("--output") ? values.at("--output")
+                                                      : cnnModelPath(descriptor.cnn) + ".whitening";
+  whitening.save(output, network.featureIdentity());
+  std::printf("whitening: %d -> %d dimensions, %.1f %% of the variance, fitted in %.1f s\n%s\n",
+              whitening.inputDimension(), whitening.outputDimension(),
+              100.0 * whitening.explainedVariance(), seconds, output.c_str());
+  return 0;
+}
+
+int trainBroad(const std::map<std::string, std::string>& values) {
+  BroadOptions options;
+  if (values.count("--input")) {
+    const std::string size = values.at("--input");
+    const size_t x = size.find('x');
+    if (x == std::string::npos) throw std::invalid_argument("--input needs WxH, e.g. 40x30");
+    options.input_width = std::atoi(size.substr(0, x).c_str());
+    options.input_height = std::atoi(size.substr(x + 1).c_str());
+  }
+  options.mapped_groups = static_cast<int>(number(values, "--groups", options.mapped_groups));
+  options.nodes_per_group = static_cast<int>(number(values, "--nodes", options.nodes_per_group));
+  options.enhancement_nodes =
+      static_cast<int>(number(values, "--enhancement", options.enhancement_nodes));
+  options.output_fraction = number(values, "--alpha", options.output_fraction);
+  options.lasso_lambda = number(values, "--lasso", options.lasso_lambda);
+  options.ridge_lambda = number(values, "--ridge", options.ridge_lambda);
+  options.seed = static_cast<uint32_t>(number(values, "--seed", options.seed));
+  const std::string problem = options.validate();
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  const Images training = images(values, false);
+
+  const auto start = std::chrono::steady_clock::now();
+  double error = 0.0;
+  const BroadModel model =
+      eval::trainBroad(options, training.count, training.load, &error, progress("reading"));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::string output = values.count("--output") ? values.at("--output") : "broad.model";
+  model.save(output);
+  std::printf(
+      "broad autoencoder: %d inputs, %d mapped, %d enhancement, %d output nodes; trained on %zu "
+      "images in %.1f s; reconstruction error %.4f\n%s\n",
+      model.inputDimension(), options.mappedNodes(), options.enhancement_nodes,
+      model.outputDimension(), training.count, seconds, error, output.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string command = argc > 1 ? argv[1] : "";
+  if (command == "--help" || command == "-h") {
+    std::cout << kUsage;
+    return 0;
+  }
+  try {
+    const auto values = parse(argc, argv);
+    if (command == "whitening") return fitWhitening(values);
+    if (command == "broad") return trainBroad(values);
+    throw std::invalid_argument("the first argument is 'whitening' or 'broad'");
+  } catch (const std::invalid_argument& error) {
+    std::cerr << "lcd_train: " << error.what() << "\n\n" << kUsage;
+    return 2;
+  } catch (const std::exception& error) {
+    std::cerr << "lcd_train: error: " << error.what() << "\n";
+    return 1;
+  }
+}
