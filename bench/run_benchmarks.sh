@@ -14,7 +14,7 @@ if ! /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
   $sudo_cmd apt-get install -y -qq --no-install-recommends python3-matplotlib
 fi
 EVALUATE=_build/devel/lib/landmark_loop_closure/lcd_evaluate
-DESCRIPTORS=pixels,hog,hog_whole,calc,landmarks,landmarks_conv
+DESCRIPTORS=pixels,hog,hog_whole,calc,landmarks,landmarks_conv,cnn_pca,cnn_pca_raw,broad
 
 run() {  # name, then lcd_evaluate arguments
   local name=$1; shift

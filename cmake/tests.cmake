@@ -7,7 +7,6 @@ set(CORE_TESTS
   test_database_file
   test_temporal_consistency
   test_loop_detector
-  test_loop_detector_sim
   test_bounded_queue
   test_match_image
   test_landmarks
@@ -28,7 +27,7 @@ foreach(name ${CORE_TESTS})
 endforeach()
 
 # Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.
-foreach(name test_ground_truth test_evaluation test_baselines_regression)
+foreach(name test_ground_truth test_evaluation test_baselines_regression test_loop_detector_sim)
   catkin_add_gtest(${name} test/core/${name}.cpp)
   target_link_libraries(${name} ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
@@ -40,3 +39,8 @@ include(cmake/ros_tests.cmake OPTIONAL)
 add_test(NAME tool_bench_verification_kitti_layout
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/bench_verification_kitti.sh
     $<TARGET_FILE:lcd_bench_verification>)
+
+# lcd_train and lcd_evaluate with the learned descriptors (cnn_pca, broad) on a generated bag.
+add_test(NAME tool_train_learned_descriptors
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
+    $<TARGET_FILE:make_demo_bag> $<TARGET_FILE:lcd_train> $<TARGET_FILE:lcd_evaluate>)

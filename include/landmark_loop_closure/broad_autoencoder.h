@@ -56,7 +56,7 @@ struct BroadModel {
   int outputDimension() const { return static_cast<int>(output.cols()); }
   bool empty() const { return output.size() == 0; }
 
-  /// The preprocessed row vector of an 8-bit grey or BGR image (empty for other images).
+  /// The preprocessed row vector of an 8- or 16-bit grey, BGR or BGRA image (else empty).
   Eigen::RowVectorXf preprocess(const cv::Mat& image) const;
   /// Layers for a batch of preprocessed rows (N x D).
   Eigen::MatrixXf mappedFeatures(const Eigen::MatrixXf& inputs) const;
@@ -72,7 +72,7 @@ struct BroadModel {
 };
 
 /// Trains a BroadModel and keeps what incremental learning needs (the training inputs, the
-/// output layer and the ridge inverse (lambda I + O^T O)^-1).
+/// output layer and, from the first increment on, the ridge inverse (lambda I + O^T O)^-1).
 class BroadTrainer {
  public:
   explicit BroadTrainer(const BroadOptions& options);
@@ -100,7 +100,7 @@ class BroadTrainer {
   Eigen::MatrixXf inputs_;   // N x D
   Eigen::MatrixXf hidden_;   // N x (M + E + 1)
   Eigen::MatrixXf outputs_;  // N x L
-  Eigen::MatrixXd inverse_;  // L x L: (lambda I + O^T O)^-1
+  Eigen::MatrixXd inverse_;  // L x L: (lambda I + O^T O)^-1, once output nodes are added.
   uint32_t next_seed_ = 0;
 };
 

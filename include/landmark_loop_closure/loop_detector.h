@@ -16,6 +16,7 @@
 #include "landmark_loop_closure/keyframe_selector.h"
 #include "landmark_loop_closure/metric_pose.h"
 #include "landmark_loop_closure/odometry_gate.h"
+#include "landmark_loop_closure/online_training.h"
 #include "landmark_loop_closure/temporal_consistency.h"
 
 namespace landmark_loop_closure {
@@ -137,6 +138,11 @@ struct KeyframeResult {
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
   StageTimes times;
+  /// Online training (descriptor/broad/online_training_keyframes): keyframes held so far, 0 when
+  /// not training. The keyframe that completes the set carries the training's summary (or why it
+  /// failed) and the result of the last held keyframe, stored with all the others.
+  int held_for_training = 0;
+  std::string training_summary;
 };
 
 struct FrameResult {
@@ -151,7 +157,8 @@ struct FrameResult {
 /// may call admit() while another runs addKeyframe(). process() does both, for offline use.
 class LoopDetector {
  public:
-  /// Throws std::invalid_argument when options.validate() reports problems.
+  /// Throws std::invalid_argument when options.validate() reports problems. `extractor` may be
+  /// null only when needsOnlineTraining(options.descriptor): the detector then trains it.
   LoopDetector(const LoopDetectorOptions& options,
                std::shared_ptr<const DescriptorExtractor> extractor);
 
@@ -205,7 +212,8 @@ class LoopDetector {
 
   const KeyframeDatabase& database() const { return database_; }
   const LoopDetectorOptions& options() const { return options_; }
-  const DescriptorExtractor& extractor() const { return *extractor_; }
+  /// Null while online training holds keyframes.
+  const DescriptorExtractor* extractor() const { return extractor_.get(); }
 
  private:
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
@@ -221,8 +229,12 @@ class LoopDetector {
   void addDepths(const Pose& pose, const cv::Mat& depth, const CameraIntrinsics& intrinsics,
                  LocalFeatures* features) const;
 
+  /// Online training: holds the keyframe; once enough are held, trains and adds them all.
+  KeyframeResult holdForTraining(HeldKeyframe keyframe);
+
   LoopDetectorOptions options_;
   std::shared_ptr<const DescriptorExtractor> extractor_;
+  std::unique_ptr<OnlineBroadTraining> training_;
   GeometricVerifier verifier_;
 
   // Admission state (receiving thread).

@@ -111,6 +111,8 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("descriptor/cnn/whitening", &cnn.whitening);
   reader->read("descriptor/cnn/similarity", &cnn.similarity);
   reader->read("descriptor/broad/model", &detector.descriptor.broad.model);
+  reader->read("descriptor/broad/online_training_keyframes",
+               &detector.descriptor.broad.online_training_keyframes);
 
   reader->read("database/exclude_recent_keyframes", &detector.database.exclude_recent_keyframes);
   reader->read("database/exclude_recent_seconds", &detector.database.exclude_recent_seconds);

@@ -96,13 +96,14 @@ Eigen::MatrixXf randomOrthogonal(int rows, int cols, uint32_t seed) {
 }
 
 Eigen::RowVectorXf BroadModel::preprocess(const cv::Mat& image) const {
-  if (image.empty() || image.depth() != CV_8U ||
+  if (image.empty() || (image.depth() != CV_8U && image.depth() != CV_16U) ||
       (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
     return {};
   }
   cv::Mat grey = image;
   if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
   if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  if (grey.depth() == CV_16U) grey.convertTo(grey, CV_8U, 1.0 / 256.0);
   cv::Mat resized;
   cv::resize(grey, resized, cv::Size(options.input_width, options.input_height), 0, 0,
              cv::INTER_CUBIC);
@@ -194,11 +195,8 @@ void BroadTrainer::setOutputWeights(const Eigen::MatrixXf& weights) {
   model_.output = weights;
   outputs_ = model_.outputLayer(hidden_);
   model_.output_mean = outputs_.colwise().mean();
-  const Eigen::MatrixXd o = outputs_.cast<double>();
-  Eigen::MatrixXd system = o.transpose() * o;
-  system.diagonal().array() += model_.options.ridge_lambda;
-  inverse_ = solveSymmetric(system, Eigen::MatrixXd::Identity(system.rows(), system.cols()));
-  model_.reconstruction = (inverse_ * (o.transpose() * inputs_.cast<double>())).cast<float>();
+  model_.reconstruction = solveFromScratch();
+  inverse_.resize(0, 0);  // Computed when output nodes are first added (training needs none).
 }
 
 void BroadTrainer::addOutputNodes(int count) {
@@ -217,6 +215,11 @@ void BroadTrainer::addOutputNodes(const Eigen::MatrixXf& weights) {
   const Eigen::MatrixXd new_outputs =
       ((hidden_ * weights) * model_.output_scale).array().tanh().matrix().cast<double>();
   const Eigen::MatrixXd targets = inputs_.cast<double>();
+  if (inverse_.size() == 0) {
+    Eigen::MatrixXd system = old_outputs.transpose() * old_outputs;
+    system.diagonal().array() += model_.options.ridge_lambda;
+    inverse_ = solveSymmetric(system, Eigen::MatrixXd::Identity(system.rows(), system.cols()));
+  }
   const Eigen::MatrixXd& p = inverse_;
 
   // [K B; B' C] with K = lambda I + O'O (inverse P known), B = O'Oa, C = lambda I + Oa'Oa.

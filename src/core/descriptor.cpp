@@ -130,7 +130,14 @@ std::string DescriptorOptions::validate() const {
   }
   if (type == "cnn_pca") errors += validateCnn(cnn);
   if (type == "broad" && broad.model.empty()) {
-    errors += "descriptor/broad/model is empty: train one with `lcd_train broad` (README.md)\n";
+    errors +=
+        "descriptor/broad/model is empty: train one with `lcd_train broad`, or name the file "
+        "online training writes (README.md)\n";
+  }
+  if (broad.online_training_keyframes < 0 ||
+      (broad.online_training_keyframes > 0 && broad.online_training_keyframes < 10)) {
+    errors += "descriptor/broad/online_training_keyframes must be 0 (off) or >= 10 (got " +
+              std::to_string(broad.online_training_keyframes) + ")\n";
   }
   return errors;
 }

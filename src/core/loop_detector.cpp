@@ -134,17 +134,63 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
-  if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
   parseDetectorMode(options.mode, &mode_);
+  if (!extractor_) {
+    if (!needsOnlineTraining(options.descriptor)) {
+      throw std::invalid_argument("a descriptor extractor is required");
+    }
+    training_ = std::make_unique<OnlineBroadTraining>(
+        options.descriptor.broad.online_training_keyframes, options.descriptor.broad.model);
+    return;
+  }
   descriptor_identity_ = "extractor=" + extractor_->name() + " " +
                          landmark_loop_closure::descriptorIdentity(options.descriptor);
 }
 
+KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
+  KeyframeResult result;
+  result.keyframe_id = keyframe.id;
+  if (!training_->hold(std::move(keyframe))) {
+    result.held_for_training = training_->held();
+    return result;
+  }
+  std::shared_ptr<const DescriptorExtractor> trained;
+  try {
+    trained = training_->train();
+  } catch (const std::exception& error) {
+    result.training_summary = std::string("broad autoencoder training failed (") + error.what() +
+                              "); holding keyframes again";
+    training_->clear();
+    return result;
+  }
+  extractor_ = std::move(trained);
+  database_ = KeyframeDatabase(extractor_->globalDimension(), options_.database.index);
+  descriptor_identity_ = "extractor=" + extractor_->name() + " " +
+                         landmark_loop_closure::descriptorIdentity(options_.descriptor);
+  const std::string summary = training_->summary();
+  std::vector<HeldKeyframe> held = training_->release();
+  training_.reset();
+  for (const HeldKeyframe& frame : held) {
+    result =
+        addKeyframe(frame.id, frame.stamp, frame.pose, frame.image, frame.intrinsics, frame.depth);
+  }
+  result.training_summary = summary;
+  return result;
+}
+
 std::string LoopDetector::saveDatabase(const std::string& path) const {
+  if (training_) {
+    return "nothing to save yet: the broad autoencoder is still training (" +
+           std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
+           " keyframes held)";
+  }
   return landmark_loop_closure::saveDatabase(database_, descriptor_identity_, path);
 }
 
 std::string LoopDetector::loadDatabase(const std::string& path) {
+  if (training_) {
+    return "cannot load " + path + " before online training has made the descriptor";
+  }
   LoadedDatabase loaded = landmark_loop_closure::loadDatabase(
       path, descriptor_identity_, database_.globalDimension(), database_.indexOptions());
   if (!loaded.database) return loaded.error;
@@ -166,6 +212,7 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
 }
 
 void LoopDetector::reset() {
+  if (training_) training_->clear();
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   consistency_.reset();
@@ -246,6 +293,8 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
         "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
     return result;
   }
+
+  if (training_) return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth});
 
   const auto describe_start = Clock::now();
   ImageDescriptor descriptor = extractor_->describe(image);

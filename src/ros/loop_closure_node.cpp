@@ -57,7 +57,9 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
     : node_(node),
       private_node_(private_node),
       options_(options),
-      detector_(options.detector, makeDescriptorExtractor(options.detector.descriptor)),
+      detector_(options.detector, needsOnlineTraining(options.detector.descriptor)
+                                      ? nullptr
+                                      : makeDescriptorExtractor(options.detector.descriptor)),
       image_transport_(node),
       markers_(options.odom_frame, options.detector.acceptance.min_score,
                options.publish_rejected_markers),
@@ -99,10 +101,15 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   worker_ = std::thread(&LoopClosureNode::workerLoop, this);
   advertiseServices();
   subscribe();
+  const std::string descriptor =
+      detector_.extractor()
+          ? detector_.extractor()->name()
+          : "broad (trained on the first " +
+                std::to_string(options_.detector.descriptor.broad.online_training_keyframes) +
+                " keyframes, then written to " + options_.detector.descriptor.broad.model + ")";
   ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
-           toString(detector_.mode()), detector_.extractor().name().c_str(),
-           options_.pose_source.c_str(), image_topic_.c_str(), odom_topic_.empty() ? "" : " and ",
-           odom_topic_.c_str());
+           toString(detector_.mode()), descriptor.c_str(), options_.pose_source.c_str(),
+           image_topic_.c_str(), odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
     ROS_WARN(
         "mode is localization but the keyframe database is empty: nothing will be found "
@@ -337,6 +344,20 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
   if (result.error) {
     reportRejected(*result.error);
     return;
+  }
+  if (result.held_for_training > 0) {
+    ROS_INFO_THROTTLE(
+        kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
+        result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
+    return;
+  }
+  if (!result.training_summary.empty()) {
+    if (detector_.extractor()) {
+      ROS_INFO("%s; detecting loops from now on", result.training_summary.c_str());
+    } else {
+      ROS_ERROR("%s", result.training_summary.c_str());
+      return;
+    }
   }
   ++keyframes_stored_;
   if (!result.stored && detector_.mode() == DetectorMode::kMapping) {

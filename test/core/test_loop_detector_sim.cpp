@@ -1,12 +1,15 @@
 // The whole core pipeline on the generated corridor with drifting odometry: the default options
 // (landmark descriptors) and HOG with its own threshold.
 #include <cmath>
+#include <filesystem>
 #include <map>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
+#include "landmark_loop_closure/cnn_global_descriptor.h"
 #include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/eval/training.h"
 #include "landmark_loop_closure/loop_detector.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
@@ -132,4 +135,104 @@ TEST(LoopDetectorOnCorridor, DepthsAreTriangulatedOnlyOnceTheCameraMountIsKnown)
   awaiting.setCameraMount(std::nullopt);
   EXPECT_FALSE(awaiting.cameraMount());
   EXPECT_EQ(triangulatedKeypoints(&awaiting), 0);
+}
+
+namespace {
+
+// Every third frame of one lap of the corridor: what an online user would train on.
+std::vector<cv::Mat> firstLapImages() {
+  SequenceOptions options;
+  options.laps = 1.0;
+  return sampleSequence(CorridorWorld{}, options, 3).images;
+}
+
+}  // namespace
+
+// The two other methods, chosen by descriptor/type alone, through the same detector; each is
+// trained on the first lap without labels (whitening fitted, broad autoencoder trained).
+TEST(LoopDetectorOnCorridor, LearnedDescriptorsAtTheirThresholdsGiveOnlyTrueLoops) {
+  const std::vector<cv::Mat> training = firstLapImages();
+  const std::string folder = ::testing::TempDir();
+
+  DescriptorOptions cnn;
+  cnn.type = "cnn_pca";
+  cnn.cnn.whitening = "none";
+  const CnnGlobalDescriptor network(cnnGlobalOptions(cnn.cnn));
+  const PcaWhitening whitening = eval::fitWhitening(
+      network, training.size(), [&](size_t i) { return training[i]; }, 64, 1e-3);
+  cnn.cnn.whitening = folder + "/corridor.whitening";
+  whitening.save(cnn.cnn.whitening, network.featureIdentity());
+
+  DescriptorOptions broad;
+  broad.type = "broad";
+  broad.broad.model = folder + "/corridor.broad";
+  eval::trainBroad(BroadOptions{}, training.size(), [&](size_t i) {
+    return training[i];
+  }).save(broad.broad.model);
+
+  for (const auto& [descriptor, min_score] : {std::pair{cnn, 0.6}, std::pair{broad, 0.8}}) {
+    const RunSummary revisit = run(2.0, descriptor, min_score);
+    EXPECT_GE(revisit.loops, 5) << descriptor.type;
+    EXPECT_EQ(revisit.true_loops, revisit.loops)
+        << descriptor.type << ": worst loop " << revisit.worst_loop_distance << " m";
+    EXPECT_EQ(run(0.9, descriptor, min_score).loops, 0) << descriptor.type;
+  }
+}
+
+// Online mode: no model yet; the detector holds the first keyframes, trains on them, writes the
+// model, stores the held keyframes and then finds the second lap's loops.
+TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
+  LoopDetectorOptions options;
+  options.descriptor.type = "broad";
+  options.descriptor.broad.model = ::testing::TempDir() + "/online.broad";
+  options.descriptor.broad.online_training_keyframes = 150;
+  options.acceptance.min_score = 0.8;
+  std::filesystem::remove(options.descriptor.broad.model);
+  ASSERT_TRUE(needsOnlineTraining(options.descriptor));
+  EXPECT_THROW(makeDescriptorExtractor(options.descriptor), std::runtime_error);  // No file yet.
+  LoopDetector detector(options, nullptr);
+  EXPECT_EQ(detector.extractor(), nullptr);
+
+  const CorridorWorld world;
+  SequenceOptions sequence_options;
+  sequence_options.laps = 2.0;
+  SequenceGenerator sequence(world, CameraModel{}, sequence_options);
+  std::map<uint64_t, Pose2D> truth_by_keyframe;
+  int keyframes = 0, loops = 0, true_loops = 0;
+  SequenceFrame frame;
+  while (sequence.next(&frame, false)) {
+    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+    const FrameAdmission admission =
+        detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
+    if (!admission.isKeyframe()) continue;
+    truth_by_keyframe[admission.keyframe_id] = frame.truth;
+    const KeyframeResult result =
+        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame),
+                             CameraModel{}.intrinsics());
+    ++keyframes;
+    if (keyframes < 150) {
+      ASSERT_EQ(result.held_for_training, keyframes);
+      EXPECT_TRUE(detector.database().empty());
+      EXPECT_NE(detector.saveDatabase(::testing::TempDir() + "/never.lcdb").find("training"),
+                std::string::npos);
+      continue;
+    }
+    if (keyframes == 150) {
+      EXPECT_NE(result.training_summary.find("trained on 150 keyframes"), std::string::npos)
+          << result.training_summary;
+      ASSERT_NE(detector.extractor(), nullptr);
+      EXPECT_EQ(detector.database().size(), 150u);
+      EXPECT_TRUE(std::filesystem::exists(options.descriptor.broad.model));
+    }
+    EXPECT_EQ(result.held_for_training, 0);
+    if (!result.loop) continue;
+    const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
+    ++loops;
+    true_loops += std::hypot(match.x - frame.truth.x, match.y - frame.truth.y) < 2.5 ? 1 : 0;
+  }
+  EXPECT_GE(loops, 5);
+  EXPECT_EQ(true_loops, loops);
+  // The next run loads the written model instead of training again.
+  EXPECT_FALSE(needsOnlineTraining(options.descriptor));
+  EXPECT_NE(makeDescriptorExtractor(options.descriptor), nullptr);
 }
