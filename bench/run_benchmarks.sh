@@ -38,6 +38,13 @@ run_all() {  # every dataset with images; $1 = folder suffix; Nordland limited b
 }
 run_all ""
 
+# The broad autoencoder at its default size (2 000 enhancement nodes) and the paper's (10 000),
+# trained on Nordland summer (3 576 images, another dataset) instead of the 100 database images.
+DESCRIPTORS=broad,broad_e10000 run gardens_point_viewpoint_broad_sizes \
+  --name "Gardens Point day right vs day left (+-3), trained on Nordland summer" \
+  --train-images "$DATA/nordland/summer" --database "$GP/day_left" --queries "$GP/day_right" \
+  --gt-aligned 3
+
 # One network pass per landmark (~50 passes, ~0.5 s per image): Nordland's first 300 frames only,
 # all 3576 with FULL=1 (about 30 more minutes).
 DESCRIPTORS=landmarks_per_landmark NORDLAND_LIMIT=300 run_all _per_landmark
