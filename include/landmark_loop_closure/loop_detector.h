@@ -212,6 +212,12 @@ class LoopDetector {
 
   const KeyframeDatabase& database() const { return database_; }
   const LoopDetectorOptions& options() const { return options_; }
+  /// Worker thread, offline replays: waits up to `seconds` for online training that has started
+  /// in the background; true when it has finished (the next keyframe then stores every held one)
+  /// or when there is none.
+  bool waitForTraining(double seconds) const {
+    return !training_ || !training_->started() || training_->waitUntilReady(seconds);
+  }
   /// Null while online training holds keyframes.
   const DescriptorExtractor* extractor() const { return extractor_.get(); }
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <future>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,23 +27,30 @@ struct HeldKeyframe {
   cv::Mat depth;
 };
 
-/// Online mode of the broad autoencoder: holds the first N keyframes, then trains on them, writes
-/// the model to descriptor/broad/model and hands the held keyframes back to be described.
+/// Online mode of the broad autoencoder: holds the first N keyframes, trains on them in a
+/// background thread while later keyframes are held too, writes the model to
+/// descriptor/broad/model and hands every held keyframe back to be described.
 class OnlineBroadTraining {
  public:
   OnlineBroadTraining(int keyframes, std::string model_path, BroadOptions options = {});
 
-  /// Holds a copy of the keyframe; true once enough are held to train.
-  bool hold(HeldKeyframe keyframe);
-  /// Trains on the held keyframes and writes the model file. Throws what training throws.
-  std::shared_ptr<const DescriptorExtractor> train();
+  /// Holds a copy of the keyframe; starts training once `keyframes` are held.
+  void hold(HeldKeyframe keyframe);
+  /// True once training has finished (successfully or not); finish() then returns at once.
+  bool ready() const;
+  /// Waits up to `seconds` for a started training; true when it has finished.
+  bool waitUntilReady(double seconds) const;
+  /// The trained extractor (the model file is written). Throws what training threw.
+  std::shared_ptr<const DescriptorExtractor> finish();
   /// The held keyframes, oldest first (emptied).
   std::vector<HeldKeyframe> release();
+  /// Forgets the held keyframes (a running training goes on).
   void clear() { held_.clear(); }
 
   int held() const { return static_cast<int>(held_.size()); }
   int wanted() const { return keyframes_; }
-  /// "trained on N keyframes in S s, written to PATH" after train().
+  bool started() const { return result_.valid(); }
+  /// "trained on N keyframes in S s, written to PATH" after finish().
   const std::string& summary() const { return summary_; }
 
  private:
@@ -50,7 +58,9 @@ class OnlineBroadTraining {
   std::string model_path_;
   BroadOptions options_;
   std::vector<HeldKeyframe> held_;
-  std::string summary_;
+  std::string summary_;  // Written by the training thread: declared before result_, whose
+                         // destructor waits for that thread.
+  std::future<std::shared_ptr<const DescriptorExtractor>> result_;
 };
 
 }  // namespace landmark_loop_closure

@@ -150,17 +150,19 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
 KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
   KeyframeResult result;
   result.keyframe_id = keyframe.id;
-  if (!training_->hold(std::move(keyframe))) {
+  training_->hold(std::move(keyframe));
+  if (!training_->ready()) {
     result.held_for_training = training_->held();
     return result;
   }
   std::shared_ptr<const DescriptorExtractor> trained;
   try {
-    trained = training_->train();
+    trained = training_->finish();
   } catch (const std::exception& error) {
     result.training_summary = std::string("broad autoencoder training failed (") + error.what() +
-                              "); holding keyframes again";
-    training_->clear();
+                              "); training again on the next keyframes";
+    training_ =
+        std::make_unique<OnlineBroadTraining>(training_->wanted(), options_.descriptor.broad.model);
     return result;
   }
   extractor_ = std::move(trained);

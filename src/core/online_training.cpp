@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 
 namespace landmark_loop_closure {
 
@@ -15,30 +16,47 @@ OnlineBroadTraining::OnlineBroadTraining(int keyframes, std::string model_path,
                                          BroadOptions options)
     : keyframes_(keyframes), model_path_(std::move(model_path)), options_(options) {}
 
-bool OnlineBroadTraining::hold(HeldKeyframe keyframe) {
+void OnlineBroadTraining::hold(HeldKeyframe keyframe) {
   keyframe.image = keyframe.image.clone();  // The caller's buffer may be reused.
   keyframe.depth = keyframe.depth.clone();
   held_.push_back(std::move(keyframe));
-  return held() >= keyframes_;
+  if (started() || held() < keyframes_) return;
+  std::vector<cv::Mat> images;
+  for (const HeldKeyframe& frame : held_) images.push_back(frame.image);
+  result_ = std::async(std::launch::async, [images = std::move(images), options = options_,
+                                            path = model_path_, this]() {
+    const auto start = std::chrono::steady_clock::now();
+    BroadTrainer trainer(options);
+    Eigen::MatrixXf inputs(static_cast<Eigen::Index>(images.size()),
+                           trainer.model().inputDimension());
+    for (size_t i = 0; i < images.size(); ++i) {
+      inputs.row(static_cast<Eigen::Index>(i)) = trainer.model().preprocess(images[i]);
+    }
+    trainer.train(inputs);
+    trainer.model().save(path);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char text[512];
+    std::snprintf(text, sizeof(text),
+                  "broad autoencoder trained on %zu keyframes in %.1f s (reconstruction "
+                  "error %.4f), written to %s",
+                  images.size(), seconds, trainer.trainingError(), path.c_str());
+    summary_ = text;  // Read only after the future is ready.
+    return std::shared_ptr<const DescriptorExtractor>(
+        std::make_shared<BroadDescriptor>(trainer.model()));
+  });
 }
 
-std::shared_ptr<const DescriptorExtractor> OnlineBroadTraining::train() {
-  const auto start = std::chrono::steady_clock::now();
-  BroadTrainer trainer(options_);
-  Eigen::MatrixXf inputs(held(), trainer.model().inputDimension());
-  for (int i = 0; i < held(); ++i) inputs.row(i) = trainer.model().preprocess(held_[i].image);
-  trainer.train(inputs);
-  trainer.model().save(model_path_);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  char text[512];
-  std::snprintf(text, sizeof(text),
-                "broad autoencoder trained on %d keyframes in %.1f s (reconstruction error "
-                "%.4f), written to %s",
-                held(), seconds, trainer.trainingError(), model_path_.c_str());
-  summary_ = text;
-  return std::make_shared<BroadDescriptor>(trainer.model());
+bool OnlineBroadTraining::ready() const {
+  return started() && result_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
 }
+
+bool OnlineBroadTraining::waitUntilReady(double seconds) const {
+  return started() &&
+         result_.wait_for(std::chrono::duration<double>(seconds)) == std::future_status::ready;
+}
+
+std::shared_ptr<const DescriptorExtractor> OnlineBroadTraining::finish() { return result_.get(); }
 
 std::vector<HeldKeyframe> OnlineBroadTraining::release() {
   std::vector<HeldKeyframe> released = std::move(held_);

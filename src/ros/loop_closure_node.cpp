@@ -66,7 +66,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       queue_(static_cast<size_t>(options.worker_queue_size)),
       diagnostics_(node, private_node, ros::this_node::getName()) {
   loop_publisher_ = node_.advertise<LoopClosure>("loop_closures", 100);
-  keyframe_publisher_ = node_.advertise<Keyframe>("keyframes", 100);
+  keyframe_publisher_ =
+      node_.advertise<Keyframe>("keyframes", 1000);  // Bursts after online training.
   candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
   markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   image_transport::ImageTransport private_transport(private_node_);
@@ -323,6 +324,7 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     detector_.reset();
     session_ = detector_.session();
     keyframe_stamps_.clear();
+    held_for_training_.clear();
     markers_.clear();
   }
   cv::Mat grey;
@@ -346,19 +348,14 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     return;
   }
   if (result.held_for_training > 0) {
+    held_for_training_.push_back(job.id);
+    keyframe_stamps_[job.id] = job.stamp;
     ROS_INFO_THROTTLE(
         kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
         result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
     return;
   }
-  if (!result.training_summary.empty()) {
-    if (detector_.extractor()) {
-      ROS_INFO("%s; detecting loops from now on", result.training_summary.c_str());
-    } else {
-      ROS_ERROR("%s", result.training_summary.c_str());
-      return;
-    }
-  }
+  if (!result.training_summary.empty() && !publishHeldKeyframes(job, result)) return;
   ++keyframes_stored_;
   if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
     ++keyframes_over_budget_;

@@ -89,6 +89,9 @@ class LoopClosureNode {
   /// the frame it is in.
   std::string expressRelativePose(AcceptedLoop* loop, const std::string& camera_frame) const;
   void publishResults(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
+  /// Online training just ended with this keyframe: publishes the keyframes it held, or logs why
+  /// training failed (false: nothing more to publish).
+  bool publishHeldKeyframes(const KeyframeJob& job, const KeyframeResult& result);
   void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// odom mode: "" or why images and odometry both arrive but never pair (stamps compared).
@@ -139,6 +142,7 @@ class LoopClosureNode {
   image_transport::Publisher match_image_publisher_;
   LoopMarkers markers_;                                      // Worker thread only.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
+  std::vector<uint64_t> held_for_training_;  // Worker thread: ids held by online training.
 
   // Worker.
   BoundedQueue<KeyframeJob> queue_;

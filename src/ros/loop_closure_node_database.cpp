@@ -1,7 +1,9 @@
-// The node's keyframe database file: the services and the stamps of loaded keyframes.
+// The node's keyframe database: the file services, the stamps of loaded keyframes, and the
+// keyframes online training held.
 #include <string>
 
 #include "loop_closure_node.h"
+#include "ros_conversions.h"
 
 namespace landmark_loop_closure {
 
@@ -48,6 +50,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
   response.keyframes = detector_.database().size();
   if (error.empty()) {
     keyframe_stamps_.clear();
+    held_for_training_.clear();
     markers_.clear();
     response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
                        std::to_string(detector_.session());
@@ -67,6 +70,7 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
   detector_.reset();
   session_ = detector_.session();
   keyframe_stamps_.clear();
+  held_for_training_.clear();
   markers_.clear();
   response.success = true;
   response.message = "forgot " + std::to_string(forgotten) + " keyframes";
@@ -78,6 +82,29 @@ ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   if (known != keyframe_stamps_.end()) return known->second;
   const KeyframeRecord* record = detector_.database().findById(id);
   return record ? ros::Time(record->stamp) : ros::Time();
+}
+
+bool LoopClosureNode::publishHeldKeyframes(const KeyframeJob& job, const KeyframeResult& result) {
+  const std::vector<uint64_t> held = std::move(held_for_training_);
+  held_for_training_.clear();
+  if (!detector_.extractor()) {
+    ROS_ERROR("%s", result.training_summary.c_str());
+    for (const uint64_t id : held) keyframe_stamps_.erase(id);
+    return false;
+  }
+  ROS_INFO("%s; %zu held keyframes stored, detecting loops from now on",
+           result.training_summary.c_str(), held.size() + 1);
+  // The keyframes held during training are stored now: they go out as keyframes (their loops
+  // among themselves are not published), so later loops into them refer to known keyframes.
+  for (const uint64_t id : held) {
+    const KeyframeRecord* record = detector_.database().findById(id);
+    if (!record) continue;
+    ++keyframes_stored_;
+    keyframe_publisher_.publish(
+        toKeyframeMsg(id, record->session, keyframe_stamps_.at(id), record->pose, job.frame_id));
+    markers_.addKeyframe(record->pose);
+  }
+  return true;
 }
 
 }  // namespace landmark_loop_closure
