@@ -51,6 +51,7 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
   /// `image`: 8-bit grey, BGR or BGRA; converted to the network's colour order.
   ImageDescriptor describe(const cv::Mat& image) const override;
   double globalScore(double cosine) const override;
+  bool wantsColour() const override { return options_.colour != "grey"; }
 
   /// The pooled layer, L2-normalised, before whitening.
   Eigen::VectorXf rawFeature(const cv::Mat& image) const;

@@ -37,7 +37,8 @@ class DescriptorExtractor {
   virtual std::string name() const = 0;
   /// Length of ImageDescriptor::global.
   virtual int globalDimension() const = 0;
-  /// `image`: 8-bit grey (CV_8UC1), any size; implementations resize to their working size.
+  /// `image`: 8-bit grey (CV_8UC1), or BGR when wantsColour(), any size; implementations resize
+  /// to their working size.
   virtual ImageDescriptor describe(const cv::Mat& image) const = 0;
   /// Final similarity, higher is more alike. The default is globalScore() of the global
   /// vectors' cosine; landmark descriptors override it to re-rank a shortlist.
@@ -47,6 +48,8 @@ class DescriptorExtractor {
   virtual double globalScore(double cosine) const { return cosine; }
   /// True when similarity() is more than the global cosine, so re-ranking is worth its time.
   virtual bool reranks() const { return false; }
+  /// True when describe() wants the camera's colour (8-bit BGR) rather than grey.
+  virtual bool wantsColour() const { return false; }
 };
 
 /// Parameters that choose and shape the descriptor.

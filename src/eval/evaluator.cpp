@@ -168,7 +168,11 @@ DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)
 DescribedImages describeImageFiles(const std::vector<std::string>& paths,
                                    const DescriptorExtractor& extractor, const Progress& progress) {
   DescribedImages result = describeImages(
-      paths.size(), [&paths](size_t i) { return cv::imread(paths[i], cv::IMREAD_GRAYSCALE); },
+      paths.size(),
+      [&paths, &extractor](size_t i) {
+        return cv::imread(paths[i],
+                          extractor.wantsColour() ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+      },
       extractor, progress);
   for (std::string& entry : result.undecodable) entry = paths[std::stoul(entry)];
   return result;

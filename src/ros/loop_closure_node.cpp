@@ -328,8 +328,10 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     markers_.clear();
   }
   cv::Mat grey;
+  cv::Mat colour;  // Only for a descriptor whose network takes colour.
   try {
     grey = toGrey(*job.image);
+    if (detector_.extractor() && detector_.extractor()->wantsColour()) colour = toBgr(*job.image);
   } catch (const cv::Exception& error) {
     reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
     return;
@@ -342,7 +344,8 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
     ++(depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
   }
   const KeyframeResult result =
-      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, grey, job.intrinsics, depth);
+      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, colour.empty() ? grey : colour,
+                            job.intrinsics, depth);
   if (result.error) {
     reportRejected(*result.error);
     return;

@@ -72,6 +72,25 @@ cv::Mat toGrey(const sensor_msgs::Image& image) {
   return grey;
 }
 
+cv::Mat toBgr(const sensor_msgs::Image& image) {
+  const int type = *cvTypeOfEncoding(image.encoding);
+  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,
+                     const_cast<uint8_t*>(image.data.data()), image.step);
+  cv::Mat bgr;
+  if (image.encoding == enc::MONO8 || image.encoding == enc::MONO16) {
+    cv::cvtColor(toGrey(image), bgr, cv::COLOR_GRAY2BGR);
+  } else if (image.encoding == enc::BGR8) {
+    bgr = view.clone();
+  } else if (image.encoding == enc::RGB8) {
+    cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
+  } else if (image.encoding == enc::BGRA8) {
+    cv::cvtColor(view, bgr, cv::COLOR_BGRA2BGR);
+  } else {
+    cv::cvtColor(view, bgr, cv::COLOR_RGBA2BGR);
+  }
+  return bgr;
+}
+
 cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error) {
   int type = -1;
   if (image.encoding == enc::TYPE_16UC1 || image.encoding == enc::MONO16) type = CV_16UC1;

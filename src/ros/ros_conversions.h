@@ -29,6 +29,9 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image);
 
 /// 8-bit grey copy or view of a message that passed checkImageMessage.
 cv::Mat toGrey(const sensor_msgs::Image& image);
+/// 8-bit BGR copy of a message that passed checkImageMessage (grey is copied into all three
+/// channels), for descriptors whose network takes colour.
+cv::Mat toBgr(const sensor_msgs::Image& image);
 
 /// A copy of a depth image (16UC1 or mono16: CV_16UC1 in the driver's unit; 32FC1: CV_32FC1
 /// metres); an empty Mat and `error` set for other encodings or a malformed buffer.

@@ -397,19 +397,19 @@ int run(const Arguments& arguments) {
   }
 
   // Training images of the learned descriptors: --train-images, else the database (traversals)
-  // or the whole sequence.
+  // or the whole sequence; read in colour (each descriptor turns them grey when it wants).
   const std::string output_folder = arguments.get("--output", "lcd_results");
   Training training;
   if (arguments.has("--train-images")) {
     auto paths =
         std::make_shared<std::vector<std::string>>(listImages(arguments.get("--train-images")));
     training = {paths->size(),
-                [paths](size_t i) { return cv::imread((*paths)[i], cv::IMREAD_GRAYSCALE); }};
+                [paths](size_t i) { return cv::imread((*paths)[i], cv::IMREAD_COLOR); }};
   } else if (!memory.images.empty()) {
     training = {memory.images.size(), [&memory](size_t i) { return memory.images[i]; }};
   } else {
     training = {database_paths.size(), [&database_paths](size_t i) {
-                  return cv::imread(database_paths[i], cv::IMREAD_GRAYSCALE);
+                  return cv::imread(database_paths[i], cv::IMREAD_COLOR);
                 }};
   }
 

@@ -52,6 +52,8 @@ TEST_F(CnnGlobalDescriptorTest, ReadsTheLayerInTheNetworksColourOrder) {
   EXPECT_EQ(rgb.rawDimension(), 3);
   EXPECT_TRUE(rgb.rawFeature(bgr).isApprox(unit(200, 100, 10), 1e-5f));
 
+  EXPECT_TRUE(rgb.wantsColour());  // The node then hands it BGR images, not grey.
+
   options.colour = "bgr";
   const CnnGlobalDescriptor bgr_net(options);
   EXPECT_TRUE(bgr_net.rawFeature(bgr).isApprox(unit(10, 100, 200), 1e-5f));
@@ -95,6 +97,7 @@ TEST_F(CnnGlobalDescriptorTest, AppliesMeanAndStd) {
   options.mean = {0.5};
   options.std = {0.25};
   const CnnGlobalDescriptor net(options);
+  EXPECT_FALSE(net.wantsColour());
   const auto feature = [&net](int pixel) {
     return net.rawFeature(cv::Mat(8, 8, CV_8UC1, cv::Scalar(pixel)));
   };

@@ -69,6 +69,22 @@ TEST(RosConversions, RgbAndBgrAreNotConfused) {
   EXPECT_EQ(toGrey(red_rgb).at<uchar>(0, 0), toGrey(red_bgr).at<uchar>(0, 0));
 }
 
+TEST(RosConversions, ColourReachesDescriptorsAsBgr) {
+  namespace enc = sensor_msgs::image_encodings;
+  sensor_msgs::Image red_rgb = makeImage(enc::RGB8, 16, 16, 3);
+  for (size_t i = 0; i < red_rgb.data.size(); i += 3) red_rgb.data[i] = 255;
+  sensor_msgs::Image red_rgba = makeImage(enc::RGBA8, 16, 16, 4);
+  for (size_t i = 0; i < red_rgba.data.size(); i += 4) red_rgba.data[i] = 255;
+  for (const sensor_msgs::Image& image : {red_rgb, red_rgba}) {
+    const cv::Mat bgr = toBgr(image);
+    ASSERT_EQ(bgr.type(), CV_8UC3);
+    EXPECT_EQ(bgr.at<cv::Vec3b>(5, 5), cv::Vec3b(0, 0, 255)) << image.encoding;
+  }
+  sensor_msgs::Image grey = makeImage(enc::MONO16, 8, 8, 2);
+  grey.data.assign(grey.data.size(), 0x80);  // 0x8080 -> 128 in 8 bits.
+  EXPECT_EQ(toBgr(grey).at<cv::Vec3b>(1, 1), cv::Vec3b(128, 128, 128));
+}
+
 TEST(RosConversions, UnsupportedEncodingIsNamed) {
   const sensor_msgs::Image image = makeImage("32FC1", 64, 48, 4);
   const auto error = checkImageMessage(image);
