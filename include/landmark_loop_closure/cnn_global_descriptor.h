@@ -72,6 +72,10 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
   mutable cv::dnn::Net net_;
 };
 
+/// The ONNX network in `path`, set up for OpenCV's own CPU backend. Throws std::runtime_error
+/// naming the file when it cannot be loaded.
+cv::dnn::Net loadOnnxNetwork(const std::string& path);
+
 /// FNV-1a hash (64 bit) of a file's bytes in hex ("missing" when it cannot be read).
 std::string fileHash(const std::string& path);
 

@@ -1,14 +1,10 @@
 // The broad autoencoder's model file: magic, byte-order mark, version, options, weight matrices
-// (each as rows, cols and column-major floats), CRC-32C of everything before it.
+// (each as rows, cols and column-major floats), CRC-32C of everything before it
+// (checksummed_file.h).
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 
-#include "crc32c.h"
+#include "checksummed_file.h"
 #include "landmark_loop_closure/broad_autoencoder.h"
-#include "little_endian.h"
 
 namespace landmark_loop_closure {
 
@@ -45,9 +41,7 @@ bool readRow(LittleEndianReader* reader, Eigen::RowVectorXf* row) {
 
 void BroadModel::save(const std::string& path) const {
   LittleEndianWriter writer;
-  writer.bytes(kMagic, sizeof(kMagic));
-  writer.u32(kByteOrderMark);
-  writer.u32(kVersion);
+  beginChecksummedFile(&writer, kMagic, kVersion);
   const BroadOptions& o = options;
   for (const int value : {o.input_width, o.input_height, o.mapped_groups, o.nodes_per_group,
                           o.enhancement_nodes, o.lasso_iterations}) {
@@ -66,44 +60,19 @@ void BroadModel::save(const std::string& path) const {
   writer.f32(output_scale);
   writeMatrix(&writer, output_mean);
   writeMatrix(&writer, reconstruction);
-  writer.u32(crc32c(0, writer.data(), writer.size()));
-
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-    file.write(reinterpret_cast<const char*>(writer.data()),
-               static_cast<std::streamsize>(writer.size()));
-    if (!file) throw BroadModelFileError("cannot write " + temporary);
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) throw BroadModelFileError("cannot rename " + temporary + " to " + path);
+  const std::string error = finishChecksummedFile(path, &writer);
+  if (!error.empty()) throw BroadModelFileError("broad autoencoder model " + path + ": " + error);
 }
 
 BroadModel BroadModel::load(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw BroadModelFileError("broad autoencoder model " + path + " cannot be opened");
-  const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(file),
-                                   std::istreambuf_iterator<char>()};
   const auto fail = [&path](const std::string& what) {
     return BroadModelFileError("broad autoencoder model " + path + ": " + what);
   };
-  if (bytes.size() < sizeof(kMagic) + 4 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic))) {
-    throw fail("not a broad autoencoder model file");
-  }
-  uint32_t stored_crc = 0;
-  LittleEndianReader(bytes.data() + bytes.size() - 4, 4).u32(&stored_crc);
-  if (crc32c(0, bytes.data(), bytes.size() - 4) != stored_crc) {
-    throw fail("checksum mismatch (truncated or corrupt)");
-  }
-  LittleEndianReader reader(bytes.data(), bytes.size() - 4);
-  reader.skip(sizeof(kMagic));
-  uint32_t mark = 0, version = 0;
-  if (!reader.u32(&mark) || mark != kByteOrderMark) throw fail("byte-order mark is damaged");
-  if (!reader.u32(&version) || version != kVersion) {
-    throw fail("version " + std::to_string(version) + " is not " + std::to_string(kVersion) +
-               " (made by a newer release?)");
-  }
+  std::vector<uint8_t> body;
+  const std::string error =
+      readChecksummedFile(path, kMagic, kVersion, "broad autoencoder model", &body);
+  if (!error.empty()) throw fail(error);
+  LittleEndianReader reader(body.data(), body.size());
   BroadModel model;
   BroadOptions& o = model.options;
   bool ok = true;

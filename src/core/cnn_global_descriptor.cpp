@@ -25,6 +25,19 @@ std::string fileHash(const std::string& path) {
   return text;
 }
 
+cv::dnn::Net loadOnnxNetwork(const std::string& path) {
+  cv::dnn::Net net;
+  try {
+    net = cv::dnn::readNetFromONNX(path);
+  } catch (const cv::Exception& error) {
+    throw std::runtime_error("cannot load the ONNX model " + path + ": " + error.what());
+  }
+  if (net.empty()) throw std::runtime_error("cannot load the ONNX model " + path);
+  net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
+  net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  return net;
+}
+
 std::vector<double> parseNumberList(const std::string& text) {
   std::string spaced = text;
   for (char& c : spaced) {
@@ -85,15 +98,7 @@ CnnGlobalDescriptor::CnnGlobalDescriptor(const CnnGlobalOptions& options) : opti
   for (const double s : options.std) {
     if (!(s > 0.0)) throw std::runtime_error("the network's std values must be > 0");
   }
-  try {
-    net_ = cv::dnn::readNetFromONNX(options.model_path);
-  } catch (const cv::Exception& error) {
-    throw std::runtime_error("cannot load the ONNX model " + options.model_path + ": " +
-                             error.what());
-  }
-  if (net_.empty()) throw std::runtime_error("cannot load the ONNX model " + options.model_path);
-  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  net_ = loadOnnxNetwork(options.model_path);
 
   std::ostringstream identity;
   identity << "model_fnv1a=" << fileHash(options.model_path) << " layer=" << options.layer

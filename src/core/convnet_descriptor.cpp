@@ -5,6 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "landmark_loop_closure/cnn_global_descriptor.h"
 #include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
@@ -27,15 +28,7 @@ FeatureMaps toFeatureMaps(const cv::Mat& blob) {
 }  // namespace
 
 ConvNetDescriptor::ConvNetDescriptor(const ConvNetOptions& options) : options_(options) {
-  try {
-    net_ = cv::dnn::readNetFromONNX(options.model_path);
-  } catch (const cv::Exception& error) {
-    throw std::runtime_error("cannot load the ONNX model " + options.model_path + ": " +
-                             error.what());
-  }
-  if (net_.empty()) throw std::runtime_error("cannot load the ONNX model " + options.model_path);
-  net_.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
-  net_.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+  net_ = loadOnnxNetwork(options.model_path);
   std::vector<FeatureMaps> outputs;
   try {
     outputs = forward(cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(128)));

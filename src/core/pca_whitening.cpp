@@ -2,15 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include <Eigen/Eigenvalues>
 
-#include "crc32c.h"
-#include "little_endian.h"
+#include "checksummed_file.h"
 
 namespace landmark_loop_closure {
 
@@ -91,9 +86,7 @@ Eigen::VectorXf PcaWhitening::apply(const Eigen::Ref<const Eigen::VectorXf>& inp
 
 void PcaWhitening::save(const std::string& path, const std::string& identity) const {
   LittleEndianWriter writer;
-  writer.bytes(kMagic, sizeof(kMagic));
-  writer.u32(kByteOrderMark);
-  writer.u32(kVersion);
+  beginChecksummedFile(&writer, kMagic, kVersion);
   writer.u32(static_cast<uint32_t>(inputDimension()));
   writer.u32(static_cast<uint32_t>(outputDimension()));
   writer.f64(regularisation_);
@@ -103,48 +96,23 @@ void PcaWhitening::save(const std::string& path, const std::string& identity) co
   writer.floats(eigenvalues_.data(), eigenvalues_.size());
   const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = components_;
   writer.floats(rows.data(), rows.size());
-  writer.u32(crc32c(0, writer.data(), writer.size()));
-
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-    file.write(reinterpret_cast<const char*>(writer.data()),
-               static_cast<std::streamsize>(writer.size()));
-    if (!file) throw WhiteningFileError("cannot write " + temporary);
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) throw WhiteningFileError("cannot rename " + temporary + " to " + path);
+  const std::string error = finishChecksummedFile(path, &writer);
+  if (!error.empty()) throw WhiteningFileError("whitening file " + path + ": " + error);
 }
 
 PcaWhitening PcaWhitening::load(const std::string& path, const std::string& expected_identity) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw WhiteningFileError("whitening file " + path + " cannot be opened");
-  const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(file),
-                                   std::istreambuf_iterator<char>()};
   const auto fail = [&path](const std::string& what) {
     return WhiteningFileError("whitening file " + path + ": " + what);
   };
-  if (bytes.size() < sizeof(kMagic) + 4 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic))) {
-    throw fail("not a whitening file");
-  }
-  LittleEndianReader reader(bytes.data(), bytes.size() - 4);
-  uint32_t stored_crc = 0;
-  LittleEndianReader(bytes.data() + bytes.size() - 4, 4).u32(&stored_crc);
-  if (crc32c(0, bytes.data(), bytes.size() - 4) != stored_crc) {
-    throw fail("checksum mismatch (truncated or corrupt)");
-  }
-  reader.skip(sizeof(kMagic));
-  uint32_t mark = 0, version = 0, input = 0, output = 0;
+  std::vector<uint8_t> body;
+  const std::string error = readChecksummedFile(path, kMagic, kVersion, "whitening", &body);
+  if (!error.empty()) throw fail(error);
+  LittleEndianReader reader(body.data(), body.size());
+  uint32_t input = 0, output = 0;
   PcaWhitening whitening;
   std::string identity;
-  bool ok = reader.u32(&mark) && reader.u32(&version);
-  if (ok && mark != kByteOrderMark) throw fail("byte-order mark is not little-endian");
-  if (ok && version != kVersion) {
-    throw fail("version " + std::to_string(version) + " is not " + std::to_string(kVersion));
-  }
-  ok = ok && reader.u32(&input) && reader.u32(&output) && input > 0 && output > 0 &&
-       input <= kMaxDimension && output <= input;
+  bool ok = reader.u32(&input) && reader.u32(&output) && input > 0 && output > 0 &&
+            input <= kMaxDimension && output <= input;
   ok = ok && reader.f64(&whitening.regularisation_) && reader.f64(&whitening.explained_variance_) &&
        reader.text(&identity);
   if (!ok) throw fail("header is damaged");

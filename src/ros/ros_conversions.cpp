@@ -50,11 +50,19 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image) {
   return std::nullopt;
 }
 
+namespace {
+
+// A view of a checked message's buffer; callers copy before the message can go away.
+cv::Mat pixelView(const sensor_msgs::Image& image) {
+  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width),
+                 *cvTypeOfEncoding(image.encoding), const_cast<uint8_t*>(image.data.data()),
+                 image.step);
+}
+
+}  // namespace
+
 cv::Mat toGrey(const sensor_msgs::Image& image) {
-  const int type = *cvTypeOfEncoding(image.encoding);
-  // A view of the message's buffer; every branch below copies before the message can go away.
-  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,
-                     const_cast<uint8_t*>(image.data.data()), image.step);
+  const cv::Mat view = pixelView(image);
   cv::Mat grey;
   if (image.encoding == enc::MONO8) {
     grey = view.clone();
@@ -73,9 +81,7 @@ cv::Mat toGrey(const sensor_msgs::Image& image) {
 }
 
 cv::Mat toBgr(const sensor_msgs::Image& image) {
-  const int type = *cvTypeOfEncoding(image.encoding);
-  const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,
-                     const_cast<uint8_t*>(image.data.data()), image.step);
+  const cv::Mat view = pixelView(image);
   cv::Mat bgr;
   if (image.encoding == enc::MONO8 || image.encoding == enc::MONO16) {
     cv::cvtColor(toGrey(image), bgr, cv::COLOR_GRAY2BGR);

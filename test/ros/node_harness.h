@@ -126,6 +126,27 @@ class NodeHarness {
     camera_info_publisher_.publish(info);
   }
 
+  /// Publishes frames [first, last) of the generated corridor at kPublishRateHz, the odometry
+  /// (and tf) `odometry_offset` s after each image; returns how many were published.
+  size_t publishCorridor(size_t first, size_t last, double odometry_offset = 0.0,
+                         double start_stamp = sim::SequenceOptions{}.start_stamp) {
+    const sim::CorridorWorld world;
+    sim::SequenceOptions options;
+    options.start_stamp = start_stamp;
+    sim::SequenceGenerator sequence(world, sim::CameraModel{}, options);
+    ros::WallRate rate(kPublishRateHz);
+    sim::SequenceFrame frame;
+    size_t published = 0;
+    while (ros::ok() && sequence.next(&frame) && frame.index < last) {
+      if (frame.index < first) continue;
+      publish(frame.stamp, frame.odom, frame.image, "mono8", false, odometry_offset);
+      ++published;
+      ros::spinOnce();
+      rate.sleep();
+    }
+    return published;
+  }
+
   /// Whether the node listens to depth images (parameter use_depth).
   bool depthWanted() const { return depth_publisher_.getNumSubscribers() > 0; }
 

@@ -8,36 +8,14 @@
 using namespace landmark_loop_closure;
 using namespace landmark_loop_closure::sim;
 
-namespace {
-
-// Publishes frames [first, last) of the corridor, tf stamped `tf_offset` s after each image.
-size_t publishFrames(test_support::NodeHarness* harness, size_t first, size_t last,
-                     double tf_offset) {
-  const CorridorWorld world;
-  SequenceOptions options;
-  options.start_stamp = 5000.0;  // Room for tf stamped 1000 s before the images.
-  SequenceGenerator sequence(world, CameraModel{}, options);
-  ros::WallRate rate(test_support::kPublishRateHz);
-  SequenceFrame frame;
-  size_t published = 0;
-  while (ros::ok() && sequence.next(&frame) && frame.index < last) {
-    if (frame.index < first) continue;
-    harness->publish(frame.stamp, frame.odom, frame.image, "mono8", false, tf_offset);
-    ++published;
-    ros::spinOnce();
-    rate.sleep();
-  }
-  return published;
-}
-
-}  // namespace
+constexpr double kStartStamp = 5000.0;  // Room for tf stamped 1000 s before the images.
 
 TEST(LoopClosureNode, ImagesWithoutTransformAreDroppedAndReported) {
   test_support::NodeHarness harness;
   ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
   // 4 s of frames (input_timeout is 2 s), tf 1000 s behind: no transform reaches any image's
   // stamp (tf 1000 s ahead would make tf2 discard the later, correct transforms as too old).
-  ASSERT_GT(publishFrames(&harness, 0, 240, -1000.0), 200u);
+  ASSERT_GT(harness.publishCorridor(0, 240, -1000.0, kStartStamp), 200u);
   harness.waitUntilQuiet(1.5);
   EXPECT_TRUE(harness.keyframes().empty());
   const std::string timeouts = harness.diagnostic("tf timeouts");
@@ -46,7 +24,7 @@ TEST(LoopClosureNode, ImagesWithoutTransformAreDroppedAndReported) {
   EXPECT_TRUE(harness.summarySaid("No input for 2 s on tf odom -> base_link"));
 
   // Transforms at the images' stamps: processing resumes.
-  publishFrames(&harness, 240, 420, 0.0);
+  harness.publishCorridor(240, 420, 0.0, kStartStamp);
   harness.waitUntilQuiet(1.5);
   EXPECT_FALSE(harness.keyframes().empty());
 }

@@ -12,24 +12,6 @@ using namespace landmark_loop_closure::sim;
 
 namespace {
 
-// Publishes frames [first, last) of the corridor sequence, odometry `odometry_offset` s late.
-size_t publishFrames(test_support::NodeHarness* harness, size_t first, size_t last,
-                     double odometry_offset = 0.0) {
-  const CorridorWorld world;
-  SequenceGenerator sequence(world, CameraModel{}, SequenceOptions{});
-  ros::WallRate rate(test_support::kPublishRateHz);
-  SequenceFrame frame;
-  size_t published = 0;
-  while (ros::ok() && sequence.next(&frame) && frame.index < last) {
-    if (frame.index < first) continue;
-    harness->publish(frame.stamp, frame.odom, frame.image, "mono8", false, odometry_offset);
-    ++published;
-    ros::spinOnce();
-    rate.sleep();
-  }
-  return published;
-}
-
 uint64_t storedKeyframes() {
   DatabaseFile save;
   save.request.path = (std::filesystem::temp_directory_path() / "lcd_time_jump.lcdb").string();
@@ -45,14 +27,14 @@ uint64_t storedKeyframes() {
 TEST(LoopClosureNode, ABagRestartResetsTheDatabaseAndTheReplayIsMapped) {
   test_support::NodeHarness harness;
   ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
-  publishFrames(&harness, 0, 300);
+  harness.publishCorridor(0, 300);
   harness.waitUntilQuiet();
   const size_t first_play = harness.keyframes().size();
   ASSERT_GT(first_play, 40u);
   EXPECT_EQ(storedKeyframes(), first_play);
 
   // The same frames again, same stamps: time went back ~10 s.
-  publishFrames(&harness, 0, 300);
+  harness.publishCorridor(0, 300);
   harness.waitUntilQuiet();
   const size_t replay = harness.keyframes().size() - first_play;
   EXPECT_GT(replay, first_play * 9 / 10) << "the replay was dropped instead of mapped";
@@ -66,7 +48,7 @@ TEST(LoopClosureNode, OdometryThatNeverPairsIsReportedAndNothingIsProcessed) {
   const size_t before = harness.keyframes().size();
   // 4 s of frames (input_timeout is 2 s in the .test file), odometry on another clock, 1000 s
   // ahead (a small offset would only pair each image with older odometry).
-  const size_t published = publishFrames(&harness, 300, 540, 1000.0);
+  const size_t published = harness.publishCorridor(300, 540, 1000.0);
   ASSERT_GT(published, 200u);
   harness.waitUntilQuiet(1.5);
   EXPECT_EQ(harness.keyframes().size(), before);
