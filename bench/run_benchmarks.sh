@@ -71,6 +71,9 @@ cat "$OUT/pipeline.md"
 
 echo "== scaling"
 _build/devel/lib/landmark_loop_closure/lcd_bench_scaling 1000,10000,100000 200 > "$OUT/scaling.md"
+printf '\n# lcd_bench_scaling --persistence\n\n' >> "$OUT/scaling.md"
+_build/devel/lib/landmark_loop_closure/lcd_bench_scaling --persistence 1000,10000,100000 \
+  >> "$OUT/scaling.md"
 cat "$OUT/scaling.md"
 
 /usr/bin/python3 scripts/plot_results.py "$OUT"/*/

@@ -23,8 +23,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!file) return 0;
   std::fwrite(data, 1, size, file);
   std::fclose(file);
+  // Two threads: ranges of keyframes are read in parallel, as a large file is.
   const landmark_loop_closure::LoadedDatabase loaded =
-      landmark_loop_closure::loadDatabase(inputPath(), "fuzz", 6);
+      landmark_loop_closure::loadDatabase(inputPath(), "fuzz", 6, {}, 2);
   // Whatever loads must be whole: every keyframe readable.
   if (loaded.database) {
     for (size_t i = 0; i < loaded.database->size(); ++i) {

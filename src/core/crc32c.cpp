@@ -31,8 +31,8 @@ Tables makeTables() {
 }
 
 #if defined(__x86_64__)
-__attribute__((target("sse4.2"))) uint32_t crc32cHardware(uint32_t crc, const uint8_t* data,
-                                                          size_t size) {
+__attribute__((target("sse4.2"))) uint32_t crc32cHardwareSerial(uint32_t crc, const uint8_t* data,
+                                                                size_t size) {
   uint64_t value = ~crc;
   for (; size >= 8; size -= 8, data += 8) {
     uint64_t word = 0;
@@ -42,6 +42,37 @@ __attribute__((target("sse4.2"))) uint32_t crc32cHardware(uint32_t crc, const ui
   uint32_t value32 = static_cast<uint32_t>(value);
   for (; size > 0; --size, ++data) value32 = _mm_crc32_u8(value32, *data);
   return ~value32;
+}
+
+// The instruction has a latency of three cycles but can start every cycle: three independent
+// streams over the thirds of a large buffer run about three times faster, and their CRCs
+// combine into the whole's.
+__attribute__((target("sse4.2"))) uint32_t crc32cHardware(uint32_t crc, const uint8_t* data,
+                                                          size_t size) {
+  constexpr size_t kMinInterleaved = 3 * 4096;
+  if (size < kMinInterleaved) return crc32cHardwareSerial(crc, data, size);
+  const size_t third = (size / 3) & ~size_t{7};
+  const uint8_t* second = data + third;
+  const uint8_t* last = data + 2 * third;
+  uint64_t a = ~crc;
+  uint64_t b = 0xFFFFFFFFu;
+  uint64_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < third; i += 8) {
+    uint64_t word_a = 0;
+    uint64_t word_b = 0;
+    uint64_t word_c = 0;
+    std::memcpy(&word_a, data + i, 8);
+    std::memcpy(&word_b, second + i, 8);
+    std::memcpy(&word_c, last + i, 8);
+    a = _mm_crc32_u64(a, word_a);
+    b = _mm_crc32_u64(b, word_b);
+    c = _mm_crc32_u64(c, word_c);
+  }
+  const uint32_t crc_a = ~static_cast<uint32_t>(a);
+  const uint32_t crc_b = ~static_cast<uint32_t>(b);
+  const uint32_t crc_c =
+      crc32cHardwareSerial(~static_cast<uint32_t>(c), last + third, size - 3 * third);
+  return crc32cCombine(crc32cCombine(crc_a, crc_b, third), crc_c, size - 2 * third);
 }
 #endif
 
@@ -61,6 +92,37 @@ uint32_t crc32cPortable(uint32_t crc, const uint8_t* data, size_t size) {
   }
   for (; size > 0; --size, ++data) value = tables[0][(value ^ *data) & 0xFFu] ^ (value >> 8);
   return ~value;
+}
+
+namespace {
+
+// Product of two polynomials modulo the (reflected) CRC polynomial: bit 31 holds x^0.
+uint32_t multiplyModPolynomial(uint32_t a, uint32_t b) {
+  uint32_t product = 0;
+  for (uint32_t bit = 1u << 31; bit != 0; bit >>= 1) {
+    if (a & bit) product ^= b;
+    b = (b & 1u) ? (b >> 1) ^ kPolynomial : b >> 1;
+  }
+  return product;
+}
+
+// x^(8 * bytes) modulo the polynomial, by squaring: appending `bytes` zero bytes multiplies the
+// register by it.
+uint32_t shiftForBytes(uint64_t bytes) {
+  uint32_t result = 1u << 31;  // x^0
+  uint32_t square = 1u << 23;  // x^8: one byte
+  for (; bytes != 0; bytes >>= 1) {
+    if (bytes & 1u) result = multiplyModPolynomial(square, result);
+    square = multiplyModPolynomial(square, square);
+  }
+  return result;
+}
+
+}  // namespace
+
+uint32_t crc32cCombine(uint32_t crc_first, uint32_t crc_second, uint64_t second_bytes) {
+  // The pre- and post-inversions of both parts cancel out: only the raw register moves.
+  return multiplyModPolynomial(shiftForBytes(second_bytes), crc_first) ^ crc_second;
 }
 
 uint32_t crc32c(uint32_t crc, const uint8_t* data, size_t size) {

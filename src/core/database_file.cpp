@@ -1,47 +1,39 @@
 #include "landmark_loop_closure/database_file.h"
 
 #include "crc32c.h"
+#include "database_payload.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 namespace landmark_loop_closure {
 
 namespace {
 
+using database_payload::decode;
+using database_payload::encode;
+using database_payload::FormatError;
+using database_payload::PayloadReader;
+using database_payload::PayloadWriter;
+
 constexpr char kMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
 constexpr uint32_t kByteOrderMark = 0x01020304;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
 constexpr size_t kFileBuffer = 1 << 20;
-
-bool hostIsLittleEndian() {
-  const uint16_t probe = 1;
-  uint8_t first = 0;
-  std::memcpy(&first, &probe, 1);
-  return first == 1;
-}
-
-// CRC-32C of everything passed through it.
-class Checksum {
- public:
-  void update(const uint8_t* data, size_t size) { value_ = crc32c(value_, data, size); }
-  uint32_t value() const { return value_; }
-
- private:
-  uint32_t value_ = 0;
-};
-
-// Why a file cannot be read; caught at the top and turned into LoadedDatabase::error.
-struct FormatError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+// Below this many record bytes per thread, one thread reads faster than several start.
+constexpr uint64_t kMinBytesPerThread = 8 << 20;
 
 struct FileCloser {
   void operator()(std::FILE* file) const {
@@ -50,209 +42,24 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
-template <typename Unsigned>
-void encode(Unsigned value, uint8_t* out) {
-  for (size_t i = 0; i < sizeof(Unsigned); ++i) out[i] = static_cast<uint8_t>(value >> (8 * i));
-}
-
-template <typename Unsigned>
-Unsigned decode(const uint8_t* in) {
-  Unsigned value = 0;
-  for (size_t i = 0; i < sizeof(Unsigned); ++i) value |= static_cast<Unsigned>(in[i]) << (8 * i);
-  return value;
-}
-
-// Bytes of a matrix element in the file: elements are stored as the host's, swapped to little
-// endian on big-endian hosts.
-void swapElements(uint8_t* data, size_t bytes, size_t element) {
-  if (element <= 1) return;
-  for (size_t start = 0; start + element <= bytes; start += element) {
-    for (size_t i = 0; i < element / 2; ++i)
-      std::swap(data[start + i], data[start + element - 1 - i]);
+class Descriptor {
+ public:
+  explicit Descriptor(int fd) : fd_(fd) {}
+  ~Descriptor() {
+    if (fd_ >= 0) ::close(fd_);
   }
-}
+  Descriptor(const Descriptor&) = delete;
+  Descriptor& operator=(const Descriptor&) = delete;
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
 
 static_assert(sizeof(cv::Point2f) == 2 * sizeof(float) &&
                   sizeof(cv::Point3f) == 3 * sizeof(float) &&
                   sizeof(cv::Rect2f) == 4 * sizeof(float),
               "points and boxes are stored as their floats");
-
-bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
-
-class PayloadWriter {
- public:
-  explicit PayloadWriter(std::FILE* file) : file_(file) {}
-
-  void bytes(const void* data, size_t size) {
-    if (size == 0) return;
-    const auto* bytes = static_cast<const uint8_t*>(data);
-    chunk_.insert(chunk_.end(), bytes, bytes + size);
-    written_ += size;
-    if (chunk_.size() >= kFileBuffer * 4) flush();
-  }
-  /// Checksums and writes what is buffered; call before the header is written.
-  void flush() {
-    if (chunk_.empty()) return;
-    crc_.update(chunk_.data(), chunk_.size());
-    if (std::fwrite(chunk_.data(), 1, chunk_.size(), file_) != chunk_.size()) {
-      throw FormatError(std::strerror(errno));
-    }
-    chunk_.clear();
-  }
-  void u32(uint32_t value) {
-    uint8_t buffer[4];
-    encode(value, buffer);
-    bytes(buffer, 4);
-  }
-  void u64(uint64_t value) {
-    uint8_t buffer[8];
-    encode(value, buffer);
-    bytes(buffer, 8);
-  }
-  void i32(int value) { u32(static_cast<uint32_t>(value)); }
-  void f64(double value) {
-    uint64_t bits = 0;
-    std::memcpy(&bits, &value, 8);
-    u64(bits);
-  }
-  void count(size_t value) {
-    if (value > UINT32_MAX) throw FormatError("more than 2^32 items in one list");
-    u32(static_cast<uint32_t>(value));
-  }
-  /// `n` floats in one write: the bulk of a keyframe (descriptors, keypoints, depths).
-  void floats(const float* values, size_t n) {
-    if (n == 0) return;
-    std::vector<uint8_t> buffer(n * 4);
-    std::memcpy(buffer.data(), values, n * 4);
-    if (!hostIsLittleEndian()) swapElements(buffer.data(), buffer.size(), 4);
-    bytes(buffer.data(), buffer.size());
-  }
-  void string(const std::string& text) {
-    count(text.size());
-    bytes(text.data(), text.size());
-  }
-  void mat(const cv::Mat& matrix) {
-    if (!matrix.empty() && !supportedMatType(matrix.type())) {
-      throw FormatError("cannot store a matrix of type " + std::to_string(matrix.type()));
-    }
-    i32(matrix.rows);
-    i32(matrix.cols);
-    i32(matrix.empty() ? CV_8UC1 : matrix.type());
-    const size_t row_bytes = static_cast<size_t>(matrix.cols) * matrix.elemSize();
-    std::vector<uint8_t> row(row_bytes);
-    for (int r = 0; r < matrix.rows; ++r) {
-      std::memcpy(row.data(), matrix.ptr(r), row_bytes);
-      if (!hostIsLittleEndian()) swapElements(row.data(), row_bytes, matrix.elemSize1());
-      bytes(row.data(), row_bytes);
-    }
-  }
-
-  uint32_t crc() const { return crc_.value(); }
-  uint64_t written() const { return written_; }
-
- private:
-  std::FILE* file_;
-  Checksum crc_;
-  uint64_t written_ = 0;
-  std::vector<uint8_t> chunk_;  ///< Fields gathered into large writes and checksum calls.
-};
-
-class PayloadReader {
- public:
-  PayloadReader(std::FILE* file, uint64_t payload_bytes)
-      : file_(file), remaining_(payload_bytes), unread_(payload_bytes) {}
-
-  void bytes(void* out, size_t size) {
-    if (size > remaining_) throw FormatError("an entry runs past the end of the payload");
-    remaining_ -= size;
-    auto* target = static_cast<uint8_t*>(out);
-    while (size > 0) {
-      if (position_ == chunk_.size()) refill();
-      const size_t take = std::min(size, chunk_.size() - position_);
-      std::memcpy(target, chunk_.data() + position_, take);
-      position_ += take;
-      target += take;
-      size -= take;
-    }
-  }
-  uint32_t u32() {
-    uint8_t buffer[4];
-    bytes(buffer, 4);
-    return decode<uint32_t>(buffer);
-  }
-  uint64_t u64() {
-    uint8_t buffer[8];
-    bytes(buffer, 8);
-    return decode<uint64_t>(buffer);
-  }
-  int i32() { return static_cast<int>(u32()); }
-  double f64() {
-    const uint64_t bits = u64();
-    double value = 0.0;
-    std::memcpy(&value, &bits, 8);
-    return value;
-  }
-  /// A list length whose items take at least `item_bytes` each: refused when they cannot fit in
-  /// what is left, before anything is allocated.
-  size_t count(size_t item_bytes) {
-    const uint64_t n = u32();
-    if (n * item_bytes > remaining_) throw FormatError("a list is longer than the file");
-    return static_cast<size_t>(n);
-  }
-  void floats(float* values, size_t n) {
-    if (n == 0) return;
-    bytes(values, n * 4);
-    if (!hostIsLittleEndian()) swapElements(reinterpret_cast<uint8_t*>(values), n * 4, 4);
-  }
-  std::string string() {
-    std::string text(count(1), '\0');
-    bytes(text.data(), text.size());
-    return text;
-  }
-  cv::Mat mat() {
-    const int rows = i32();
-    const int cols = i32();
-    const int type = i32();
-    if (rows < 0 || cols < 0 || !supportedMatType(type)) {
-      throw FormatError("a matrix has a bad shape or type");
-    }
-    const uint64_t total = static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) *
-                           static_cast<uint64_t>(CV_ELEM_SIZE(type));
-    if (total > remaining_) throw FormatError("a matrix is larger than the file");
-    if (rows == 0 || cols == 0) return {};
-    cv::Mat matrix(rows, cols, type);
-    const size_t row_bytes = static_cast<size_t>(cols) * matrix.elemSize();
-    for (int r = 0; r < rows; ++r) {
-      bytes(matrix.ptr(r), row_bytes);
-      if (!hostIsLittleEndian()) swapElements(matrix.ptr(r), row_bytes, matrix.elemSize1());
-    }
-    return matrix;
-  }
-
-  uint32_t crc() const { return crc_.value(); }
-  uint64_t remaining() const { return remaining_; }
-
- private:
-  // Reads the next chunk of the payload and checksums it whole (one call per megabytes, not
-  // per field: loading is bound by memory speed, not by call overhead).
-  void refill() {
-    const size_t size = static_cast<size_t>(std::min<uint64_t>(unread_, kFileBuffer * 4));
-    chunk_.resize(size);
-    if (size == 0 || std::fread(chunk_.data(), 1, size, file_) != size) {
-      throw FormatError("truncated: the file ends inside its payload");
-    }
-    crc_.update(chunk_.data(), size);
-    unread_ -= size;
-    position_ = 0;
-  }
-
-  std::FILE* file_;
-  uint64_t remaining_;  ///< Payload bytes not yet handed out.
-  uint64_t unread_;     ///< Payload bytes not yet read from the file.
-  std::vector<uint8_t> chunk_;
-  size_t position_ = 0;
-  Checksum crc_;
-};
 
 void writePose(PayloadWriter* out, const Pose& pose) {
   for (int i = 0; i < 3; ++i) out->f64(pose.position[i]);
@@ -366,6 +173,171 @@ void writeHeader(std::FILE* file, uint64_t payload_bytes, uint32_t crc) {
   }
 }
 
+// What a file's payload holds, read and checksummed but not yet checked against the database
+// it becomes.
+struct Payload {
+  std::vector<KeyframeRecord> keyframes;
+  std::string graph_identity;
+  std::vector<uint8_t> graph_bytes;
+  uint32_t crc = 0;
+};
+
+// Descriptor identity, global dimension and keyframe count at the payload's start.
+uint64_t readPrefix(PayloadReader* in, const std::string& descriptor_identity,
+                    int global_dimension) {
+  const std::string identity = in->string();
+  if (identity != descriptor_identity) {
+    throw FormatError("made with other descriptors (" + identity + "), not the ones configured (" +
+                      descriptor_identity + ")");
+  }
+  const int dimension = static_cast<int>(in->u32());
+  if (dimension != global_dimension) {
+    throw FormatError("global descriptors have " + std::to_string(dimension) +
+                      " values, the configured ones " + std::to_string(global_dimension));
+  }
+  return in->u64();
+}
+
+// The graph's settings and bytes after the last keyframe (version 2 on).
+void readGraph(PayloadReader* in, Payload* payload) {
+  payload->graph_identity = in->string();
+  if (payload->graph_identity.empty()) return;
+  const uint64_t size = in->u64();
+  if (size > in->remaining()) throw FormatError("the graph is larger than the file");
+  payload->graph_bytes.resize(static_cast<size_t>(size));
+  in->bytes(payload->graph_bytes.data(), payload->graph_bytes.size());
+}
+
+// Versions 1 and 2: one reader from the first byte to the last.
+Payload readSequentially(int fd, uint64_t payload_bytes, uint32_t version,
+                         const std::string& descriptor_identity, int global_dimension) {
+  Payload payload;
+  PayloadReader in(fd, kHeaderBytes, 0, payload_bytes);
+  const uint64_t keyframes = readPrefix(&in, descriptor_identity, global_dimension);
+  for (uint64_t i = 0; i < keyframes; ++i) payload.keyframes.push_back(readKeyframe(&in, version));
+  if (version >= 2) readGraph(&in, &payload);
+  if (in.remaining() != 0) throw FormatError("bytes left over after the last keyframe");
+  payload.crc = in.crc();
+  return payload;
+}
+
+// Consecutive keyframes [first, last) read by one thread.
+struct RecordRange {
+  size_t first = 0;
+  size_t last = 0;
+  std::vector<KeyframeRecord> keyframes;
+  uint32_t crc = 0;
+  std::string error;
+};
+
+void readRange(int fd, const std::vector<uint64_t>& offsets, uint32_t version, RecordRange* range) {
+  try {
+    PayloadReader in(fd, kHeaderBytes, offsets[range->first], offsets[range->last]);
+    range->keyframes.reserve(range->last - range->first);
+    for (size_t i = range->first; i < range->last; ++i) {
+      range->keyframes.push_back(readKeyframe(&in, version));
+      if (in.position() != offsets[i + 1]) {
+        throw FormatError("keyframe record " + std::to_string(i) +
+                          " does not end where the record table says");
+      }
+    }
+    range->crc = in.crc();
+  } catch (const std::exception& error) {  // Reported by the loading thread.
+    range->error = error.what();
+  }
+}
+
+// Version 3 on: the record table at the payload's end says where each keyframe starts, so
+// ranges of keyframes are read and checksummed by several threads at once; the checksums of
+// the parts combine into the payload's.
+Payload readInParallel(int fd, uint64_t payload_bytes, uint32_t version,
+                       const std::string& descriptor_identity, int global_dimension,
+                       int max_threads) {
+  // Table: (keyframes + 1) u64 record offsets (the last is the graph's), then u64 keyframes.
+  if (payload_bytes < 16) throw FormatError("truncated: no room for the record table");
+  uint8_t count_bytes[8];
+  database_payload::readAt(fd, kHeaderBytes + payload_bytes - 8, count_bytes, 8);
+  const uint64_t keyframes = decode<uint64_t>(count_bytes);
+  if (keyframes > (payload_bytes - 8) / 8 - 1) {
+    throw FormatError("the record table is longer than the file");
+  }
+  const uint64_t table_bytes = 8 * (keyframes + 1);
+  const uint64_t table_start = payload_bytes - 8 - table_bytes;
+  std::vector<uint8_t> table(static_cast<size_t>(table_bytes));
+  database_payload::readAt(fd, kHeaderBytes + table_start, table.data(), table.size());
+  std::vector<uint64_t> offsets(keyframes + 1);
+  for (size_t i = 0; i < offsets.size(); ++i) {
+    offsets[i] = decode<uint64_t>(table.data() + 8 * i);
+    if (offsets[i] > table_start || (i > 0 && offsets[i] < offsets[i - 1])) {
+      throw FormatError("the record table points outside the keyframes");
+    }
+  }
+  const uint32_t table_crc =
+      crc32c(crc32c(0, table.data(), table.size()), count_bytes, sizeof(count_bytes));
+
+  Payload payload;
+  PayloadReader prefix(fd, kHeaderBytes, 0, offsets.front());
+  if (readPrefix(&prefix, descriptor_identity, global_dimension) != keyframes) {
+    throw FormatError("the keyframe count disagrees with the record table");
+  }
+  if (prefix.remaining() != 0) throw FormatError("bytes between the header and the keyframes");
+
+  // Ranges of about equal bytes; the loading thread also reads the graph, so its range is
+  // shorter by the graph's bytes.
+  const uint64_t record_bytes = offsets.back() - offsets.front();
+  const uint64_t graph_bytes = table_start - offsets.back();
+  size_t threads = max_threads > 0
+                       ? static_cast<size_t>(max_threads)
+                       : std::max<size_t>(1, std::min<uint64_t>(std::thread::hardware_concurrency(),
+                                                                record_bytes / kMinBytesPerThread));
+  threads = std::max<size_t>(1, std::min<size_t>(threads, keyframes));
+  const double share = static_cast<double>(record_bytes + graph_bytes) / threads;
+  std::vector<RecordRange> ranges(threads);
+  size_t next = 0;
+  for (size_t t = 0; t < threads; ++t) {
+    ranges[t].first = next;
+    const double end = offsets.front() + share * (t + 1) - static_cast<double>(graph_bytes);
+    while (next < keyframes && (t + 1 == threads || static_cast<double>(offsets[next]) < end)) {
+      ++next;
+    }
+    ranges[t].last = next;
+  }
+  std::vector<std::thread> workers;
+  for (size_t t = 1; t < threads; ++t) {
+    try {
+      workers.emplace_back(readRange, fd, std::cref(offsets), version, &ranges[t]);
+    } catch (const std::system_error&) {  // No thread to be had: read this range here.
+      readRange(fd, offsets, version, &ranges[t]);
+    }
+  }
+  readRange(fd, offsets, version, &ranges[0]);
+  std::string graph_error;
+  PayloadReader graph(fd, kHeaderBytes, offsets.back(), table_start);
+  try {
+    readGraph(&graph, &payload);
+    if (graph.remaining() != 0) throw FormatError("bytes left over after the graph");
+  } catch (const std::exception& error) {
+    graph_error = error.what();
+  }
+  for (std::thread& worker : workers) worker.join();
+
+  payload.crc = prefix.crc();
+  for (RecordRange& range : ranges) {
+    if (!range.error.empty()) throw FormatError(range.error);
+    payload.crc = crc32cCombine(payload.crc, range.crc, offsets[range.last] - offsets[range.first]);
+  }
+  if (!graph_error.empty()) throw FormatError(graph_error);
+  payload.crc = crc32cCombine(payload.crc, graph.crc(), graph_bytes);
+  payload.crc = crc32cCombine(payload.crc, table_crc, table_bytes + 8);
+  payload.keyframes.reserve(keyframes);
+  for (RecordRange& range : ranges) {
+    for (KeyframeRecord& keyframe : range.keyframes)
+      payload.keyframes.push_back(std::move(keyframe));
+    range.keyframes = {};
+  }
+  return payload;
+}
+
 }  // namespace
 
 std::string saveDatabase(const KeyframeDatabase& database, const std::string& descriptor_identity,
@@ -380,7 +352,13 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
     out.string(descriptor_identity);
     out.u32(static_cast<uint32_t>(database.globalDimension()));
     out.u64(database.size());
-    for (size_t i = 0; i < database.size(); ++i) writeKeyframe(&out, database.at(i));
+    std::vector<uint64_t> offsets;
+    offsets.reserve(database.size() + 1);
+    for (size_t i = 0; i < database.size(); ++i) {
+      offsets.push_back(out.written());
+      writeKeyframe(&out, database.at(i));
+    }
+    offsets.push_back(out.written());
     // The graph takes minutes to rebuild at 100 000 keyframes and milliseconds to read.
     if (database.graph()) {
       out.string(database.indexOptions().graphIdentity());
@@ -390,6 +368,8 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
     } else {
       out.string("");
     }
+    for (const uint64_t offset : offsets) out.u64(offset);
+    out.u64(database.size());
     out.flush();
     writeHeader(file.get(), out.written(), out.crc());
     if (std::fflush(file.get()) != 0 || ::fsync(fileno(file.get())) != 0) {
@@ -410,16 +390,18 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
 }
 
 LoadedDatabase loadDatabase(const std::string& path, const std::string& descriptor_identity,
-                            int global_dimension, const IndexOptions& index) {
+                            int global_dimension, const IndexOptions& index, int max_threads) {
   LoadedDatabase loaded;
   try {
-    File file(std::fopen(path.c_str(), "rb"));
-    if (!file) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
-    std::setvbuf(file.get(), nullptr, _IOFBF, kFileBuffer);
+    const Descriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (file.get() < 0) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
+    struct stat status {};
+    if (::fstat(file.get(), &status) != 0) throw FormatError(std::strerror(errno));
+    if (!S_ISREG(status.st_mode)) throw FormatError("not a regular file");
+    const uint64_t file_bytes = static_cast<uint64_t>(status.st_size);
+    if (file_bytes < kHeaderBytes) throw FormatError("truncated: shorter than the header");
     uint8_t header[kHeaderBytes];
-    if (std::fread(header, 1, kHeaderBytes, file.get()) != kHeaderBytes) {
-      throw FormatError("truncated: shorter than the header");
-    }
+    database_payload::readAt(file.get(), 0, header, kHeaderBytes);
     if (std::memcmp(header, kMagic, 8) != 0) throw FormatError("not a keyframe database file");
     const uint32_t version = decode<uint32_t>(header + 8);
     const uint32_t byte_order = decode<uint32_t>(header + 12);
@@ -435,12 +417,7 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
     const uint64_t payload_bytes = decode<uint64_t>(header + 16);
     const uint32_t expected_crc = decode<uint32_t>(header + 24);
     // Every length inside is checked against the payload's size, so it must be the real one.
-    if (fseeko(file.get(), 0, SEEK_END) != 0) throw FormatError(std::strerror(errno));
-    const off_t file_bytes = ftello(file.get());
-    if (file_bytes < 0 || fseeko(file.get(), static_cast<off_t>(kHeaderBytes), SEEK_SET) != 0) {
-      throw FormatError(std::strerror(errno));
-    }
-    const uint64_t held = static_cast<uint64_t>(file_bytes) - kHeaderBytes;
+    const uint64_t held = file_bytes - kHeaderBytes;
     if (payload_bytes != held) {
       throw FormatError(
           std::string(payload_bytes > held ? "truncated" : "bytes after the payload") +
@@ -448,49 +425,29 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
           " payload bytes, the file holds " + std::to_string(held));
     }
 
-    PayloadReader in(file.get(), payload_bytes);
-    const std::string identity = in.string();
-    if (identity != descriptor_identity) {
-      throw FormatError("made with other descriptors (" + identity +
-                        "), not the ones configured (" + descriptor_identity + ")");
-    }
-    const int dimension = static_cast<int>(in.u32());
-    if (dimension != global_dimension) {
-      throw FormatError("global descriptors have " + std::to_string(dimension) +
-                        " values, the configured ones " + std::to_string(global_dimension));
-    }
+    Payload payload = version >= 3
+                          ? readInParallel(file.get(), payload_bytes, version, descriptor_identity,
+                                           global_dimension, max_threads)
+                          : readSequentially(file.get(), payload_bytes, version,
+                                             descriptor_identity, global_dimension);
+    if (payload.crc != expected_crc) throw FormatError("checksum mismatch: the file is corrupt");
+    // Only checked bytes reach the database and the graph reader.
     IndexOptions exact;
     exact.type = "exact";  // The graph is read or built once every keyframe is in.
     KeyframeDatabase database(global_dimension, exact);
-    const uint64_t keyframes = in.u64();
-    for (uint64_t i = 0; i < keyframes; ++i) {
-      KeyframeRecord keyframe = readKeyframe(&in, version);
+    for (KeyframeRecord& keyframe : payload.keyframes) {
       try {
         database.add(std::move(keyframe));
       } catch (const std::invalid_argument& error) {
         throw FormatError(error.what());
       }
     }
-    std::string graph_identity;
-    std::vector<uint8_t> graph_bytes;
-    if (version >= 2) {
-      graph_identity = in.string();
-      if (!graph_identity.empty()) {
-        const uint64_t size = in.u64();
-        if (size > in.remaining()) throw FormatError("the graph is larger than the file");
-        graph_bytes.resize(static_cast<size_t>(size));
-        in.bytes(graph_bytes.data(), graph_bytes.size());
-      }
-    }
-    if (in.remaining() != 0) throw FormatError("bytes left over after the last keyframe");
-    if (in.crc() != expected_crc) throw FormatError("checksum mismatch: the file is corrupt");
-    if (std::fgetc(file.get()) != EOF) throw FormatError("bytes after the payload");
-    // Only checked bytes reach the graph reader.
+    payload.keyframes = {};
     std::unique_ptr<ApproximateIndex> graph;
-    if (index.buildsGraph() && graph_identity == index.graphIdentity()) {
+    if (index.buildsGraph() && payload.graph_identity == index.graphIdentity()) {
       try {
-        graph =
-            ApproximateIndex::fromBytes(std::move(graph_bytes), global_dimension, index.neighbors);
+        graph = ApproximateIndex::fromBytes(std::move(payload.graph_bytes), global_dimension,
+                                            index.neighbors);
       } catch (const std::runtime_error& error) {
         throw FormatError(error.what());
       }
