@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Soak test (not CI): replays a long generated corridor sequence (default 20 000 frames at 30 Hz,
-# about 11 minutes) through the running node with the demo settings and reports the node's
-# resident memory over time (growth after the first minute, maximum), keyframes dropped by the
-# worker, and the loops found against ground truth (demo_report's summary).
+# Soak test (not CI): replays a long generated corridor sequence (default >= 20 000 frames at
+# 30 Hz, about 12 minutes) through the running node with the demo settings and reports the node's
+# resident memory over time against what its database holds, frames played against frames
+# admitted, keyframes dropped by the worker, and the loops found against ground truth
+# (demo_report's summary).
 #   scripts/soak.sh [--frames N]       results in _soak/ (bag, rss.csv, diagnostics, report)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,16 +17,27 @@ while [ $# -gt 0 ]; do
 done
 
 scripts/install_deps.sh
+# rostopic needs the diagnostics messages' Python module to record the node's counters.
+if ! dpkg -s python3-diagnostic-msgs > /dev/null 2>&1; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get install -y -qq --no-install-recommends python3-diagnostic-msgs
+fi
 scripts/build.sh
 source scripts/ros_env.sh
 mkdir -p _soak
 TOOLS=_build/devel/lib/landmark_loop_closure
-# One lap of the corridor is FRAMES_PER_LAP frames at 30 Hz (make_demo_bag prints it).
-FRAMES_PER_LAP=$("$TOOLS/make_demo_bag" _soak/probe.bag 1 | sed -n 's/.*wrote \([0-9]*\) frames.*/\1/p')
+RATE=30
+# One lap of the corridor is FRAMES_PER_LAP frames at RATE Hz (make_demo_bag prints it).
+FRAMES_PER_LAP=$("$TOOLS/make_demo_bag" _soak/probe.bag 1 "$RATE" \
+  | sed -n 's/.*wrote \([0-9]*\) frames.*/\1/p')
 rm -f _soak/probe.bag
 LAPS=$(python3 -c "import math; print(math.ceil($FRAMES / $FRAMES_PER_LAP))")
-BAG=_soak/corridor_${LAPS}laps.bag
-[ -f "$BAG" ] || "$TOOLS/make_demo_bag" "$BAG" "$LAPS"
+BAG=_soak/corridor_${LAPS}laps_${RATE}hz.bag
+[ -f "$BAG" ] || "$TOOLS/make_demo_bag" "$BAG" "$LAPS" "$RATE"
+FRAMES_IN_BAG=$(rosbag info -y -k topics "$BAG" | python3 -c "
+import sys, yaml
+print(next(t['messages'] for t in yaml.safe_load(sys.stdin) if t['topic'] == '/camera/image_raw'))")
 
 roslaunch --screen landmark_loop_closure demo.launch bag:="$(pwd)/$BAG" rate:=1.0 \
   > _soak/launch.log 2>&1 &
@@ -33,10 +45,14 @@ LAUNCH=$!
 trap 'kill -INT $LAUNCH 2>/dev/null || true' EXIT
 echo "seconds,rss_kb" > _soak/rss.csv
 START=$(date +%s)
-until pgrep -f "__name:=loop_closure" > /dev/null; do sleep 1; done
-rostopic echo -p /diagnostics > _soak/diagnostics.txt 2>/dev/null &
+PLAYER="rosbag/play --clock"  # pgrep patterns are extended regular expressions
+until pgrep -f "__name:=loop_closure" > /dev/null && pgrep -f "$PLAYER" > /dev/null; do
+  kill -0 $LAUNCH 2>/dev/null || { echo "soak: roslaunch ended early, see _soak/launch.log" >&2; exit 1; }
+  sleep 1
+done
+PYTHONUNBUFFERED=1 rostopic echo -p /diagnostics > _soak/diagnostics.txt &
 ECHO=$!
-while kill -0 $LAUNCH 2>/dev/null && pgrep -f "rosbag/play\|record/play\|play --clock" > /dev/null; do
+while kill -0 $LAUNCH 2>/dev/null && pgrep -f "$PLAYER" > /dev/null; do
   PID=$(pgrep -f "__name:=loop_closure" | head -1)
   [ -n "$PID" ] && echo "$(( $(date +%s) - START )),$(ps -o rss= -p "$PID" | tr -d ' ')" >> _soak/rss.csv
   sleep 5
@@ -47,20 +63,38 @@ kill -INT $LAUNCH 2>/dev/null || true
 wait $LAUNCH 2>/dev/null || true
 trap - EXIT
 
-python3 - "$FRAMES_PER_LAP" "$LAPS" <<'PY'
-import csv, re, sys
-frames = int(sys.argv[1]) * int(sys.argv[2])
-rows = [(int(r["seconds"]), int(r["rss_kb"])) for r in csv.DictReader(open("_soak/rss.csv")) if r["rss_kb"]]
-after_warmup = [kb for s, kb in rows if s >= 60] or [kb for _, kb in rows]
-print(f"frames played: {frames} ({sys.argv[2]} laps), samples: {len(rows)}")
+python3 - "$FRAMES_IN_BAG" "$LAPS" "$RATE" <<'PY'
+import csv, sys
+frames, laps, rate = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+rows = [(int(r["seconds"]), int(r["rss_kb"]) * 1024)
+        for r in csv.DictReader(open("_soak/rss.csv")) if r["rss_kb"]]
+print(f"frames in the bag: {frames} at {rate} Hz ({laps} laps), RSS samples: {len(rows)}")
+# Each diagnostics row holds key,value pairs; keep the node's counters.
+KEYS = ("frames admitted", "keyframes", "database bytes", "keyframes dropped (worker busy)",
+        "keyframes not stored (memory budget)", "loops published",
+        "max keyframe processing (ms)")
+status = []
+for line in open("_soak/diagnostics.txt"):
+    fields = line.rstrip("\n").split(",")
+    values = {fields[i]: fields[i + 1] for i in range(len(fields) - 1) if fields[i] in KEYS}
+    if "database bytes" in values:
+        status.append(values)
 if rows:
-    print(f"RSS: {after_warmup[0] / 1024:.0f} MB after the first minute, max {max(kb for _, kb in rows) / 1024:.0f} MB,"
-          f" growth after the first minute {(max(after_warmup) - after_warmup[0]) / 1024:.0f} MB")
-text = open("_soak/diagnostics.txt").read()
-for key in ("keyframes dropped (worker busy)", "keyframes", "loops published", "database bytes"):
-    values = re.findall(re.escape(key) + r"[^\n]*?,\s*([0-9]+)", text)
-    if values:
-        print(f"{key}: {values[-1]}")
+    mb = 1 / 2**20
+    print(f"RSS: first sample {rows[0][1] * mb:.0f} MB, last {rows[-1][1] * mb:.0f} MB, "
+          f"max {max(b for _, b in rows) * mb:.0f} MB")
+    if status:
+        grown = rows[-1][1] - rows[0][1]
+        held = int(status[-1]["database bytes"]) - int(status[0]["database bytes"])
+        print(f"RSS growth {grown * mb:.0f} MB, of which the database's own accounting "
+              f"{held * mb:.0f} MB; not explained by stored keyframes: {(grown - held) * mb:.0f} MB")
+if status:
+    for key in KEYS:
+        print(f"{key}: {status[-1].get(key, '?')}")
+    admitted = int(status[-1].get("frames admitted", 0))
+    print(f"frames not admitted: {frames - admitted} of {frames}")
+else:
+    print("no diagnostics recorded (see _soak/diagnostics.txt)")
 PY
 echo "demo_report summary:"
-grep -A8 -i "summary" _soak/launch.log | tail -12 || true
+sed -n '/==== demo summary ====/,/metric pose error/p' _soak/launch.log | tail -12 || true

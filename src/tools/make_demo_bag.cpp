@@ -1,5 +1,6 @@
 // Writes a rosbag of a camera driven around the generated corridor: images, camera_info,
-// drifting odometry (and its tf), and ground truth. Usage: make_demo_bag OUTPUT.bag [laps]
+// drifting odometry (and its tf), and ground truth.
+// Usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10]
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -60,14 +61,15 @@ sensor_msgs::CameraInfo cameraInfo(const CameraModel& camera, const std_msgs::He
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2]\n";
+    std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10]\n";
     return 2;
   }
   const std::string path = argv[1];
   SequenceOptions options;
   if (argc > 2) options.laps = std::atof(argv[2]);
-  if (!(options.laps > 0.0)) {
-    std::cerr << "laps must be > 0\n";
+  if (argc > 3) options.rate = std::atof(argv[3]);
+  if (!(options.laps > 0.0) || !(options.rate > 0.0 && options.rate <= 1000.0)) {
+    std::cerr << "laps must be > 0 and frames per second in (0, 1000]\n";
     return 2;
   }
   ros::Time::init();
@@ -108,7 +110,8 @@ int main(int argc, char** argv) {
     }
   }
   bag.close();
-  std::cout << "make_demo_bag: wrote " << sequence.size() << " frames (" << options.laps
+  std::cout << "make_demo_bag: wrote " << sequence.size() << " frames at " << options.rate
+            << " Hz (" << options.laps
             << " laps of " << world.lapLength() << " m) to " << path << "\n";
   return 0;
 }
