@@ -2,6 +2,7 @@
 // (landmark descriptors) and HOG with its own threshold.
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
 
 #include <gtest/gtest.h>
@@ -27,44 +28,54 @@ struct RunSummary {
   double worst_turn_error_deg = 0.0;  ///< Rotation of loops with a well-determined pose vs truth.
 };
 
-// Runs a route through the detector; a loop is true when the ground-truth positions of its two
-// keyframes are within 2.5 m.
-RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score) {
+// Drives `laps` of the corridor with drifting odometry through `detector`; `on_keyframe` sees
+// each keyframe's frame (with its true pose), id and result.
+void driveCorridor(
+    LoopDetector* detector, double laps,
+    const std::function<void(const SequenceFrame&, uint64_t, const KeyframeResult&)>& on_keyframe) {
   const CorridorWorld world;
   SequenceOptions options;
   options.laps = laps;
   SequenceGenerator sequence(world, CameraModel{}, options);
+  SequenceFrame frame;
+  while (sequence.next(&frame, false)) {
+    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+    const FrameAdmission admission =
+        detector->admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
+    if (!admission.isKeyframe()) continue;
+    on_keyframe(frame, admission.keyframe_id,
+                detector->addKeyframe(admission.keyframe_id, frame.stamp, odom,
+                                      sequence.render(frame), CameraModel{}.intrinsics()));
+  }
+}
+
+// Runs a route through the detector; a loop is true when the ground-truth positions of its two
+// keyframes are within 2.5 m.
+RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score) {
   LoopDetectorOptions detector_options;
   detector_options.acceptance.min_score = min_score;
   LoopDetector detector(detector_options, makeDescriptorExtractor(descriptor));
   std::map<uint64_t, Pose2D> truth_by_keyframe;
   RunSummary summary;
-  SequenceFrame frame;
-  while (sequence.next(&frame, false)) {
-    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
-    const FrameAdmission admission =
-        detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
-    if (!admission.isKeyframe()) continue;
-    const KeyframeResult result =
-        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame),
-                             CameraModel{}.intrinsics());
-    EXPECT_FALSE(result.error);
-    truth_by_keyframe[admission.keyframe_id] = frame.truth;
-    ++summary.keyframes;
-    if (!result.loop) continue;
-    const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
-    const double distance = std::hypot(match.x - frame.truth.x, match.y - frame.truth.y);
-    ++summary.loops;
-    summary.true_loops += distance < 2.5 ? 1 : 0;
-    summary.worst_loop_distance = std::max(summary.worst_loop_distance, distance);
-    if (result.loop->verification) ++summary.verified_loops;
-    if (result.loop->verification && result.loop->verification->accepted()) {
-      const double true_turn = std::abs(std::remainder(match.yaw - frame.truth.yaw, 2 * M_PI));
-      const double turn = Eigen::AngleAxisd(result.loop->verification->pose.rotation).angle();
-      summary.worst_turn_error_deg =
-          std::max(summary.worst_turn_error_deg, std::abs(turn - true_turn) * 180.0 / M_PI);
-    }
-  }
+  driveCorridor(
+      &detector, laps, [&](const SequenceFrame& frame, uint64_t id, const KeyframeResult& result) {
+        EXPECT_FALSE(result.error);
+        truth_by_keyframe[id] = frame.truth;
+        ++summary.keyframes;
+        if (!result.loop) return;
+        const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
+        const double distance = std::hypot(match.x - frame.truth.x, match.y - frame.truth.y);
+        ++summary.loops;
+        summary.true_loops += distance < 2.5 ? 1 : 0;
+        summary.worst_loop_distance = std::max(summary.worst_loop_distance, distance);
+        if (result.loop->verification) ++summary.verified_loops;
+        if (result.loop->verification && result.loop->verification->accepted()) {
+          const double true_turn = std::abs(std::remainder(match.yaw - frame.truth.yaw, 2 * M_PI));
+          const double turn = Eigen::AngleAxisd(result.loop->verification->pose.rotation).angle();
+          summary.worst_turn_error_deg =
+              std::max(summary.worst_turn_error_deg, std::abs(turn - true_turn) * 180.0 / M_PI);
+        }
+      });
   return summary;
 }
 
@@ -193,51 +204,40 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
   LoopDetector detector(options, nullptr);
   EXPECT_EQ(detector.extractor(), nullptr);
 
-  const CorridorWorld world;
-  SequenceOptions sequence_options;
-  sequence_options.laps = 2.0;
-  SequenceGenerator sequence(world, CameraModel{}, sequence_options);
   std::map<uint64_t, Pose2D> truth_by_keyframe;
   int keyframes = 0, loops = 0, true_loops = 0, trained_at = 0;
-  SequenceFrame frame;
-  while (sequence.next(&frame, false)) {
-    const Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
-    const FrameAdmission admission =
-        detector.admit(frame.stamp, odom, CameraModel{}.width, CameraModel{}.height, CV_8UC1);
-    if (!admission.isKeyframe()) continue;
-    truth_by_keyframe[admission.keyframe_id] = frame.truth;
-    const KeyframeResult result =
-        detector.addKeyframe(admission.keyframe_id, frame.stamp, odom, sequence.render(frame),
-                             CameraModel{}.intrinsics());
-    ++keyframes;
-    if (trained_at == 0 && result.training_summary.empty()) {
-      // Held while the first 150 are collected and while training runs in the background.
-      ASSERT_EQ(result.held_for_training, keyframes);
-      EXPECT_TRUE(detector.database().empty());
-      EXPECT_NE(detector.saveDatabase(::testing::TempDir() + "/never.lcdb").find("training"),
-                std::string::npos);
-      // Offline, frames come faster than a camera's: give training its time after a few more.
-      if (keyframes == 160) {
-        EXPECT_TRUE(detector.waitForTraining(120.0));
-      }
-      continue;
-    }
-    if (trained_at == 0) {
-      trained_at = keyframes;
-      EXPECT_EQ(trained_at, 161);
-      EXPECT_NE(result.training_summary.find("trained on 150 keyframes"), std::string::npos)
-          << result.training_summary;
-      ASSERT_NE(detector.extractor(), nullptr);
-      // Every held keyframe is stored, those that came during training too.
-      EXPECT_EQ(detector.database().size(), static_cast<size_t>(keyframes));
-      EXPECT_TRUE(std::filesystem::exists(options.descriptor.broad.model));
-    }
-    EXPECT_EQ(result.held_for_training, 0);
-    if (!result.loop) continue;
-    const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
-    ++loops;
-    true_loops += std::hypot(match.x - frame.truth.x, match.y - frame.truth.y) < 2.5 ? 1 : 0;
-  }
+  driveCorridor(
+      &detector, 2.0, [&](const SequenceFrame& frame, uint64_t id, const KeyframeResult& result) {
+        truth_by_keyframe[id] = frame.truth;
+        ++keyframes;
+        if (trained_at == 0 && result.training_summary.empty()) {
+          // Held while the first 150 are collected and while training runs in the background.
+          ASSERT_EQ(result.held_for_training, keyframes);
+          EXPECT_TRUE(detector.database().empty());
+          EXPECT_NE(detector.saveDatabase(::testing::TempDir() + "/never.lcdb").find("training"),
+                    std::string::npos);
+          // Offline, frames come faster than a camera's: give training its time after a few more.
+          if (keyframes == 160) {
+            EXPECT_TRUE(detector.waitForTraining(120.0));
+          }
+          return;
+        }
+        if (trained_at == 0) {
+          trained_at = keyframes;
+          EXPECT_EQ(trained_at, 161);
+          EXPECT_NE(result.training_summary.find("trained on 150 keyframes"), std::string::npos)
+              << result.training_summary;
+          ASSERT_NE(detector.extractor(), nullptr);
+          // Every held keyframe is stored, those that came during training too.
+          EXPECT_EQ(detector.database().size(), static_cast<size_t>(keyframes));
+          EXPECT_TRUE(std::filesystem::exists(options.descriptor.broad.model));
+        }
+        EXPECT_EQ(result.held_for_training, 0);
+        if (!result.loop) return;
+        const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
+        ++loops;
+        true_loops += std::hypot(match.x - frame.truth.x, match.y - frame.truth.y) < 2.5 ? 1 : 0;
+      });
   EXPECT_GT(trained_at, 0);
   EXPECT_GE(loops, 5);
   EXPECT_EQ(true_loops, loops);
