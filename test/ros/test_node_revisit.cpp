@@ -56,7 +56,14 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   // Fewer where online training makes the worker catch up on held keyframes at 6x speed.
   int min_keyframes = 400;
   ros::param::get("~min_keyframes", min_keyframes);
-  EXPECT_GT(harness.keyframes().size(), static_cast<size_t>(min_keyframes));
+  // At 6x speed on a loaded machine the worker may fall behind: it then drops the oldest queued
+  // keyframe and counts it (never stalling the camera callback). Every keyframe is published or
+  // counted, and most are published.
+  const std::string dropped_text = harness.diagnostic("keyframes dropped (worker busy)");
+  ASSERT_FALSE(dropped_text.empty()) << "no diagnostics from the node";
+  const size_t dropped = std::stoul(dropped_text);
+  EXPECT_GT(harness.keyframes().size() + dropped, static_cast<size_t>(min_keyframes));
+  EXPECT_LT(dropped, harness.keyframes().size() / 4);
   double min_score = 0.0;
   ASSERT_TRUE(ros::param::get("/loop_closure/acceptance/min_score", min_score));
   bool publish_scale_free_pose = false;
