@@ -2,6 +2,7 @@
 
 #include "crc32c.h"
 #include "database_payload.h"
+#include "little_endian.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -29,7 +30,6 @@ using database_payload::PayloadReader;
 using database_payload::PayloadWriter;
 
 constexpr char kMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
-constexpr uint32_t kByteOrderMark = 0x01020304;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
 constexpr size_t kFileBuffer = 1 << 20;
 // Below this many record bytes per thread, one thread reads faster than several start.
@@ -42,14 +42,14 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
-class Descriptor {
+class FileDescriptor {
  public:
-  explicit Descriptor(int fd) : fd_(fd) {}
-  ~Descriptor() {
+  explicit FileDescriptor(int fd) : fd_(fd) {}
+  ~FileDescriptor() {
     if (fd_ >= 0) ::close(fd_);
   }
-  Descriptor(const Descriptor&) = delete;
-  Descriptor& operator=(const Descriptor&) = delete;
+  FileDescriptor(const FileDescriptor&) = delete;
+  FileDescriptor& operator=(const FileDescriptor&) = delete;
   int get() const { return fd_; }
 
  private:
@@ -393,7 +393,7 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
                             int global_dimension, const IndexOptions& index, int max_threads) {
   LoadedDatabase loaded;
   try {
-    const Descriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    const FileDescriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
     if (file.get() < 0) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
     struct stat status {};
     if (::fstat(file.get(), &status) != 0) throw FormatError(std::strerror(errno));

@@ -25,16 +25,16 @@ void swapElements(uint8_t* data, size_t bytes, size_t element) {
   }
 }
 
-bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
-
-}  // namespace
-
 bool hostIsLittleEndian() {
   const uint16_t probe = 1;
   uint8_t first = 0;
   std::memcpy(&first, &probe, 1);
   return first == 1;
 }
+
+bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
+
+}  // namespace
 
 void readAt(int fd, uint64_t offset, void* out, size_t size) {
   auto* target = static_cast<uint8_t*>(out);

@@ -20,8 +20,6 @@ struct FormatError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-bool hostIsLittleEndian();
-
 template <typename Unsigned>
 void encode(Unsigned value, uint8_t* out) {
   for (size_t i = 0; i < sizeof(Unsigned); ++i) out[i] = static_cast<uint8_t>(value >> (8 * i));
