@@ -13,6 +13,7 @@ set(CORE_TESTS
   test_convnet_descriptor
   test_pca_whitening
   test_cnn_global_descriptor
+  test_backbone_descriptor
   test_broad_autoencoder
   test_geometric_verification
   test_metric_pose
@@ -44,3 +45,10 @@ add_test(NAME tool_bench_verification_kitti_layout
 add_test(NAME tool_train_learned_descriptors
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
     $<TARGET_FILE:make_demo_bag> $<TARGET_FILE:lcd_train> $<TARGET_FILE:lcd_evaluate>)
+
+# The converted pretrained backbone reproduces the original network (TensorFlow.js from npm).
+add_executable(backbone_reference_check test/tools/backbone_reference_check.cpp)
+target_link_libraries(backbone_reference_check ${OpenCV_LIBS})
+add_test(NAME tool_backbone_reference
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/backbone_reference.sh ${CMAKE_CURRENT_SOURCE_DIR}
+    ${CMAKE_CURRENT_BINARY_DIR}/backbone_reference $<TARGET_FILE:backbone_reference_check>)

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages the package needs to build, test and run the demo.
+# and fetches the pretrained backbone (scripts/fetch_backbone.sh).
 # Idempotent: does nothing when everything is present. Needs root (or sudo) only to install.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 PACKAGES=(
   build-essential cmake catkin ros-core rosbash ros-message-generation ros-message-runtime
@@ -12,7 +14,10 @@ PACKAGES=(
   ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libfaiss-dev
+  python3-onnx python3-numpy
 )
+# npm fetches the pretrained backbone; a Node.js that brings its own npm is enough.
+if ! command -v npm > /dev/null; then PACKAGES+=(nodejs npm); fi
 
 missing=()
 for package in "${PACKAGES[@]}"; do
@@ -22,6 +27,7 @@ for package in "${PACKAGES[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install_deps: all ${#PACKAGES[@]} packages present"
+  scripts/fetch_backbone.sh
   exit 0
 fi
 
@@ -31,3 +37,4 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends -o DPkg::Lock::Timeout=900 "${missing[@]}"
+scripts/fetch_backbone.sh

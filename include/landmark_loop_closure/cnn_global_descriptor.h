@@ -61,8 +61,6 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
   std::string featureIdentity() const { return feature_identity_; }
 
  private:
-  cv::Mat networkInput(const cv::Mat& image) const;
-
   CnnGlobalOptions options_;
   PcaWhitening whitening_;
   int raw_dimension_ = 0;
@@ -71,6 +69,12 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
   mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
   mutable cv::dnn::Net net_;
 };
+
+/// An 8-bit grey, BGR or BGRA image as a network's 1xCxHxW float input: converted to `colour`
+/// ("rgb", "bgr" or "grey"), resized to `size` (area averaging when shrinking), pixels scaled to
+/// [0, 1], then (pixel - mean) / deviation per channel.
+cv::Mat networkInputBlob(const cv::Mat& image, cv::Size size, const std::string& colour,
+                         const std::vector<double>& mean, const std::vector<double>& deviation);
 
 /// The ONNX network in `path`, set up for OpenCV's own CPU backend. Throws std::runtime_error
 /// naming the file when it cannot be loaded.

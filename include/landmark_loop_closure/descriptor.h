@@ -91,6 +91,29 @@ struct DescriptorOptions {
     std::string similarity = "distance";  ///< "distance" (1 - D / 2, the paper's) or "cosine".
   } cnn;
 
+  /// backbone: the landmark-ConvNet on a pretrained network (scripts/fetch_backbone.sh converts
+  /// an ImageNet MobileNetV2; any ONNX network with named feature-map outputs works).
+  struct Backbone {
+    std::string model;                   ///< "" = the package's model/mobilenet_v2.onnx.
+    std::string layer = "block_12_add";  ///< Output the grid and the landmarks are described from.
+    std::string proposal_layer;          ///< Output the landmark boxes come from; "" = layer.
+    int input_width = 256;
+    int input_height = 144;
+    std::string colour = "rgb";  ///< rgb, bgr or grey.
+    std::string mean = "0 0 0";  ///< Per channel, pixels in [0, 1]: (pixel - mean) / std.
+    std::string std = "1 1 1";
+    int grid_rows = 3;  ///< Global descriptor: the layer average-pooled over rows x cols cells.
+    int grid_cols = 4;
+    std::string normalisation = "cells";  ///< "cells", "whole" or "centred" (see below).
+    int max_landmarks = 30;               ///< Landmarks per image; 0 = none.
+    int landmark_grid = 1;                ///< Cells per side a landmark's box is resampled to.
+    double rerank_weight = 0;             ///< Share of the landmark similarity in the final score.
+    double hog_weight = 0.1;      ///< Share of a whole-image HOG's cosine in the global score.
+    int min_network_width = 160;  ///< Narrower images are described by the HOG alone.
+    int hog_width = 96;           ///< The HOG window the image is resized to.
+    int hog_height = 72;
+  } backbone;
+
   /// broad: FLCD-BA's broad autoencoder (methods.md section 3).
   struct Broad {
     std::string model;  ///< File written by `lcd_train broad`; required.
@@ -104,6 +127,17 @@ struct DescriptorOptions {
 
 /// The ONNX encoder shipped with the package (model/calc_encoder.onnx in the source tree).
 std::string defaultModelPath();
+
+/// The pretrained backbone scripts/fetch_backbone.sh converts (model/mobilenet_v2.onnx).
+std::string defaultBackbonePath();
+
+/// backbone: the model file (the package's backbone when options.model is empty).
+std::string backboneModelPath(const DescriptorOptions::Backbone& backbone);
+
+/// When `options` asks for the package's backbone and it was never fetched, the options of the
+/// package's own encoder (type landmarks) and, in `warning`, one line that says so; else
+/// `options` unchanged and `warning` empty.
+DescriptorOptions withBackboneFallback(const DescriptorOptions& options, std::string* warning);
 
 /// Every value DescriptorOptions::type accepts.
 const std::vector<std::string>& descriptorTypes();

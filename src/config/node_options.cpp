@@ -110,6 +110,25 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("descriptor/cnn/pooling", &cnn.pooling);
   reader->read("descriptor/cnn/whitening", &cnn.whitening);
   reader->read("descriptor/cnn/similarity", &cnn.similarity);
+  DescriptorOptions::Backbone& backbone = detector.descriptor.backbone;
+  reader->read("descriptor/backbone/model", &backbone.model);
+  reader->read("descriptor/backbone/layer", &backbone.layer);
+  reader->read("descriptor/backbone/proposal_layer", &backbone.proposal_layer);
+  reader->read("descriptor/backbone/input_width", &backbone.input_width);
+  reader->read("descriptor/backbone/input_height", &backbone.input_height);
+  reader->read("descriptor/backbone/colour", &backbone.colour);
+  reader->read("descriptor/backbone/mean", &backbone.mean);
+  reader->read("descriptor/backbone/std", &backbone.std);
+  reader->read("descriptor/backbone/grid_rows", &backbone.grid_rows);
+  reader->read("descriptor/backbone/grid_cols", &backbone.grid_cols);
+  reader->read("descriptor/backbone/normalisation", &backbone.normalisation);
+  reader->read("descriptor/backbone/max_landmarks", &backbone.max_landmarks);
+  reader->read("descriptor/backbone/landmark_grid", &backbone.landmark_grid);
+  reader->read("descriptor/backbone/rerank_weight", &backbone.rerank_weight);
+  reader->read("descriptor/backbone/hog_weight", &backbone.hog_weight);
+  reader->read("descriptor/backbone/min_network_width", &backbone.min_network_width);
+  reader->read("descriptor/backbone/hog_width", &backbone.hog_width);
+  reader->read("descriptor/backbone/hog_height", &backbone.hog_height);
   reader->read("descriptor/broad/model", &detector.descriptor.broad.model);
   reader->read("descriptor/broad/online_training_keyframes",
                &detector.descriptor.broad.online_training_keyframes);

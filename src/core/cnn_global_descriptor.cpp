@@ -57,6 +57,43 @@ std::vector<double> parseNumberList(const std::string& text) {
   return values;
 }
 
+cv::Mat networkInputBlob(const cv::Mat& image, cv::Size size, const std::string& colour,
+                         const std::vector<double>& mean, const std::vector<double>& deviation) {
+  cv::Mat converted;
+  const bool grey_input = image.channels() == 1;
+  if (colour == "grey") {
+    if (grey_input) {
+      converted = image;
+    } else {
+      cv::cvtColor(image, converted,
+                   image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    }
+  } else {
+    const bool rgb = colour == "rgb";
+    if (grey_input) {
+      cv::cvtColor(image, converted, cv::COLOR_GRAY2BGR);  // Equal channels: order is moot.
+    } else if (image.channels() == 4) {
+      cv::cvtColor(image, converted, rgb ? cv::COLOR_BGRA2RGB : cv::COLOR_BGRA2BGR);
+    } else if (rgb) {
+      cv::cvtColor(image, converted, cv::COLOR_BGR2RGB);  // A new buffer: never the caller's.
+    } else {
+      converted = image;
+    }
+  }
+  cv::Mat resized;
+  const bool shrinking = converted.cols > size.width || converted.rows > size.height;
+  cv::resize(converted, resized, size, 0, 0, shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
+  cv::Mat scaled;
+  resized.convertTo(scaled, CV_32F, 1.0 / 255.0);
+  std::vector<cv::Mat> planes;
+  cv::split(scaled, planes);
+  for (size_t c = 0; c < planes.size(); ++c) {
+    planes[c] = (planes[c] - mean[c]) / deviation[c];
+  }
+  cv::merge(planes, scaled);
+  return cv::dnn::blobFromImage(scaled);  // HWC -> 1xCxHxW, no further scaling.
+}
+
 namespace {
 
 int channelCount(const std::string& colour) { return colour == "grey" ? 1 : 3; }
@@ -134,46 +171,9 @@ CnnGlobalDescriptor::CnnGlobalDescriptor(const CnnGlobalOptions& options) : opti
   }
 }
 
-cv::Mat CnnGlobalDescriptor::networkInput(const cv::Mat& image) const {
-  cv::Mat converted;
-  const bool grey_input = image.channels() == 1;
-  if (options_.colour == "grey") {
-    if (grey_input) {
-      converted = image;
-    } else {
-      cv::cvtColor(image, converted,
-                   image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    }
-  } else {
-    const bool rgb = options_.colour == "rgb";
-    if (grey_input) {
-      cv::cvtColor(image, converted, cv::COLOR_GRAY2BGR);  // Equal channels: order is moot.
-    } else if (image.channels() == 4) {
-      cv::cvtColor(image, converted, rgb ? cv::COLOR_BGRA2RGB : cv::COLOR_BGRA2BGR);
-    } else if (rgb) {
-      cv::cvtColor(image, converted, cv::COLOR_BGR2RGB);  // A new buffer: never the caller's.
-    } else {
-      converted = image;
-    }
-  }
-  cv::Mat resized;
-  const bool shrinking =
-      converted.cols > options_.input_size.width || converted.rows > options_.input_size.height;
-  cv::resize(converted, resized, options_.input_size, 0, 0,
-             shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
-  cv::Mat scaled;
-  resized.convertTo(scaled, CV_32F, 1.0 / 255.0);
-  std::vector<cv::Mat> planes;
-  cv::split(scaled, planes);
-  for (size_t c = 0; c < planes.size(); ++c) {
-    planes[c] = (planes[c] - options_.mean[c]) / options_.std[c];
-  }
-  cv::merge(planes, scaled);
-  return cv::dnn::blobFromImage(scaled);  // HWC -> 1xCxHxW, no further scaling.
-}
-
 Eigen::VectorXf CnnGlobalDescriptor::rawFeature(const cv::Mat& image) const {
-  const cv::Mat blob = networkInput(image);
+  const cv::Mat blob =
+      networkInputBlob(image, options_.input_size, options_.colour, options_.mean, options_.std);
   cv::Mat output;
   {
     std::lock_guard<std::mutex> lock(net_mutex_);

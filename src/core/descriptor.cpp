@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "landmark_loop_closure/backbone_descriptor.h"
 #include "landmark_loop_closure/baseline_descriptors.h"
 #include "landmark_loop_closure/broad_autoencoder.h"
 #include "landmark_loop_closure/cnn_global_descriptor.h"
@@ -35,12 +36,33 @@ double DescriptorExtractor::similarity(const ImageDescriptor& query,
 }
 
 const std::vector<std::string>& descriptorTypes() {
-  static const std::vector<std::string> types = {"hog",       "hog_whole", "pixels", "calc",
-                                                 "landmarks", "cnn_pca",   "broad"};
+  static const std::vector<std::string> types = {"hog",       "hog_whole", "pixels",  "calc",
+                                                 "landmarks", "backbone",  "cnn_pca", "broad"};
   return types;
 }
 
 std::string defaultModelPath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/calc_encoder.onnx"; }
+
+std::string defaultBackbonePath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/mobilenet_v2.onnx"; }
+
+std::string backboneModelPath(const DescriptorOptions::Backbone& backbone) {
+  return backbone.model.empty() ? defaultBackbonePath() : backbone.model;
+}
+
+DescriptorOptions withBackboneFallback(const DescriptorOptions& options, std::string* warning) {
+  warning->clear();
+  if (options.type != "backbone" || !options.backbone.model.empty() ||
+      std::filesystem::exists(defaultBackbonePath())) {
+    return options;
+  }
+  DescriptorOptions fallback = options;
+  fallback.type = "landmarks";
+  *warning = "the pretrained backbone " + defaultBackbonePath() +
+             " was never fetched (scripts/fetch_backbone.sh needs the npm registry); using the "
+             "package's own encoder (descriptor/type landmarks), which is far weaker at night and "
+             "across seasons";
+  return fallback;
+}
 
 namespace {
 
@@ -80,6 +102,52 @@ std::string validateCnn(const DescriptorOptions::Cnn& cnn) {
         "descriptor/cnn/similarity must be 'distance' or 'cosine' (got '" + cnn.similarity + "')\n";
   }
   return errors;
+}
+
+std::string validateBackbone(const DescriptorOptions::Backbone& backbone) {
+  std::string errors;
+  const auto range = [&errors](const std::string& key, double value, double low, double high) {
+    if (!(value >= low && value <= high)) {
+      std::ostringstream line;
+      line << "descriptor/backbone/" << key << " must be in [" << low << ", " << high << "] (got "
+           << value << ")\n";
+      errors += line.str();
+    }
+  };
+  if (backbone.layer.empty()) errors += "descriptor/backbone/layer is empty\n";
+  range("input_width", backbone.input_width, 32, 4096);
+  range("input_height", backbone.input_height, 32, 4096);
+  range("grid_rows", backbone.grid_rows, 1, 16);
+  range("grid_cols", backbone.grid_cols, 1, 16);
+  range("max_landmarks", backbone.max_landmarks, 0, 500);
+  range("landmark_grid", backbone.landmark_grid, 1, 8);
+  range("rerank_weight", backbone.rerank_weight, 0, 1);
+  range("hog_weight", backbone.hog_weight, 0, 1);
+  range("min_network_width", backbone.min_network_width, 0, 4096);
+  if (backbone.hog_width % 8 != 0 || backbone.hog_height % 8 != 0 || backbone.hog_width < 16 ||
+      backbone.hog_height < 16 || backbone.hog_width > 512 || backbone.hog_height > 512) {
+    errors +=
+        "descriptor/backbone/hog_width and hog_height must be multiples of 8 in [16, 512] (got " +
+        std::to_string(backbone.hog_width) + "x" + std::to_string(backbone.hog_height) + ")\n";
+  }
+  if (backbone.normalisation != "cells" && backbone.normalisation != "whole" &&
+      backbone.normalisation != "centred") {
+    errors += "descriptor/backbone/normalisation must be 'cells', 'whole' or 'centred' (got '" +
+              backbone.normalisation + "')\n";
+  }
+  if (backbone.rerank_weight > 0 && backbone.max_landmarks == 0) {
+    errors += "descriptor/backbone/rerank_weight > 0 needs max_landmarks > 0\n";
+  }
+  DescriptorOptions::Cnn as_network;  // Colour and normalisation follow cnn_pca's rules.
+  as_network.colour = backbone.colour;
+  as_network.mean = backbone.mean;
+  as_network.std = backbone.std;
+  std::string network_errors = validateCnn(as_network);
+  for (size_t at = network_errors.find("descriptor/cnn/"); at != std::string::npos;
+       at = network_errors.find("descriptor/cnn/", at)) {
+    network_errors.replace(at, 15, "descriptor/backbone/");
+  }
+  return errors + network_errors;
 }
 
 }  // namespace
@@ -129,6 +197,7 @@ std::string DescriptorOptions::validate() const {
               landmark_storage + "')\n";
   }
   if (type == "cnn_pca") errors += validateCnn(cnn);
+  if (type == "backbone") errors += validateBackbone(backbone);
   if (type == "broad" && broad.model.empty()) {
     errors +=
         "descriptor/broad/model is empty: train one with `lcd_train broad`, or name the file "
@@ -197,6 +266,20 @@ std::string descriptorIdentity(const DescriptorOptions& options) {
              << " similarity=" << cnn.similarity
              << " whitening_fnv1a=" << (whitening.empty() ? "none" : fileHash(whitening));
   }
+  if (options.type == "backbone") {
+    const DescriptorOptions::Backbone& b = options.backbone;
+    identity << " model_fnv1a=" << fileHash(backboneModelPath(b)) << " layer=" << b.layer
+             << " proposal_layer=" << b.proposal_layer << " input=" << b.input_width << "x"
+             << b.input_height << " colour=" << b.colour << " mean=" << b.mean << " std=" << b.std
+             << " grid=" << b.grid_rows << "x" << b.grid_cols
+             << " normalisation=" << b.normalisation << " max_landmarks=" << b.max_landmarks
+             << " landmark_grid=" << b.landmark_grid
+             << " max_landmark_area=" << options.max_landmark_area
+             << " shape_weighting=" << options.shape_weighting
+             << " landmark_storage=" << options.landmark_storage << " hog_weight=" << b.hog_weight
+             << " min_network_width=" << b.min_network_width << " hog=" << b.hog_width << "x"
+             << b.hog_height;
+  }
   if (options.type == "broad") identity << " model_fnv1a=" << fileHash(options.broad.model);
   return identity.str();
 }
@@ -225,6 +308,33 @@ std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
     convnet.weighting =
         options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
     return std::make_shared<ConvNetDescriptor>(convnet);
+  }
+  if (options.type == "backbone") {
+    const DescriptorOptions::Backbone& b = options.backbone;
+    BackboneOptions backbone;
+    backbone.model_path = backboneModelPath(b);
+    backbone.layer = b.layer;
+    backbone.proposal_layer = b.proposal_layer;
+    backbone.input_size = cv::Size(b.input_width, b.input_height);
+    backbone.colour = b.colour;
+    backbone.mean = parseNumberList(b.mean);
+    backbone.std = parseNumberList(b.std);
+    backbone.grid_rows = b.grid_rows;
+    backbone.grid_cols = b.grid_cols;
+    backbone.normalisation = b.normalisation == "whole"     ? GridNormalisation::kWhole
+                             : b.normalisation == "centred" ? GridNormalisation::kCentred
+                                                            : GridNormalisation::kCells;
+    backbone.max_landmarks = b.max_landmarks;
+    backbone.landmark_grid = b.landmark_grid;
+    backbone.max_landmark_area = options.max_landmark_area;
+    backbone.weighting =
+        options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
+    backbone.rerank_weight = b.rerank_weight;
+    backbone.hog_weight = b.hog_weight;
+    backbone.min_network_width = b.min_network_width;
+    backbone.hog_size = cv::Size(b.hog_width, b.hog_height);
+    backbone.float16_features = options.landmark_storage == "float16";
+    return std::make_shared<BackboneDescriptor>(backbone);
   }
   if (options.type == "cnn_pca") {
     return std::make_shared<CnnGlobalDescriptor>(cnnGlobalOptions(options.cnn));

@@ -55,7 +55,14 @@ OPTIONS:
                        whitening), cnn_pca_cosine, cnn_pca_cN (N whitened dimensions, default
                        256); broad: the broad autoencoder (section 3), broad_eN (N enhancement
                        nodes, default 2000)
+                       backbone: the landmark-ConvNet on the pretrained backbone (README), variants
+                       backbone_gRxC (grid), _mN (landmarks), _rP (re-rank weight P %), _hP
+                       (HOG weight P %), _nW (HOG alone below W px wide), _iWxH (input), _bN
+                       (layer block_N_add), _pN (landmark boxes from block_N_add), _lgN
+                       (landmark grid), _whole / _centred (grid normalisation), _paper (the
+                       paper's shape weighting)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
+  --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
   --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (descriptor/cnn defaults otherwise)
                        and whitening; without a whitening file it is fitted on the training
                        images and written to the output folder
@@ -173,11 +180,63 @@ Variant learnedVariant(const std::string& name, const Arguments& arguments) {
   return variant;
 }
 
+// "backbone_g3x4_m30_r30_h20_n100_i256x144_b12_p5": the pretrained backbone with grid 3x4, 30
+// landmarks, re-rank weight 0.30, HOG weight 0.20, HOG alone below 100 px wide, a 256x144 input,
+// layer block_12_add, landmark boxes from block_5_add.
+Variant backboneVariant(const std::string& name, const Arguments& arguments) {
+  Variant variant;
+  DescriptorOptions& options = variant.options;
+  DescriptorOptions::Backbone& backbone = options.backbone;
+  options.type = "backbone";
+  backbone.model = arguments.get("--backbone-model");
+  std::istringstream parts(name.substr(options.type.size()));
+  std::string part;
+  const auto size = [](const std::string& text, int* first, int* second) {
+    const size_t x = text.find('x');
+    if (x == std::string::npos) throw std::invalid_argument("expected AxB, got '" + text + "'");
+    *first = std::stoi(text.substr(0, x));
+    *second = std::stoi(text.substr(x + 1));
+  };
+  while (std::getline(parts, part, '_')) {
+    if (part.empty()) continue;
+    const std::string rest = part.substr(1);
+    if (part == "paper") {
+      options.shape_weighting = "paper";
+    } else if (part == "whole" || part == "centred") {
+      backbone.normalisation = part;
+    } else if (part.rfind("hog", 0) == 0) {
+      size(part.substr(3), &backbone.hog_width, &backbone.hog_height);
+    } else if (part[0] == 'g' && part.size() > 1) {
+      size(rest, &backbone.grid_rows, &backbone.grid_cols);
+    } else if (part[0] == 'i' && part.size() > 1) {
+      size(rest, &backbone.input_width, &backbone.input_height);
+    } else if (part.rfind("lg", 0) == 0) {
+      backbone.landmark_grid = std::stoi(part.substr(2));
+    } else if (part[0] == 'm' && part.size() > 1) {
+      backbone.max_landmarks = std::stoi(rest);
+    } else if (part[0] == 'r' && part.size() > 1) {
+      backbone.rerank_weight = std::stoi(rest) / 100.0;
+    } else if (part[0] == 'h' && part.size() > 1) {
+      backbone.hog_weight = std::stoi(rest) / 100.0;
+    } else if (part[0] == 'n' && part.size() > 1) {
+      backbone.min_network_width = std::stoi(rest);
+    } else if (part[0] == 'b' && part.size() > 1) {
+      backbone.layer = "block_" + rest + "_add";
+    } else if (part[0] == 'p' && part.size() > 1) {
+      backbone.proposal_layer = "block_" + rest + "_add";
+    } else {
+      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
+    }
+  }
+  return variant;
+}
+
 // "landmarks_paper_grid2_m30" -> type landmarks, paper weighting, grid 2, 30 landmarks.
 Variant descriptorVariant(const std::string& name, const Arguments& arguments) {
   if (name.rfind("cnn_pca", 0) == 0 || name.rfind("broad", 0) == 0) {
     return learnedVariant(name, arguments);
   }
+  if (name.rfind("backbone", 0) == 0) return backboneVariant(name, arguments);
   Variant variant;
   DescriptorOptions& options = variant.options;
   options.model = arguments.get("--model");

@@ -1,0 +1,184 @@
+#include "landmark_loop_closure/backbone_descriptor.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "landmark_loop_closure/cnn_global_descriptor.h"
+#include "landmark_loop_closure/hog_descriptor.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+FeatureMaps toFeatureMaps(const cv::Mat& blob) {
+  if (blob.dims != 4 || blob.size[0] != 1 || blob.type() != CV_32F) {
+    throw std::runtime_error("expected a 1xCxHxW float output from the network");
+  }
+  FeatureMaps maps;
+  maps.channels = blob.size[1];
+  maps.height = blob.size[2];
+  maps.width = blob.size[3];
+  const float* data = blob.ptr<float>();
+  maps.values.assign(data, data + static_cast<size_t>(maps.channels) * maps.height * maps.width);
+  return maps;
+}
+
+// Scales a unit vector's entries in place so that its part weighs `weight` in a dot product.
+void weightPart(float* begin, float* end, double weight) {
+  const float factor = static_cast<float>(std::sqrt(weight));
+  for (float* value = begin; value != end; ++value) *value *= factor;
+}
+
+void normaliseGrid(std::vector<float>* grid, int channels, GridNormalisation normalisation) {
+  const size_t cells = grid->size() / static_cast<size_t>(channels);
+  if (normalisation == GridNormalisation::kCentred) {
+    for (int c = 0; c < channels; ++c) {
+      float sum = 0.0f;
+      for (size_t k = 0; k < cells; ++k) sum += (*grid)[k * channels + c];
+      for (size_t k = 0; k < cells; ++k) (*grid)[k * channels + c] -= sum / cells;
+    }
+  }
+  if (normalisation != GridNormalisation::kWhole) {
+    for (size_t k = 0; k < cells; ++k) {
+      const auto begin = grid->begin() + static_cast<std::ptrdiff_t>(k * channels);
+      double norm = 0.0;
+      for (auto v = begin; v != begin + channels; ++v) norm += double(*v) * *v;
+      if (norm <= 0.0 || !std::isfinite(norm)) continue;
+      const float scale = static_cast<float>(1.0 / std::sqrt(norm));
+      for (auto v = begin; v != begin + channels; ++v) *v *= scale;
+    }
+  }
+  normaliseL2(grid);
+}
+
+}  // namespace
+
+std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols) {
+  std::vector<float> pooled(static_cast<size_t>(grid_rows) * grid_cols * maps.channels, 0.0f);
+  if (maps.empty()) return pooled;
+  for (int row = 0; row < grid_rows; ++row) {
+    const int y0 = row * maps.height / grid_rows;
+    const int y1 = std::max(y0 + 1, (row + 1) * maps.height / grid_rows);
+    for (int col = 0; col < grid_cols; ++col) {
+      const int x0 = col * maps.width / grid_cols;
+      const int x1 = std::max(x0 + 1, (col + 1) * maps.width / grid_cols);
+      const float area = static_cast<float>((y1 - y0) * (x1 - x0));
+      float* cell = pooled.data() + (static_cast<size_t>(row) * grid_cols + col) * maps.channels;
+      for (int c = 0; c < maps.channels; ++c) {
+        const float* channel = maps.channel(c);
+        double sum = 0.0;
+        for (int y = y0; y < std::min(y1, maps.height); ++y) {
+          for (int x = x0; x < std::min(x1, maps.width); ++x) sum += channel[y * maps.width + x];
+        }
+        cell[c] = static_cast<float>(sum) / area;
+      }
+    }
+  }
+  return pooled;
+}
+
+BackboneDescriptor::BackboneDescriptor(const BackboneOptions& options)
+    : options_(options),
+      hog_(options.hog_size, cv::Size(16, 16), cv::Size(8, 8), cv::Size(8, 8), 9) {
+  if (options_.proposal_layer.empty()) options_.proposal_layer = options_.layer;
+  const size_t colour_channels = options.colour == "grey" ? 1 : 3;
+  if (options.mean.size() != colour_channels || options.std.size() != colour_channels) {
+    throw std::runtime_error("the backbone's mean and std need " + std::to_string(colour_channels) +
+                             " values each");
+  }
+  if (options.grid_rows < 1 || options.grid_cols < 1) {
+    throw std::runtime_error("the backbone's grid needs at least one row and one column");
+  }
+  net_ = loadOnnxNetwork(options.model_path);
+  std::vector<FeatureMaps> outputs;
+  try {
+    outputs = forward(cv::Mat(options.input_size, CV_8UC3, cv::Scalar(128, 128, 128)));
+  } catch (const std::exception& error) {
+    throw std::runtime_error("the ONNX model " + options.model_path + " gives no outputs '" +
+                             options_.layer + "' and '" + options_.proposal_layer + "' for a " +
+                             std::to_string(options.input_size.width) + "x" +
+                             std::to_string(options.input_size.height) + " input: " + error.what());
+  }
+  channels_ = outputs[0].channels;
+  global_dimension_ = gridDimension() + hogDimension();
+}
+
+int BackboneDescriptor::gridDimension() const {
+  return options_.grid_rows * options_.grid_cols * channels_;
+}
+
+int BackboneDescriptor::hogDimension() const {
+  const bool uses_hog = options_.hog_weight > 0.0 || options_.min_network_width > 0;
+  return uses_hog ? static_cast<int>(hog_.getDescriptorSize()) : 0;
+}
+
+std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image) const {
+  const cv::Mat blob =
+      networkInputBlob(image, options_.input_size, options_.colour, options_.mean, options_.std);
+  std::vector<cv::Mat> outputs;
+  {
+    std::lock_guard<std::mutex> lock(net_mutex_);
+    net_.setInput(blob);
+    net_.forward(outputs, std::vector<cv::String>{options_.layer, options_.proposal_layer});
+  }
+  return {toFeatureMaps(outputs[0]), toFeatureMaps(outputs[1])};
+}
+
+ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
+  ImageDescriptor descriptor;
+  if (image.empty() || image.depth() != CV_8U) return descriptor;
+  const int hog_dimension = hogDimension();
+  const bool network_sees_enough = image.cols >= options_.min_network_width;
+  descriptor.global.assign(static_cast<size_t>(global_dimension_), 0.0f);
+  float* const grid_begin = descriptor.global.data();
+  float* const hog_begin = grid_begin + gridDimension();
+
+  double network_weight = 1.0 - (hog_dimension > 0 ? options_.hog_weight : 0.0);
+  if (hog_dimension > 0 && !network_sees_enough) network_weight = 0.0;
+  if (network_weight > 0.0) {
+    const std::vector<FeatureMaps> maps = forward(image);
+    std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
+    normaliseGrid(&grid, channels_, options_.normalisation);
+    std::copy(grid.begin(), grid.end(), grid_begin);
+    weightPart(grid_begin, hog_begin, network_weight);
+
+    if (options_.max_landmarks > 0) {
+      const cv::Size box_frame(kBoxFrameWidth, kBoxFrameHeight);
+      LandmarkProposalOptions proposal_options;
+      proposal_options.max_landmarks = options_.max_landmarks;
+      proposal_options.max_area_fraction = options_.max_landmark_area;
+      proposal_options.min_side_cells = 1;  // Backbone cells are coarse (16 px of the input).
+      for (const LandmarkProposal& proposal :
+           proposeLandmarks(maps[1], box_frame, proposal_options)) {
+        descriptor.landmark_boxes.push_back(proposal.box);
+      }
+      cv::Mat features =
+          describeLandmarks(maps[0], box_frame, descriptor.landmark_boxes, options_.landmark_grid);
+      if (options_.float16_features && !features.empty()) features.convertTo(features, CV_16F);
+      descriptor.landmark_features = features;
+    }
+  }
+  if (hog_dimension > 0) {
+    const cv::Mat working =
+        toWorkingImage(image, options_.hog_size.width, options_.hog_size.height);
+    std::vector<float> hog;
+    hog_.compute(working, hog);
+    normaliseL2(&hog);
+    std::copy(hog.begin(), hog.end(), hog_begin);
+    weightPart(hog_begin, hog_begin + hog_dimension, 1.0 - network_weight);
+  }
+  normaliseL2(&descriptor.global);
+  return descriptor;
+}
+
+double BackboneDescriptor::similarity(const ImageDescriptor& query,
+                                      const ImageDescriptor& candidate) const {
+  const double global = cosineSimilarity(query.global, candidate.global);
+  if (options_.rerank_weight <= 0.0) return global;
+  const double landmarks =
+      landmarkSimilarity(query.landmark_boxes, query.landmark_features, candidate.landmark_boxes,
+                         candidate.landmark_features, options_.weighting);
+  return (1.0 - options_.rerank_weight) * global + options_.rerank_weight * landmarks;
+}
+
+}  // namespace landmark_loop_closure

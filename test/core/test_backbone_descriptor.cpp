@@ -1,0 +1,240 @@
+#include <unistd.h>
+
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "landmark_loop_closure/backbone_descriptor.h"
+#include "onnx_test_model.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+class BackboneDescriptorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("llc_backbone_" + std::to_string(::getpid()) + "_" +
+                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(directory_);
+  }
+  void TearDown() override { std::filesystem::remove_all(directory_); }
+  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+
+  // A network whose "features" are its RGB input itself (identity 1x1 convolution, ReLU), so
+  // the grid cells are the mean colours of the image's regions.
+  BackboneOptions identityNet() {
+    const std::string model = path("identity.onnx");
+    test::writeOneByOneConvNet(model, 3, 24, 32, {1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0});
+    BackboneOptions options;
+    options.model_path = model;
+    options.layer = "features";
+    options.input_size = cv::Size(32, 24);
+    options.grid_rows = 2;
+    options.grid_cols = 2;
+    options.max_landmarks = 5;
+    options.hog_weight = 0.0;  // the network alone unless a test asks for HOG
+    options.min_network_width = 0;
+    return options;
+  }
+
+  std::filesystem::path directory_;
+};
+
+cv::Mat texturedImage(int seed, cv::Size size = cv::Size(320, 240)) {
+  std::mt19937 random(static_cast<unsigned>(seed));
+  std::uniform_int_distribution<int> coordinate(0, std::max(size.width, size.height));
+  std::uniform_int_distribution<int> shade(0, 255);
+  cv::Mat image(size, CV_8UC3, cv::Scalar(60, 90, 120));
+  for (int i = 0; i < 40; ++i) {
+    cv::rectangle(image, cv::Point(coordinate(random), coordinate(random)),
+                  cv::Point(coordinate(random), coordinate(random)),
+                  cv::Scalar(shade(random), shade(random), shade(random)), cv::FILLED);
+  }
+  return image;
+}
+
+TEST(GridPool, AveragesEachCellOfEveryChannel) {
+  FeatureMaps maps;
+  maps.channels = 2;
+  maps.height = 4;
+  maps.width = 4;
+  for (int c = 0; c < 2; ++c) {
+    for (int y = 0; y < 4; ++y) {
+      for (int x = 0; x < 4; ++x) maps.values.push_back(c == 0 ? float(x) : float(10 * y));
+    }
+  }
+  const std::vector<float> pooled = gridPool(maps, 2, 2);
+  ASSERT_EQ(pooled.size(), 8u);  // cells (0,0) (0,1) (1,0) (1,1), two channels each
+  EXPECT_FLOAT_EQ(pooled[0], 0.5f);
+  EXPECT_FLOAT_EQ(pooled[1], 5.0f);
+  EXPECT_FLOAT_EQ(pooled[2], 2.5f);
+  EXPECT_FLOAT_EQ(pooled[3], 5.0f);
+  EXPECT_FLOAT_EQ(pooled[4], 0.5f);
+  EXPECT_FLOAT_EQ(pooled[5], 25.0f);
+  EXPECT_FLOAT_EQ(pooled[7], 25.0f);
+}
+
+TEST(GridPool, MoreCellsThanTheMapHasStillGivesEveryCellAValue) {
+  FeatureMaps maps;
+  maps.channels = 1;
+  maps.height = 2;
+  maps.width = 2;
+  maps.values = {1, 2, 3, 4};
+  const std::vector<float> pooled = gridPool(maps, 3, 4);
+  ASSERT_EQ(pooled.size(), 12u);
+  for (const float value : pooled) EXPECT_GE(value, 1.0f);
+}
+
+TEST_F(BackboneDescriptorTest, GridOfMeanColoursInTheNetworksChannelOrder) {
+  BackboneOptions options = identityNet();
+  options.max_landmarks = 0;
+  const BackboneDescriptor descriptor(options);
+  EXPECT_EQ(descriptor.globalDimension(), 2 * 2 * 3);
+  EXPECT_TRUE(descriptor.wantsColour());
+  cv::Mat image(24, 32, CV_8UC3, cv::Scalar(0, 0, 0));
+  image(cv::Rect(0, 0, 16, 12)).setTo(cv::Scalar(0, 0, 255));  // top-left red (BGR)
+  const ImageDescriptor described = descriptor.describe(image);
+  ASSERT_EQ(described.global.size(), 12u);
+  // Each cell is L2-normalised, then the whole: the red cell is (1, 0, 0) in RGB order, black
+  // cells are zero.
+  EXPECT_NEAR(described.global[0], 1.0, 1e-5);
+  EXPECT_NEAR(described.global[1], 0.0, 1e-5);
+  for (size_t i = 3; i < 12; ++i) EXPECT_NEAR(described.global[i], 0.0, 1e-5);
+}
+
+TEST_F(BackboneDescriptorTest, SameSceneInOtherLightScoresAboveAnotherScene) {
+  BackboneOptions options = identityNet();
+  options.grid_rows = 3;
+  options.grid_cols = 4;
+  const BackboneDescriptor descriptor(options);
+  const cv::Mat place = texturedImage(1);
+  cv::Mat darker;
+  place.convertTo(darker, -1, 0.4, 0.0);
+  const cv::Mat other = texturedImage(2);
+  const ImageDescriptor a = descriptor.describe(place);
+  EXPECT_NEAR(descriptor.similarity(a, descriptor.describe(place)), 1.0, 1e-5);
+  EXPECT_GT(descriptor.similarity(a, descriptor.describe(darker)),
+            descriptor.similarity(a, descriptor.describe(other)));
+}
+
+TEST_F(BackboneDescriptorTest, LandmarksComeFromTheActivationsInTheThumbnailFrame) {
+  BackboneOptions options = identityNet();
+  const BackboneDescriptor descriptor(options);
+  cv::Mat image(240, 320, CV_8UC3, cv::Scalar(0, 0, 0));
+  cv::rectangle(image, cv::Rect(40, 60, 80, 60), cv::Scalar(255, 255, 255), cv::FILLED);
+  const ImageDescriptor described = descriptor.describe(image);
+  ASSERT_FALSE(described.landmark_boxes.empty());
+  EXPECT_EQ(described.landmark_features.rows, static_cast<int>(described.landmark_boxes.size()));
+  EXPECT_EQ(described.landmark_features.type(), CV_16F);  // float16 by default
+  // The bright block sits at (20, 30)-(60, 60) of the 160x120 frame.
+  const cv::Rect2f& box = described.landmark_boxes.front();
+  EXPECT_NEAR(box.x, 20.0, 5.0);
+  EXPECT_NEAR(box.y, 30.0, 5.0);
+  EXPECT_NEAR(box.x + box.width, 60.0, 5.0);
+  EXPECT_NEAR(box.y + box.height, 60.0, 5.0);
+}
+
+TEST_F(BackboneDescriptorTest, ReRankingBlendsTheLandmarkScoreIn) {
+  BackboneOptions options = identityNet();
+  const BackboneDescriptor plain(options);
+  EXPECT_FALSE(plain.reranks());
+  options.rerank_weight = 0.5;
+  const BackboneDescriptor blended(options);
+  EXPECT_TRUE(blended.reranks());
+  const ImageDescriptor a = blended.describe(texturedImage(3));
+  const ImageDescriptor b = blended.describe(texturedImage(4));
+  const double landmarks =
+      landmarkSimilarity(a.landmark_boxes, a.landmark_features, b.landmark_boxes,
+                         b.landmark_features, ShapeWeighting::kPenalise);
+  EXPECT_NEAR(blended.similarity(a, b),
+              0.5 * cosineSimilarity(a.global, b.global) + 0.5 * landmarks, 1e-9);
+}
+
+TEST_F(BackboneDescriptorTest, SmallImagesAreDescribedByHogAloneAndWideOnesFuseIt) {
+  BackboneOptions options = identityNet();
+  options.hog_weight = 0.25;
+  options.min_network_width = 100;
+  const BackboneDescriptor descriptor(options);
+  const int grid_dimension = 2 * 2 * 3;
+  ASSERT_GT(descriptor.globalDimension(), grid_dimension);
+
+  const auto share = [&](const ImageDescriptor& d) {  // squared norm of the network's part
+    double sum = 0.0;
+    for (int i = 0; i < grid_dimension; ++i) sum += d.global[i] * d.global[i];
+    return sum;
+  };
+  const ImageDescriptor small = descriptor.describe(texturedImage(5, cv::Size(64, 32)));
+  EXPECT_NEAR(share(small), 0.0, 1e-9);
+  EXPECT_TRUE(small.landmark_boxes.empty());
+  const ImageDescriptor wide = descriptor.describe(texturedImage(5));
+  EXPECT_NEAR(share(wide), 0.75, 1e-4);
+  double norm = 0.0;
+  for (const float v : wide.global) norm += v * v;
+  EXPECT_NEAR(norm, 1.0, 1e-4);
+}
+
+TEST_F(BackboneDescriptorTest, ImagesItCannotReadGiveAnEmptyDescriptor) {
+  const BackboneDescriptor descriptor(identityNet());
+  EXPECT_TRUE(descriptor.describe(cv::Mat()).empty());
+  EXPECT_TRUE(descriptor.describe(cv::Mat(24, 32, CV_16UC1, cv::Scalar(1000))).empty());
+  // Grey and BGRA are converted.
+  EXPECT_FALSE(descriptor.describe(cv::Mat(24, 32, CV_8UC1, cv::Scalar(90))).empty());
+  EXPECT_FALSE(descriptor.describe(cv::Mat(24, 32, CV_8UC4, cv::Scalar(9, 90, 200, 255))).empty());
+}
+
+TEST_F(BackboneDescriptorTest, AMissingModelOrLayerIsNamed) {
+  BackboneOptions options = identityNet();
+  options.model_path = path("absent.onnx");
+  try {
+    BackboneDescriptor descriptor(options);
+    FAIL() << "a missing model was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("absent.onnx"), std::string::npos) << error.what();
+  }
+  options = identityNet();
+  options.layer = "no_such_layer";
+  try {
+    BackboneDescriptor descriptor(options);
+    FAIL() << "a missing layer was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("no_such_layer"), std::string::npos) << error.what();
+  }
+}
+
+TEST(BackboneOptions, ValidateNamesEveryBadValue) {
+  DescriptorOptions options;
+  options.type = "backbone";
+  EXPECT_EQ(options.validate(), "");
+  options.backbone.grid_rows = 0;
+  options.backbone.hog_weight = 1.5;
+  options.backbone.mean = "0 0";
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("descriptor/backbone/grid_rows"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("descriptor/backbone/hog_weight"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("descriptor/backbone/mean"), std::string::npos) << errors;
+}
+
+TEST(BackboneOptions, FallsBackToThePackagesEncoderOnlyWhenTheBackboneWasNeverFetched) {
+  DescriptorOptions options;
+  options.type = "backbone";
+  std::string warning;
+  const DescriptorOptions used = withBackboneFallback(options, &warning);
+  if (std::filesystem::exists(defaultBackbonePath())) {
+    EXPECT_EQ(used.type, "backbone");
+    EXPECT_TRUE(warning.empty());
+  } else {
+    EXPECT_EQ(used.type, "landmarks");
+    EXPECT_NE(warning.find("fetch_backbone.sh"), std::string::npos) << warning;
+  }
+  options.backbone.model = "/somewhere/own.onnx";  // a user's own network is never replaced
+  EXPECT_EQ(withBackboneFallback(options, &warning).type, "backbone");
+  EXPECT_TRUE(warning.empty());
+  options.type = "hog";
+  EXPECT_EQ(withBackboneFallback(options, &warning).type, "hog");
+}
+
+}  // namespace
+}  // namespace landmark_loop_closure
