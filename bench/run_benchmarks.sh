@@ -14,7 +14,7 @@ if ! /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
   $sudo_cmd apt-get install -y -qq --no-install-recommends python3-matplotlib
 fi
 EVALUATE=_build/devel/lib/landmark_loop_closure/lcd_evaluate
-DESCRIPTORS=pixels,hog,hog_whole,calc,landmarks,landmarks_conv,cnn_pca,cnn_pca_raw,broad
+DESCRIPTORS=backbone,pixels,hog,hog_whole,calc,landmarks,landmarks_conv,cnn_pca,cnn_pca_raw,broad
 
 run() {  # name, then lcd_evaluate arguments
   local name=$1; shift
@@ -62,9 +62,29 @@ run gardens_point_viewpoint_variants --name "Gardens Point day right vs day left
 run gardens_point_day_night_variants --name "Gardens Point night right vs day right (+-3)" \
   --database "$GP/day_right" --queries "$GP/night_right" --gt-aligned 3
 
+# Backbone choices, each against the default (block_12_add, 3x4 grid of cell-normalised cells,
+# 256x144 input, HOG weight 0.1 and alone below 160 px, 30 landmarks that do not re-rank).
+DESCRIPTORS=backbone,backbone_whole,backbone_centred,backbone_g2x3,backbone_g4x6,backbone_i224x224,backbone_i320x180,backbone_h0,backbone_h35,backbone_b5,backbone_r30,backbone_r100,backbone_p5_r30
+backbone_variants() {
+  run gardens_point_viewpoint_backbone --name "Gardens Point day right vs day left (+-3)" \
+    --database "$GP/day_left" --queries "$GP/day_right" --gt-aligned 3
+  run gardens_point_day_night_backbone --name "Gardens Point night right vs day right (+-3)" \
+    --database "$GP/day_right" --queries "$GP/night_right" --gt-aligned 3
+  run gardens_point_both_backbone --name "Gardens Point night right vs day left (+-3)" \
+    --database "$GP/day_left" --queries "$GP/night_right" --gt-aligned 3
+  run corridor_backbone --name "Generated corridor, 2 laps (sequence)" --corridor 2 --exclude-recent 60
+}
+backbone_variants
+# On Nordland's 64x32 images: the network alone (n0), fused at several weights, HOG alone (default).
+DESCRIPTORS=backbone,backbone_n0_h0,backbone_n0,backbone_n0_h50,backbone_n0_h85 run nordland_backbone \
+  --name "Nordland winter vs summer (+-2)" --database "$DATA/nordland/summer" \
+  --queries "$DATA/nordland/winter" --gt-aligned 2
+
 echo "== pipeline"
 _build/devel/lib/landmark_loop_closure/lcd_bench_pipeline --database "$GP/day_left" \
   --queries "$GP/day_right" --keyframes 10000 > "$OUT/pipeline.md"
+_build/devel/lib/landmark_loop_closure/lcd_bench_pipeline --database "$GP/day_left" \
+  --queries "$GP/day_right" --keyframes 10000 --descriptor landmarks > "$OUT/pipeline_landmarks.md"
 _build/devel/lib/landmark_loop_closure/lcd_bench_pipeline --database "$GP/day_left" \
   --queries "$GP/day_right" --keyframes 10000 --descriptor landmarks_conv > "$OUT/pipeline_conv.md"
 cat "$OUT/pipeline.md"
@@ -91,6 +111,9 @@ FULL_NORDLAND=()
   "$OUT"/corridor "$OUT"/corridor_per_landmark > "$OUT/table_recall.md"
 /usr/bin/python3 bench/make_table.py "$OUT"/gardens_point_viewpoint_variants \
   "$OUT"/gardens_point_day_night_variants > "$OUT/table_variants.md"
+/usr/bin/python3 bench/make_table.py --matrix "$OUT"/gardens_point_viewpoint_backbone \
+  "$OUT"/gardens_point_day_night_backbone "$OUT"/gardens_point_both_backbone \
+  "$OUT"/corridor_backbone "$OUT"/nordland_backbone > "$OUT/table_backbone.md"
 echo "== geometric check and odometry gate (generated corridor)"
 VERIFY=_build/devel/lib/landmark_loop_closure/lcd_bench_verification
 { "$VERIFY" --config config/demo.yaml; echo; "$VERIFY" --config config/demo.yaml --min-score 0.15; } \

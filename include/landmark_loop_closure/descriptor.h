@@ -59,7 +59,7 @@ struct DescriptorOptions {
   /// "hog_whole": one 9-bin HOG window over the whole image (9576); "pixels": 32x24 grey (768);
   /// "cnn_pca": a CNN layer with PCA whitening (options in `cnn`); "broad": the broad
   /// autoencoder's output layer (`broad`).
-  std::string type = "landmarks";
+  std::string type = "backbone";
   std::string model;                         ///< ONNX encoder; empty = the package's model.
   int max_landmarks = 50;                    ///< Landmarks per image (landmarks).
   int landmark_grid = 2;                     ///< Cells per side of a landmark's crop (landmarks).

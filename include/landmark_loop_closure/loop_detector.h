@@ -21,8 +21,11 @@
 
 namespace landmark_loop_closure {
 
+/// acceptance/min_score tuned for descriptor type landmarks (the package's own encoder).
+constexpr double kLandmarksMinScore = 0.25;
+
 struct AcceptanceOptions {
-  double min_score = 0.25;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  double min_score = 0.6;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
   /// "keyframes": a loop needs consistent_keyframes consecutive keyframes whose matches agree
   /// within index_window ids; "metres": the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).

@@ -39,6 +39,9 @@ struct NodeOptions {
   int autosave_every = 0;  ///< Keyframes between saves; 0 = only at shutdown and on request.
   bool save_on_shutdown = true;
   LoopDetectorOptions detector;
+  /// Set when the options had to change to run at all (the pretrained backbone was never
+  /// fetched): one line for the node to warn with. Empty otherwise.
+  std::string fallback_warning;
 
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;

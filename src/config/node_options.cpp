@@ -190,6 +190,20 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("camera_mount/roll", &mount.roll);
   reader->read("camera_mount/pitch", &mount.pitch);
   reader->read("camera_mount/yaw", &mount.yaw);
+
+  // Without the fetched backbone the package's own encoder runs, with its own score scale.
+  std::string warning;
+  const DescriptorOptions used = withBackboneFallback(detector.descriptor, &warning);
+  options->fallback_warning.clear();
+  if (!warning.empty()) {
+    detector.descriptor = used;
+    if (detector.acceptance.min_score == AcceptanceOptions().min_score) {
+      detector.acceptance.min_score = kLandmarksMinScore;
+      warning += " (acceptance/min_score " + std::to_string(kLandmarksMinScore).substr(0, 4) +
+                 ", its tuned value)";
+    }
+    options->fallback_warning = warning;
+  }
 }
 
 }  // namespace landmark_loop_closure

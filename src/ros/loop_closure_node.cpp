@@ -111,6 +111,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
            toString(detector_.mode()), descriptor.c_str(), options_.pose_source.c_str(),
            image_topic_.c_str(), odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+  if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
     ROS_WARN(
         "mode is localization but the keyframe database is empty: nothing will be found "

@@ -1,8 +1,9 @@
-// Pipeline benchmark: the time one keyframe costs the worker thread with the landmark descriptor
-// (describe, shortlist from the database, landmark re-rank), stage by stage, on one core, with a
-// database of N keyframes, and the database's bytes per keyframe.
+// Pipeline benchmark: the time one keyframe costs the worker thread (describe, shortlist from the
+// database, re-rank), stage by stage, on one core, with a database of N keyframes, and the
+// database's bytes per keyframe.
 //   lcd_bench_pipeline [--database DIR] [--queries DIR] [--keyframes 10000] [--top-k 10]
-//                      [--repeat 2] [--descriptor landmarks]
+//                      [--repeat 2] [--descriptor backbone|landmarks|landmarks_conv]
+// The landmark descriptors' describe time is split into its stages; the backbone's is one.
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
 // Without folders, views of the generated corridor are used.
@@ -59,7 +60,7 @@ struct Stages {
 int main(int argc, char** argv) {
   std::map<std::string, std::string> arguments = {
       {"--database", ""}, {"--queries", ""}, {"--keyframes", "10000"},
-      {"--top-k", "10"},  {"--repeat", "2"}, {"--descriptor", "landmarks"}};
+      {"--top-k", "10"},  {"--repeat", "2"}, {"--descriptor", "backbone"}};
   for (int i = 1; i + 1 < argc; i += 2) {
     if (arguments.count(argv[i]) == 0) {
       std::fprintf(stderr, "lcd_bench_pipeline: unknown option %s (see the file's header)\n",
@@ -70,12 +71,14 @@ int main(int argc, char** argv) {
   }
   cv::setNumThreads(1);
   DescriptorOptions descriptor_options;
-  descriptor_options.type = "landmarks";
   const std::string variant = arguments["--descriptor"];
+  descriptor_options.type = variant == "backbone" ? "backbone" : "landmarks";
   if (variant == "landmarks_conv") {
     descriptor_options.landmark_features = "conv";
-  } else if (variant != "landmarks") {
-    std::fprintf(stderr, "lcd_bench_pipeline: --descriptor must be landmarks or landmarks_conv\n");
+  } else if (variant != "landmarks" && variant != "backbone") {
+    std::fprintf(stderr,
+                 "lcd_bench_pipeline: --descriptor must be backbone, landmarks or "
+                 "landmarks_conv\n");
     return 2;
   }
   const auto extractor = makeDescriptorExtractor(descriptor_options);
@@ -113,7 +116,8 @@ int main(int argc, char** argv) {
     for (const cv::Mat& image : query_images) {
       const Clock::time_point start = Clock::now();
       DescribeStageTimes describe_times;
-      const ImageDescriptor query = convnet->describe(image, &describe_times);
+      const ImageDescriptor query =
+          convnet ? convnet->describe(image, &describe_times) : extractor->describe(image);
       const double describe_ms = millisecondsSince(start);
       const Clock::time_point shortlist_start = Clock::now();
       const QueryResult result = database.query(query.global, 1e12, database_options);
@@ -126,22 +130,24 @@ int main(int argc, char** argv) {
       }
       const double rerank_ms = millisecondsSince(rerank_start);
       if (best < -1.0) return 1;  // Keeps the re-rank from being optimised away.
-      stages.add("1 prepare (grey, resize)", describe_times.prepare);
-      stages.add("2 network pass", describe_times.network);
-      stages.add("3 landmark proposals", describe_times.proposals);
-      stages.add("4 landmark descriptors", describe_times.landmark_features);
-      stages.add("5 describe (1-4)", describe_ms);
+      if (convnet) {
+        stages.add("1 prepare (grey, resize)", describe_times.prepare);
+        stages.add("2 network pass", describe_times.network);
+        stages.add("3 landmark proposals", describe_times.proposals);
+        stages.add("4 landmark descriptors", describe_times.landmark_features);
+      }
+      stages.add(
+          convnet ? "5 describe (1-4)" : "5 describe (resize, network, grid, landmarks, HOG)",
+          describe_ms);
       stages.add("6 shortlist (exact search)", shortlist_ms);
       stages.add("7 re-rank top-K", rerank_ms);
       stages.add("8 total per keyframe", millisecondsSince(start));
     }
   }
   std::printf(
-      "descriptor %s, input %dx%d, working %dx%d, %zu keyframes, top-K %d, %zu queries, one "
-      "thread\n\n",
-      variant.c_str(), input.width, input.height, descriptor_options.working_width,
-      descriptor_options.working_height, database.size(), database_options.top_k,
-      stages.times.begin()->second.size());
+      "descriptor %s (%s), input %dx%d, %zu keyframes, top-K %d, %zu queries, one thread\n\n",
+      variant.c_str(), extractor->reranks() ? "re-ranked" : "no re-ranking", input.width,
+      input.height, database.size(), database_options.top_k, stages.times.begin()->second.size());
   std::printf("| stage | median (ms) | p99 (ms) |\n|---|---|---|\n");
   for (const auto& [stage, times] : stages.times) {
     const eval::Percentiles p = eval::percentiles(times);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -295,7 +296,8 @@ TEST_F(DatabaseFileTest, RealDescriptorsCompareTheSameAfterLoading) {
 }
 
 TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheModel) {
-  const DescriptorOptions defaults;
+  DescriptorOptions defaults;
+  defaults.type = "landmarks";
   const std::string identity = descriptorIdentity(defaults);
   EXPECT_EQ(identity, descriptorIdentity(defaults));
   DescriptorOptions fewer = defaults;
@@ -319,6 +321,28 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
   model.back() = static_cast<char>(model.back() ^ 1);
   writeBytes(copy, model);
   EXPECT_NE(descriptorIdentity(copied), identity);
+
+  // The backbone: its own settings and its network's bytes.
+  DescriptorOptions backbone;
+  backbone.type = "backbone";
+  backbone.backbone.model = copy.string();
+  const std::string backbone_identity = descriptorIdentity(backbone);
+  for (const auto& change : std::vector<std::function<void(DescriptorOptions::Backbone*)>>{
+           [](DescriptorOptions::Backbone* b) { b->layer = "block_5_add"; },
+           [](DescriptorOptions::Backbone* b) { b->grid_cols = 6; },
+           [](DescriptorOptions::Backbone* b) { b->normalisation = "whole"; },
+           [](DescriptorOptions::Backbone* b) { b->input_width = 320; },
+           [](DescriptorOptions::Backbone* b) { b->max_landmarks = 10; },
+           [](DescriptorOptions::Backbone* b) { b->hog_weight = 0.2; },
+           [](DescriptorOptions::Backbone* b) { b->min_network_width = 0; },
+           [](DescriptorOptions::Backbone* b) { b->mean = "0.5 0.5 0.5"; }}) {
+    DescriptorOptions changed = backbone;
+    change(&changed.backbone);
+    EXPECT_NE(descriptorIdentity(changed), backbone_identity) << descriptorIdentity(changed);
+  }
+  model.back() = static_cast<char>(model.back() ^ 1);
+  writeBytes(copy, model);
+  EXPECT_NE(descriptorIdentity(backbone), backbone_identity);
   fs::remove(copy);
 }
 

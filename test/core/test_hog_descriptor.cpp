@@ -1,5 +1,7 @@
 #include <cmath>
 
+#include <filesystem>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -79,8 +81,14 @@ TEST(CosineSimilarity, MismatchedOrEmptyVectorsScoreZero) {
   EXPECT_NEAR(cosineSimilarity({0.6f, 0.8f}, {0.6f, 0.8f}), 1.0, 1e-6);
 }
 
-TEST(DescriptorFactory, DefaultsToLandmarksKnowsHogAndRefusesUnknownTypes) {
+TEST(DescriptorFactory, DefaultsToTheBackboneKnowsHogAndRefusesUnknownTypes) {
   DescriptorOptions options;
+  EXPECT_EQ(options.type, "backbone");
+  std::string warning;
+  // Without the fetched backbone the package's encoder stands in (fetch_backbone.sh said why).
+  EXPECT_EQ(makeDescriptorExtractor(withBackboneFallback(options, &warning))->name(),
+            std::filesystem::exists(defaultBackbonePath()) ? "backbone" : "landmarks");
+  options.type = "landmarks";
   EXPECT_EQ(makeDescriptorExtractor(options)->name(), "landmarks");
   options.type = "hog";
   EXPECT_EQ(makeDescriptorExtractor(options)->name(), "hog");

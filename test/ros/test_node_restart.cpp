@@ -245,7 +245,7 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
   const std::string log = (folder / "lcd_model_node.log").string();
   for (const std::string& model : {missing, corrupt}) {
     SCOPED_TRACE(model);
-    ros::param::set("/loop_closure/descriptor/model", model);
+    ros::param::set("/loop_closure/descriptor/backbone/model", model);
     const pid_t node = startNode(log);
     ASSERT_GT(node, 0);
     const int status = exitStatus(node);
@@ -254,7 +254,7 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
     const std::string output = readFile(log);
     EXPECT_NE(output.find(model), std::string::npos) << output;
   }
-  ros::param::set("/loop_closure/descriptor/model", std::string());
+  ros::param::set("/loop_closure/descriptor/backbone/model", std::string());
   std::filesystem::remove(corrupt);
   std::filesystem::remove(log);
 }
