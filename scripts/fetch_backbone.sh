@@ -27,8 +27,9 @@ mkdir -p "$WORK"
 tarball=$WORK/nsfwjs-$VERSION.tgz
 if [ ! -f "$tarball" ] || ! echo "$SHA256  $tarball" | sha256sum --check --status; then
   rm -f "$tarball"
-  if ! (cd "$WORK" && npm pack --silent "nsfwjs@$VERSION" > /dev/null 2> npm_pack.log); then
-    echo "fetch_backbone: cannot fetch nsfwjs@$VERSION from the npm registry ($(tail -n 1 "$WORK/npm_pack.log")); the node will fall back to the package's own encoder"
+  if ! (cd "$WORK" && npm pack --loglevel=error "nsfwjs@$VERSION" > /dev/null 2> npm_pack.log); then
+    reason=$(grep -m 1 -o 'FetchError: .*\|npm error code .*' "$WORK/npm_pack.log" || tail -n 1 "$WORK/npm_pack.log")
+    echo "fetch_backbone: cannot fetch nsfwjs@$VERSION from the npm registry ($reason); the node will warn and use the package's own encoder (descriptor/type landmarks)"
     exit 0
   fi
 fi

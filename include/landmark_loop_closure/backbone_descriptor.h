@@ -34,8 +34,11 @@ struct BackboneOptions {
   GridNormalisation normalisation = GridNormalisation::kCells;
   /// Landmarks per image (0 = none): boxes from the proposal layer's activations, each
   /// described by `layer` resampled to landmark_grid x landmark_grid cells.
-  int max_landmarks = 30;
+  int max_landmarks = 20;
   int landmark_grid = 1;
+  /// Landmarks described by the HOG of their box's 32x32 patch of a 320x240 grey image instead
+  /// of the layer's maps (what the package's own encoder does).
+  bool hog_landmarks = false;
   double max_landmark_area = 0.5;
   ShapeWeighting weighting = ShapeWeighting::kPenalise;
   /// Final similarity = (1 - w) * global + w * landmark similarity; 0 = no re-ranking.

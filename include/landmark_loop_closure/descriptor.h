@@ -105,8 +105,9 @@ struct DescriptorOptions {
     int grid_rows = 3;  ///< Global descriptor: the layer average-pooled over rows x cols cells.
     int grid_cols = 4;
     std::string normalisation = "cells";  ///< "cells", "whole" or "centred" (see below).
-    int max_landmarks = 30;               ///< Landmarks per image; 0 = none.
+    int max_landmarks = 20;               ///< Landmarks per image; 0 = none.
     int landmark_grid = 1;                ///< Cells per side a landmark's box is resampled to.
+    std::string landmark_features = "backbone";  ///< "backbone" (the layer's maps) or "hog".
     double rerank_weight = 0;             ///< Share of the landmark similarity in the final score.
     double hog_weight = 0.1;      ///< Share of a whole-image HOG's cosine in the global score.
     int min_network_width = 160;  ///< Narrower images are described by the HOG alone.

@@ -20,6 +20,9 @@ struct FeatureMaps {
   bool empty() const { return values.empty(); }
 };
 
+/// A network's 1xCxHxW float output as feature maps; throws std::runtime_error for another shape.
+FeatureMaps featureMapsFromBlob(const cv::Mat& blob);
+
 struct LandmarkProposalOptions {
   int max_landmarks = 50;    ///< M: the landmarks kept per image, highest energy first.
   int min_side_cells = 2;    ///< A component narrower or shorter than this (map cells) is noise.

@@ -124,6 +124,7 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("descriptor/backbone/normalisation", &backbone.normalisation);
   reader->read("descriptor/backbone/max_landmarks", &backbone.max_landmarks);
   reader->read("descriptor/backbone/landmark_grid", &backbone.landmark_grid);
+  reader->read("descriptor/backbone/landmark_features", &backbone.landmark_features);
   reader->read("descriptor/backbone/rerank_weight", &backbone.rerank_weight);
   reader->read("descriptor/backbone/hog_weight", &backbone.hog_weight);
   reader->read("descriptor/backbone/min_network_width", &backbone.min_network_width);

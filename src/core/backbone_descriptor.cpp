@@ -10,19 +10,6 @@ namespace landmark_loop_closure {
 
 namespace {
 
-FeatureMaps toFeatureMaps(const cv::Mat& blob) {
-  if (blob.dims != 4 || blob.size[0] != 1 || blob.type() != CV_32F) {
-    throw std::runtime_error("expected a 1xCxHxW float output from the network");
-  }
-  FeatureMaps maps;
-  maps.channels = blob.size[1];
-  maps.height = blob.size[2];
-  maps.width = blob.size[3];
-  const float* data = blob.ptr<float>();
-  maps.values.assign(data, data + static_cast<size_t>(maps.channels) * maps.height * maps.width);
-  return maps;
-}
-
 // Scales a unit vector's entries in place so that its part weighs `weight` in a dot product.
 void weightPart(float* begin, float* end, double weight) {
   const float factor = static_cast<float>(std::sqrt(weight));
@@ -121,7 +108,7 @@ std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image) const
     net_.setInput(blob);
     net_.forward(outputs, std::vector<cv::String>{options_.layer, options_.proposal_layer});
   }
-  return {toFeatureMaps(outputs[0]), toFeatureMaps(outputs[1])};
+  return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
 }
 
 ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
@@ -152,8 +139,11 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
            proposeLandmarks(maps[1], box_frame, proposal_options)) {
         descriptor.landmark_boxes.push_back(proposal.box);
       }
-      cv::Mat features =
-          describeLandmarks(maps[0], box_frame, descriptor.landmark_boxes, options_.landmark_grid);
+      cv::Mat features = options_.hog_landmarks
+                             ? describeLandmarksByHog(toWorkingImage(image, 320, 240), box_frame,
+                                                      descriptor.landmark_boxes, 32)
+                             : describeLandmarks(maps[0], box_frame, descriptor.landmark_boxes,
+                                                 options_.landmark_grid);
       if (options_.float16_features && !features.empty()) features.convertTo(features, CV_16F);
       descriptor.landmark_features = features;
     }

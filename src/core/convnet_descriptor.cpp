@@ -10,23 +10,6 @@
 
 namespace landmark_loop_closure {
 
-namespace {
-
-FeatureMaps toFeatureMaps(const cv::Mat& blob) {
-  if (blob.dims != 4 || blob.size[0] != 1) {
-    throw std::runtime_error("expected a 1xCxHxW output from the network");
-  }
-  FeatureMaps maps;
-  maps.channels = blob.size[1];
-  maps.height = blob.size[2];
-  maps.width = blob.size[3];
-  const float* data = blob.ptr<float>();
-  maps.values.assign(data, data + static_cast<size_t>(maps.channels) * maps.height * maps.width);
-  return maps;
-}
-
-}  // namespace
-
 ConvNetDescriptor::ConvNetDescriptor(const ConvNetOptions& options) : options_(options) {
   net_ = loadOnnxNetwork(options.model_path);
   std::vector<FeatureMaps> outputs;
@@ -49,7 +32,7 @@ std::vector<FeatureMaps> ConvNetDescriptor::forward(const cv::Mat& working_image
     net_.forward(outputs,
                  std::vector<cv::String>{options_.proposal_layer, options_.descriptor_layer});
   }
-  return {toFeatureMaps(outputs[0]), toFeatureMaps(outputs[1])};
+  return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
 }
 
 ImageDescriptor ConvNetDescriptor::describe(const cv::Mat& image, DescribeStageTimes* times) const {

@@ -135,6 +135,10 @@ std::string validateBackbone(const DescriptorOptions::Backbone& backbone) {
     errors += "descriptor/backbone/normalisation must be 'cells', 'whole' or 'centred' (got '" +
               backbone.normalisation + "')\n";
   }
+  if (backbone.landmark_features != "backbone" && backbone.landmark_features != "hog") {
+    errors += "descriptor/backbone/landmark_features must be 'backbone' or 'hog' (got '" +
+              backbone.landmark_features + "')\n";
+  }
   if (backbone.rerank_weight > 0 && backbone.max_landmarks == 0) {
     errors += "descriptor/backbone/rerank_weight > 0 needs max_landmarks > 0\n";
   }
@@ -273,7 +277,7 @@ std::string descriptorIdentity(const DescriptorOptions& options) {
              << b.input_height << " colour=" << b.colour << " mean=" << b.mean << " std=" << b.std
              << " grid=" << b.grid_rows << "x" << b.grid_cols
              << " normalisation=" << b.normalisation << " max_landmarks=" << b.max_landmarks
-             << " landmark_grid=" << b.landmark_grid
+             << " landmark_grid=" << b.landmark_grid << " landmark_features=" << b.landmark_features
              << " max_landmark_area=" << options.max_landmark_area
              << " shape_weighting=" << options.shape_weighting
              << " landmark_storage=" << options.landmark_storage << " hog_weight=" << b.hog_weight
@@ -326,6 +330,7 @@ std::shared_ptr<const DescriptorExtractor> makeDescriptorExtractor(
                                                             : GridNormalisation::kCells;
     backbone.max_landmarks = b.max_landmarks;
     backbone.landmark_grid = b.landmark_grid;
+    backbone.hog_landmarks = b.landmark_features == "hog";
     backbone.max_landmark_area = options.max_landmark_area;
     backbone.weighting =
         options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;

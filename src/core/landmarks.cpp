@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
@@ -9,6 +10,19 @@
 #include "landmark_loop_closure/hog_descriptor.h"
 
 namespace landmark_loop_closure {
+
+FeatureMaps featureMapsFromBlob(const cv::Mat& blob) {
+  if (blob.dims != 4 || blob.size[0] != 1 || blob.type() != CV_32F) {
+    throw std::runtime_error("expected a 1xCxHxW float output from the network");
+  }
+  FeatureMaps maps;
+  maps.channels = blob.size[1];
+  maps.height = blob.size[2];
+  maps.width = blob.size[3];
+  const float* data = blob.ptr<float>();
+  maps.values.assign(data, data + static_cast<size_t>(maps.channels) * maps.height * maps.width);
+  return maps;
+}
 
 namespace {
 

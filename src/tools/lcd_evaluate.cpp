@@ -59,8 +59,8 @@ OPTIONS:
                        backbone_gRxC (grid), _mN (landmarks), _rP (re-rank weight P %), _hP
                        (HOG weight P %), _nW (HOG alone below W px wide), _iWxH (input), _bN
                        (layer block_N_add), _pN (landmark boxes from block_N_add), _lgN
-                       (landmark grid), _whole / _centred (grid normalisation), _paper (the
-                       paper's shape weighting)
+                       (landmark grid), _hoglm (landmarks described by HOG), _whole / _centred
+                       (grid normalisation), _paper (the paper's shape weighting)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
   --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (descriptor/cnn defaults otherwise)
@@ -202,6 +202,8 @@ Variant backboneVariant(const std::string& name, const Arguments& arguments) {
     const std::string rest = part.substr(1);
     if (part == "paper") {
       options.shape_weighting = "paper";
+    } else if (part == "hoglm") {
+      backbone.landmark_features = "hog";
     } else if (part == "whole" || part == "centred") {
       backbone.normalisation = part;
     } else if (part.rfind("hog", 0) == 0) {
