@@ -64,7 +64,7 @@ run gardens_point_day_night_variants --name "Gardens Point night right vs day ri
 
 # Backbone choices, each against the default (block_12_add, 3x4 grid of cell-normalised cells,
 # 256x144 input, HOG weight 0.1 and alone below 160 px, 30 landmarks that do not re-rank).
-DESCRIPTORS=backbone,backbone_whole,backbone_centred,backbone_g2x3,backbone_g4x6,backbone_i224x224,backbone_i320x180,backbone_h0,backbone_h35,backbone_b5,backbone_r30,backbone_r100,backbone_p5_r30
+DESCRIPTORS=backbone,backbone_whole,backbone_centred,backbone_g2x3,backbone_g4x6,backbone_i224x224,backbone_i320x180,backbone_h0,backbone_h35,backbone_b5,backbone_r30,backbone_r100,backbone_p5_r30,backbone_hoglm_r30
 backbone_variants() {
   run gardens_point_viewpoint_backbone --name "Gardens Point day right vs day left (+-3)" \
     --database "$GP/day_left" --queries "$GP/day_right" --gt-aligned 3

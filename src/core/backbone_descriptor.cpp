@@ -148,7 +148,7 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
       descriptor.landmark_features = features;
     }
   }
-  if (hog_dimension > 0) {
+  if (hog_dimension > 0 && network_weight < 1.0) {
     const cv::Mat working =
         toWorkingImage(image, options_.hog_size.width, options_.hog_size.height);
     std::vector<float> hog;

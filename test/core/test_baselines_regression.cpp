@@ -61,9 +61,11 @@ void checkTraversals(const fs::path& database_folder, const fs::path& query_fold
 
 TEST(BaselineRegression, NordlandWinterAgainstSummerFirst300) {
   // Measured: pixels 0.007 / 0.090 / 0.247, hog 0.020 / 0.156 / 0.317,
-  // hog_whole 0.007 / 0.413 / 0.563 (R@100P / AUC / R@1, +-2 frames).
+  // hog_whole 0.007 / 0.413 / 0.563 (R@100P / AUC / R@1, +-2 frames), backbone (the default:
+  // HOG alone at 64x32) 0.037 / 0.441 / 0.553.
   checkTraversals(kData / "nordland" / "summer", kData / "nordland" / "winter", 300, 2,
-                  {{"pixels", 0.005, 0.08, 0.23},
+                  {{"backbone", 0.025, 0.42, 0.53},
+                   {"pixels", 0.005, 0.08, 0.23},
                    {"hog", 0.015, 0.14, 0.30},
                    {"hog_whole", 0.005, 0.39, 0.54}});
 }
@@ -71,20 +73,25 @@ TEST(BaselineRegression, NordlandWinterAgainstSummerFirst300) {
 TEST(BaselineRegression, GardensPointDayRightAgainstDayLeft) {
   // Measured: pixels 0.080 / 0.394 / 0.510, hog 0.010 / 0.204 / 0.320,
   // hog_whole 0.070 / 0.192 / 0.330, landmarks (shipped encoder, HOG patches) 0.040 / 0.603 /
-  // 0.680 (+-3).
+  // 0.680, backbone (the default, pretrained network) 0.570 / 0.895 / 0.910 (+-3).
   checkTraversals(kData / "gardens_point" / "day_left", kData / "gardens_point" / "day_right", 100,
                   3,
                   {{"pixels", 0.07, 0.37, 0.49},
                    {"hog", 0.005, 0.19, 0.30},
                    {"hog_whole", 0.06, 0.18, 0.31},
-                   {"landmarks", 0.03, 0.58, 0.66}});
+                   {"landmarks", 0.03, 0.58, 0.66},
+                   {"backbone", 0.50, 0.87, 0.88}});
 }
 
 TEST(BaselineRegression, GardensPointNightRightAgainstDayRight) {
   // Appearance change. Measured: hog_whole 0.150 / 0.545 / 0.640, landmarks 0.060 / 0.174 /
-  // 0.330 (conv2 crops instead of HOG patches: 0.010 / 0.077 / 0.220).
+  // 0.330 (conv2 crops instead of HOG patches: 0.010 / 0.077 / 0.220), backbone 0.800 / 0.945 /
+  // 0.950.
   checkTraversals(kData / "gardens_point" / "day_right", kData / "gardens_point" / "night_right",
-                  100, 3, {{"hog_whole", 0.14, 0.52, 0.62}, {"landmarks", 0.04, 0.16, 0.31}});
+                  100, 3,
+                  {{"hog_whole", 0.14, 0.52, 0.62},
+                   {"landmarks", 0.04, 0.16, 0.31},
+                   {"backbone", 0.70, 0.92, 0.93}});
 }
 
 TEST(BaselineRegression, GeneratedCorridorSequence) {
