@@ -75,6 +75,15 @@ backbone_variants() {
   run corridor_backbone --name "Generated corridor, 2 laps (sequence)" --corridor 2 --exclude-recent 60
 }
 backbone_variants
+# PCA whitening of the backbone's global vector (methods.md section 2's step), fitted on the traversal that
+# is neither database nor queries (100 images, so at most 99 dimensions).
+DESCRIPTORS=backbone,backbone_pca32,backbone_pca64,backbone_pca99
+run gardens_point_viewpoint_backbone_pca --name "Gardens Point day right vs day left (+-3)" \
+  --train-images "$GP/night_right" --database "$GP/day_left" --queries "$GP/day_right" --gt-aligned 3
+run gardens_point_day_night_backbone_pca --name "Gardens Point night right vs day right (+-3)" \
+  --train-images "$GP/day_left" --database "$GP/day_right" --queries "$GP/night_right" --gt-aligned 3
+run gardens_point_both_backbone_pca --name "Gardens Point night right vs day left (+-3)" \
+  --train-images "$GP/day_right" --database "$GP/day_left" --queries "$GP/night_right" --gt-aligned 3
 # On Nordland's 64x32 images: the network alone (n0), fused at several weights, HOG alone (default).
 DESCRIPTORS=backbone,backbone_n0_h0,backbone_n0,backbone_n0_h50,backbone_n0_h85 run nordland_backbone \
   --name "Nordland winter vs summer (+-2)" --database "$DATA/nordland/summer" \

@@ -31,7 +31,43 @@ Eigen::MatrixXf collectRows(size_t count, const ImageLoader& load, const Progres
   return matrix;
 }
 
+class WhitenedExtractor : public DescriptorExtractor {
+ public:
+  WhitenedExtractor(std::shared_ptr<const DescriptorExtractor> inner, PcaWhitening whitening)
+      : inner_(std::move(inner)), whitening_(std::move(whitening)) {}
+
+  std::string name() const override { return inner_->name() + "_pca"; }
+  int globalDimension() const override { return whitening_.outputDimension(); }
+  bool wantsColour() const override { return inner_->wantsColour(); }
+  ImageDescriptor describe(const cv::Mat& image) const override {
+    ImageDescriptor descriptor = inner_->describe(image);
+    if (descriptor.empty()) return descriptor;
+    Eigen::VectorXf whitened = whitening_.apply(Eigen::Map<const Eigen::VectorXf>(
+        descriptor.global.data(), static_cast<Eigen::Index>(descriptor.global.size())));
+    if (whitened.norm() > 0.0f) whitened.normalize();
+    descriptor.global.assign(whitened.data(), whitened.data() + whitened.size());
+    return descriptor;
+  }
+
+ private:
+  std::shared_ptr<const DescriptorExtractor> inner_;
+  PcaWhitening whitening_;
+};
+
 }  // namespace
+
+std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
+    std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,
+    int components, const Progress& progress) {
+  const Eigen::MatrixXf globals =
+      collectRows(count, load, progress, [&inner](const cv::Mat& image) {
+        const std::vector<float> global = inner->describe(image).global;
+        return Eigen::RowVectorXf(Eigen::Map<const Eigen::RowVectorXf>(
+            global.data(), static_cast<Eigen::Index>(global.size())));
+      });
+  return std::make_shared<WhitenedExtractor>(std::move(inner),
+                                             PcaWhitening::fit(globals, components, 1e-3));
+}
 
 PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, const ImageLoader& load,
                           int components, double regularisation, const Progress& progress) {

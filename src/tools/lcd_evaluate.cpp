@@ -59,7 +59,9 @@ OPTIONS:
                        backbone_gRxC (grid), _mN (landmarks), _rP (re-rank weight P %), _hP
                        (HOG weight P %), _nW (HOG alone below W px wide), _iWxH (input), _bN
                        (layer block_N_add), _pN (landmark boxes from block_N_add), _lgN
-                       (landmark grid), _hoglm (landmarks described by HOG), _whole / _centred
+                       (landmark grid), _hoglm (landmarks described by HOG), _pcaN (the global
+                       vector PCA-whitened to N dimensions, fitted on the training images), _whole
+                       / _centred
                        (grid normalisation), _paper (the paper's shape weighting)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
@@ -148,7 +150,8 @@ std::vector<std::string> limited(std::vector<std::string> paths, const Arguments
 // A descriptor to evaluate, and how to train it when it learns from images.
 struct Variant {
   DescriptorOptions options;
-  int components = 256;  // cnn_pca: whitened dimensions.
+  int components = 256;       // cnn_pca: whitened dimensions.
+  int whiten_components = 0;  // backbone_..._pcaN: the global vector whitened to N dimensions.
   BroadOptions broad;
 };
 
@@ -202,6 +205,8 @@ Variant backboneVariant(const std::string& name, const Arguments& arguments) {
     const std::string rest = part.substr(1);
     if (part == "paper") {
       options.shape_weighting = "paper";
+    } else if (part.rfind("pca", 0) == 0 && part.size() > 3) {
+      variant.whiten_components = std::stoi(part.substr(3));
     } else if (part == "hoglm") {
       backbone.landmark_features = "hog";
     } else if (part == "whole" || part == "centred") {
@@ -481,7 +486,13 @@ int run(const Arguments& arguments) {
     const DescriptorOptions& descriptor_options = variant.options;
     const std::string problem = descriptor_options.validate();
     if (!problem.empty()) throw std::invalid_argument(problem);
-    const auto extractor = makeDescriptorExtractor(descriptor_options);
+    std::shared_ptr<const DescriptorExtractor> extractor =
+        makeDescriptorExtractor(descriptor_options);
+    if (variant.whiten_components > 0) {
+      extractor = eval::withFittedWhitening(
+          extractor, training.count, training.load, variant.whiten_components,
+          progressPrinter("fitting the whitening (" + name + ")"));
+    }
     DescribedImages database;
     if (!memory.images.empty()) {
       database = describeImages(

@@ -7,6 +7,7 @@
 
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/report.h"
+#include "landmark_loop_closure/eval/training.h"
 #include "place_extractor.h"
 
 using namespace landmark_loop_closure;
@@ -181,4 +182,30 @@ TEST(Report, WritesResultsCurvesAndPictures) {
   EXPECT_FALSE(cv::imread((folder / "similarity_place.png").string()).empty());
   EXPECT_FALSE(cv::imread((folder / "ground_truth.png").string()).empty());
   EXPECT_GT(peakResidentBytes(), 0u);
+}
+
+TEST(Training, AFittedWhiteningWrapsAnyExtractor) {
+  // Training images: random textures; the whitened global keeps `components` unit-norm values.
+  std::vector<cv::Mat> images;
+  cv::RNG random(7);
+  for (int i = 0; i < 20; ++i) {
+    cv::Mat image(48, 64, CV_8UC1);
+    random.fill(image, cv::RNG::UNIFORM, 0, 256);
+    images.push_back(image);
+  }
+  DescriptorOptions options;
+  options.type = "pixels";
+  const auto whitened = withFittedWhitening(
+      makeDescriptorExtractor(options), images.size(), [&](size_t i) { return images[i]; }, 8);
+  EXPECT_EQ(whitened->name(), "pixels_pca");
+  EXPECT_EQ(whitened->globalDimension(), 8);
+  const ImageDescriptor d = whitened->describe(images[3]);
+  ASSERT_EQ(d.global.size(), 8u);
+  double norm = 0.0;
+  for (const float v : d.global) norm += v * v;
+  EXPECT_NEAR(norm, 1.0, 1e-4);
+  EXPECT_NEAR(whitened->similarity(d, whitened->describe(images[3])), 1.0, 1e-5);
+  EXPECT_THROW(withFittedWhitening(
+                   makeDescriptorExtractor(options), 1, [&](size_t i) { return images[i]; }, 8),
+               std::invalid_argument);
 }

@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <memory>
 
 #include <opencv2/core.hpp>
 
@@ -19,6 +20,14 @@ using ImageLoader = std::function<cv::Mat(size_t)>;
 /// Throws std::invalid_argument when fewer than 2 images can be read.
 PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, const ImageLoader& load,
                           int components, double regularisation, const Progress& progress = {});
+
+/// Any extractor whose global vector is then PCA-whitened (fitted on the images' global vectors)
+/// and normalised again: methods.md section 2's step measured on other descriptors (lcd_evaluate's "_pcaN"
+/// variants). Landmarks are passed through. Throws std::invalid_argument when fewer than 2
+/// images can be read.
+std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
+    std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,
+    int components, const Progress& progress = {});
 
 /// A broad autoencoder trained on the images; `training_error` (when not null) receives the
 /// reconstruction's mean squared error. Throws std::invalid_argument when fewer than 2 images
