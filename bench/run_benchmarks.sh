@@ -16,10 +16,11 @@ fi
 EVALUATE=_build/devel/lib/landmark_loop_closure/lcd_evaluate
 DESCRIPTORS=backbone,pixels,hog,hog_whole,calc,landmarks,landmarks_conv,cnn_pca,cnn_pca_raw,broad
 
-run() {  # name, then lcd_evaluate arguments
+run() {  # name, then lcd_evaluate arguments. cnn_pca and broad train on the evaluated images
+  # unless --train-images is given (results.json names the source of each).
   local name=$1; shift
   echo "== $name"
-  "$EVALUATE" --descriptors "$DESCRIPTORS" --output "$OUT/$name" "$@" 2> >(grep -v "^lcd_evaluate: \(describing\|matching\)" >&2)
+  "$EVALUATE" --descriptors "$DESCRIPTORS" --output "$OUT/$name" --train-on-eval "$@" 2> >(grep -v "^lcd_evaluate: \(describing\|matching\)" >&2)
 }
 
 GP=$DATA/gardens_point

@@ -35,7 +35,8 @@ add_dependencies(demo_report ${PROJECT_NAME}_generate_messages_cpp)
 install(TARGETS make_demo_bag demo_report RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # Offline evaluation tool: image folders, the generated corridor, and bags (hence ROS).
-add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/bag_source.cpp)
+add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/evaluate_support.cpp
+  src/tools/evaluate_detector.cpp src/tools/bag_source.cpp)
 target_include_directories(lcd_evaluate SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(lcd_evaluate ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim ${PROJECT_NAME}_nodelet
   ${catkin_LIBRARIES})

@@ -7,6 +7,7 @@ set(CORE_TESTS
   test_database_file
   test_temporal_consistency
   test_loop_detector
+  test_sequence_matching
   test_bounded_queue
   test_match_image
   test_landmarks

@@ -90,6 +90,9 @@ class KeyframeDatabase {
   /// widened by the number of excluded keyframes (exact search when more than 2000 are excluded).
   QueryResult query(const std::vector<float>& global, double stamp, const DatabaseOptions& options,
                     uint32_t session = 0) const;
+  /// Whether keyframe `index` lies outside a query's exclusion windows, as query() decides.
+  bool eligible(size_t index, double stamp, const DatabaseOptions& options,
+                uint32_t session = 0) const;
 
   int globalDimension() const { return global_dimension_; }
   size_t size() const { return keyframes_.size(); }
@@ -109,6 +112,9 @@ class KeyframeDatabase {
   void setIndex(const IndexOptions& index, std::unique_ptr<ApproximateIndex> graph = nullptr);
 
  private:
+  /// Keyframes at or past this position are the querying session's newest: never candidates.
+  size_t searchEnd(const DatabaseOptions& options, uint32_t session) const;
+
   int global_dimension_;
   IndexOptions index_options_;
   /// A deque: growing never moves the stored keyframes (a vector would copy them all, since

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -17,6 +18,7 @@
 #include "landmark_loop_closure/metric_pose.h"
 #include "landmark_loop_closure/odometry_gate.h"
 #include "landmark_loop_closure/online_training.h"
+#include "landmark_loop_closure/sequence_matching.h"
 #include "landmark_loop_closure/temporal_consistency.h"
 
 namespace landmark_loop_closure {
@@ -34,6 +36,9 @@ struct AcceptanceOptions {
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
   double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
   double match_window_m = 1.0;         ///< Matches agree within this (plus the query's step).
+  /// Sequence matching (sequence_length > 1): the threshold applies to a candidate's best path
+  /// mean over the last keyframes instead of its own score (SequenceMatcher).
+  SequenceMatchingOptions sequence;
 
   ConsistencyUnit unit() const;  ///< consistency_unit parsed (kKeyframes when invalid).
 
@@ -94,7 +99,8 @@ struct CandidateReport {
   uint64_t match_id = 0;
   double match_stamp = 0.0;
   double global_score = 0.0;  ///< Shortlist stage: cosine of the global descriptors.
-  double score = 0.0;         ///< Final stage: the extractor's similarity (re-ranked).
+  double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
+  double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
   std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
@@ -221,6 +227,12 @@ class LoopDetector {
   bool waitForTraining(double seconds) const {
     return !training_ || !training_->started() || training_->waitUntilReady(seconds);
   }
+  /// Offline replays of the same frames (lcd_evaluate's threshold sweep): search results by
+  /// keyframe id, recorded when absent and reused when present. Valid only while every pass stores
+  /// the same keyframes (mapping mode, no memory budget), which the caller ensures; null = off.
+  using QueryCache = std::unordered_map<uint64_t, QueryResult>;
+  void setQueryCache(std::shared_ptr<QueryCache> cache) { query_cache_ = std::move(cache); }
+
   /// Null while online training holds keyframes.
   const DescriptorExtractor* extractor() const { return extractor_.get(); }
 
@@ -228,6 +240,10 @@ class LoopDetector {
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
+  /// Sequence matching: replaces the reports by the sequence matcher's candidates and scores.
+  /// False while the history is shorter than a sequence (every report then waits).
+  bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
+                      const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).
   bool consistentLongEnough(const TemporalConsistency::Chain& chain, std::string* detail) const;
   /// False when the candidate must be refused; fills report and, when verified, loop.
@@ -254,6 +270,8 @@ class LoopDetector {
   // Search state (worker thread).
   KeyframeDatabase database_;
   TemporalConsistency consistency_;
+  SequenceMatcher sequence_;
+  std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
   uint32_t session_ = 0;
   std::string descriptor_identity_;

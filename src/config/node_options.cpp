@@ -152,6 +152,10 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("acceptance/consistency_unit", &detector.acceptance.consistency_unit);
   reader->read("acceptance/consistent_distance_m", &detector.acceptance.consistent_distance_m);
   reader->read("acceptance/match_window_m", &detector.acceptance.match_window_m);
+  reader->read("acceptance/sequence_length", &detector.acceptance.sequence.length);
+  reader->read("acceptance/sequence_min_speed", &detector.acceptance.sequence.min_speed);
+  reader->read("acceptance/sequence_max_speed", &detector.acceptance.sequence.max_speed);
+  reader->read("acceptance/sequence_speed_step", &detector.acceptance.sequence.speed_step);
   reader->read("odometry_gate/enabled", &detector.odometry_gate.enabled);
   reader->read("odometry_gate/drift_per_metre", &detector.odometry_gate.drift_per_metre);
   reader->read("odometry_gate/drift_per_radian", &detector.odometry_gate.drift_per_radian);

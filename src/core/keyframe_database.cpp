@@ -113,6 +113,21 @@ void KeyframeDatabase::add(KeyframeRecord keyframe) {
   keyframes_.push_back(std::move(keyframe));
 }
 
+size_t KeyframeDatabase::searchEnd(const DatabaseOptions& options, uint32_t session) const {
+  size_t end = keyframes_.size();
+  const size_t limit = static_cast<size_t>(options.exclude_recent_keyframes);
+  while (end > 0 && keyframes_.size() - end < limit && keyframes_[end - 1].session == session) {
+    --end;
+  }
+  return end;
+}
+
+bool KeyframeDatabase::eligible(size_t index, double stamp, const DatabaseOptions& options,
+                                uint32_t session) const {
+  return index < searchEnd(options, session) &&
+         std::abs(stamp - stamps_[index]) >= options.exclude_recent_seconds;
+}
+
 QueryResult KeyframeDatabase::query(const std::vector<float>& global, double stamp,
                                     const DatabaseOptions& options, uint32_t session) const {
   QueryResult result;
@@ -124,11 +139,7 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
     throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
                                 " values, the database holds " + std::to_string(global_dimension_));
   }
-  size_t end = keyframes_.size();
-  const size_t limit = static_cast<size_t>(options.exclude_recent_keyframes);
-  while (end > 0 && keyframes_.size() - end < limit && keyframes_[end - 1].session == session) {
-    --end;
-  }
+  const size_t end = searchEnd(options, session);
   const auto outside_time_window = [&](size_t index) {
     return std::abs(stamp - stamps_[index]) >= options.exclude_recent_seconds;
   };

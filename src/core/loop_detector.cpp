@@ -47,6 +47,7 @@ std::string AcceptanceOptions::validate() const {
   if (!(match_window_m >= 0.0)) {
     errors << "acceptance/match_window_m must be >= 0 (got " << match_window_m << ")\n";
   }
+  errors << sequence.validate();
   return errors.str();
 }
 
@@ -131,6 +132,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                    options.acceptance.unit() == ConsistencyUnit::kKeyframes
                        ? static_cast<double>(options.acceptance.index_window)
                        : options.acceptance.match_window_m),
+      sequence_(options.acceptance.sequence),
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
@@ -209,6 +211,7 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
          !next_keyframe_id_.compare_exchange_weak(next, last_id + 1)) {
   }
   consistency_.reset();
+  sequence_.reset();
   last_keyframe_.reset();
   return "";
 }
@@ -218,6 +221,7 @@ void LoopDetector::reset() {
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   consistency_.reset();
+  sequence_.reset();
   last_keyframe_.reset();
 }
 
@@ -236,7 +240,10 @@ void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
 }
 
 void LoopDetector::setMode(DetectorMode mode) {
-  if (mode != mode_) consistency_.reset();  // Chains of one mode say nothing in the other.
+  if (mode != mode_) {  // Chains and sequences of one mode say nothing in the other.
+    consistency_.reset();
+    sequence_.reset();
+  }
   mode_ = mode;
 }
 
@@ -301,12 +308,25 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   const auto describe_start = Clock::now();
   ImageDescriptor descriptor = extractor_->describe(image);
   result.times.describe_ms = millisecondsSince(describe_start);
+  if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
 
   const auto query_start = Clock::now();
   DatabaseOptions search = options_.database;
   // Localising: the map's last keyframes are not this run's recent past (the time rule stays).
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
-  const QueryResult query = database_.query(descriptor.global, stamp, search, session_);
+  QueryResult query;
+  bool replayed = false;
+  if (query_cache_) {
+    const auto cached = query_cache_->find(keyframe_id);
+    if (cached != query_cache_->end()) {
+      query = cached->second;
+      replayed = true;
+    }
+  }
+  if (!replayed) {
+    query = database_.query(descriptor.global, stamp, search, session_);
+    if (query_cache_) query_cache_->emplace(keyframe_id, query);
+  }
   result.times.query_ms = millisecondsSince(query_start);
   result.query_status = query.status;
 
@@ -368,6 +388,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   }
   const auto rerank_start = Clock::now();
   std::vector<CandidateReport>& reports = result->candidates;
+  std::vector<size_t> indices;
   for (const Candidate& candidate : query.candidates) {
     const KeyframeRecord& stored = database_.at(candidate.index);
     CandidateReport report;
@@ -376,7 +397,14 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     report.global_score = candidate.global_score;
     report.score = extractor_->reranks() ? extractor_->similarity(descriptor, stored.descriptor)
                                          : extractor_->globalScore(candidate.global_score);
+    report.image_score = report.score;
     reports.push_back(report);
+    indices.push_back(candidate.index);
+  }
+  if (options_.acceptance.sequence.enabled() &&
+      !scoreSequences(&reports, descriptor, indices, query_keyframe.stamp)) {
+    result->times.rerank_ms = millisecondsSince(rerank_start);
+    return;
   }
   std::stable_sort(
       reports.begin(), reports.end(),
@@ -435,6 +463,55 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       result->loop = loop;
     }
   }
+}
+
+bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
+                                  const ImageDescriptor& descriptor,
+                                  const std::vector<size_t>& indices, double stamp) {
+  std::vector<SequenceCandidate> candidates;
+  for (size_t i = 0; i < reports->size(); ++i) {
+    SequenceCandidate candidate;
+    candidate.index = indices[i];
+    candidate.image_score = (*reports)[i].score;
+    candidates.push_back(candidate);
+  }
+  DatabaseOptions search = options_.database;
+  if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
+  sequence_.score(
+      database_, *extractor_,
+      [&](size_t index) { return database_.eligible(index, stamp, search, session_); },
+      &candidates);
+  std::vector<CandidateReport> scored;
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const SequenceCandidate& candidate = candidates[i];
+    CandidateReport report;
+    if (i < reports->size()) {
+      report = (*reports)[i];
+    } else {
+      const KeyframeRecord& stored = database_.at(candidate.index);
+      report.match_id = stored.id;
+      report.match_stamp = stored.stamp;
+      report.global_score = cosineSimilarity(descriptor.global, stored.descriptor.global);
+      report.image_score = candidate.image_score;
+    }
+    report.score = candidate.score;
+    scored.push_back(report);
+  }
+  *reports = std::move(scored);
+  if (sequence_.full()) return true;
+  // Too short a history for a sequence: nothing is believed yet.
+  std::stable_sort(
+      reports->begin(), reports->end(),
+      [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
+  for (CandidateReport& report : *reports) {
+    report.verdict = report.score < options_.acceptance.min_score
+                         ? CandidateVerdict::kBelowThreshold
+                         : CandidateVerdict::kAwaitingConsistency;
+    report.detail = "sequence of " + std::to_string(sequence_.history()) + " of " +
+                    std::to_string(options_.acceptance.sequence.length) + " keyframes";
+  }
+  consistency_.reset();
+  return false;
 }
 
 void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,

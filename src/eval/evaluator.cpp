@@ -141,8 +141,49 @@ std::vector<std::string> listImages(const std::string& folder) {
       paths.push_back(entry.path().string());
   }
   if (paths.empty()) throw GroundTruthError("image folder " + folder + " holds no image");
-  std::sort(paths.begin(), paths.end());
+  std::sort(paths.begin(), paths.end(), naturalLess);
   return paths;
+}
+
+bool naturalLess(const std::string& a, const std::string& b) {
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  size_t i = 0;
+  size_t j = 0;
+  while (i < a.size() && j < b.size()) {
+    if (digit(a[i]) && digit(b[j])) {
+      size_t end_a = i;
+      size_t end_b = j;
+      while (end_a < a.size() && digit(a[end_a])) ++end_a;
+      while (end_b < b.size() && digit(b[end_b])) ++end_b;
+      // Compare the numbers without their leading zeros: longer is larger, else digit by digit.
+      size_t start_a = i;
+      size_t start_b = j;
+      while (start_a + 1 < end_a && a[start_a] == '0') ++start_a;
+      while (start_b + 1 < end_b && b[start_b] == '0') ++start_b;
+      const size_t length_a = end_a - start_a;
+      const size_t length_b = end_b - start_b;
+      if (length_a != length_b) return length_a < length_b;
+      const int order = a.compare(start_a, length_a, b, start_b, length_b);
+      if (order != 0) return order < 0;
+      // Same number: fewer leading zeros first, so the order stays total.
+      if (end_a - i != end_b - j) return end_a - i < end_b - j;
+      i = end_a;
+      j = end_b;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  return a.size() - i < b.size() - j;
+}
+
+bool textOrderDiffers(const std::vector<std::string>& paths) {
+  std::vector<std::string> text = paths;
+  std::sort(text.begin(), text.end());
+  std::vector<std::string> natural = paths;
+  std::sort(natural.begin(), natural.end(), naturalLess);
+  return text != natural;
 }
 
 DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)>& load,

@@ -26,6 +26,15 @@ void GroundTruth::finalize() {
   }
 }
 
+void requirePositives(const GroundTruth& truth, const std::string& source) {
+  if (truth.count() > 0) return;
+  throw GroundTruthError("the ground truth (" + source + ", " + std::to_string(truth.rows()) +
+                         " x " + std::to_string(truth.cols()) +
+                         ") marks no pair of images as the same place, so every measure would "
+                         "read 0; check the file (and --gt-var), or give --no-ground-truth to "
+                         "look at the matches without one");
+}
+
 size_t GroundTruth::count() const {
   size_t total = 0;
   for (const auto& row : positives_) total += row.size();

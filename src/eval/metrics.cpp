@@ -50,7 +50,17 @@ Metrics computeMetrics(const std::vector<QueryOutcome>& outcomes) {
     metrics.curve.push_back({score, precision, recall});
     previous_recall = recall;
     previous_precision = precision;
+    if (correct_at_any_score > 0) {
+      const double vpr_recall = true_positives / static_cast<double>(correct_at_any_score);
+      if (!metrics.vprbench.curve.empty()) {
+        const PrPoint& last = metrics.vprbench.curve.back();
+        metrics.vprbench.auc += 0.5 * (precision + last.precision) * (vpr_recall - last.recall);
+      }
+      if (false_positives == 0) metrics.vprbench.recall_at_100_precision = vpr_recall;
+      metrics.vprbench.curve.push_back({score, precision, vpr_recall});
+    }
   }
+  metrics.vprbench.correct_matches = correct_at_any_score;
   return metrics;
 }
 

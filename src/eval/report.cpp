@@ -53,6 +53,61 @@ cv::Mat similarityPicture(const cv::Mat& similarity) {
 
 }  // namespace
 
+void writeContactSheet(const std::string& path, const std::vector<QueryOutcome>& outcomes,
+                       const std::function<cv::Mat(size_t)>& load_query,
+                       const std::function<cv::Mat(size_t)>& load_database, bool judge, int pairs) {
+  std::vector<const QueryOutcome*> ranked;
+  for (const QueryOutcome& outcome : outcomes) {
+    if (outcome.match >= 0) ranked.push_back(&outcome);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const QueryOutcome* a, const QueryOutcome* b) {
+    return a->score > b->score;
+  });
+  if (ranked.size() > static_cast<size_t>(std::max(0, pairs))) ranked.resize(std::max(0, pairs));
+  const cv::Size tile(200, 150);
+  constexpr int kLabel = 22;
+  constexpr int kBorder = 4;
+  constexpr int kColumns = 3;
+  const int cell_width = 2 * tile.width + 3 * kBorder;
+  const int cell_height = tile.height + kLabel + 2 * kBorder;
+  const int rows = std::max<int>(1, (static_cast<int>(ranked.size()) + kColumns - 1) / kColumns);
+  cv::Mat sheet(rows * cell_height, kColumns * cell_width, CV_8UC3, cv::Scalar(30, 30, 30));
+  const auto fitted = [&tile](const cv::Mat& image) {
+    cv::Mat colour(tile, CV_8UC3, cv::Scalar(0, 0, 0));
+    if (image.empty()) return colour;
+    cv::Mat bgr;
+    if (image.channels() == 1) {
+      cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
+    } else {
+      bgr = image;
+    }
+    cv::resize(bgr, colour, tile, 0, 0, cv::INTER_AREA);
+    return colour;
+  };
+  for (size_t k = 0; k < ranked.size(); ++k) {
+    const QueryOutcome& outcome = *ranked[k];
+    const int x = static_cast<int>(k % kColumns) * cell_width;
+    const int y = static_cast<int>(k / kColumns) * cell_height;
+    const cv::Scalar frame = !judge            ? cv::Scalar(160, 160, 160)
+                             : outcome.correct ? cv::Scalar(60, 200, 60)
+                                               : cv::Scalar(60, 60, 230);
+    cv::rectangle(sheet, cv::Rect(x, y, cell_width, cell_height), frame, cv::FILLED);
+    fitted(load_query(outcome.query))
+        .copyTo(sheet(cv::Rect(x + kBorder, y + kBorder, tile.width, tile.height)));
+    fitted(load_database(static_cast<size_t>(outcome.match)))
+        .copyTo(
+            sheet(cv::Rect(x + 2 * kBorder + tile.width, y + kBorder, tile.width, tile.height)));
+    std::ostringstream label;
+    label << "query " << outcome.query << " -> " << outcome.match << "  score " << std::fixed
+          << std::setprecision(3) << outcome.score;
+    cv::putText(sheet, label.str(), cv::Point(x + kBorder + 2, y + cell_height - 8),
+                cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  cv::imwrite(path, sheet);
+}
+
 size_t peakResidentBytes() {
   std::ifstream status("/proc/self/status");
   std::string line;
@@ -92,6 +147,10 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
          << "      \"auc\": " << m.auc << ",\n"
          << "      \"average_precision\": " << m.average_precision << ",\n"
          << "      \"recall_at_1\": " << m.recall_at_1 << ",\n"
+         << "      \"vprbench\": {\"recall_at_100_precision\": "
+         << m.vprbench.recall_at_100_precision << ", \"auc\": " << m.vprbench.auc
+         << ", \"correct_matches\": " << m.vprbench.correct_matches << "},\n"
+         << "      \"training_source\": " << jsonString(e.training_source) << ",\n"
          << "      \"queries\": " << m.queries << ",\n"
          << "      \"queries_with_truth\": " << m.queries_with_truth << ",\n"
          << "      \"undecodable_images\": " << e.undecodable << ",\n"
@@ -105,6 +164,11 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
     curve << "threshold,precision,recall\n" << std::setprecision(6);
     for (const PrPoint& point : m.curve) {
       curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
+    }
+    std::ofstream vpr_curve(base / ("pr_vprbench_" + e.name + ".csv"));
+    vpr_curve << "threshold,precision,recall\n" << std::setprecision(6);
+    for (const PrPoint& point : m.vprbench.curve) {
+      vpr_curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
     }
     std::ofstream matches(base / ("matches_" + e.name + ".csv"));
     matches << "query,match,score,correct,query_has_place,accepted_at_100p\n"

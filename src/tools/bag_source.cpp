@@ -6,6 +6,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
 #include "../ros/ros_conversions.h"
@@ -27,33 +28,84 @@ const Pose* nearest(const std::map<ros::Time, Pose>& poses, const ros::Time& sta
   return std::abs((best->first - stamp).toSec()) <= slop ? &best->second : nullptr;
 }
 
-}  // namespace
-
-BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
-  rosbag::Bag bag;
+void openBag(const BagSourceOptions& options, rosbag::Bag* bag) {
   try {
-    bag.open(options.path, rosbag::bagmode::Read);
+    bag->open(options.path, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& error) {
     throw std::runtime_error("cannot read bag " + options.path + ": " + error.what());
   }
-  // Poses first: a bag's odometry may be written after the image it belongs to.
-  std::map<ros::Time, Pose> odometry;
-  std::map<ros::Time, Pose> truth;
+}
+
+// Poses first: a bag's odometry may be written after the image it belongs to.
+void readPoses(const BagSourceOptions& options, rosbag::Bag& bag,
+               std::map<ros::Time, Pose>* odometry, std::map<ros::Time, Pose>* truth) {
   std::vector<std::string> pose_topics = {options.odom_topic};
   if (!options.truth_topic.empty()) pose_topics.push_back(options.truth_topic);
   for (const rosbag::MessageInstance& message :
        rosbag::View(bag, rosbag::TopicQuery(pose_topics))) {
     if (const auto pose = message.instantiate<nav_msgs::Odometry>()) {
-      (message.getTopic() == options.odom_topic ? odometry : truth)[pose->header.stamp] =
+      (message.getTopic() == options.odom_topic ? *odometry : *truth)[pose->header.stamp] =
           fromRos(pose->pose.pose);
     }
   }
-  if (odometry.empty()) {
+  if (odometry->empty()) {
     throw std::runtime_error(options.path + " has no nav_msgs/Odometry on " + options.odom_topic);
   }
-  if (!options.truth_topic.empty() && truth.empty()) {
+  if (!options.truth_topic.empty() && truth->empty()) {
     throw std::runtime_error(options.path + " has no nav_msgs/Odometry on " + options.truth_topic);
   }
+}
+
+}  // namespace
+
+void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameSink& sink) {
+  rosbag::Bag bag;
+  openBag(options, &bag);
+  std::map<ros::Time, Pose> odometry;
+  std::map<ros::Time, Pose> truth;
+  readPoses(options, bag, &odometry, &truth);
+  const std::string info_topic =
+      options.image_topic.substr(0, options.image_topic.rfind('/') + 1) + "camera_info";
+  // The node pairs an image with its odometry when the later of the two arrives, by which time
+  // the camera_info of that stamp has come too: the latest one stamped at or before the image.
+  std::map<ros::Time, CameraIntrinsics> infos;
+  for (const rosbag::MessageInstance& message :
+       rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{info_topic}))) {
+    if (const auto info = message.instantiate<sensor_msgs::CameraInfo>()) {
+      infos[info->header.stamp] = fromCameraInfo(*info);
+    }
+  }
+  size_t index = 0;
+  size_t images = 0;
+  for (const rosbag::MessageInstance& message :
+       rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{options.image_topic}))) {
+    const auto image = message.instantiate<sensor_msgs::Image>();
+    if (!image) continue;
+    ++images;
+    const Pose* pose = nearest(odometry, image->header.stamp, options.sync_slop);
+    if (!pose || checkImageMessage(*image)) continue;
+    eval::DetectorFrame frame;
+    frame.stamp = toSeconds(image->header.stamp);
+    frame.pose = *pose;
+    frame.image = colour ? toBgr(*image) : toGrey(*image);
+    const auto info = infos.upper_bound(image->header.stamp);
+    if (info != infos.begin()) frame.intrinsics = std::prev(info)->second;
+    const Pose* true_pose = options.truth_topic.empty()
+                                ? nullptr
+                                : nearest(truth, image->header.stamp, options.sync_slop);
+    sink(index++, frame, true_pose ? *true_pose : *pose);
+  }
+  if (images == 0) {
+    throw std::runtime_error(options.path + " has no sensor_msgs/Image on " + options.image_topic);
+  }
+}
+
+BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
+  rosbag::Bag bag;
+  openBag(options, &bag);
+  std::map<ros::Time, Pose> odometry;
+  std::map<ros::Time, Pose> truth;
+  readPoses(options, bag, &odometry, &truth);
 
   BagKeyframes keyframes;
   KeyframeSelector selector(options.keyframe);

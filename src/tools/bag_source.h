@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/eval/detector_evaluation.h"
 #include "landmark_loop_closure/keyframe_selector.h"
 #include "landmark_loop_closure/pose.h"
 
@@ -34,5 +35,15 @@ struct BagKeyframes {
 
 /// Throws std::runtime_error naming the bag and the problem.
 BagKeyframes readBagKeyframes(const BagSourceOptions& options);
+
+/// Every image of a bag as the node receives it: paired with the odometry nearest in stamp
+/// (within sync_slop; images without are skipped), converted as the node converts it (grey, or
+/// BGR when `colour`), with the intrinsics of the last camera_info before it in the bag, and its
+/// truth pose (the truth topic's nearest, else the odometry). Images the node would refuse as
+/// messages (bad encoding or size) are skipped too. Throws std::runtime_error like
+/// readBagKeyframes.
+using BagFrameSink =
+    std::function<void(size_t index, const eval::DetectorFrame& frame, const Pose& truth)>;
+void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameSink& sink);
 
 }  // namespace landmark_loop_closure

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/eval/detector_evaluation.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/report.h"
 #include "landmark_loop_closure/eval/training.h"
@@ -48,6 +49,20 @@ TEST(Metrics, HandComputedCurve) {
   EXPECT_DOUBLE_EQ(m.average_precision, (1.0 + 1.0 + 0.75) / 5.0);
   // AUC: trapezoids (0,1)->(.2,1)->(.4,1)->(.4,2/3)->(.6,3/4)->(.6,3/5).
   EXPECT_NEAR(m.auc, 0.2 + 0.2 + 0.0 + 0.2 * (2.0 / 3.0 + 0.75) / 2.0 + 0.0, 1e-12);
+}
+
+TEST(Metrics, VprBenchConventionDividesByTheCorrectlyMatchedQueries) {
+  // Same outcomes as above: three best matches are right, so recall is counted out of 3, not 5.
+  const Metrics m =
+      computeMetrics({outcome(0, 0.9, true), outcome(1, 0.8, true), outcome(2, 0.7, false),
+                      outcome(3, 0.6, true), outcome(4, 0.1, false)});
+  EXPECT_EQ(m.vprbench.correct_matches, 3u);
+  ASSERT_EQ(m.vprbench.curve.size(), 5u);
+  EXPECT_DOUBLE_EQ(m.vprbench.recall_at_100_precision, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(m.vprbench.curve.back().recall, 1.0);
+  EXPECT_DOUBLE_EQ(m.vprbench.curve.back().precision, 3.0 / 5.0);
+  // Trapezoids over the curve's points only: (1/3,1)->(2/3,1)->(2/3,2/3)->(1,3/4)->(1,3/5).
+  EXPECT_NEAR(m.vprbench.auc, 1.0 / 3.0 + (2.0 / 3.0 + 0.75) / 2.0 / 3.0, 1e-12);
 }
 
 TEST(Metrics, PerfectAndEmpty) {
@@ -142,6 +157,29 @@ TEST(Evaluator, MismatchedGroundTruthSizeIsAClearError) {
   }
 }
 
+TEST(Evaluator, NamesSortWithTheirNumbersAsNumbers) {
+  EXPECT_TRUE(naturalLess("2.jpg", "10.jpg"));
+  EXPECT_FALSE(naturalLess("10.jpg", "2.jpg"));
+  EXPECT_TRUE(naturalLess("img9.png", "img010.png"));
+  EXPECT_TRUE(naturalLess("a1b2", "a1b10"));
+  EXPECT_TRUE(naturalLess("a", "a1"));
+  EXPECT_FALSE(naturalLess("x5", "x5"));
+  EXPECT_TRUE(naturalLess("x5", "x05"));  // Same number: the order stays total.
+  EXPECT_TRUE(textOrderDiffers({"1.jpg", "2.jpg", "10.jpg"}));
+  EXPECT_FALSE(textOrderDiffers({"Image000.jpg", "Image001.jpg", "Image010.jpg"}));
+
+  const fs::path folder = fs::temp_directory_path() / "lcd_natural_sort";
+  fs::remove_all(folder);
+  fs::create_directories(folder);
+  for (const char* name : {"10.png", "1.png", "2.png"}) std::ofstream(folder / name) << "x";
+  const std::vector<std::string> paths = listImages(folder.string());
+  ASSERT_EQ(paths.size(), 3u);
+  EXPECT_EQ(fs::path(paths[0]).filename(), "1.png");
+  EXPECT_EQ(fs::path(paths[1]).filename(), "2.png");
+  EXPECT_EQ(fs::path(paths[2]).filename(), "10.png");
+  fs::remove_all(folder);
+}
+
 TEST(Evaluator, ListImagesSortsAndRefusesMissingFolders) {
   const fs::path folder = fs::temp_directory_path() / "lcd_list_images";
   fs::remove_all(folder);
@@ -182,6 +220,101 @@ TEST(Report, WritesResultsCurvesAndPictures) {
   EXPECT_FALSE(cv::imread((folder / "similarity_place.png").string()).empty());
   EXPECT_FALSE(cv::imread((folder / "ground_truth.png").string()).empty());
   EXPECT_GT(peakResidentBytes(), 0u);
+  EXPECT_TRUE(fs::exists(folder / "pr_vprbench_place.csv"));
+  EXPECT_NE(text.find("\"vprbench\": {\"recall_at_100_precision\": 1"), std::string::npos);
+
+  // The best pairs drawn for a person to look at: 2 pairs -> one row of the 3-column grid.
+  const fs::path sheet = folder / "contact_place.png";
+  writeContactSheet(
+      sheet.string(), e.outcomes, [](size_t i) { return place(int(i % 3)); },
+      [](size_t i) { return place(int(i % 3)); }, true, 2);
+  const cv::Mat picture = cv::imread(sheet.string());
+  ASSERT_FALSE(picture.empty());
+  EXPECT_GT(picture.cols, picture.rows);
+}
+
+TEST(GroundTruth, AnAllZeroMatrixIsRefusedWithWhatToDo) {
+  GroundTruth empty(5, 5);
+  empty.finalize();
+  try {
+    requirePositives(empty, "file.mat");
+    FAIL();
+  } catch (const GroundTruthError& error) {
+    const std::string text = error.what();
+    EXPECT_NE(text.find("file.mat"), std::string::npos) << text;
+    EXPECT_NE(text.find("--no-ground-truth"), std::string::npos) << text;
+  }
+  GroundTruth one(5, 5);
+  one.add(3, 1);
+  one.finalize();
+  EXPECT_NO_THROW(requirePositives(one, "file.mat"));
+}
+
+namespace {
+
+// Places 0..39, then places 10..29 again (true revisits): frame i shows place(i).
+int placeOfFrame(size_t frame) { return frame < 40 ? int(frame) : int(frame) - 30; }
+
+LoopDetectorOptions smallDetector() {
+  LoopDetectorOptions options;
+  options.keyframe.min_motion = 0.5;
+  options.database.exclude_recent_keyframes = 5;
+  options.database.exclude_recent_seconds = 0.0;
+  options.database.min_size = 10;
+  options.acceptance.min_score = 0.5;
+  options.odometry_gate.enabled = false;
+  options.verification.enabled = false;
+  return options;
+}
+
+}  // namespace
+
+TEST(DetectorEvaluation, ScoresThePublishedLoopsAndSweepsTheThreshold) {
+  const FramePlayer play = [](const std::function<void(size_t, const DetectorFrame&)>& sink) {
+    for (size_t i = 0; i < 60; ++i) {
+      DetectorFrame frame;
+      frame.stamp = 1.0 + i;
+      frame.pose = planarPose(double(i), 0, 0);
+      frame.image = test_support::place(placeOfFrame(i));
+      sink(i, frame);
+    }
+  };
+  const SamePlace same = [](size_t q, size_t m) { return placeOfFrame(q) == placeOfFrame(m); };
+  const DetectorEvaluation result =
+      evaluateDetector(smallDetector(), std::make_shared<PlaceExtractor>(), play, same);
+  EXPECT_EQ(result.frames, 60u);
+  EXPECT_EQ(result.keyframes, 60u);
+  EXPECT_EQ(result.revisits, 20u);
+  // k = 3: the first two revisits only start the chain.
+  EXPECT_EQ(result.configured.loops.size(), 18u);
+  EXPECT_EQ(result.configured.true_loops, 18u);
+  EXPECT_DOUBLE_EQ(result.configured.precision, 1.0);
+  EXPECT_DOUBLE_EQ(result.configured.recall, 0.9);
+  EXPECT_EQ(result.configured.refused.at("awaiting_consistency"), 2u);
+  EXPECT_EQ(result.configured.refused.at("database_too_small"), 10u);
+  EXPECT_EQ(result.configured.loops.front().query_frame, 42u);
+  EXPECT_EQ(result.configured.loops.front().match_frame, 12u);
+  EXPECT_DOUBLE_EQ(result.recall_at_100_precision, 0.9);
+  EXPECT_FALSE(result.sweep.empty());
+  for (const DetectorPass& pass : result.sweep) EXPECT_LE(pass.loops.size(), 18u);
+
+  // A ground truth that calls every match wrong: nothing is clean but the empty passes.
+  const DetectorEvaluation wrong =
+      evaluateDetector(smallDetector(), std::make_shared<PlaceExtractor>(), play,
+                       [](size_t q, size_t) { return q >= 40 && q < 42; });
+  EXPECT_DOUBLE_EQ(wrong.configured.precision, 0.0);
+  EXPECT_DOUBLE_EQ(wrong.recall_at_100_precision, 0.0);
+
+  const fs::path folder = fs::temp_directory_path() / "lcd_detector_report";
+  fs::remove_all(folder);
+  const std::string path = writeDetectorReport(folder.string(), "place", "test", result);
+  std::ifstream json(path);
+  const std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"revisited_keyframes\": 20"), std::string::npos) << text;
+  std::ifstream loops(folder / "loops_place.csv");
+  std::string header;
+  std::getline(loops, header);
+  EXPECT_EQ(header, "query_id,match_id,query_frame,match_frame,score,verified,correct");
 }
 
 TEST(Training, AFittedWhiteningWrapsAnyExtractor) {

@@ -56,9 +56,12 @@ void driveCorridor(
 
 // Runs a route through the detector; a loop is true when the ground-truth positions of its two
 // keyframes are within 2.5 m.
-RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score) {
+RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score,
+               const SequenceMatchingOptions& sequence = {}, int consistent_keyframes = 3) {
   LoopDetectorOptions detector_options;
   detector_options.acceptance.min_score = min_score;
+  detector_options.acceptance.sequence = sequence;
+  detector_options.acceptance.consistent_keyframes = consistent_keyframes;
   LoopDetector detector(detector_options, makeDescriptorExtractor(descriptor));
   std::map<uint64_t, Pose2D> truth_by_keyframe;
   RunSummary summary;
@@ -124,6 +127,18 @@ TEST(LoopDetectorOnCorridor, OneWayRouteGivesNoLoop) {
   const RunSummary summary = run(0.9, DescriptorOptions{}, kDefaultMinScore);
   EXPECT_GT(summary.keyframes, 150);
   EXPECT_EQ(summary.loops, 0);
+}
+
+TEST(LoopDetectorOnCorridor, SequenceMatchingGivesOnlyTrueLoopsAndNoneOnAOneWayRoute) {
+  SequenceMatchingOptions sequence;
+  sequence.length = 8;
+  const RunSummary revisit = run(2.0, DescriptorOptions{}, kDefaultMinScore, sequence, 1);
+  EXPECT_GE(revisit.loops, 5);
+  EXPECT_EQ(revisit.true_loops, revisit.loops) << "worst loop " << revisit.worst_loop_distance;
+  EXPECT_EQ(revisit.verified_loops, revisit.loops);
+  const RunSummary one_way = run(0.9, DescriptorOptions{}, kDefaultMinScore, sequence, 1);
+  EXPECT_GT(one_way.keyframes, 150);
+  EXPECT_EQ(one_way.loops, 0);
 }
 
 TEST(LoopDetectorOnCorridor, HogAtItsThresholdGivesOnlyTrueLoops) {

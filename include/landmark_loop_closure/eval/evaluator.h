@@ -13,9 +13,16 @@
 namespace landmark_loop_closure {
 namespace eval {
 
-/// Image files of a folder (png, jpg, jpeg, bmp, pgm, ppm, tif, tiff), sorted by name.
-/// Throws GroundTruthError when the folder is missing or holds no image.
+/// Image files of a folder (png, jpg, jpeg, bmp, pgm, ppm, tif, tiff), sorted by name with
+/// digit runs compared as numbers (naturalLess). Throws GroundTruthError when the folder is
+/// missing or holds no image.
 std::vector<std::string> listImages(const std::string& folder);
+
+/// Name order with digit runs compared as numbers: "2.jpg" < "10.jpg", "img9" < "img010".
+bool naturalLess(const std::string& a, const std::string& b);
+/// True when sorting `paths` as plain text would give another order (worth a warning: a tool
+/// that sorts as text would pair other images with the ground truth).
+bool textOrderDiffers(const std::vector<std::string>& paths);
 
 /// Called now and then with (done, total) during long runs.
 using Progress = std::function<void(size_t done, size_t total)>;
@@ -50,6 +57,8 @@ struct MatchingOptions {
 
 struct Evaluation {
   std::string name;
+  /// What a learned descriptor was trained on ("" when it learns nothing from images).
+  std::string training_source;
   Metrics metrics;
   std::vector<QueryOutcome> outcomes;
   Percentiles describe_ms;

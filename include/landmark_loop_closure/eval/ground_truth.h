@@ -57,6 +57,10 @@ class GroundTruthError : public std::runtime_error {
 /// for its positives. Throws GroundTruthError naming the file and the problem.
 GroundTruth readMatGroundTruth(const std::string& path, const std::string& variable = "");
 
+/// Throws GroundTruthError when `truth` marks no pair at all (an all-zero matrix: every measure
+/// would read 0 without a word); `source` names where it came from.
+void requirePositives(const GroundTruth& truth, const std::string& source);
+
 /// Two aligned traversals: query i shows the place of database image j when |i - j| <= tolerance.
 GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance);
 

@@ -33,6 +33,17 @@ struct Metrics {
   double recall_at_1 = 0.0;  ///< Correct best matches / queries with a place.
   size_t queries = 0;
   size_t queries_with_truth = 0;
+
+  /// VPR-Bench's convention (Zaffar et al., IJCV 2021), for rows beside its tables: the same
+  /// best matches and scores, but recall = true positives / queries whose best match is right
+  /// (so it always reaches 1 at the lowest threshold), and the AUC integrates the curve's own
+  /// points only (trapezoids, no (0, 1) anchor), as sklearn's auc() does.
+  struct VprBench {
+    std::vector<PrPoint> curve;
+    double auc = 0.0;
+    double recall_at_100_precision = 0.0;
+    size_t correct_matches = 0;  ///< The recall's denominator.
+  } vprbench;
 };
 
 Metrics computeMetrics(const std::vector<QueryOutcome>& outcomes);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,13 @@ struct RunDescription {
 std::string writeReport(const std::string& folder, const RunDescription& run,
                         const std::vector<Evaluation>& evaluations, const GroundTruth& truth,
                         int matrix_size);
+
+/// The `pairs` best-scoring query/match pairs side by side with their indices and score, a grid
+/// of them in one PNG at `path`, to look at. `judge`: frame each pair green (right) or red
+/// (wrong); without, grey. `load_query(i)` / `load_database(j)` return the images (BGR or grey).
+void writeContactSheet(const std::string& path, const std::vector<QueryOutcome>& outcomes,
+                       const std::function<cv::Mat(size_t)>& load_query,
+                       const std::function<cv::Mat(size_t)>& load_database, bool judge, int pairs);
 
 /// Peak resident memory of this process in bytes (VmHWM), 0 when unknown.
 size_t peakResidentBytes();

@@ -22,8 +22,8 @@ PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, cons
                           int components, double regularisation, const Progress& progress = {});
 
 /// Any extractor whose global vector is then PCA-whitened (fitted on the images' global vectors)
-/// and normalised again: methods.md section 2's step measured on other descriptors (lcd_evaluate's "_pcaN"
-/// variants). Landmarks are passed through. Throws std::invalid_argument when fewer than 2
+/// and normalised again: methods.md section 2's step measured on other descriptors (lcd_evaluate's
+/// "_pcaN" variants). Landmarks are passed through. Throws std::invalid_argument when fewer than 2
 /// images can be read.
 std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
     std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,

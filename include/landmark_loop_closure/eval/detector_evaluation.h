@@ -1,0 +1,94 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/loop_detector.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+/// One camera frame as the node hands it to the detector.
+struct DetectorFrame {
+  double stamp = 0.0;
+  Pose pose;      ///< Odometry (or an index path): the keyframe rule and the odometry gate.
+  cv::Mat image;  ///< Grey, or BGR for a descriptor that wants colour.
+  CameraIntrinsics intrinsics;  ///< Invalid: loops go unverified (or are refused when required).
+};
+
+/// Plays every frame in order into `sink` (index counts from 0). Called once per pass: the
+/// threshold sweep replays the source.
+using FramePlayer =
+    std::function<void(const std::function<void(size_t index, const DetectorFrame&)>& sink)>;
+
+/// The ground truth between two frames: query frame, earlier frame.
+using SamePlace = std::function<bool(size_t query_frame, size_t match_frame)>;
+
+struct PublishedLoop {
+  uint64_t query_id = 0;
+  uint64_t match_id = 0;
+  size_t query_frame = 0;
+  size_t match_frame = 0;
+  double score = 0.0;
+  bool verified = false;  ///< The geometric check confirmed it.
+  bool correct = false;
+};
+
+/// What the detector published at one acceptance/min_score.
+struct DetectorPass {
+  double min_score = 0.0;
+  std::vector<PublishedLoop> loops;
+  size_t true_loops = 0;
+  double precision = 1.0;  ///< 1 when nothing was published.
+  double recall = 0.0;     ///< True loops / revisited keyframes.
+  /// Keyframes without a loop, by what stopped their best candidate ("below_threshold",
+  /// "awaiting_consistency", "odometry_rejected", "geometry_rejected", "database_too_small",
+  /// "all_excluded").
+  std::map<std::string, size_t> refused;
+  std::vector<double> keyframe_ms;  ///< The whole pipeline per keyframe (describe to decision).
+};
+
+struct DetectorEvaluation {
+  size_t frames = 0;
+  size_t keyframes = 0;
+  size_t refused_frames = 0;  ///< Frames the detector refused as bad input.
+  size_t revisits = 0;        ///< Keyframes with a true place among the earlier keyframes.
+  std::vector<size_t> keyframe_frames;  ///< Frame index of each keyframe, by keyframe id.
+  DetectorPass configured;          ///< At the configuration's min_score: what the node publishes.
+  std::vector<DetectorPass> sweep;  ///< Other thresholds, high to low.
+  double recall_at_100_precision = 0.0;  ///< Best recall of a pass without a false loop.
+  double threshold_at_100_precision = 0.0;
+  Percentiles keyframe_ms;  ///< Of the configured pass (descriptions computed there, not cached).
+};
+
+struct DetectorEvaluationOptions {
+  int sweep_steps = 16;  ///< Thresholds on the grid (quantiles of the best candidate scores).
+  int refine_steps = 4;  ///< Bisections between the last clean and the first false threshold.
+};
+
+/// Runs the frames through a LoopDetector built from `options` and `extractor`, once at the
+/// configured acceptance/min_score and then at every threshold of the sweep (descriptions are
+/// cached between passes, so a pass costs search and acceptance only). `same_place` judges the
+/// published loops. Throws std::invalid_argument when the options are invalid.
+DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
+                                    std::shared_ptr<const DescriptorExtractor> extractor,
+                                    const FramePlayer& play, const SamePlace& same_place,
+                                    const DetectorEvaluationOptions& evaluation = {},
+                                    const Progress& progress = {});
+
+/// Writes detector_<name>.json (every pass: threshold, loops, precision, recall, refusals) and
+/// loops_<name>.csv (the configured pass's loops: ids, frames, score, verified, correct) into
+/// `folder`. Returns the json's path.
+std::string writeDetectorReport(const std::string& folder, const std::string& name,
+                                const std::string& description, const DetectorEvaluation& result);
+
+}  // namespace eval
+}  // namespace landmark_loop_closure

@@ -1,0 +1,107 @@
+#include "landmark_loop_closure/sequence_matching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace landmark_loop_closure {
+
+std::vector<double> SequenceMatchingOptions::speeds() const {
+  std::vector<double> values;
+  if (!(speed_step > 0.0)) return {min_speed};
+  for (double speed = min_speed; speed <= max_speed + 1e-9; speed += speed_step) {
+    values.push_back(speed);
+  }
+  return values;
+}
+
+std::string SequenceMatchingOptions::validate() const {
+  std::ostringstream errors;
+  if (length < 1 || length > 100) {
+    errors << "acceptance/sequence_length must be in [1, 100] (got " << length << ")\n";
+  }
+  if (!(min_speed > 0.0) || !(max_speed >= min_speed) || !(max_speed <= 10.0)) {
+    errors << "acceptance/sequence_min_speed and sequence_max_speed must satisfy 0 < min <= max "
+              "<= 10 (got "
+           << min_speed << ", " << max_speed << ")\n";
+  }
+  if (!(speed_step > 0.0)) {
+    errors << "acceptance/sequence_speed_step must be > 0 (got " << speed_step << ")\n";
+  } else if ((max_speed - min_speed) / speed_step > 100.0) {
+    errors << "acceptance/sequence_speed_step gives more than 100 speeds\n";
+  }
+  return errors.str();
+}
+
+void SequenceMatcher::push(ImageDescriptor descriptor) {
+  history_.push_front(Slot{std::move(descriptor), {}, {}});
+  while (history_.size() > static_cast<size_t>(std::max(1, options_.length))) history_.pop_back();
+}
+
+double SequenceMatcher::similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
+                                   const DescriptorExtractor& extractor) const {
+  const auto found = slot->similarity.find(index);
+  if (found != slot->similarity.end()) return found->second;
+  const ImageDescriptor& stored = database.at(index).descriptor;
+  const double value =
+      extractor.reranks()
+          ? extractor.similarity(slot->descriptor, stored)
+          : extractor.globalScore(cosineSimilarity(slot->descriptor.global, stored.global));
+  slot->similarity.emplace(index, value);
+  return value;
+}
+
+void SequenceMatcher::score(const KeyframeDatabase& database, const DescriptorExtractor& extractor,
+                            const std::function<bool(size_t index)>& eligible,
+                            std::vector<SequenceCandidate>* candidates) {
+  if (history_.empty()) return;
+  Slot& current = history_.front();
+  std::set<size_t> present;
+  for (const SequenceCandidate& candidate : *candidates) {
+    present.insert(candidate.index);
+    current.similarity.emplace(candidate.index, candidate.image_score);
+  }
+  // Where the earlier keyframes' candidates lead now, at speed 1.
+  for (size_t back = 1; back < history_.size(); ++back) {
+    for (const size_t earlier : history_[back].candidates) {
+      const size_t index = earlier + back;
+      if (index >= database.size() || present.count(index) || !eligible(index)) continue;
+      present.insert(index);
+      SequenceCandidate projected;
+      projected.index = index;
+      projected.image_score = similarity(&current, index, database, extractor);
+      projected.projected = true;
+      candidates->push_back(projected);
+    }
+  }
+  const std::vector<double> speeds = options_.speeds();
+  for (SequenceCandidate& candidate : *candidates) {
+    candidate.score = -1.0;
+    for (const double speed : speeds) {
+      double sum = 0.0;
+      bool complete = true;
+      for (size_t slot = 0; slot < history_.size(); ++slot) {
+        const long index = static_cast<long>(candidate.index) -
+                           static_cast<long>(std::lround(static_cast<double>(slot) * speed));
+        if (index < 0) {
+          complete = false;
+          break;
+        }
+        sum += similarity(&history_[slot], static_cast<size_t>(index), database, extractor);
+      }
+      if (!complete) continue;
+      const double mean = sum / static_cast<double>(history_.size());
+      if (mean > candidate.score) {
+        candidate.score = mean;
+        candidate.speed = speed;
+      }
+    }
+  }
+  current.candidates.clear();
+  for (const SequenceCandidate& candidate : *candidates) {
+    if (!candidate.projected) current.candidates.push_back(candidate.index);
+  }
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,258 @@
+#include "evaluate_detector.h"
+
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bag_source.h"
+#include "landmark_loop_closure/node_options.h"
+#include "landmark_loop_closure/sim/sequence.h"
+#include "landmark_loop_closure/yaml_parameter_source.h"
+
+namespace landmark_loop_closure {
+namespace tools {
+
+namespace {
+
+NodeOptions readConfig(const std::string& path) {
+  NodeOptions node;
+  if (path.empty()) return node;
+  const YamlParameterSource source = YamlParameterSource::fromFile(path);
+  OptionReader reader(source);
+  readNodeOptions(&reader, &node);
+  for (const std::string& key : source.keys()) {
+    if (!reader.isKnown(key)) {
+      std::fprintf(stderr, "lcd_evaluate: %s: unknown parameter %s ignored\n", path.c_str(),
+                   key.c_str());
+    }
+  }
+  const std::string problems = reader.errors() + node.validate();
+  if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);
+  if (!node.fallback_warning.empty()) {
+    std::fprintf(stderr, "lcd_evaluate: %s\n", node.fallback_warning.c_str());
+  }
+  return node;
+}
+
+void printPass(const char* label, const eval::DetectorPass& pass) {
+  std::printf("  %-12s min_score %.3f: %zu loops, %zu true, precision %.3f, recall %.3f\n", label,
+              pass.min_score, pass.loops.size(), pass.true_loops, pass.precision, pass.recall);
+}
+
+}  // namespace
+
+DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
+                                   const eval::GroundTruth& truth, const std::vector<Pose>& poses,
+                                   const std::vector<double>& stamps) {
+  DetectorSource source;
+  if (!poses.empty() && (poses.size() != paths.size() || stamps.size() != paths.size())) {
+    throw std::invalid_argument("there are " + std::to_string(paths.size()) + " images but " +
+                                std::to_string(poses.size()) + " poses and " +
+                                std::to_string(stamps.size()) + " stamps");
+  }
+  source.has_odometry = !poses.empty();
+  source.description =
+      source.has_odometry
+          ? "image sequence with poses and stamps as odometry (keyframe rule and odometry gate "
+            "on), "
+            "resized to the first image's size"
+          : "image-only sequence: every image a keyframe, 1 s and 1 m apart on a straight path "
+            "(index-based; no odometry, so the odometry gate is off), resized to the first image's "
+            "size";
+  source.play = [paths, poses, stamps](
+                    bool colour,
+                    const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
+    cv::Size size;
+    for (size_t i = 0; i < paths.size(); ++i) {
+      eval::DetectorFrame frame;
+      frame.stamp = stamps.empty() ? 1.0 + static_cast<double>(i) : stamps[i];
+      if (poses.empty()) {
+        frame.pose.position = Eigen::Vector3d(static_cast<double>(i), 0.0, 0.0);
+      } else {
+        frame.pose = poses[i];
+      }
+      frame.image = cv::imread(paths[i], colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+      if (frame.image.empty()) {
+        std::fprintf(stderr, "lcd_evaluate: skipped an image that does not decode: %s\n",
+                     paths[i].c_str());
+        continue;
+      }
+      // A camera keeps its size; traversals filmed at other sizes are resized to the first's.
+      if (size.empty()) size = frame.image.size();
+      if (frame.image.size() != size)
+        cv::resize(frame.image, frame.image, size, 0, 0, cv::INTER_AREA);
+      sink(i, frame);
+    }
+  };
+  source.same_place = [truth](size_t query, size_t match) { return truth.contains(query, match); };
+  return source;
+}
+
+namespace {
+
+// Truth positions and stamps by frame index, filled as the frames are played.
+struct FrameTruth {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<double> stamps;
+  void set(size_t index, const Eigen::Vector3d& position, double stamp) {
+    if (positions.size() <= index) {
+      positions.resize(index + 1);
+      stamps.resize(index + 1);
+    }
+    positions[index] = position;
+    stamps[index] = stamp;
+  }
+};
+
+eval::SamePlace withinDistance(std::shared_ptr<FrameTruth> truth, double distance, double gap) {
+  return [truth, distance, gap](size_t query, size_t match) {
+    return (truth->positions[query] - truth->positions[match]).norm() <= distance &&
+           std::abs(truth->stamps[query] - truth->stamps[match]) >= gap;
+  };
+}
+
+}  // namespace
+
+DetectorSource corridorSource(double laps) {
+  DetectorSource source;
+  source.description =
+      "generated corridor, " + std::to_string(laps).substr(0, 4) +
+      " laps at 10 Hz: drifting odometry, camera intrinsics; a loop is true within 2.5 m of the "
+      "truth, 20 s apart";
+  source.has_intrinsics = true;
+  source.has_odometry = true;
+  auto truth = std::make_shared<FrameTruth>();
+  source.play = [laps, truth](bool colour,
+                              const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
+    const sim::CorridorWorld world;
+    const sim::CameraModel camera;
+    sim::SequenceOptions options;
+    options.laps = laps;
+    sim::SequenceGenerator sequence(world, camera, options);
+    sim::SequenceFrame frame;
+    while (sequence.next(&frame)) {
+      truth->set(frame.index, Eigen::Vector3d(frame.truth.x, frame.truth.y, 0.0), frame.stamp);
+      eval::DetectorFrame played;
+      played.stamp = frame.stamp;
+      played.pose = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+      if (colour) {
+        cv::cvtColor(frame.image, played.image, cv::COLOR_GRAY2BGR);
+      } else {
+        played.image = frame.image;
+      }
+      played.intrinsics = camera.intrinsics();
+      sink(frame.index, played);
+    }
+  };
+  source.same_place = withinDistance(truth, 2.5, 20.0);
+  return source;
+}
+
+DetectorSource bagSource(const std::string& path, const std::string& image_topic,
+                         const std::string& odom_topic, const std::string& truth_topic,
+                         double distance, double gap) {
+  DetectorSource source;
+  source.description =
+      "bag " + path +
+      ": every image with its odometry and camera_info; a loop is "
+      "true within " +
+      std::to_string(distance).substr(0, 4) + " m of the " +
+      (truth_topic.empty() ? "odometry (no --truth-topic; it drifts)" : "truth topic's poses") +
+      ", " + std::to_string(gap).substr(0, 4) + " s apart";
+  source.has_intrinsics = true;  // When the bag has camera_info; loops go unverified otherwise.
+  source.has_odometry = true;
+  auto truth = std::make_shared<FrameTruth>();
+  BagSourceOptions options;
+  options.path = path;
+  options.image_topic = image_topic;
+  options.odom_topic = odom_topic;
+  options.truth_topic = truth_topic;
+  source.play = [options, truth](
+                    bool colour,
+                    const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
+    playBagFrames(options, colour,
+                  [&](size_t index, const eval::DetectorFrame& frame, const Pose& true_pose) {
+                    truth->set(index, true_pose.position, frame.stamp);
+                    sink(index, frame);
+                  });
+  };
+  source.same_place = withinDistance(truth, distance, gap);
+  return source;
+}
+
+int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
+                    const std::string& dataset, const std::string& output_folder) {
+  const std::string config = arguments.get("--config");
+  NodeOptions node = readConfig(config);
+  LoopDetectorOptions options = node.detector;
+  std::printf("detector: %s\n  config %s\n  %s\n", dataset.c_str(),
+              config.empty() ? "built-in defaults (= config/default.yaml)" : config.c_str(),
+              source.description.c_str());
+  if (!source.has_odometry) options.odometry_gate.enabled = false;
+  if (!source.has_intrinsics && options.verification.enabled) {
+    options.verification.enabled = false;
+    std::printf("  no camera intrinsics: the geometric check is off\n");
+  }
+  if (!source.has_odometry) {
+    // Every image is a keyframe 1 m from the last.
+    options.keyframe.min_motion = std::min(options.keyframe.min_motion, 0.5);
+    options.keyframe.max_motion = std::max(options.keyframe.max_motion, 2.0);
+    options.metric_pose.triangulate_from_odometry = false;
+  }
+  const std::vector<std::string> names = arguments.has("--descriptors")
+                                             ? splitList(arguments.get("--descriptors"))
+                                             : std::vector<std::string>{options.descriptor.type};
+  eval::DetectorEvaluationOptions evaluation_options;
+  evaluation_options.sweep_steps = static_cast<int>(arguments.number("--sweep-steps", 16));
+  for (const std::string& name : names) {
+    Variant variant = descriptorVariant(name, arguments, options.descriptor);
+    Training none;  // The detector learns nothing from its own frames here.
+    LoopDetectorOptions run_options = options;
+    std::shared_ptr<const DescriptorExtractor> extractor =
+        makeVariantExtractor(&variant, name, none, output_folder);
+    run_options.descriptor = variant.options;
+    const bool colour = extractor->wantsColour();
+    const eval::FramePlayer play =
+        [&source, colour](const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
+          source.play(colour, sink);
+        };
+    const auto progress = [name](size_t done, size_t total) {
+      if (total == 0) {
+        std::fprintf(stderr, "lcd_evaluate: detector (%s): frame %zu\n", name.c_str(), done);
+      } else {
+        std::fprintf(stderr, "lcd_evaluate: detector (%s): threshold pass %zu of at most %zu\n",
+                     name.c_str(), done, total);
+      }
+    };
+    const eval::DetectorEvaluation result = eval::evaluateDetector(
+        run_options, extractor, play, source.same_place, evaluation_options, progress);
+    const std::string label = names.size() == 1 && !arguments.has("--name-suffix")
+                                  ? name
+                                  : name + arguments.get("--name-suffix");
+    std::printf("%s: %zu frames, %zu keyframes (%zu refused), %zu revisit a place\n", label.c_str(),
+                result.frames, result.keyframes, result.refused_frames, result.revisits);
+    printPass("configured", result.configured);
+    std::printf(
+        "  R@100P %.3f (min_score %.3f)  keyframe %.2f/%.2f ms (median/p99, whole "
+        "pipeline)\n",
+        result.recall_at_100_precision, result.threshold_at_100_precision,
+        result.keyframe_ms.median, result.keyframe_ms.p99);
+    std::printf("  configured, keyframes without a loop by stage:");
+    for (const auto& [stage, count] : result.configured.refused) {
+      std::printf(" %s %zu", stage.c_str(), count);
+    }
+    std::printf("\n");
+    for (const eval::DetectorPass& pass : result.sweep) printPass("sweep", pass);
+    const std::string path = eval::writeDetectorReport(
+        output_folder, label,
+        source.description + "; config " + (config.empty() ? "defaults" : config), result);
+    std::printf("results: %s\n", path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace tools
+}  // namespace landmark_loop_closure

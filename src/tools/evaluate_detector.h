@@ -1,0 +1,50 @@
+// lcd_evaluate --detector: the frames go through the LoopDetector the node runs, with a
+// configuration file, and the loops it publishes are scored.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "evaluate_support.h"
+#include "landmark_loop_closure/eval/detector_evaluation.h"
+
+namespace landmark_loop_closure {
+namespace tools {
+
+/// Frames for the detector: `play(colour, sink)` plays them (BGR images when `colour`).
+struct DetectorSource {
+  std::string description;  ///< How poses, stamps and truth were made; printed and saved.
+  std::function<void(bool colour, const std::function<void(size_t, const eval::DetectorFrame&)>&)>
+      play;
+  eval::SamePlace same_place;
+  bool has_intrinsics = false;  ///< False: the geometric check is switched off (said so).
+  bool has_odometry = false;    ///< False: the odometry gate is switched off (said so).
+};
+
+/// An image sequence. Without poses: every image a keyframe, 1 s and 1 m apart on a straight
+/// index path, odometry gate off. With poses and stamps (KITTI's, one per image): they drive the
+/// keyframe rule and the odometry gate as odometry would.
+DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
+                                   const eval::GroundTruth& truth,
+                                   const std::vector<Pose>& poses = {},
+                                   const std::vector<double>& stamps = {});
+
+/// The generated corridor as the demo bag holds it: drifting odometry, intrinsics, and a loop is
+/// true when the true positions lie within 2.5 m and 20 s apart (the demo report's rule).
+DetectorSource corridorSource(double laps);
+
+/// Every image of a bag with its odometry and camera_info (as the node receives them); a loop is
+/// true when the truth topic's positions (else the odometry's) lie within `distance` metres and
+/// `gap` seconds apart.
+DetectorSource bagSource(const std::string& path, const std::string& image_topic,
+                         const std::string& odom_topic, const std::string& truth_topic,
+                         double distance, double gap);
+
+/// Runs the detector over the source with --config (default: the built-in defaults, which equal
+/// config/default.yaml) and each --descriptors entry (default: the config's descriptor); prints
+/// and writes the results. Returns the exit status.
+int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
+                    const std::string& dataset, const std::string& output_folder);
+
+}  // namespace tools
+}  // namespace landmark_loop_closure
