@@ -124,6 +124,24 @@ FULL_NORDLAND=()
 /usr/bin/python3 bench/make_table.py --matrix "$OUT"/gardens_point_viewpoint_backbone \
   "$OUT"/gardens_point_day_night_backbone "$OUT"/gardens_point_both_backbone \
   "$OUT"/corridor_backbone "$OUT"/nordland_backbone > "$OUT/table_backbone.md"
+echo "== the whole detector (bench/README.md \"The whole detector\"): chain and sequence matching"
+detector() {  # name, then lcd_evaluate arguments; both acceptance rules
+  for rule in chain sequence; do
+    local config=()
+    [ "$rule" = sequence ] && config=(--config config/sequence_matching.yaml)
+    "$EVALUATE" --detector "${config[@]}" --output "$OUT/detector_$1_$rule" "${@:2}" \
+      2> /dev/null | grep -v "^  sweep" | tee "$OUT/detector_$1_$rule.txt"
+  done
+}
+detector gardens_point_day_night --database "$GP/day_right" --queries "$GP/night_right" \
+  --as-sequence --gt-aligned 3
+detector gardens_point_both --database "$GP/day_left" --queries "$GP/night_right" \
+  --as-sequence --gt-aligned 3
+detector gardens_point_viewpoint --database "$GP/day_left" --queries "$GP/day_right" \
+  --as-sequence --gt-aligned 3
+detector nordland --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" \
+  --as-sequence --gt-aligned 2
+detector corridor --corridor 2
 echo "== geometric check and odometry gate (generated corridor)"
 VERIFY=_build/devel/lib/landmark_loop_closure/lcd_bench_verification
 { "$VERIFY" --config config/demo.yaml; echo; "$VERIFY" --config config/demo.yaml --min-score 0.15; } \
