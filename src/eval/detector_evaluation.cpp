@@ -10,6 +10,8 @@
 #include <mutex>
 #include <unordered_map>
 
+#include "landmark_loop_closure/eval/report.h"
+
 namespace landmark_loop_closure {
 namespace eval {
 
@@ -241,8 +243,8 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
     }
     json << "}}";
   };
-  json << "{\n  \"name\": \"" << name << "\",\n  \"setup\": \"" << description
-       << "\",\n  \"frames\": " << result.frames << ",\n  \"keyframes\": " << result.keyframes
+  json << "{\n  \"name\": " << jsonString(name) << ",\n  \"setup\": " << jsonString(description)
+       << ",\n  \"frames\": " << result.frames << ",\n  \"keyframes\": " << result.keyframes
        << ",\n  \"refused_frames\": " << result.refused_frames
        << ",\n  \"revisited_keyframes\": " << result.revisits
        << ",\n  \"recall_at_100_precision\": " << result.recall_at_100_precision

@@ -14,15 +14,6 @@ namespace eval {
 
 namespace {
 
-std::string jsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
 void writePercentiles(std::ostream& out, const char* name, const Percentiles& p) {
   out << "      " << jsonString(name) << ": {\"median\": " << p.median << ", \"p99\": " << p.p99
       << "},\n";
@@ -106,6 +97,15 @@ void writeContactSheet(const std::string& path, const std::vector<QueryOutcome>&
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
   cv::imwrite(path, sheet);
+}
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
 }
 
 size_t peakResidentBytes() {

@@ -307,10 +307,11 @@ TEST(DetectorEvaluation, ScoresThePublishedLoopsAndSweepsTheThreshold) {
 
   const fs::path folder = fs::temp_directory_path() / "lcd_detector_report";
   fs::remove_all(folder);
-  const std::string path = writeDetectorReport(folder.string(), "place", "test", result);
+  const std::string path = writeDetectorReport(folder.string(), "place", "test \"quoted\"", result);
   std::ifstream json(path);
   const std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("\"revisited_keyframes\": 20"), std::string::npos) << text;
+  EXPECT_NE(text.find("test \\\"quoted\\\""), std::string::npos) << text;
   std::ifstream loops(folder / "loops_place.csv");
   std::string header;
   std::getline(loops, header);

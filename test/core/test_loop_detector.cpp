@@ -7,36 +7,14 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/loop_detector.h"
-#include "place_extractor.h"
+#include "small_detector.h"
 
 using namespace landmark_loop_closure;
 using test_support::place;
 using test_support::PlaceExtractor;
 
-namespace {
-
-LoopDetectorOptions smallOptions() {
-  LoopDetectorOptions options;
-  options.keyframe.min_motion = 0.5;
-  options.keyframe.max_motion = 10.0;
-  options.database.exclude_recent_keyframes = 5;
-  options.database.exclude_recent_seconds = 0.0;
-  options.database.min_size = 10;
-  options.acceptance.min_score = 0.5;
-  options.acceptance.consistent_keyframes = 3;
-  options.acceptance.index_window = 2;
-  // These tests drive in a straight line and revisit places by appearance only, which the
-  // odometry gate refuses; it has its own tests below.
-  options.odometry_gate.enabled = false;
-  return options;
-}
-
-// Keyframe i at x = i metres, stamp i seconds, showing place `value`.
-FrameResult feed(LoopDetector* detector, int i, int value) {
-  return detector->process(i, planarPose(i, 0, 0), place(value));
-}
-
-}  // namespace
+using test_support::feed;
+using test_support::smallOptions;
 
 TEST(LoopDetector, AcceptsOnlyAfterKConsistentKeyframes) {
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());

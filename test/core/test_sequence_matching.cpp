@@ -3,32 +3,23 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/loop_detector.h"
-#include "place_extractor.h"
+#include "small_detector.h"
 
 using namespace landmark_loop_closure;
 using test_support::place;
 using test_support::PlaceExtractor;
 
+using test_support::feed;
+
 namespace {
 
 // Sequences of 4 keyframes; the k-chain is off (k = 1), so only the sequence decides.
 LoopDetectorOptions sequenceOptions() {
-  LoopDetectorOptions options;
-  options.keyframe.min_motion = 0.5;
-  options.keyframe.max_motion = 10.0;
-  options.database.exclude_recent_keyframes = 5;
-  options.database.exclude_recent_seconds = 0.0;
-  options.database.min_size = 10;
+  LoopDetectorOptions options = test_support::smallOptions();
   options.acceptance.min_score = 0.8;
   options.acceptance.consistent_keyframes = 1;
   options.acceptance.sequence.length = 4;
-  options.odometry_gate.enabled = false;  // A straight line revisiting places by appearance.
   return options;
-}
-
-// Keyframe i at x = i metres, stamp i seconds, showing place `value`.
-FrameResult feed(LoopDetector* detector, int i, int value) {
-  return detector->process(i, planarPose(i, 0, 0), place(value));
 }
 
 }  // namespace

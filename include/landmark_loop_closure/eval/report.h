@@ -33,6 +33,9 @@ void writeContactSheet(const std::string& path, const std::vector<QueryOutcome>&
                        const std::function<cv::Mat(size_t)>& load_query,
                        const std::function<cv::Mat(size_t)>& load_database, bool judge, int pairs);
 
+/// `text` as a JSON string literal, quotes and backslashes escaped.
+std::string jsonString(const std::string& text);
+
 /// Peak resident memory of this process in bytes (VmHWM), 0 when unknown.
 size_t peakResidentBytes();
 
