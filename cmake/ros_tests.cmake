@@ -29,3 +29,13 @@ add_rostest(test/ros/node_revisit_tf.test DEPENDENCIES test_node_revisit)
 add_rostest(test/ros/node_revisit_depth.test DEPENDENCIES test_node_revisit)
 # Again with the broad autoencoder trained online on the first keyframes (descriptor/type broad).
 add_rostest(test/ros/node_revisit_broad.test DEPENDENCIES test_node_revisit)
+# The running node publishes exactly the loops lcd_evaluate --detector reports for the same bag.
+add_rostest_gtest(test_node_matches_evaluate test/ros/node_matches_evaluate.test
+  test/ros/test_node_matches_evaluate.cpp)
+target_include_directories(test_node_matches_evaluate SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_node_matches_evaluate ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
+target_compile_definitions(test_node_matches_evaluate PRIVATE
+  MAKE_DEMO_BAG="$<TARGET_FILE:make_demo_bag>" LCD_EVALUATE="$<TARGET_FILE:lcd_evaluate>"
+  DEMO_CONFIG="${CMAKE_CURRENT_SOURCE_DIR}/config/demo.yaml")
+add_dependencies(test_node_matches_evaluate ${PROJECT_NAME}_generate_messages_cpp
+  loop_closure_node ${PROJECT_NAME}_nodelet make_demo_bag lcd_evaluate)
