@@ -3,6 +3,7 @@ set(CORE_TESTS
   test_input_error
   test_keyframe_selector
   test_hog_descriptor
+  test_descriptor_registry
   test_keyframe_database
   test_database_file
   test_temporal_consistency
@@ -53,3 +54,8 @@ target_link_libraries(backbone_reference_check ${OpenCV_LIBS})
 add_test(NAME tool_backbone_reference
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/backbone_reference.sh ${CMAKE_CURRENT_SOURCE_DIR}
     ${CMAKE_CURRENT_BINARY_DIR}/backbone_reference $<TARGET_FILE:backbone_reference_check>)
+
+# Each folder of the ROS-free library includes only the folders below it (README "Layout").
+add_test(NAME include_layers
+  COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${CMAKE_CURRENT_SOURCE_DIR}
+    -P ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/check_include_layers.cmake)

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "landmark_loop_closure/database_file.h"
+#include "landmark_loop_closure/database/database_file.h"
 
 namespace {
 

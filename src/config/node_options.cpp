@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/node_options.h"
+#include "landmark_loop_closure/config/node_options.h"
 
 #include <algorithm>
 #include <sstream>

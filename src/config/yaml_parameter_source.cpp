@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/yaml_parameter_source.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
 
 #include <sstream>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/input_error.h"
+#include "landmark_loop_closure/core/input_error.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/core/keyframe_selector.h"
 
 #include <cmath>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 
 #include <algorithm>
 #include <chrono>
@@ -6,8 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "landmark_loop_closure/database_file.h"
-#include "landmark_loop_closure/hog_descriptor.h"
+#include "landmark_loop_closure/common/image_helpers.h"
+#include "landmark_loop_closure/database/database_file.h"
 
 namespace landmark_loop_closure {
 

@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/match_image.h"
+#include "landmark_loop_closure/core/match_image.h"
 
 #include <opencv2/imgproc.hpp>
 

@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/odometry_gate.h"
+#include "landmark_loop_closure/core/odometry_gate.h"
 
 #include <algorithm>
 #include <cmath>

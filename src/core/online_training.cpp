@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/online_training.h"
+#include "landmark_loop_closure/core/online_training.h"
 
 #include <chrono>
 #include <cstdio>

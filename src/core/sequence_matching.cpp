@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/sequence_matching.h"
+#include "landmark_loop_closure/core/sequence_matching.h"
 
 #include <algorithm>
 #include <cmath>

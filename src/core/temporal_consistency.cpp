@@ -1,4 +1,4 @@
-#include "landmark_loop_closure/temporal_consistency.h"
+#include "landmark_loop_closure/core/temporal_consistency.h"
 
 #include <algorithm>
 #include <cmath>

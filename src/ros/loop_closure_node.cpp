@@ -13,9 +13,9 @@
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/landmarks.h"
-#include "landmark_loop_closure/match_image.h"
-#include "landmark_loop_closure/metric_pose.h"
+#include "landmark_loop_closure/core/match_image.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
+#include "landmark_loop_closure/geometry/metric_pose.h"
 #include "ros_conversions.h"
 #include "ros_parameter_source.h"
 

@@ -25,9 +25,9 @@
 
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
-#include "landmark_loop_closure/bounded_queue.h"
-#include "landmark_loop_closure/loop_detector.h"
-#include "landmark_loop_closure/node_options.h"
+#include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/runtime/bounded_queue.h"
 #include "loop_markers.h"
 
 namespace landmark_loop_closure {

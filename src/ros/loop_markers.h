@@ -5,7 +5,7 @@
 
 #include <visualization_msgs/MarkerArray.h>
 
-#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 
 namespace landmark_loop_closure {
 

@@ -14,8 +14,8 @@
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/input_error.h"
-#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/core/input_error.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 
 namespace landmark_loop_closure {
 

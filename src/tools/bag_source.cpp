@@ -10,7 +10,7 @@
 #include <sensor_msgs/Image.h>
 
 #include "../ros/ros_conversions.h"
-#include "landmark_loop_closure/input_error.h"
+#include "landmark_loop_closure/core/input_error.h"
 
 namespace landmark_loop_closure {
 

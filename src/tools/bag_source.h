@@ -5,9 +5,9 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/eval/detector_evaluation.h"
-#include "landmark_loop_closure/keyframe_selector.h"
-#include "landmark_loop_closure/pose.h"
+#include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
 

@@ -14,7 +14,7 @@
 #include <ros/ros.h>
 #include <Eigen/Geometry>
 
-#include "landmark_loop_closure/pose.h"
+#include "landmark_loop_closure/geometry/pose.h"
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"

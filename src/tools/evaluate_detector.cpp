@@ -8,9 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bag_source.h"
-#include "landmark_loop_closure/node_options.h"
+#include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/sim/sequence.h"
-#include "landmark_loop_closure/yaml_parameter_source.h"
 
 namespace landmark_loop_closure {
 namespace tools {

@@ -1,11 +1,15 @@
 #include "evaluate_support.h"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <sstream>
+
+#include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
 namespace tools {
@@ -41,140 +45,39 @@ std::vector<std::string> limited(std::vector<std::string> paths, const Arguments
   return paths;
 }
 
-namespace {
-
-// "cnn_pca_raw_cosine", "cnn_pca_c64", "broad_e10000": the methods of methods.md sections 2, 3.
-Variant learnedVariant(const std::string& name, const Arguments& arguments,
-                       const DescriptorOptions& base) {
+Variant descriptorVariant(const std::string& name, const Arguments& arguments,
+                          const DescriptorOptions& base) {
   Variant variant;
-  variant.options = base;
-  DescriptorOptions& options = variant.options;
-  const bool cnn = name.rfind("cnn_pca", 0) == 0;
-  options.type = cnn ? "cnn_pca" : "broad";
+  DescriptorOptions options = base;
+  options.model = arguments.get("--model", options.model);
   options.cnn.model = arguments.get("--cnn-model", options.cnn.model);
   options.cnn.whitening = arguments.get("--cnn-whitening", options.cnn.whitening);
   options.broad.model = arguments.get("--broad-model", options.broad.model);
-  std::istringstream parts(name.substr(options.type.size()));
+  options.backbone.model = arguments.get("--backbone-model", options.backbone.model);
+  // Training settings are this tool's, not the descriptor's: "_pcaN" whitens any global vector,
+  // "cnn_pca_cN" keeps N whitened dimensions, "broad_eN" trains N enhancement nodes.
+  const DescriptorType* type = descriptorTypeOfVariant(name);
+  const auto numbered = [](const std::string& part, const std::string& prefix) {
+    return part.size() > prefix.size() && part.rfind(prefix, 0) == 0 &&
+           std::all_of(part.begin() + static_cast<std::ptrdiff_t>(prefix.size()), part.end(),
+                       [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+  };
+  std::string descriptor_name = type == nullptr ? name : type->name;
+  std::istringstream parts(type == nullptr ? std::string() : name.substr(type->name.size()));
   std::string part;
   while (std::getline(parts, part, '_')) {
     if (part.empty()) continue;
-    if (cnn && part == "raw") {
-      options.cnn.whitening = "none";
-    } else if (cnn && part == "cosine") {
-      options.cnn.similarity = "cosine";
-    } else if (cnn && part.size() > 1 && part[0] == 'c' && std::isdigit(part[1])) {
+    if (numbered(part, "pca")) {
+      variant.whiten_components = std::stoi(part.substr(3));
+    } else if (type->name == "cnn_pca" && numbered(part, "c")) {
       variant.components = std::stoi(part.substr(1));
-    } else if (!cnn && part.size() > 1 && part[0] == 'e' && std::isdigit(part[1])) {
+    } else if (type->name == "broad" && numbered(part, "e")) {
       variant.broad.enhancement_nodes = std::stoi(part.substr(1));
     } else {
-      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
+      descriptor_name += "_" + part;
     }
   }
-  return variant;
-}
-
-// "backbone_g3x4_m30_r30_h20_n100_i256x144_b12_p5": the pretrained backbone with grid 3x4, 30
-// landmarks, re-rank weight 0.30, HOG weight 0.20, HOG alone below 100 px wide, a 256x144 input,
-// layer block_12_add, landmark boxes from block_5_add.
-Variant backboneVariant(const std::string& name, const Arguments& arguments,
-                        const DescriptorOptions& base) {
-  Variant variant;
-  variant.options = base;
-  DescriptorOptions& options = variant.options;
-  DescriptorOptions::Backbone& backbone = options.backbone;
-  options.type = "backbone";
-  backbone.model = arguments.get("--backbone-model", backbone.model);
-  std::istringstream parts(name.substr(options.type.size()));
-  std::string part;
-  const auto size = [](const std::string& text, int* first, int* second) {
-    const size_t x = text.find('x');
-    if (x == std::string::npos) throw std::invalid_argument("expected AxB, got '" + text + "'");
-    *first = std::stoi(text.substr(0, x));
-    *second = std::stoi(text.substr(x + 1));
-  };
-  while (std::getline(parts, part, '_')) {
-    if (part.empty()) continue;
-    const std::string rest = part.substr(1);
-    if (part == "paper") {
-      options.shape_weighting = "paper";
-    } else if (part.rfind("pca", 0) == 0 && part.size() > 3) {
-      variant.whiten_components = std::stoi(part.substr(3));
-    } else if (part == "hoglm") {
-      backbone.landmark_features = "hog";
-    } else if (part == "whole" || part == "centred") {
-      backbone.normalisation = part;
-    } else if (part.rfind("hog", 0) == 0) {
-      size(part.substr(3), &backbone.hog_width, &backbone.hog_height);
-    } else if (part[0] == 'g' && part.size() > 1) {
-      size(rest, &backbone.grid_rows, &backbone.grid_cols);
-    } else if (part[0] == 'i' && part.size() > 1) {
-      size(rest, &backbone.input_width, &backbone.input_height);
-    } else if (part.rfind("lg", 0) == 0) {
-      backbone.landmark_grid = std::stoi(part.substr(2));
-    } else if (part[0] == 'm' && part.size() > 1) {
-      backbone.max_landmarks = std::stoi(rest);
-    } else if (part[0] == 'r' && part.size() > 1) {
-      backbone.rerank_weight = std::stoi(rest) / 100.0;
-    } else if (part[0] == 'h' && part.size() > 1) {
-      backbone.hog_weight = std::stoi(rest) / 100.0;
-    } else if (part[0] == 'n' && part.size() > 1) {
-      backbone.min_network_width = std::stoi(rest);
-    } else if (part[0] == 'b' && part.size() > 1) {
-      backbone.layer = "block_" + rest + "_add";
-    } else if (part[0] == 'p' && part.size() > 1) {
-      backbone.proposal_layer = "block_" + rest + "_add";
-    } else {
-      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
-    }
-  }
-  return variant;
-}
-
-}  // namespace
-
-Variant descriptorVariant(const std::string& name, const Arguments& arguments,
-                          const DescriptorOptions& base) {
-  if (name.rfind("cnn_pca", 0) == 0 || name.rfind("broad", 0) == 0) {
-    return learnedVariant(name, arguments, base);
-  }
-  if (name.rfind("backbone", 0) == 0) return backboneVariant(name, arguments, base);
-  Variant variant;
-  variant.options = base;
-  DescriptorOptions& options = variant.options;
-  options.model = arguments.get("--model", options.model);
-  std::istringstream parts(name);
-  std::getline(parts, options.type, '_');
-  std::string part;
-  while (std::getline(parts, part, '_')) {
-    if (part == "paper") {
-      options.shape_weighting = "paper";
-    } else if (part == "per") {
-      options.landmark_features = "conv_per_landmark";
-      std::getline(parts, part, '_');  // "landmark"
-    } else if (part == "conv2" || part == "conv3") {
-      options.landmark_layer = part;
-      options.landmark_features = "conv";
-    } else if (part == "conv" || part == "hog") {
-      options.landmark_features = part;
-    } else if (part == "f32") {
-      options.landmark_storage = "float32";
-    } else if (part.rfind("w", 0) == 0 && part.size() > 1 && std::isdigit(part[1])) {
-      options.working_width = std::stoi(part.substr(1));
-      options.working_height = options.working_width * 3 / 4;
-    } else if (part.rfind("patch", 0) == 0) {
-      options.landmark_patch = std::stoi(part.substr(5));
-    } else if (part.rfind("area", 0) == 0) {
-      options.max_landmark_area = std::stoi(part.substr(4)) / 100.0;
-    } else if (part.rfind("grid", 0) == 0) {
-      options.landmark_grid = std::stoi(part.substr(4));
-    } else if (part.rfind("m", 0) == 0) {
-      options.max_landmarks = std::stoi(part.substr(1));
-    } else if (options.type != "hog" || part != "whole") {
-      throw std::invalid_argument("unknown descriptor variant '" + name + "'");
-    } else {
-      options.type = "hog_whole";
-    }
-  }
+  variant.options = applyDescriptorVariant(descriptor_name, options);
   return variant;
 }
 

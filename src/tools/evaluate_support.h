@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "landmark_loop_closure/broad_autoencoder.h"
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/descriptors/broad_autoencoder.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/training.h"
 

@@ -17,11 +17,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "landmark_loop_closure/convnet_descriptor.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/metrics.h"
 #include "landmark_loop_closure/eval/report.h"
-#include "landmark_loop_closure/keyframe_database.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 namespace {

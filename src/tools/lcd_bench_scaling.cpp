@@ -28,13 +28,13 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/database_file.h"
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/database/database_file.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/descriptors/hog_descriptor.h"
 #include "landmark_loop_closure/eval/metrics.h"
 #include "landmark_loop_closure/eval/report.h"
-#include "landmark_loop_closure/geometric_verification.h"
-#include "landmark_loop_closure/hog_descriptor.h"
-#include "landmark_loop_closure/keyframe_database.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 namespace {

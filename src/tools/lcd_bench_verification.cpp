@@ -31,13 +31,13 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/ground_truth.h"
-#include "landmark_loop_closure/loop_detector.h"
-#include "landmark_loop_closure/node_options.h"
 #include "landmark_loop_closure/sim/sequence.h"
-#include "landmark_loop_closure/yaml_parameter_source.h"
 
 namespace {
 

@@ -8,9 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "bag_source.h"
+#include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/eval/training.h"
-#include "landmark_loop_closure/node_options.h"
-#include "landmark_loop_closure/yaml_parameter_source.h"
 
 namespace {
 

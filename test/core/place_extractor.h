@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 
 namespace landmark_loop_closure {
 namespace test_support {

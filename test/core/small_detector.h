@@ -3,7 +3,7 @@
 // A small detector for tests over PlaceExtractor images: keyframes every metre on a straight line,
 // a 10-keyframe minimum database and a 5-keyframe exclusion window.
 
-#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 #include "place_extractor.h"
 
 namespace landmark_loop_closure {

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/backbone_descriptor.h"
+#include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "onnx_test_model.h"
 
 namespace landmark_loop_closure {

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/bounded_queue.h"
+#include "landmark_loop_closure/runtime/bounded_queue.h"
 
 using namespace landmark_loop_closure;
 

@@ -8,7 +8,7 @@
 #include <Eigen/SVD>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/broad_autoencoder.h"
+#include "landmark_loop_closure/descriptors/broad_autoencoder.h"
 
 namespace landmark_loop_closure {
 namespace {

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/cnn_global_descriptor.h"
+#include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "onnx_test_model.h"
 
 namespace landmark_loop_closure {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/convnet_descriptor.h"
+#include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 using namespace landmark_loop_closure;

@@ -11,9 +11,9 @@
 
 #include <gtest/gtest.h>
 
-#include "../../src/core/crc32c.h"
-#include "landmark_loop_closure/database_file.h"
-#include "landmark_loop_closure/descriptor.h"
+#include "../../src/common/crc32c.h"
+#include "landmark_loop_closure/database/database_file.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 using namespace landmark_loop_closure;

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "landmark_loop_closure/geometric_verification.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 #include "textured_room.h"
 

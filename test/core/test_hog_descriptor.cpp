@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/hog_descriptor.h"
+#include "landmark_loop_closure/descriptors/hog_descriptor.h"
 
 using namespace landmark_loop_closure;
 

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/input_error.h"
+#include "landmark_loop_closure/core/input_error.h"
 
 using namespace landmark_loop_closure;
 

@@ -3,7 +3,7 @@
 #include <random>
 #include <set>
 
-#include "landmark_loop_closure/keyframe_database.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
 
 using namespace landmark_loop_closure;
 

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/keyframe_selector.h"
+#include "landmark_loop_closure/core/keyframe_selector.h"
 
 using namespace landmark_loop_closure;
 

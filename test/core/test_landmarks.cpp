@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "landmark_loop_closure/landmarks.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
 
 using namespace landmark_loop_closure;
 

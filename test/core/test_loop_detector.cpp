@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/loop_detector.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 #include "small_detector.h"
 
 using namespace landmark_loop_closure;

@@ -8,10 +8,10 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "landmark_loop_closure/cnn_global_descriptor.h"
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/training.h"
-#include "landmark_loop_closure/loop_detector.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 using namespace landmark_loop_closure;

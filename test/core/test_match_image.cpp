@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/match_image.h"
+#include "landmark_loop_closure/core/match_image.h"
 
 using namespace landmark_loop_closure;
 

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "landmark_loop_closure/metric_pose.h"
+#include "landmark_loop_closure/geometry/metric_pose.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 #include "textured_room.h"
 

@@ -10,7 +10,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 
-#include "landmark_loop_closure/pca_whitening.h"
+#include "landmark_loop_closure/descriptors/pca_whitening.h"
 
 namespace landmark_loop_closure {
 namespace {

@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/node_options.h"
-#include "landmark_loop_closure/yaml_parameter_source.h"
+#include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;

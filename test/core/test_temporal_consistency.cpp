@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "landmark_loop_closure/temporal_consistency.h"
+#include "landmark_loop_closure/core/temporal_consistency.h"
 
 using namespace landmark_loop_closure;
 

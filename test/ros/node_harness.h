@@ -20,7 +20,7 @@
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/pose.h"
+#include "landmark_loop_closure/geometry/pose.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace landmark_loop_closure {

@@ -10,8 +10,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/eval/evaluator.h"
-#include "landmark_loop_closure/loop_detector.h"
 
 namespace landmark_loop_closure {
 namespace eval {

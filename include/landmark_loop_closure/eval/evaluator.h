@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "landmark_loop_closure/descriptor.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/ground_truth.h"
 #include "landmark_loop_closure/eval/metrics.h"
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "landmark_loop_closure/geometric_verification.h"
-#include "landmark_loop_closure/pose.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
+#include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
 namespace eval {

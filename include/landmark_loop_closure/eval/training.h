@@ -6,8 +6,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "landmark_loop_closure/broad_autoencoder.h"
-#include "landmark_loop_closure/cnn_global_descriptor.h"
+#include "landmark_loop_closure/descriptors/broad_autoencoder.h"
+#include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 
 namespace landmark_loop_closure {

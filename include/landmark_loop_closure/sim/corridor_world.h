@@ -6,7 +6,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "landmark_loop_closure/geometric_verification.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
 
 namespace landmark_loop_closure {
 namespace sim {

@@ -5,7 +5,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "landmark_loop_closure/pose.h"
+#include "landmark_loop_closure/geometry/pose.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 namespace landmark_loop_closure {

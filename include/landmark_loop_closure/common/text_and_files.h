@@ -1,0 +1,15 @@
+// Small helpers for configuration text and files.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace landmark_loop_closure {
+
+/// FNV-1a hash (64 bit) of a file's bytes in hex ("missing" when it cannot be read).
+std::string fileHash(const std::string& path);
+
+/// "0.485, 0.456 0.406" -> {0.485, 0.456, 0.406}; throws std::invalid_argument on other text.
+std::vector<double> parseNumberList(const std::string& text);
+
+}  // namespace landmark_loop_closure

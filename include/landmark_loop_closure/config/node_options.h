@@ -1,0 +1,53 @@
+#pragma once
+
+#include <string>
+
+#include "landmark_loop_closure/config/parameter_source.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+
+namespace landmark_loop_closure {
+
+/// Everything the nodelet reads from its private parameters. Each key and default is documented
+/// once, in config/default.yaml; a test checks that file against these defaults.
+struct NodeOptions {
+  std::string pose_source = "odom";  ///< "odom": nav_msgs/Odometry synced with images; "tf".
+  std::string odom_frame = "odom";   ///< tf mode: fixed frame of the lookup.
+  /// The robot's body frame: tf mode looks its pose up; camera_mount_from_tf and
+  /// relative_pose_frame "base" use it in both modes.
+  std::string base_frame = "base_link";
+  double tf_timeout = 0.2;     ///< tf mode: seconds to wait for a transform, then drop.
+  int sync_queue_size = 30;    ///< odom mode: ApproximateTime queue per topic.
+  double sync_slop = 0.05;     ///< odom mode: seconds an image and odometry may differ.
+  int worker_queue_size = 8;   ///< Keyframes waiting for the worker thread.
+  double input_timeout = 5.0;  ///< Seconds without input before diagnostics warn.
+  /// A frame stamped more than time_jump_back_s before the last keyframe (bag restarted, simulated
+  /// clock reset): "drop" it (and every frame until time passes the last keyframe again), or
+  /// "reset": forget every keyframe, as ~reset does, and start over from it. Smaller steps back
+  /// are out-of-order frames and always dropped.
+  std::string time_jump_back = "drop";
+  double time_jump_back_s = 1.0;
+  bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
+  bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
+  /// Frame of published metric relative poses: "camera" (the image's optical frame) or "base".
+  std::string relative_pose_frame = "camera";
+  /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
+  bool camera_mount_from_tf = false;
+  /// Keyframe database file: loaded at start when it exists (autoload), saved every
+  /// autosave_every keyframes and at shutdown (save_on_shutdown); "" = none.
+  std::string database_path;
+  bool autoload = true;
+  int autosave_every = 0;  ///< Keyframes between saves; 0 = only at shutdown and on request.
+  bool save_on_shutdown = true;
+  LoopDetectorOptions detector;
+  /// Set when the options had to change to run at all (the pretrained backbone was never
+  /// fetched): one line for the node to warn with. Empty otherwise.
+  std::string fallback_warning;
+
+  /// Empty when valid, otherwise every problem, one per line.
+  std::string validate() const;
+};
+
+/// Reads every option; absent keys keep their defaults.
+void readNodeOptions(OptionReader* reader, NodeOptions* options);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,56 @@
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/geometry/pose.h"
+
+namespace landmark_loop_closure {
+
+/// Why a frame was refused. Refused frames change nothing that is already stored.
+enum class InputErrorCode {
+  kEmptyImage,
+  kImageTooSmall,
+  kImageTooLarge,
+  kImageSizeChanged,
+  kUnsupportedImageType,
+  kNonFiniteStamp,
+  kStampNotIncreasing,
+  kNonFinitePose,
+  kNonUnitQuaternion,
+  kNoTexture,  ///< Nearly uniform image (lens cap, darkness, overexposure): all such look alike.
+};
+
+const char* toString(InputErrorCode code);
+
+struct InputError {
+  InputErrorCode code;
+  std::string message;  ///< One line for a log: what was wrong, with the offending values.
+};
+
+struct InputLimits {
+  int min_image_side = 16;             ///< Smaller images carry no usable structure.
+  int max_image_pixels = 7680 * 4320;  ///< 8K; larger frames are almost surely corrupt.
+  double quaternion_norm_tolerance =
+      1e-2;  ///< |‖q‖ - 1| above this is refused, below renormalised.
+  /// Grey-level standard deviation (0-255 scale) below which an image has no texture to
+  /// recognise a place by; 0 turns the check off.
+  double min_image_contrast = 2.0;
+};
+
+/// Checks image dimensions and type (8- or 16-bit, 1, 3 or 4 channels).
+std::optional<InputError> checkImage(int width, int height, int cv_type, const InputLimits& limits);
+
+/// Checks that an image has texture: its grey-level spread (any channel count, 8 or 16 bit, scaled
+/// to 0-255) reaches limits.min_image_contrast.
+std::optional<InputError> checkTexture(const cv::Mat& image, const InputLimits& limits);
+
+/// Checks that a pose is finite and its quaternion close to unit norm.
+std::optional<InputError> checkPose(const Pose& pose, const InputLimits& limits);
+
+/// Pose with its quaternion normalised; call only on a pose that passed checkPose.
+Pose normalisedPose(const Pose& pose);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,286 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/core/input_error.h"
+#include "landmark_loop_closure/core/keyframe_selector.h"
+#include "landmark_loop_closure/core/odometry_gate.h"
+#include "landmark_loop_closure/core/online_training.h"
+#include "landmark_loop_closure/core/sequence_matching.h"
+#include "landmark_loop_closure/core/temporal_consistency.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
+#include "landmark_loop_closure/geometry/metric_pose.h"
+
+namespace landmark_loop_closure {
+
+/// acceptance/min_score tuned for descriptor type landmarks (the package's own encoder).
+constexpr double kLandmarksMinScore = 0.25;
+
+struct AcceptanceOptions {
+  double min_score = 0.6;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  /// "keyframes": a loop needs consistent_keyframes consecutive keyframes whose matches agree
+  /// within index_window ids; "metres": the query must travel consistent_distance_m while its
+  /// matches agree within match_window_m of path (see TemporalConsistency).
+  std::string consistency_unit = "keyframes";
+  int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
+  int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
+  double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
+  double match_window_m = 1.0;         ///< Matches agree within this (plus the query's step).
+  /// Sequence matching (sequence_length > 1): the threshold applies to a candidate's best path
+  /// mean over the last keyframes instead of its own score (SequenceMatcher).
+  SequenceMatchingOptions sequence;
+
+  ConsistencyUnit unit() const;  ///< consistency_unit parsed (kKeyframes when invalid).
+
+  std::string validate() const;
+};
+
+/// mapping: every keyframe is searched and stored. localization: keyframes are only searched
+/// (against a map built before) and nothing is added; the odometry gate is off, since the
+/// current odometry need not share a frame or a drift history with the map's.
+enum class DetectorMode { kMapping, kLocalization };
+
+bool parseDetectorMode(const std::string& text, DetectorMode* mode);
+const char* toString(DetectorMode mode);
+
+struct LoopDetectorOptions {
+  std::string mode = "mapping";  ///< "mapping" or "localization" (DetectorMode).
+  InputLimits input;
+  KeyframeSelectorOptions keyframe;
+  DescriptorOptions descriptor;
+  DatabaseOptions database;
+  AcceptanceOptions acceptance;
+  OdometryGateOptions odometry_gate;
+  VerificationOptions verification;
+  MetricPoseOptions metric_pose;
+  /// Previous keyframes each keyframe's keypoints are triangulated against (the farther ones
+  /// add baseline), when metric_pose/triangulate_from_odometry is on and no depth image came.
+  int triangulation_keyframes = 3;
+  /// The camera on the odometry's body frame: turns the odometry's motion between keyframes into
+  /// the camera's.
+  CameraMount camera_mount;
+  bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
+
+  /// Empty when valid, otherwise every problem, one per line.
+  std::string validate() const;
+};
+
+/// Outcome of the cheap first step for every frame.
+struct FrameAdmission {
+  std::optional<InputError> error;  ///< Set: refused, nothing changed.
+  Selection selection{SelectionVerdict::kRedundant};
+  uint64_t keyframe_id = 0;  ///< Id reserved for this frame when it is a keyframe.
+
+  bool isKeyframe() const { return !error && selection.verdict == SelectionVerdict::kKeyframe; }
+};
+
+enum class CandidateVerdict {
+  kAccepted,
+  kBelowThreshold,       ///< score < min_score.
+  kAwaitingConsistency,  ///< Above the threshold, fewer than k consistent keyframes so far.
+  kOutscored,            ///< Consistent, but another candidate of this query scored higher.
+  kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
+  kGeometryRejected,     ///< Consistent, but the geometric check refused it (see detail).
+};
+
+const char* toString(CandidateVerdict verdict);
+
+struct CandidateReport {
+  uint64_t match_id = 0;
+  double match_stamp = 0.0;
+  double global_score = 0.0;  ///< Shortlist stage: cosine of the global descriptors.
+  double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
+  double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
+  int consistent_keyframes = 0;
+  CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
+  std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
+  int inliers = 0;     ///< Geometric inliers, when the check ran.
+};
+
+struct AcceptedLoop {
+  uint64_t query_id = 0;
+  uint32_t query_session = 0;
+  double query_stamp = 0.0;
+  Pose query_pose;
+  uint64_t match_id = 0;
+  uint32_t match_session = 0;  ///< The run that stored the match (earlier ones come from a file).
+  double match_stamp = 0.0;
+  Pose match_pose;
+  double global_score = 0.0;
+  double score = 0.0;
+  int consistent_keyframes = 0;
+  /// Set when the geometric check confirmed the place (it is absent when the check is off or no
+  /// intrinsics were known and verification/required is false); its pose may be ambiguous.
+  std::optional<VerificationResult> verification;
+  /// Set when the match keyframe had keypoint depths and PnP ran (found or not, and why).
+  std::optional<MetricPoseResult> metric_pose;
+  /// The relative pose for a pose graph: the metric one when found, else the verified scale-free
+  /// one when verification/publish_scale_free_pose is set; absent otherwise.
+  std::optional<RelativePose> relative_pose;
+};
+
+struct StageTimes {
+  double describe_ms = 0.0;
+  double query_ms = 0.0;
+  double rerank_ms = 0.0;
+  double features_ms = 0.0;  ///< Keypoints of the keyframe and their depths.
+  double verify_ms = 0.0;    ///< The geometric check (and PnP) of the candidates that reached it.
+  double totalMs() const { return describe_ms + query_ms + rerank_ms + features_ms + verify_ms; }
+};
+
+struct KeyframeResult {
+  std::optional<InputError> error;  ///< Set: the keyframe was refused and not stored.
+  uint64_t keyframe_id = 0;
+  /// Added to the database: false when refused, localising, or the memory budget is spent.
+  bool stored = false;
+  QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
+  std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
+  std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
+  StageTimes times;
+  /// Online training (descriptor/broad/online_training_keyframes): keyframes held so far, 0 when
+  /// not training. The keyframe that completes the set carries the training's summary (or why it
+  /// failed) and the result of the last held keyframe, stored with all the others.
+  int held_for_training = 0;
+  std::string training_summary;
+};
+
+struct FrameResult {
+  FrameAdmission admission;
+  std::optional<KeyframeResult> keyframe;  ///< Present when the frame was a keyframe.
+};
+
+/// Keyframe selection, description, database search and loop acceptance.
+///
+/// Threading: admit() is cheap and meant for the thread that receives frames; addKeyframe() does
+/// the heavy work and is meant for one worker thread. They touch disjoint state, so one thread
+/// may call admit() while another runs addKeyframe(). process() does both, for offline use.
+class LoopDetector {
+ public:
+  /// Throws std::invalid_argument when options.validate() reports problems. `extractor` may be
+  /// null only when needsOnlineTraining(options.descriptor): the detector then trains it.
+  LoopDetector(const LoopDetectorOptions& options,
+               std::shared_ptr<const DescriptorExtractor> extractor);
+
+  /// Validates stamp, pose and image shape, then applies the keyframe rule.
+  FrameAdmission admit(double stamp, const Pose& pose, int image_width, int image_height,
+                       int image_cv_type);
+
+  /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
+  /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
+  /// ones: loops are not verified, or refused when verification/required).
+  /// `depth`: optional depth image registered to `image` (16-bit or float, see MetricPoseOptions);
+  /// without one, keypoint depths are triangulated from the odometry when enabled.
+  KeyframeResult addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
+                             const cv::Mat& image, const CameraIntrinsics& intrinsics = {},
+                             const cv::Mat& depth = {});
+
+  FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
+                      const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {});
+
+  /// Worker thread: the camera's pose on the odometry's body frame, as it becomes known (tf); until
+  /// then (nullopt) keypoint depths are not triangulated from the odometry. Starts as
+  /// options.camera_mount.
+  void setCameraMount(const std::optional<Pose>& mount);
+  const std::optional<Pose>& cameraMount() const { return camera_mount_; }
+
+  /// Worker thread: writes the database to `path` (database_file.h, atomically). Returns "" or why.
+  std::string saveDatabase(const std::string& path) const;
+  /// Worker thread: replaces the database with the one in `path`, as earlier sessions: new
+  /// keyframes get the next session number and ids after every loaded one, chains and the path
+  /// start again, and the odometry gate leaves loops into earlier sessions alone (their odometry
+  /// frame is another). On refusal returns why and changes nothing; "" on success.
+  /// Call it before frames are admitted: ids already handed out below the loaded ones are refused.
+  std::string loadDatabase(const std::string& path);
+  /// Worker thread: forgets every keyframe, chain and session.
+  void reset();
+  /// Receiving thread: forgets the last keyframe and image size, so that the next frame starts the
+  /// keyframe rule afresh whatever its stamp (time jumped back). Pair it with reset().
+  void restartAdmission();
+  /// Receiving thread: stamp of the last admitted keyframe, if any.
+  std::optional<double> lastKeyframeStamp() const;
+  uint32_t session() const { return session_; }
+  /// What a saved database must have been made with (extractor name and descriptorIdentity()).
+  const std::string& descriptorIdentity() const { return descriptor_identity_; }
+
+  /// The database holds database/memory_budget_mb: new keyframes are searched, not stored.
+  bool overMemoryBudget() const;
+
+  /// Worker thread: switches between building the map and only searching it.
+  void setMode(DetectorMode mode);
+  DetectorMode mode() const { return mode_; }
+
+  const KeyframeDatabase& database() const { return database_; }
+  const LoopDetectorOptions& options() const { return options_; }
+  /// Worker thread, offline replays: waits up to `seconds` for online training that has started
+  /// in the background; true when it has finished (the next keyframe then stores every held one)
+  /// or when there is none.
+  bool waitForTraining(double seconds) const {
+    return !training_ || !training_->started() || training_->waitUntilReady(seconds);
+  }
+  /// Offline replays of the same frames (lcd_evaluate's threshold sweep): search results by
+  /// keyframe id, recorded when absent and reused when present. Valid only while every pass stores
+  /// the same keyframes (mapping mode, no memory budget), which the caller ensures; null = off.
+  using QueryCache = std::unordered_map<uint64_t, QueryResult>;
+  void setQueryCache(std::shared_ptr<QueryCache> cache) { query_cache_ = std::move(cache); }
+
+  /// Null while online training holds keyframes.
+  const DescriptorExtractor* extractor() const { return extractor_.get(); }
+
+ private:
+  /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
+  void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
+              const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
+  /// Sequence matching: replaces the reports by the sequence matcher's candidates and scores.
+  /// False while the history is shorter than a sequence (every report then waits).
+  bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
+                      const std::vector<size_t>& indices, double stamp);
+  /// Whether a chain is long enough to believe; when not, says how far it got (metres).
+  bool consistentLongEnough(const TemporalConsistency::Chain& chain, std::string* detail) const;
+  /// False when the candidate must be refused; fills report and, when verified, loop.
+  bool verify(const LocalFeatures& features, const KeyframeRecord& match,
+              const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop);
+  /// Depths for the new keyframe's keypoints: from `depth`, else triangulated against the last
+  /// stored keyframes with the odometry's motion.
+  void addDepths(const Pose& pose, const cv::Mat& depth, const CameraIntrinsics& intrinsics,
+                 LocalFeatures* features) const;
+
+  /// Online training: holds the keyframe; once enough are held, trains and adds them all.
+  KeyframeResult holdForTraining(HeldKeyframe keyframe);
+
+  LoopDetectorOptions options_;
+  std::shared_ptr<const DescriptorExtractor> extractor_;
+  std::unique_ptr<OnlineBroadTraining> training_;
+  GeometricVerifier verifier_;
+
+  // Admission state (receiving thread).
+  KeyframeSelector selector_;
+  std::optional<cv::Size> image_size_;
+  std::atomic<uint64_t> next_keyframe_id_{0};
+
+  // Search state (worker thread).
+  KeyframeDatabase database_;
+  TemporalConsistency consistency_;
+  SequenceMatcher sequence_;
+  std::shared_ptr<QueryCache> query_cache_;
+  DetectorMode mode_ = DetectorMode::kMapping;
+  uint32_t session_ = 0;
+  std::string descriptor_identity_;
+  std::optional<Pose> camera_mount_;
+  struct PathEnd {
+    Pose pose;
+    PathLength path;
+  };
+  std::optional<PathEnd> last_keyframe_;  ///< The last keyframe processed (stored or not).
+};
+
+}  // namespace landmark_loop_closure

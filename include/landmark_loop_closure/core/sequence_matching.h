@@ -1,0 +1,72 @@
+#pragma once
+
+#include <cstddef>
+#include <deque>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
+
+namespace landmark_loop_closure {
+
+/// SeqSLAM-style scoring (methods.md, seed 004's temporal consistency generalised): a candidate's
+/// score is the best mean similarity along a straight path of the last `length` query keyframes
+/// against database keyframes ending at the candidate, over a range of relative speeds.
+/// Keyframes are spaced by motion, so a revisit at any driving speed runs near speed 1.
+struct SequenceMatchingOptions {
+  int length = 1;            ///< L keyframes per path; 1 = single-image scores (off).
+  double min_speed = 0.5;    ///< Database keyframes per query keyframe, slowest path ...
+  double max_speed = 2.0;    ///< ... and fastest.
+  double speed_step = 0.25;  ///< Speeds tried: min_speed, min_speed + step, ..., max_speed.
+
+  bool enabled() const { return length > 1; }
+  std::vector<double> speeds() const;
+  std::string validate() const;  ///< Empty when valid (keys under acceptance/sequence_*).
+};
+
+/// One candidate as the sequence matcher sees it: its database position and scores.
+struct SequenceCandidate {
+  size_t index = 0;          ///< Position in the database.
+  double image_score = 0.0;  ///< The current keyframe's own similarity to it.
+  double score = 0.0;        ///< Best path mean (set by SequenceMatcher::score).
+  double speed = 0.0;        ///< The path's speed.
+  bool projected = false;    ///< Added from an earlier keyframe's candidate, not the shortlist.
+};
+
+class SequenceMatcher {
+ public:
+  explicit SequenceMatcher(const SequenceMatchingOptions& options = {}) : options_(options) {}
+
+  /// Appends the new query keyframe (slot 0 from now on); older ones shift back.
+  void push(ImageDescriptor descriptor);
+  /// Forgets the history (reset, another map, time jumped back).
+  void reset() { history_.clear(); }
+  /// Query keyframes held (at most length).
+  size_t history() const { return history_.size(); }
+  bool full() const { return history_.size() >= static_cast<size_t>(options_.length); }
+
+  /// Adds, to the current keyframe's candidates, the places earlier keyframes' candidates lead
+  /// to at speed 1 (when `eligible` allows them), then scores each by its best path. A path
+  /// stops at the database's start and at the history's end (its mean covers what it has).
+  /// Remembers the final candidate positions for the next keyframes' projections.
+  /// `similarity(slot, index)`: slot 0 = the current keyframe.
+  void score(const KeyframeDatabase& database, const DescriptorExtractor& extractor,
+             const std::function<bool(size_t index)>& eligible,
+             std::vector<SequenceCandidate>* candidates);
+
+ private:
+  struct Slot {
+    ImageDescriptor descriptor;
+    std::vector<size_t> candidates;                 ///< Its database positions, for projection.
+    std::unordered_map<size_t, double> similarity;  ///< Scores already computed, by position.
+  };
+  double similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
+                    const DescriptorExtractor& extractor) const;
+
+  SequenceMatchingOptions options_;
+  std::deque<Slot> history_;  ///< Front: the newest keyframe.
+};
+
+}  // namespace landmark_loop_closure

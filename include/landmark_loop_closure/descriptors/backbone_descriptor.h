@@ -1,0 +1,96 @@
+#pragma once
+
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <opencv2/dnn.hpp>
+#include <opencv2/objdetect.hpp>
+
+#include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
+
+namespace landmark_loop_closure {
+
+/// How the grid of pooled cells becomes the global descriptor (always L2-normalised at the end).
+enum class GridNormalisation {
+  kWhole,   ///< The whole vector only: bright, busy cells dominate.
+  kCells,   ///< Each cell L2-normalised first: every region counts alike, also in the dark.
+  kCentred  ///< Each channel's mean over the cells subtracted (what the whole image shares, its
+            ///< light, goes), then each cell normalised.
+};
+
+struct BackboneOptions {
+  std::string model_path;  ///< ONNX network with the named outputs (scripts/fetch_backbone.sh).
+  std::string layer = "block_12_add";  ///< Output the grid and the landmarks are described from.
+  /// Output whose activations give the landmark boxes ("" = `layer`).
+  std::string proposal_layer;
+  cv::Size input_size{256, 144};  ///< The network's input, width x height.
+  std::string colour = "rgb";     ///< Channel order the network expects: rgb, bgr or grey.
+  std::vector<double> mean{0.0, 0.0, 0.0};  ///< Per channel, pixels in [0, 1]: (p - mean) / std.
+  std::vector<double> std{1.0, 1.0, 1.0};
+  int grid_rows = 3;  ///< The layer average-pooled into grid_rows x grid_cols cells.
+  int grid_cols = 4;
+  GridNormalisation normalisation = GridNormalisation::kCells;
+  /// Landmarks per image (0 = none): boxes from the proposal layer's activations, each
+  /// described by `layer` resampled to landmark_grid x landmark_grid cells.
+  int max_landmarks = 20;
+  int landmark_grid = 1;
+  /// Landmarks described by the HOG of their box's 32x32 patch of a 320x240 grey image instead
+  /// of the layer's maps (what the package's own encoder does).
+  bool hog_landmarks = false;
+  double max_landmark_area = 0.5;
+  ShapeWeighting weighting = ShapeWeighting::kPenalise;
+  /// Final similarity = (1 - w) * global + w * landmark similarity; 0 = no re-ranking.
+  double rerank_weight = 0.0;
+  /// Share of a whole-image HOG's cosine in the global similarity, for images at least
+  /// `min_network_width` pixels wide; narrower images (where the network sees too little) are
+  /// described by the HOG alone. 0 and 0: the network alone, no HOG computed or stored.
+  double hog_weight = 0.1;
+  int min_network_width = 160;
+  cv::Size hog_size{96, 72};     ///< HOG window (16x16 blocks, 8 px stride and cells, 9 bins).
+  bool float16_features = true;  ///< Landmark features stored as float16.
+};
+
+/// The landmark-ConvNet on a pretrained backbone (methods.md section 1 with ImageNet features):
+/// one forward pass gives a spatial grid of average-pooled cells (the global descriptor that
+/// shortlists) and landmark boxes found from the activations (8-connected components, energy =
+/// mean activation), each described by the same pass's maps inside its box. Landmarks are matched
+/// mutually by cosine with box-shape weighting. Landmark boxes are in a 160x120 frame, the
+/// keyframe thumbnails' size.
+class BackboneDescriptor : public DescriptorExtractor {
+ public:
+  static constexpr int kBoxFrameWidth = 160;
+  static constexpr int kBoxFrameHeight = 120;
+
+  /// Throws std::runtime_error naming the file when the model cannot be loaded or lacks a layer.
+  explicit BackboneDescriptor(const BackboneOptions& options);
+
+  std::string name() const override { return "backbone"; }
+  int globalDimension() const override { return global_dimension_; }
+  /// `image`: 8-bit grey, BGR or BGRA, any size.
+  ImageDescriptor describe(const cv::Mat& image) const override;
+  double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const override;
+  bool reranks() const override { return options_.rerank_weight > 0.0; }
+  bool wantsColour() const override { return options_.colour != "grey"; }
+
+  /// The named outputs (layer, then proposal layer) for an image.
+  std::vector<FeatureMaps> forward(const cv::Mat& image) const;
+
+ private:
+  int gridDimension() const;
+  int hogDimension() const;
+
+  BackboneOptions options_;
+  int channels_ = 0;
+  int global_dimension_ = 0;
+  cv::HOGDescriptor hog_;
+  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable cv::dnn::Net net_;
+};
+
+/// Mean of each channel over grid_rows x grid_cols cells of the maps (cell borders split the map
+/// evenly, each cell at least one map cell), cell-major: rows * cols * channels values.
+std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,323 @@
+#include "landmark_loop_closure/descriptors/backbone_descriptor.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "landmark_loop_closure/common/image_helpers.h"
+#include "landmark_loop_closure/common/text_and_files.h"
+#include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
+#include "landmark_loop_closure/descriptors/registry.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+// Scales a unit vector's entries in place so that its part weighs `weight` in a dot product.
+void weightPart(float* begin, float* end, double weight) {
+  const float factor = static_cast<float>(std::sqrt(weight));
+  for (float* value = begin; value != end; ++value) *value *= factor;
+}
+
+void normaliseGrid(std::vector<float>* grid, int channels, GridNormalisation normalisation) {
+  const size_t cells = grid->size() / static_cast<size_t>(channels);
+  if (normalisation == GridNormalisation::kCentred) {
+    for (int c = 0; c < channels; ++c) {
+      float sum = 0.0f;
+      for (size_t k = 0; k < cells; ++k) sum += (*grid)[k * channels + c];
+      for (size_t k = 0; k < cells; ++k) (*grid)[k * channels + c] -= sum / cells;
+    }
+  }
+  if (normalisation != GridNormalisation::kWhole) {
+    for (size_t k = 0; k < cells; ++k) {
+      const auto begin = grid->begin() + static_cast<std::ptrdiff_t>(k * channels);
+      double norm = 0.0;
+      for (auto v = begin; v != begin + channels; ++v) norm += double(*v) * *v;
+      if (norm <= 0.0 || !std::isfinite(norm)) continue;
+      const float scale = static_cast<float>(1.0 / std::sqrt(norm));
+      for (auto v = begin; v != begin + channels; ++v) *v *= scale;
+    }
+  }
+  normaliseL2(grid);
+}
+
+}  // namespace
+
+std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols) {
+  std::vector<float> pooled(static_cast<size_t>(grid_rows) * grid_cols * maps.channels, 0.0f);
+  if (maps.empty()) return pooled;
+  for (int row = 0; row < grid_rows; ++row) {
+    const int y0 = row * maps.height / grid_rows;
+    const int y1 = std::max(y0 + 1, (row + 1) * maps.height / grid_rows);
+    for (int col = 0; col < grid_cols; ++col) {
+      const int x0 = col * maps.width / grid_cols;
+      const int x1 = std::max(x0 + 1, (col + 1) * maps.width / grid_cols);
+      const float area = static_cast<float>((y1 - y0) * (x1 - x0));
+      float* cell = pooled.data() + (static_cast<size_t>(row) * grid_cols + col) * maps.channels;
+      for (int c = 0; c < maps.channels; ++c) {
+        const float* channel = maps.channel(c);
+        double sum = 0.0;
+        for (int y = y0; y < std::min(y1, maps.height); ++y) {
+          for (int x = x0; x < std::min(x1, maps.width); ++x) sum += channel[y * maps.width + x];
+        }
+        cell[c] = static_cast<float>(sum) / area;
+      }
+    }
+  }
+  return pooled;
+}
+
+BackboneDescriptor::BackboneDescriptor(const BackboneOptions& options)
+    : options_(options),
+      hog_(options.hog_size, cv::Size(16, 16), cv::Size(8, 8), cv::Size(8, 8), 9) {
+  if (options_.proposal_layer.empty()) options_.proposal_layer = options_.layer;
+  const size_t colour_channels = options.colour == "grey" ? 1 : 3;
+  if (options.mean.size() != colour_channels || options.std.size() != colour_channels) {
+    throw std::runtime_error("the backbone's mean and std need " + std::to_string(colour_channels) +
+                             " values each");
+  }
+  if (options.grid_rows < 1 || options.grid_cols < 1) {
+    throw std::runtime_error("the backbone's grid needs at least one row and one column");
+  }
+  net_ = loadOnnxNetwork(options.model_path);
+  std::vector<FeatureMaps> outputs;
+  try {
+    outputs = forward(cv::Mat(options.input_size, CV_8UC3, cv::Scalar(128, 128, 128)));
+  } catch (const std::exception& error) {
+    throw std::runtime_error("the ONNX model " + options.model_path + " gives no outputs '" +
+                             options_.layer + "' and '" + options_.proposal_layer + "' for a " +
+                             std::to_string(options.input_size.width) + "x" +
+                             std::to_string(options.input_size.height) + " input: " + error.what());
+  }
+  channels_ = outputs[0].channels;
+  global_dimension_ = gridDimension() + hogDimension();
+}
+
+int BackboneDescriptor::gridDimension() const {
+  return options_.grid_rows * options_.grid_cols * channels_;
+}
+
+int BackboneDescriptor::hogDimension() const {
+  const bool uses_hog = options_.hog_weight > 0.0 || options_.min_network_width > 0;
+  return uses_hog ? static_cast<int>(hog_.getDescriptorSize()) : 0;
+}
+
+std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image) const {
+  const cv::Mat blob =
+      networkInputBlob(image, options_.input_size, options_.colour, options_.mean, options_.std);
+  std::vector<cv::Mat> outputs;
+  {
+    std::lock_guard<std::mutex> lock(net_mutex_);
+    net_.setInput(blob);
+    net_.forward(outputs, std::vector<cv::String>{options_.layer, options_.proposal_layer});
+  }
+  return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
+}
+
+ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
+  ImageDescriptor descriptor;
+  if (image.empty() || image.depth() != CV_8U) return descriptor;
+  const int hog_dimension = hogDimension();
+  const bool network_sees_enough = image.cols >= options_.min_network_width;
+  descriptor.global.assign(static_cast<size_t>(global_dimension_), 0.0f);
+  float* const grid_begin = descriptor.global.data();
+  float* const hog_begin = grid_begin + gridDimension();
+
+  double network_weight = 1.0 - (hog_dimension > 0 ? options_.hog_weight : 0.0);
+  if (hog_dimension > 0 && !network_sees_enough) network_weight = 0.0;
+  if (network_weight > 0.0) {
+    const std::vector<FeatureMaps> maps = forward(image);
+    std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
+    normaliseGrid(&grid, channels_, options_.normalisation);
+    std::copy(grid.begin(), grid.end(), grid_begin);
+    weightPart(grid_begin, hog_begin, network_weight);
+
+    if (options_.max_landmarks > 0) {
+      const cv::Size box_frame(kBoxFrameWidth, kBoxFrameHeight);
+      LandmarkProposalOptions proposal_options;
+      proposal_options.max_landmarks = options_.max_landmarks;
+      proposal_options.max_area_fraction = options_.max_landmark_area;
+      proposal_options.min_side_cells = 1;  // Backbone cells are coarse (16 px of the input).
+      for (const LandmarkProposal& proposal :
+           proposeLandmarks(maps[1], box_frame, proposal_options)) {
+        descriptor.landmark_boxes.push_back(proposal.box);
+      }
+      cv::Mat features = options_.hog_landmarks
+                             ? describeLandmarksByHog(toWorkingImage(image, 320, 240), box_frame,
+                                                      descriptor.landmark_boxes, 32)
+                             : describeLandmarks(maps[0], box_frame, descriptor.landmark_boxes,
+                                                 options_.landmark_grid);
+      if (options_.float16_features && !features.empty()) features.convertTo(features, CV_16F);
+      descriptor.landmark_features = features;
+    }
+  }
+  if (hog_dimension > 0 && network_weight < 1.0) {
+    const cv::Mat working =
+        toWorkingImage(image, options_.hog_size.width, options_.hog_size.height);
+    std::vector<float> hog;
+    hog_.compute(working, hog);
+    normaliseL2(&hog);
+    std::copy(hog.begin(), hog.end(), hog_begin);
+    weightPart(hog_begin, hog_begin + hog_dimension, 1.0 - network_weight);
+  }
+  normaliseL2(&descriptor.global);
+  return descriptor;
+}
+
+double BackboneDescriptor::similarity(const ImageDescriptor& query,
+                                      const ImageDescriptor& candidate) const {
+  const double global = cosineSimilarity(query.global, candidate.global);
+  if (options_.rerank_weight <= 0.0) return global;
+  const double landmarks =
+      landmarkSimilarity(query.landmark_boxes, query.landmark_features, candidate.landmark_boxes,
+                         candidate.landmark_features, options_.weighting);
+  return (1.0 - options_.rerank_weight) * global + options_.rerank_weight * landmarks;
+}
+
+namespace {
+
+std::string validateBackbone(const DescriptorOptions& options) {
+  const DescriptorOptions::Backbone& backbone = options.backbone;
+  std::string errors;
+  const auto range = [&errors](const std::string& key, double value, double low, double high) {
+    if (!(value >= low && value <= high)) {
+      std::ostringstream line;
+      line << "descriptor/backbone/" << key << " must be in [" << low << ", " << high << "] (got "
+           << value << ")\n";
+      errors += line.str();
+    }
+  };
+  if (backbone.layer.empty()) errors += "descriptor/backbone/layer is empty\n";
+  range("input_width", backbone.input_width, 32, 4096);
+  range("input_height", backbone.input_height, 32, 4096);
+  range("grid_rows", backbone.grid_rows, 1, 16);
+  range("grid_cols", backbone.grid_cols, 1, 16);
+  range("max_landmarks", backbone.max_landmarks, 0, 500);
+  range("landmark_grid", backbone.landmark_grid, 1, 8);
+  range("rerank_weight", backbone.rerank_weight, 0, 1);
+  range("hog_weight", backbone.hog_weight, 0, 1);
+  range("min_network_width", backbone.min_network_width, 0, 4096);
+  if (backbone.hog_width % 8 != 0 || backbone.hog_height % 8 != 0 || backbone.hog_width < 16 ||
+      backbone.hog_height < 16 || backbone.hog_width > 512 || backbone.hog_height > 512) {
+    errors +=
+        "descriptor/backbone/hog_width and hog_height must be multiples of 8 in [16, 512] (got " +
+        std::to_string(backbone.hog_width) + "x" + std::to_string(backbone.hog_height) + ")\n";
+  }
+  if (backbone.normalisation != "cells" && backbone.normalisation != "whole" &&
+      backbone.normalisation != "centred") {
+    errors += "descriptor/backbone/normalisation must be 'cells', 'whole' or 'centred' (got '" +
+              backbone.normalisation + "')\n";
+  }
+  if (backbone.landmark_features != "backbone" && backbone.landmark_features != "hog") {
+    errors += "descriptor/backbone/landmark_features must be 'backbone' or 'hog' (got '" +
+              backbone.landmark_features + "')\n";
+  }
+  if (backbone.rerank_weight > 0 && backbone.max_landmarks == 0) {
+    errors += "descriptor/backbone/rerank_weight > 0 needs max_landmarks > 0\n";
+  }
+  return errors +
+         validateNetworkInput("descriptor/backbone/", backbone.colour, backbone.mean, backbone.std);
+}
+
+// The variant name's parts: "backbone_g3x4_m30_r30_h20_n100_i256x144_b12_p5" is grid 3x4, 30
+// landmarks, re-rank weight 0.30, HOG weight 0.20, the HOG alone below 100 px wide, a 256x144
+// input, layer block_12_add, landmark boxes from block_5_add.
+bool applyBackboneVariantPart(const std::string& part, DescriptorOptions* options) {
+  DescriptorOptions::Backbone& backbone = options->backbone;
+  const auto size = [](const std::string& text, int* first, int* second) {
+    const size_t x = text.find('x');
+    if (x == std::string::npos) throw std::invalid_argument("expected AxB, got '" + text + "'");
+    *first = std::stoi(text.substr(0, x));
+    *second = std::stoi(text.substr(x + 1));
+  };
+  const std::string rest = part.substr(1);
+  if (part == "paper") {
+    options->shape_weighting = "paper";
+  } else if (part == "hoglm") {
+    backbone.landmark_features = "hog";
+  } else if (part == "whole" || part == "centred") {
+    backbone.normalisation = part;
+  } else if (part.rfind("hog", 0) == 0 && part.size() > 3) {
+    size(part.substr(3), &backbone.hog_width, &backbone.hog_height);
+  } else if (part.size() < 2) {
+    return false;
+  } else if (part[0] == 'g') {
+    size(rest, &backbone.grid_rows, &backbone.grid_cols);
+  } else if (part[0] == 'i') {
+    size(rest, &backbone.input_width, &backbone.input_height);
+  } else if (part.rfind("lg", 0) == 0) {
+    backbone.landmark_grid = std::stoi(part.substr(2));
+  } else if (part[0] == 'm') {
+    backbone.max_landmarks = std::stoi(rest);
+  } else if (part[0] == 'r') {
+    backbone.rerank_weight = std::stoi(rest) / 100.0;
+  } else if (part[0] == 'h') {
+    backbone.hog_weight = std::stoi(rest) / 100.0;
+  } else if (part[0] == 'n') {
+    backbone.min_network_width = std::stoi(rest);
+  } else if (part[0] == 'b') {
+    backbone.layer = "block_" + rest + "_add";
+  } else if (part[0] == 'p') {
+    backbone.proposal_layer = "block_" + rest + "_add";
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+DescriptorType backboneDescriptorType() {
+  DescriptorType type;
+  type.name = "backbone";
+  type.summary = "the landmark-ConvNet on a pretrained network (descriptor/backbone/*)";
+  type.validate = validateBackbone;
+  type.identity = [](const DescriptorOptions& options) {
+    std::ostringstream identity;
+    const DescriptorOptions::Backbone& b = options.backbone;
+    identity << "model_fnv1a=" << fileHash(backboneModelPath(b)) << " layer=" << b.layer
+             << " proposal_layer=" << b.proposal_layer << " input=" << b.input_width << "x"
+             << b.input_height << " colour=" << b.colour << " mean=" << b.mean << " std=" << b.std
+             << " grid=" << b.grid_rows << "x" << b.grid_cols
+             << " normalisation=" << b.normalisation << " max_landmarks=" << b.max_landmarks
+             << " landmark_grid=" << b.landmark_grid << " landmark_features=" << b.landmark_features
+             << " max_landmark_area=" << options.max_landmark_area
+             << " shape_weighting=" << options.shape_weighting
+             << " landmark_storage=" << options.landmark_storage << " hog_weight=" << b.hog_weight
+             << " min_network_width=" << b.min_network_width << " hog=" << b.hog_width << "x"
+             << b.hog_height;
+    return identity.str();
+  };
+  type.make = [](const DescriptorOptions& options) {
+    const DescriptorOptions::Backbone& b = options.backbone;
+    BackboneOptions backbone;
+    backbone.model_path = backboneModelPath(b);
+    backbone.layer = b.layer;
+    backbone.proposal_layer = b.proposal_layer;
+    backbone.input_size = cv::Size(b.input_width, b.input_height);
+    backbone.colour = b.colour;
+    backbone.mean = parseNumberList(b.mean);
+    backbone.std = parseNumberList(b.std);
+    backbone.grid_rows = b.grid_rows;
+    backbone.grid_cols = b.grid_cols;
+    backbone.normalisation = b.normalisation == "whole"     ? GridNormalisation::kWhole
+                             : b.normalisation == "centred" ? GridNormalisation::kCentred
+                                                            : GridNormalisation::kCells;
+    backbone.max_landmarks = b.max_landmarks;
+    backbone.landmark_grid = b.landmark_grid;
+    backbone.hog_landmarks = b.landmark_features == "hog";
+    backbone.max_landmark_area = options.max_landmark_area;
+    backbone.weighting =
+        options.shape_weighting == "paper" ? ShapeWeighting::kPaper : ShapeWeighting::kPenalise;
+    backbone.rerank_weight = b.rerank_weight;
+    backbone.hog_weight = b.hog_weight;
+    backbone.min_network_width = b.min_network_width;
+    backbone.hog_size = cv::Size(b.hog_width, b.hog_height);
+    backbone.float16_features = options.landmark_storage == "float16";
+    return std::make_shared<BackboneDescriptor>(backbone);
+  };
+  type.apply_variant_part = applyBackboneVariantPart;
+  return type;
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,67 @@
+#include "landmark_loop_closure/geometry/pose.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace landmark_loop_closure {
+
+Eigen::Isometry3d Pose::toIsometry() const {
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = orientation.normalized().toRotationMatrix();
+  transform.translation() = position;
+  return transform;
+}
+
+Pose Pose::fromIsometry(const Eigen::Isometry3d& transform) {
+  Pose pose;
+  pose.position = transform.translation();
+  pose.orientation = Eigen::Quaterniond(transform.linear()).normalized();
+  return pose;
+}
+
+Eigen::Vector3d rollPitchYaw(const Eigen::Quaterniond& rotation) {
+  // ZYX convention, written out so that the angles stay in [-pi, pi] rather than Eigen's
+  // eulerAngles() ranges, which would make a small rotation look like a large one.
+  const Eigen::Quaterniond q = rotation.normalized();
+  const double sin_roll_cos_pitch = 2.0 * (q.w() * q.x() + q.y() * q.z());
+  const double cos_roll_cos_pitch = 1.0 - 2.0 * (q.x() * q.x() + q.y() * q.y());
+  const double roll = std::atan2(sin_roll_cos_pitch, cos_roll_cos_pitch);
+  const double sin_pitch = std::clamp(2.0 * (q.w() * q.y() - q.z() * q.x()), -1.0, 1.0);
+  const double pitch = std::asin(sin_pitch);
+  const double sin_yaw_cos_pitch = 2.0 * (q.w() * q.z() + q.x() * q.y());
+  const double cos_yaw_cos_pitch = 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z());
+  const double yaw = std::atan2(sin_yaw_cos_pitch, cos_yaw_cos_pitch);
+  return {roll, pitch, yaw};
+}
+
+Pose planarPose(double x, double y, double yaw) {
+  Pose pose;
+  pose.position = Eigen::Vector3d(x, y, 0.0);
+  pose.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  return pose;
+}
+
+Pose CameraMount::toPose() const {
+  Pose pose;
+  pose.position = Eigen::Vector3d(x, y, z);
+  pose.orientation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                     Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                     Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  return pose;
+}
+
+std::string CameraMount::validate() const {
+  for (const double value : {x, y, z, roll, pitch, yaw}) {
+    if (!std::isfinite(value)) return "camera_mount values must be finite numbers\n";
+  }
+  return "";
+}
+
+PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
+  PathLength extended = path;
+  extended.metres += (to.position - from.position).norm();
+  extended.radians += from.orientation.angularDistance(to.orientation);
+  return extended;
+}
+
+}  // namespace landmark_loop_closure

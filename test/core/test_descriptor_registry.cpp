@@ -1,0 +1,96 @@
+// The descriptor registry: one entry per type, found by name and by variant name, and the
+// functions the node and the tools call (types, validation, identity, factory) answer from it.
+#include <set>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/descriptors/registry.h"
+
+using namespace landmark_loop_closure;
+
+TEST(DescriptorRegistry, EveryTypeHasAUniqueNameASummaryAndAFactory) {
+  std::set<std::string> names;
+  for (const DescriptorType& type : descriptorRegistry()) {
+    EXPECT_TRUE(names.insert(type.name).second) << type.name << " registered twice";
+    EXPECT_FALSE(type.summary.empty()) << type.name;
+    EXPECT_TRUE(static_cast<bool>(type.make)) << type.name;
+    EXPECT_EQ(findDescriptorType(type.name), &type);
+  }
+  EXPECT_EQ(descriptorTypes().size(), descriptorRegistry().size());
+  EXPECT_EQ(descriptorRegistry().front().name, DescriptorOptions{}.type) << "the default first";
+  EXPECT_EQ(findDescriptorType("sift"), nullptr);
+}
+
+TEST(DescriptorRegistry, TypesWithoutModelsDescribeThroughTheFactory) {
+  const cv::Mat image(120, 160, CV_8UC1, cv::Scalar(90));
+  for (const char* name : {"hog", "hog_whole", "pixels"}) {
+    DescriptorOptions options;
+    options.type = name;
+    EXPECT_EQ(options.validate(), "") << name;
+    const auto extractor = makeDescriptorExtractor(options);
+    ASSERT_NE(extractor, nullptr) << name;
+    EXPECT_EQ(extractor->name(), name);
+    EXPECT_EQ(static_cast<int>(extractor->describe(image).global.size()),
+              extractor->globalDimension());
+    EXPECT_EQ(descriptorIdentity(options), std::string("type=") + name);
+  }
+}
+
+TEST(DescriptorRegistry, UnknownTypesAreRefusedNamingEveryKnownOne) {
+  DescriptorOptions options;
+  options.type = "sift";
+  const std::string errors = options.validate();
+  for (const DescriptorType& type : descriptorRegistry()) {
+    EXPECT_NE(errors.find(type.name), std::string::npos) << errors;
+  }
+  EXPECT_THROW(makeDescriptorExtractor(options), std::invalid_argument);
+}
+
+TEST(DescriptorRegistry, TypeSpecificValidationComesFromTheEntry) {
+  DescriptorOptions options;
+  options.type = "broad";
+  EXPECT_NE(options.validate().find("descriptor/broad/model is empty"), std::string::npos);
+  options.type = "cnn_pca";
+  options.cnn.colour = "cmyk";
+  EXPECT_NE(options.validate().find("descriptor/cnn/colour"), std::string::npos);
+  options.type = "backbone";
+  options.backbone.colour = "cmyk";
+  options.backbone.grid_rows = 40;
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("descriptor/backbone/colour"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("descriptor/backbone/grid_rows"), std::string::npos) << errors;
+  EXPECT_EQ(errors.find("descriptor/cnn/"), std::string::npos) << errors;
+}
+
+TEST(DescriptorRegistry, VariantNamesFindTheLongestTypeAndApplyEachPart) {
+  ASSERT_NE(descriptorTypeOfVariant("hog_whole"), nullptr);
+  EXPECT_EQ(descriptorTypeOfVariant("hog_whole")->name, "hog_whole");
+  EXPECT_EQ(descriptorTypeOfVariant("hog")->name, "hog");
+  EXPECT_EQ(descriptorTypeOfVariant("hogs"), nullptr);
+  EXPECT_EQ(descriptorTypeOfVariant("cnn_pca_raw")->name, "cnn_pca");
+
+  const DescriptorOptions backbone = applyDescriptorVariant("backbone_g2x3_m10_r30_b9", {});
+  EXPECT_EQ(backbone.type, "backbone");
+  EXPECT_EQ(backbone.backbone.grid_rows, 2);
+  EXPECT_EQ(backbone.backbone.grid_cols, 3);
+  EXPECT_EQ(backbone.backbone.max_landmarks, 10);
+  EXPECT_DOUBLE_EQ(backbone.backbone.rerank_weight, 0.3);
+  EXPECT_EQ(backbone.backbone.layer, "block_9_add");
+
+  const DescriptorOptions per = applyDescriptorVariant("landmarks_per_landmark_m30", {});
+  EXPECT_EQ(per.type, "landmarks");
+  EXPECT_EQ(per.landmark_features, "conv_per_landmark");
+  EXPECT_EQ(per.max_landmarks, 30);
+  EXPECT_EQ(applyDescriptorVariant("cnn_pca_raw_cosine", {}).cnn.whitening, "none");
+
+  EXPECT_THROW(applyDescriptorVariant("landmarks_landmark", {}), std::invalid_argument);
+  EXPECT_THROW(applyDescriptorVariant("hog_m30", {}), std::invalid_argument);
+  EXPECT_THROW(applyDescriptorVariant("sift", {}), std::invalid_argument);
+  try {
+    applyDescriptorVariant("backbone_zz", {});
+    ADD_FAILURE() << "backbone_zz accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("'zz'"), std::string::npos) << error.what();
+  }
+}
