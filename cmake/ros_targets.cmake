@@ -15,13 +15,20 @@ add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
 target_include_directories(loop_closure_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
 
+# Installed (catkin_make install, catkin build --install): libraries, every program, launch and
+# config files, messages, and the models (found at run time through the package path).
 install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_nodelet
+  ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
-install(TARGETS loop_closure_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(TARGETS loop_closure_node lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
+  RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
-install(DIRECTORY launch config DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+install(DIRECTORY launch config msg srv DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+install(DIRECTORY model/ DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/model
+  FILES_MATCHING PATTERN "*.onnx" PATTERN "*.onnx.source" PATTERN "*.whitening")
+install(PROGRAMS scripts/plot_results.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # Demo tools: the generated corridor bag and a report of loops against ground truth.
 add_executable(make_demo_bag src/tools/make_demo_bag.cpp)

@@ -59,3 +59,7 @@ add_test(NAME tool_backbone_reference
 add_test(NAME include_layers
   COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${CMAKE_CURRENT_SOURCE_DIR}
     -P ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/check_include_layers.cmake)
+
+# The package installed into a temporary prefix launches from there and finds its models.
+add_test(NAME tool_install_and_launch
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/install_and_launch.sh ${CMAKE_BINARY_DIR})

@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(
   build-essential cmake catkin ros-core rosbash ros-message-generation ros-message-runtime
-  libroscpp-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
+  libroscpp-dev libroslib-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
   libcv-bridge-dev libimage-transport-dev libmessage-filters-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-msgs-dev libsensor-msgs-dev libnav-msgs-dev libvisualization-msgs-dev
   libdiagnostic-updater-dev libdiagnostic-msgs-dev ros-diagnostic-msgs

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include "landmark_loop_closure/common/model_directory.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
@@ -35,9 +36,9 @@ const std::vector<std::string>& descriptorTypes() {
   return types;
 }
 
-std::string defaultModelPath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/calc_encoder.onnx"; }
+std::string defaultModelPath() { return modelDirectory() + "/calc_encoder.onnx"; }
 
-std::string defaultBackbonePath() { return LANDMARK_LOOP_CLOSURE_MODEL_DIR "/mobilenet_v2.onnx"; }
+std::string defaultBackbonePath() { return modelDirectory() + "/mobilenet_v2.onnx"; }
 
 std::string backboneModelPath(const DescriptorOptions::Backbone& backbone) {
   return backbone.model.empty() ? defaultBackbonePath() : backbone.model;

@@ -3,8 +3,10 @@
 #include <stdexcept>
 
 #include <nodelet/nodelet.h>
+#include <ros/package.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "landmark_loop_closure/common/model_directory.h"
 #include "loop_closure_node.h"
 
 namespace landmark_loop_closure {
@@ -12,6 +14,10 @@ namespace landmark_loop_closure {
 class LoopClosureNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
+    // The package's models through the ROS package path: the source tree or the install space.
+    const std::string package = ros::package::getPath("landmark_loop_closure");
+    if (!package.empty()) setModelDirectory(package + "/model");
+    NODELET_INFO("Package models from %s", modelDirectory().c_str());
     NodeOptions options;
     try {
       options = loadNodeOptions(getPrivateNodeHandle());

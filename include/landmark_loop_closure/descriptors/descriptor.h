@@ -126,10 +126,11 @@ struct DescriptorOptions {
   std::string validate() const;
 };
 
-/// The ONNX encoder shipped with the package (model/calc_encoder.onnx in the source tree).
+/// The ONNX encoder shipped with the package (calc_encoder.onnx in modelDirectory()).
 std::string defaultModelPath();
 
-/// The pretrained backbone scripts/fetch_backbone.sh converts (model/mobilenet_v2.onnx).
+/// The pretrained backbone scripts/fetch_backbone.sh converts (mobilenet_v2.onnx in
+/// modelDirectory()).
 std::string defaultBackbonePath();
 
 /// backbone: the model file (the package's backbone when options.model is empty).

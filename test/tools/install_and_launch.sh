@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Installs the package into a temporary prefix and launches the installed node from it, on a
+# master of its own: the node must run from the install space and find its models there. (A
+# package built on its own installs no setup.bash; the environment it would set is set here.)
+#   install_and_launch.sh BUILD_DIR
+set -euo pipefail
+build=$1
+prefix=$(mktemp -d /tmp/lcd_install_XXXXXX)
+log=$prefix.launch.log
+launch=""
+cleanup() {
+  [ -n "$launch" ] && kill -INT "$launch" 2> /dev/null && wait "$launch" 2> /dev/null || true
+  rm -rf "$prefix" "$prefix.install.log" "$log"
+}
+trap cleanup EXIT
+fail() {
+  echo "install_and_launch: $*" >&2
+  [ -f "$log" ] && tail -30 "$log" >&2
+  exit 1
+}
+
+cmake --install "$build" --prefix "$prefix" > "$prefix.install.log" 2>&1 ||
+  { cat "$prefix.install.log" >&2; fail "cmake --install failed"; }
+share=$prefix/share/landmark_loop_closure
+for file in lib/landmark_loop_closure/loop_closure_node lib/landmark_loop_closure/lcd_evaluate \
+  lib/liblandmark_loop_closure_nodelet.so share/landmark_loop_closure/launch/loop_closure.launch \
+  share/landmark_loop_closure/config/default.yaml share/landmark_loop_closure/nodelet_plugins.xml \
+  share/landmark_loop_closure/model/calc_encoder.onnx share/landmark_loop_closure/msg/LoopClosure.msg; do
+  [ -e "$prefix/$file" ] || fail "not installed: $file"
+done
+
+port=$((20000 + RANDOM % 20000))
+(
+  # The environment an install space's setup.bash gives, with this build's devel space left out.
+  export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
+  export PYTHONPATH=$prefix/lib/python3/dist-packages
+  export ROSCONSOLE_STDOUT_LINE_BUFFERED=1 PYTHONUNBUFFERED=1  # the log is read while it runs
+  export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
+  found=$(rospack find landmark_loop_closure)
+  [ "$found" = "$share" ] || { echo "rospack finds $found, not $share" >&2; exit 1; }
+  exec roslaunch -p "$port" landmark_loop_closure loop_closure.launch
+) > "$log" 2>&1 &
+launch=$!
+
+for _ in $(seq 1 120); do
+  grep -q "Loop closure (" "$log" && break
+  kill -0 "$launch" 2> /dev/null || fail "roslaunch ended before the node was ready"
+  sleep 0.5
+done
+grep -q "Loop closure (" "$log" || fail "the installed node did not report ready within 60 s"
+pgrep -f "^$prefix/lib/landmark_loop_closure/loop_closure_node" > /dev/null ||
+  fail "the running node is not the installed one"
+grep -q "Package models from $share/model" "$log" || fail "the node does not read the installed models"
+if [ -f "$(dirname "$0")/../../model/mobilenet_v2.onnx" ]; then
+  grep -q "was never fetched" "$log" && fail "the installed node did not find the backbone"
+fi
+echo "install_and_launch: installed into $prefix and launched: $(grep -o 'Loop closure (.*' "$log" | head -1)"
