@@ -1,6 +1,18 @@
+# ROS messages <-> core types, in one place: the node and the bag reader share it.
+add_library(${PROJECT_NAME}_messages src/messages/ros_conversions.cpp)
+target_include_directories(${PROJECT_NAME}_messages SYSTEM PUBLIC ${catkin_INCLUDE_DIRS})
+target_include_directories(${PROJECT_NAME}_messages PUBLIC src)
+target_link_libraries(${PROJECT_NAME}_messages ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+add_dependencies(${PROJECT_NAME}_messages ${PROJECT_NAME}_generate_messages_cpp)
+
+# Bag reading for the offline tools: frames with their odometry and camera_info, as the node
+# receives them.
+add_library(${PROJECT_NAME}_bag src/bag/bag_source.cpp)
+target_link_libraries(${PROJECT_NAME}_bag ${PROJECT_NAME}_messages ${PROJECT_NAME}_eval
+  ${catkin_LIBRARIES})
+
 # ROS wrapper: the nodelet, its standalone node, and the demo tools.
 add_library(${PROJECT_NAME}_nodelet
-  src/ros/ros_conversions.cpp
   src/ros/ros_parameter_source.cpp
   src/ros/loop_markers.cpp
   src/ros/loop_closure_node.cpp
@@ -8,7 +20,8 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_config ${catkin_LIBRARIES})
+target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_messages ${PROJECT_NAME}_config
+  ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_generate_messages_cpp)
 
 add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
@@ -18,7 +31,7 @@ target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
 # Installed (catkin_make install, catkin build --install): libraries, every program, launch and
 # config files, messages, and the models (found at run time through the package path).
 install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_nodelet
-  ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval
+  ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${PROJECT_NAME}_messages ${PROJECT_NAME}_bag
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
 install(TARGETS loop_closure_node lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
@@ -43,14 +56,14 @@ install(TARGETS make_demo_bag demo_report RUNTIME DESTINATION ${CATKIN_PACKAGE_B
 
 # Offline evaluation tool: image folders, the generated corridor, and bags (hence ROS).
 add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/evaluate_support.cpp
-  src/tools/evaluate_detector.cpp src/tools/bag_source.cpp)
+  src/tools/evaluate_detector.cpp)
 target_include_directories(lcd_evaluate SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(lcd_evaluate ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim ${PROJECT_NAME}_nodelet
+target_link_libraries(lcd_evaluate ${PROJECT_NAME}_bag ${PROJECT_NAME}_config ${PROJECT_NAME}_sim
   ${catkin_LIBRARIES})
 
-add_executable(lcd_train src/tools/lcd_train.cpp src/tools/bag_source.cpp)
+add_executable(lcd_train src/tools/lcd_train.cpp)
 target_include_directories(lcd_train SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(lcd_train ${PROJECT_NAME}_eval ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+target_link_libraries(lcd_train ${PROJECT_NAME}_bag ${PROJECT_NAME}_config ${catkin_LIBRARIES})
 target_compile_definitions(lcd_train PRIVATE
   LANDMARK_LOOP_CLOSURE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 install(TARGETS lcd_evaluate lcd_train RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

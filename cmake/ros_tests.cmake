@@ -9,9 +9,8 @@ target_link_libraries(test_ros_conversions ${PROJECT_NAME}_nodelet ${catkin_LIBR
 target_compile_definitions(test_ros_conversions PRIVATE
   PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
-catkin_add_gtest(test_bag_source test/ros/test_bag_source.cpp src/tools/bag_source.cpp)
-target_include_directories(test_bag_source SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(test_bag_source ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+catkin_add_gtest(test_bag_source test/ros/test_bag_source.cpp)
+target_link_libraries(test_bag_source ${PROJECT_NAME}_bag ${catkin_LIBRARIES})
 
 foreach(name node_revisit node_bad_input node_restart node_time_jump node_tf_timeout)
   add_rostest_gtest(test_${name} test/ros/${name}.test test/ros/test_${name}.cpp)

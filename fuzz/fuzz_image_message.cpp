@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <string>
 
-#include "../src/ros/ros_conversions.h"
+#include "../src/messages/ros_conversions.h"
 #include "image_message_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -16,7 +16,7 @@
 #include "landmark_loop_closure/core/match_image.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
 #include "landmark_loop_closure/geometry/metric_pose.h"
-#include "ros_conversions.h"
+#include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 
 namespace landmark_loop_closure {

@@ -3,7 +3,7 @@
 #include <string>
 
 #include "loop_closure_node.h"
-#include "ros_conversions.h"
+#include "messages/ros_conversions.h"
 
 namespace landmark_loop_closure {
 

@@ -11,7 +11,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "bag_source.h"
+#include "bag/bag_source.h"
 #include "evaluate_detector.h"
 #include "evaluate_support.h"
 #include "landmark_loop_closure/eval/evaluator.h"

@@ -6,7 +6,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 
-#include "../../src/tools/bag_source.h"
+#include "../../src/bag/bag_source.h"
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;

@@ -10,8 +10,8 @@
 #include <Eigen/Geometry>
 
 #include "../../fuzz/image_message_input.h"
+#include "../../src/messages/ros_conversions.h"
 #include "../../src/ros/loop_markers.h"
-#include "../../src/ros/ros_conversions.h"
 
 using namespace landmark_loop_closure;
 

@@ -1,4 +1,4 @@
-#include "ros_conversions.h"
+#include "messages/ros_conversions.h"
 
 #include <cmath>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "bag_source.h"
+#include "bag/bag_source.h"
 
 #include <map>
 #include <stdexcept>
@@ -9,8 +9,8 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
-#include "../ros/ros_conversions.h"
 #include "landmark_loop_closure/core/input_error.h"
+#include "messages/ros_conversions.h"
 
 namespace landmark_loop_closure {
 
