@@ -50,7 +50,7 @@ target_link_libraries(make_demo_bag ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
 
 add_executable(demo_report src/tools/demo_report.cpp)
 target_include_directories(demo_report SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(demo_report ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_link_libraries(demo_report ${PROJECT_NAME}_eval ${catkin_LIBRARIES})
 add_dependencies(demo_report ${PROJECT_NAME}_generate_messages_cpp)
 install(TARGETS make_demo_bag demo_report RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 

@@ -15,7 +15,7 @@ target_link_libraries(test_bag_source ${PROJECT_NAME}_bag ${catkin_LIBRARIES})
 foreach(name node_revisit node_bad_input node_restart node_time_jump node_tf_timeout)
   add_rostest_gtest(test_${name} test/ros/${name}.test test/ros/test_${name}.cpp)
   target_include_directories(test_${name} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-  target_link_libraries(test_${name} ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
+  target_link_libraries(test_${name} ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${catkin_LIBRARIES})
   add_dependencies(test_${name} ${PROJECT_NAME}_generate_messages_cpp loop_closure_node
     ${PROJECT_NAME}_nodelet)
 endforeach()

@@ -1,7 +1,7 @@
 // Prints every loop closure the detector publishes as TRUE or FALSE against ground truth, the
 // error of its metric relative pose, and a summary at shutdown. Ground truth: nav_msgs/Odometry
-// on `ground_truth`; a loop is true when the true positions at its two stamps are within
-// ~true_loop_distance metres.
+// on `ground_truth`; a loop is true by eval::TrueLoopRule: the true positions at its two stamps
+// within true_loop_distance metres, the stamps revisit_min_seconds apart.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +14,7 @@
 #include <ros/ros.h>
 #include <Eigen/Geometry>
 
+#include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 #include "landmark_loop_closure/Keyframe.h"
@@ -24,8 +25,8 @@ namespace {
 class DemoReport {
  public:
   explicit DemoReport(ros::NodeHandle& node, ros::NodeHandle& private_node) {
-    private_node.param("true_loop_distance", true_loop_distance_, 2.5);
-    private_node.param("revisit_min_seconds", revisit_min_seconds_, 20.0);
+    private_node.param("true_loop_distance", rule_.max_distance_m, rule_.max_distance_m);
+    private_node.param("revisit_min_seconds", rule_.min_gap_s, rule_.min_gap_s);
     // The detector's camera mount turns true body poses into true camera poses.
     std::string detector;
     private_node.param<std::string>("detector", detector, "loop_closure");
@@ -49,7 +50,7 @@ class DemoReport {
     std::printf("\n==== demo summary ====\n");
     std::printf("keyframes:            %d\n", keyframes_);
     std::printf("revisited keyframes:  %d (a keyframe >= %.0f s older lies within %.1f m)\n",
-                revisited_keyframes_, revisit_min_seconds_, true_loop_distance_);
+                revisited_keyframes_, rule_.min_gap_s, rule_.max_distance_m);
     std::printf("loops published:      %d (true %d, false %d)\n", loops_, true_loops_, false_loops);
     if (loops_ > 0) {
       std::printf("precision:            %.3f\n", static_cast<double>(true_loops_) / loops_);
@@ -74,6 +75,10 @@ class DemoReport {
     std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank),
                      values.end());
     return values[rank];
+  }
+
+  static Eigen::Vector3d toVector(const geometry_msgs::Point& point) {
+    return {point.x, point.y, point.z};
   }
 
   static Eigen::Isometry3d toIsometry(const geometry_msgs::Pose& pose) {
@@ -109,8 +114,9 @@ class DemoReport {
     if (!truthAt(keyframe->header.stamp, &here_pose)) return;
     const geometry_msgs::Point& here = here_pose.position;
     for (const auto& [stamp, position] : keyframe_truth_) {
-      if ((keyframe->header.stamp - stamp).toSec() < revisit_min_seconds_) break;
-      if (std::hypot(position.x - here.x, position.y - here.y) < true_loop_distance_) {
+      if ((keyframe->header.stamp - stamp).toSec() < rule_.min_gap_s) break;
+      if (rule_.isTrueLoop(toVector(here), keyframe->header.stamp.toSec(), toVector(position),
+                           stamp.toSec())) {
         ++revisited_keyframes_;
         break;
       }
@@ -130,8 +136,9 @@ class DemoReport {
     }
     const geometry_msgs::Point& query = query_pose.position;
     const geometry_msgs::Point& match = match_pose.position;
-    const double distance = std::hypot(query.x - match.x, query.y - match.y);
-    const bool is_true = distance < true_loop_distance_;
+    const double distance = (toVector(query) - toVector(match)).norm();
+    const bool is_true = rule_.isTrueLoop(toVector(query), loop->query_stamp.toSec(),
+                                          toVector(match), loop->match_stamp.toSec());
     true_loops_ += is_true ? 1 : 0;
     verified_ += loop->verified ? 1 : 0;
     char pose_error[96] = "";
@@ -153,8 +160,7 @@ class DemoReport {
     std::fflush(stdout);
   }
 
-  double true_loop_distance_ = 2.5;
-  double revisit_min_seconds_ = 20.0;
+  landmark_loop_closure::eval::TrueLoopRule rule_;
   ros::Subscriber truth_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber keyframe_subscriber_;

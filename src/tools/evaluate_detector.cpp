@@ -10,6 +10,7 @@
 #include "bag/bag_source.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace landmark_loop_closure {
@@ -107,10 +108,10 @@ struct FrameTruth {
   }
 };
 
-eval::SamePlace withinDistance(std::shared_ptr<FrameTruth> truth, double distance, double gap) {
-  return [truth, distance, gap](size_t query, size_t match) {
-    return (truth->positions[query] - truth->positions[match]).norm() <= distance &&
-           std::abs(truth->stamps[query] - truth->stamps[match]) >= gap;
+eval::SamePlace trueLoops(std::shared_ptr<FrameTruth> truth, const eval::TrueLoopRule& rule) {
+  return [truth, rule](size_t query, size_t match) {
+    return rule.isTrueLoop(truth->positions[query], truth->stamps[query], truth->positions[match],
+                           truth->stamps[match]);
   };
 }
 
@@ -118,10 +119,9 @@ eval::SamePlace withinDistance(std::shared_ptr<FrameTruth> truth, double distanc
 
 DetectorSource corridorSource(double laps) {
   DetectorSource source;
-  source.description =
-      "generated corridor, " + std::to_string(laps).substr(0, 4) +
-      " laps at 10 Hz: drifting odometry, camera intrinsics; a loop is true within 2.5 m of the "
-      "truth, 20 s apart";
+  source.description = "generated corridor, " + std::to_string(laps).substr(0, 4) +
+                       " laps at 10 Hz: drifting odometry, camera intrinsics; a loop is true " +
+                       eval::TrueLoopRule{}.describe() + " (the truth's positions)";
   source.has_intrinsics = true;
   source.has_odometry = true;
   auto truth = std::make_shared<FrameTruth>();
@@ -147,7 +147,7 @@ DetectorSource corridorSource(double laps) {
       sink(frame.index, played);
     }
   };
-  source.same_place = withinDistance(truth, 2.5, 20.0);
+  source.same_place = trueLoops(truth, eval::TrueLoopRule{});
   return source;
 }
 
@@ -155,13 +155,13 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
                          const std::string& odom_topic, const std::string& truth_topic,
                          double distance, double gap) {
   DetectorSource source;
+  const eval::TrueLoopRule rule{distance, gap};
   source.description =
-      "bag " + path +
-      ": every image with its odometry and camera_info; a loop is "
-      "true within " +
-      std::to_string(distance).substr(0, 4) + " m of the " +
-      (truth_topic.empty() ? "odometry (no --truth-topic; it drifts)" : "truth topic's poses") +
-      ", " + std::to_string(gap).substr(0, 4) + " s apart";
+      "bag " + path + ": every image with its odometry and camera_info; a loop is true " +
+      rule.describe() + " (" +
+      (truth_topic.empty() ? "the odometry's positions: no --truth-topic, and it drifts"
+                           : "the truth topic's positions") +
+      ")";
   source.has_intrinsics = true;  // When the bag has camera_info; loops go unverified otherwise.
   source.has_odometry = true;
   auto truth = std::make_shared<FrameTruth>();
@@ -179,7 +179,7 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
                     sink(index, frame);
                   });
   };
-  source.same_place = withinDistance(truth, distance, gap);
+  source.same_place = trueLoops(truth, rule);
   return source;
 }
 

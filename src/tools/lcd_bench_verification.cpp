@@ -37,13 +37,12 @@
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/ground_truth.h"
+#include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace {
 
 using namespace landmark_loop_closure;
-
-constexpr double kRevisitMinSeconds = 20.0;
 
 double percentile(std::vector<double> values, double fraction) {
   if (values.empty()) return NAN;
@@ -159,15 +158,17 @@ struct Outcome {
   std::vector<double> rotation_error_deg;
 };
 
-Outcome run(const LoopDetectorOptions& options, FrameSource* source, double true_distance) {
+Outcome run(const LoopDetectorOptions& options, FrameSource* source,
+            const eval::TrueLoopRule& rule) {
   LoopDetector detector(options, makeDescriptorExtractor(options.descriptor));
   const CameraIntrinsics intrinsics = source->intrinsics();
   const cv::Size size = intrinsics.image_size;
   std::map<uint64_t, BenchFrame> keyframe_truth;
   Outcome outcome;
   BenchFrame frame;
-  const auto distance = [](const BenchFrame& a, const BenchFrame& b) {
-    return (a.true_camera.translation() - b.true_camera.translation()).norm();
+  const auto true_loop = [&rule](const BenchFrame& query, const BenchFrame& match) {
+    return rule.isTrueLoop(query.true_camera.translation(), query.stamp,
+                           match.true_camera.translation(), match.stamp);
   };
   while (source->next(&frame)) {
     const FrameAdmission admission =
@@ -178,8 +179,7 @@ Outcome run(const LoopDetectorOptions& options, FrameSource* source, double true
     if (result.error) continue;
     ++outcome.keyframes;
     for (const auto& [id, earlier] : keyframe_truth) {
-      if (frame.stamp - earlier.stamp >= kRevisitMinSeconds &&
-          distance(earlier, frame) < true_distance) {
+      if (true_loop(frame, earlier)) {
         ++outcome.revisited;
         break;
       }
@@ -196,7 +196,7 @@ Outcome run(const LoopDetectorOptions& options, FrameSource* source, double true
     if (!result.loop) continue;
     ++outcome.loops;
     const BenchFrame& match = keyframe_truth.at(result.loop->match_id);
-    outcome.true_loops += distance(match, frame) < true_distance ? 1 : 0;
+    outcome.true_loops += true_loop(frame, match) ? 1 : 0;
     if (result.loop->relative_pose && result.loop->relative_pose->metric) {
       ++outcome.metric_poses;
       const Eigen::Isometry3d truth = frame.true_camera.inverse() * match.true_camera;
@@ -307,7 +307,8 @@ int main(int argc, char** argv) try {
     options.verification.enabled = variant.check;
     options.odometry_gate.enabled = variant.gate;
     const std::unique_ptr<FrameSource> source = makeSource();
-    const Outcome outcome = run(options, source.get(), true_distance);
+    const Outcome outcome = run(options, source.get(),
+                                eval::TrueLoopRule{true_distance, eval::TrueLoopRule{}.min_gap_s});
     std::printf(
         "| %s | %d | %d | %d | %d | %d | %.3f | %.3f |\n", variant.name, outcome.keyframes,
         outcome.revisited, outcome.loops, outcome.true_loops, outcome.loops - outcome.true_loops,

@@ -12,6 +12,7 @@
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/training.h"
+#include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 using namespace landmark_loop_closure;
@@ -54,8 +55,13 @@ void driveCorridor(
   }
 }
 
-// Runs a route through the detector; a loop is true when the ground-truth positions of its two
-// keyframes are within 2.5 m.
+// The one rule every evaluation judges loops by (eval::TrueLoopRule), on the generated truth.
+bool isTrueLoop(const SequenceFrame& query, const SequenceFrame& match) {
+  return eval::TrueLoopRule{}.isTrueLoop({query.truth.x, query.truth.y, 0.0}, query.stamp,
+                                         {match.truth.x, match.truth.y, 0.0}, match.stamp);
+}
+
+// Runs a route through the detector; a loop is true by eval::TrueLoopRule.
 RunSummary run(double laps, const DescriptorOptions& descriptor, double min_score,
                const SequenceMatchingOptions& sequence = {}, int consistent_keyframes = 3) {
   LoopDetectorOptions detector_options;
@@ -63,18 +69,19 @@ RunSummary run(double laps, const DescriptorOptions& descriptor, double min_scor
   detector_options.acceptance.sequence = sequence;
   detector_options.acceptance.consistent_keyframes = consistent_keyframes;
   LoopDetector detector(detector_options, makeDescriptorExtractor(descriptor));
-  std::map<uint64_t, Pose2D> truth_by_keyframe;
+  std::map<uint64_t, SequenceFrame> truth_by_keyframe;
   RunSummary summary;
   driveCorridor(
       &detector, laps, [&](const SequenceFrame& frame, uint64_t id, const KeyframeResult& result) {
         EXPECT_FALSE(result.error);
-        truth_by_keyframe[id] = frame.truth;
+        truth_by_keyframe[id] = frame;
         ++summary.keyframes;
         if (!result.loop) return;
-        const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
+        const SequenceFrame& match_frame = truth_by_keyframe.at(result.loop->match_id);
+        const Pose2D& match = match_frame.truth;
         const double distance = std::hypot(match.x - frame.truth.x, match.y - frame.truth.y);
         ++summary.loops;
-        summary.true_loops += distance < 2.5 ? 1 : 0;
+        summary.true_loops += isTrueLoop(frame, match_frame) ? 1 : 0;
         summary.worst_loop_distance = std::max(summary.worst_loop_distance, distance);
         if (result.loop->verification) ++summary.verified_loops;
         const double true_turn = std::abs(std::remainder(match.yaw - frame.truth.yaw, 2 * M_PI));
@@ -238,11 +245,11 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
   LoopDetector detector(options, nullptr);
   EXPECT_EQ(detector.extractor(), nullptr);
 
-  std::map<uint64_t, Pose2D> truth_by_keyframe;
+  std::map<uint64_t, SequenceFrame> truth_by_keyframe;
   int keyframes = 0, loops = 0, true_loops = 0, trained_at = 0;
   driveCorridor(
       &detector, 2.0, [&](const SequenceFrame& frame, uint64_t id, const KeyframeResult& result) {
-        truth_by_keyframe[id] = frame.truth;
+        truth_by_keyframe[id] = frame;
         ++keyframes;
         if (trained_at == 0 && result.training_summary.empty()) {
           // Held while the first 150 are collected and while training runs in the background.
@@ -268,9 +275,8 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
         }
         EXPECT_EQ(result.held_for_training, 0);
         if (!result.loop) return;
-        const Pose2D& match = truth_by_keyframe.at(result.loop->match_id);
         ++loops;
-        true_loops += std::hypot(match.x - frame.truth.x, match.y - frame.truth.y) < 2.5 ? 1 : 0;
+        true_loops += isTrueLoop(frame, truth_by_keyframe.at(result.loop->match_id)) ? 1 : 0;
       });
   EXPECT_GT(trained_at, 0);
   EXPECT_GE(loops, 5);

@@ -8,6 +8,7 @@
 #include <map>
 #include <vector>
 
+#include "landmark_loop_closure/eval/true_loop.h"
 #include "node_harness.h"
 
 using namespace landmark_loop_closure;
@@ -86,7 +87,9 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
     ASSERT_EQ(truth.count(loop.match_stamp), 1u);
     const Pose2D& query = truth.at(loop.query_stamp);
     const Pose2D& match = truth.at(loop.match_stamp);
-    EXPECT_LT(std::hypot(query.x - match.x, query.y - match.y), 2.5);
+    EXPECT_TRUE(eval::TrueLoopRule{}.isTrueLoop({query.x, query.y, 0.0}, loop.query_stamp.toSec(),
+                                                {match.x, match.y, 0.0}, loop.match_stamp.toSec()))
+        << std::hypot(query.x - match.x, query.y - match.y) << " m apart";
     EXPECT_GT(loop.query_id, loop.match_id);
     EXPECT_GE(loop.score, min_score);
     // camera_info came with the images, so every loop passed the geometric check.
