@@ -10,6 +10,7 @@ set(CORE_TESTS
   test_loop_detector
   test_sequence_matching
   test_bounded_queue
+  test_detector_runtime
   test_match_image
   test_landmarks
   test_convnet_descriptor

@@ -63,7 +63,6 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       image_transport_(node),
       markers_(options.odom_frame, options.detector.acceptance.min_score,
                options.publish_rejected_markers),
-      queue_(static_cast<size_t>(options.worker_queue_size)),
       diagnostics_(node, private_node, ros::this_node::getName()) {
   loop_publisher_ = node_.advertise<LoopClosure>("loop_closures", 100);
   keyframe_publisher_ =
@@ -99,7 +98,30 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
              detector_.database().size(), options_.database_path.c_str(), load_s,
              detector_.session());
   }
-  worker_ = std::thread(&LoopClosureNode::workerLoop, this);
+  RuntimeOptions runtime_options;
+  runtime_options.queue_size = static_cast<size_t>(options_.worker_queue_size);
+  runtime_options.time_jump_back =
+      options_.time_jump_back == "reset" ? TimeJumpPolicy::kReset : TimeJumpPolicy::kDrop;
+  runtime_options.time_jump_back_s = options_.time_jump_back_s;
+  RuntimeListener listener;
+  listener.prepare = [this](const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
+                            InputError* error) {
+    return prepareKeyframe(job, colour, prepared, error);
+  };
+  listener.rejected = [this](const InputError& error) { reportRejected(error); };
+  listener.timeline_reset = [this] { onTimelineReset(); };
+  listener.held = [this](const KeyframeJob& job, const KeyframeResult& result) {
+    onHeldForTraining(job, result);
+  };
+  listener.training_finished = [this](const KeyframeJob& job, const KeyframeResult& result,
+                                      const std::vector<ReleasedKeyframe>& held) {
+    publishHeldKeyframes(nodeKeyframe(job), result, held);
+  };
+  listener.keyframe = [this](const KeyframeJob& job, const KeyframeResult& result,
+                             const PreparedKeyframe& prepared) {
+    onKeyframeDone(job, result, prepared);
+  };
+  runtime_ = std::make_unique<DetectorRuntime>(&detector_, runtime_options, std::move(listener));
   advertiseServices();
   subscribe();
   const std::string descriptor =
@@ -121,17 +143,18 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
 LoopClosureNode::~LoopClosureNode() {
   if (service_spinner_) service_spinner_->stop();
-  queue_.close();
-  if (worker_.joinable()) worker_.join();
+  runtime_->stop();
   if (options_.save_on_shutdown && !options_.database_path.empty()) {
-    std::lock_guard<std::mutex> lock(detector_mutex_);
-    const std::string error = saveDatabase("");
-    if (error.empty()) {
-      ROS_INFO("Saved %zu keyframes to %s", detector_.database().size(),
-               options_.database_path.c_str());
-    } else {
-      ROS_ERROR("Could not save the keyframe database at shutdown: %s", error.c_str());
-    }
+    runtime_->withDetector([this](LoopDetector& detector) {
+      const std::string error = saveDatabase("");
+      if (error.empty()) {
+        ROS_INFO("Saved %zu keyframes to %s", detector.database().size(),
+                 options_.database_path.c_str());
+      } else {
+        ROS_ERROR("Could not save the keyframe database at shutdown: %s", error.c_str());
+      }
+      return false;
+    });
   }
 }
 
@@ -240,27 +263,25 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     reportRejected(*error);
     return;
   }
-  const double stamp = toSeconds(image->header.stamp);
-  const auto admit = [&] {
-    return detector_.admit(stamp, pose, static_cast<int>(image->width),
-                           static_cast<int>(image->height), *cvTypeOfEncoding(image->encoding));
-  };
-  FrameAdmission admission = admit();
-  if (admission.error && admission.error->code == InputErrorCode::kStampNotIncreasing &&
-      options_.time_jump_back == "reset") {
-    const double back = detector_.lastKeyframeStamp().value_or(stamp) - stamp;
-    if (back > options_.time_jump_back_s) {
-      ROS_WARN(
-          "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
-          "keyframe and starting over (time_jump_back: reset)",
-          back);
-      // The worker resets the database when it takes the first keyframe of the new timeline and
-      // drops keyframes of the old one still queued.
-      ++time_generation_;
-      detector_.restartAdmission();
-      admission = admit();
-    }
+  FrameInput frame;
+  frame.stamp = toSeconds(image->header.stamp);
+  frame.pose = pose;
+  frame.width = static_cast<int>(image->width);
+  frame.height = static_cast<int>(image->height);
+  frame.cv_type = *cvTypeOfEncoding(image->encoding);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (camera_info_) frame.intrinsics = fromCameraInfo(*camera_info_);
   }
+  frame.source = FrameSource{image, frame_id};
+  const RuntimeAdmission admitted = runtime_->admit(std::move(frame));
+  if (admitted.timeline_restarted_after_s) {
+    ROS_WARN(
+        "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
+        "keyframe and starting over (time_jump_back: reset)",
+        *admitted.timeline_restarted_after_s);
+  }
+  const FrameAdmission& admission = admitted.admission;
   if (admission.error) {
     reportRejected(*admission.error);
     return;
@@ -282,20 +303,11 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
         selection.motion, options_.detector.keyframe.jump_reanchor_frames,
         static_cast<unsigned long>(admission.keyframe_id));
   }
-  if (!admission.isKeyframe()) return;
-  CameraIntrinsics intrinsics;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (camera_info_) intrinsics = fromCameraInfo(*camera_info_);
-  }
-  if (queue_.push(KeyframeJob{image, admission.keyframe_id, image->header.stamp,
-                              normalisedPose(pose), frame_id, intrinsics,
-                              time_generation_.load()})) {
-    ++keyframes_dropped_;
+  if (admitted.dropped_oldest) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
                       "far); raise worker_queue_size or keyframe/min_motion",
-                      static_cast<unsigned long>(keyframes_dropped_.load()));
+                      static_cast<unsigned long>(runtime_->keyframesDropped()));
   }
 }
 
@@ -312,54 +324,46 @@ void LoopClosureNode::reportRejected(const InputError& error) {
             static_cast<unsigned long>(rejected_[error.code]), error.message.c_str());
 }
 
-void LoopClosureNode::workerLoop() {
-  while (std::optional<KeyframeJob> job = queue_.pop()) processKeyframe(*job);
+LoopClosureNode::NodeKeyframe LoopClosureNode::nodeKeyframe(const KeyframeJob& job) {
+  const auto& source = std::any_cast<const FrameSource&>(job.source);
+  return {source.image, job.id, source.image->header.stamp, job.pose, source.frame_id};
 }
 
-void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
-  const auto start = std::chrono::steady_clock::now();
-  std::lock_guard<std::mutex> detector_lock(detector_mutex_);
-  if (job.generation < time_generation_) return;  // From before time jumped back.
-  if (job.generation > worker_generation_) {
-    worker_generation_ = job.generation;
-    detector_.reset();
-    session_ = detector_.session();
-    keyframe_stamps_.clear();
-    held_for_training_.clear();
-    markers_.clear();
-  }
-  cv::Mat grey;
-  cv::Mat colour;  // Only for a descriptor whose network takes colour.
+bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
+                                      PreparedKeyframe* prepared, InputError* error) {
+  const auto& source = std::any_cast<const FrameSource&>(job.source);
   try {
-    grey = toGrey(*job.image);
-    if (detector_.extractor() && detector_.extractor()->wantsColour()) colour = toBgr(*job.image);
-  } catch (const cv::Exception& error) {
-    reportRejected({InputErrorCode::kUnsupportedImageType, error.what()});
-    return;
+    prepared->grey = toGrey(*source.image);
+    prepared->image = colour ? toBgr(*source.image) : prepared->grey;
+  } catch (const cv::Exception& exception) {
+    *error = {InputErrorCode::kUnsupportedImageType, exception.what()};
+    return false;
   }
-  const std::string& camera_frame = job.image->header.frame_id;
+  const std::string& camera_frame = source.image->header.frame_id;
   if (options_.camera_mount_from_tf) updateCameraMount(camera_frame);
-  cv::Mat depth;
   if (options_.use_depth) {
-    depth = depthFor(job.stamp, camera_frame);
-    ++(depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
+    prepared->depth = depthFor(source.image->header.stamp, camera_frame);
+    ++(prepared->depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
   }
-  const KeyframeResult result =
-      detector_.addKeyframe(job.id, toSeconds(job.stamp), job.pose, colour.empty() ? grey : colour,
-                            job.intrinsics, depth);
-  if (result.error) {
-    reportRejected(*result.error);
-    return;
-  }
-  if (result.held_for_training > 0) {
-    held_for_training_.push_back(job.id);
-    keyframe_stamps_[job.id] = job.stamp;
-    ROS_INFO_THROTTLE(
-        kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
-        result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
-    return;
-  }
-  if (!result.training_summary.empty() && !publishHeldKeyframes(job, result)) return;
+  return true;
+}
+
+void LoopClosureNode::onTimelineReset() {
+  session_ = detector_.session();
+  keyframe_stamps_.clear();
+  markers_.clear();
+}
+
+void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result) {
+  keyframe_stamps_[job.id] = nodeKeyframe(job).stamp;
+  ROS_INFO_THROTTLE(
+      kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
+      result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
+}
+
+void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
+                                     const PreparedKeyframe& prepared) {
+  const NodeKeyframe keyframe = nodeKeyframe(job);
   ++keyframes_stored_;
   if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
     ++keyframes_over_budget_;
@@ -368,19 +372,15 @@ void LoopClosureNode::processKeyframe(const KeyframeJob& job) {
                       "searched for loops but no longer stored",
                       options_.detector.database.memory_budget_mb, detector_.database().size());
   }
-  keyframe_stamps_[job.id] = job.stamp;
-  publishResults(job, result, grey);
+  keyframe_stamps_[job.id] = keyframe.stamp;
+  publishResults(keyframe, result, prepared.grey);
   if (options_.autosave_every > 0 && !options_.database_path.empty() &&
       detector_.mode() == DetectorMode::kMapping &&
       ++stored_since_save_ >= options_.autosave_every) {
     const std::string error = saveDatabase("");
     if (!error.empty()) ROS_ERROR_THROTTLE(kWarningPeriod, "Autosave failed: %s", error.c_str());
   }
-  const double elapsed =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  last_processing_ms_ = elapsed;
-  max_processing_ms_ = std::max(max_processing_ms_, elapsed);
   database_bytes_ = detector_.database().bytes();
 }
 
@@ -484,7 +484,7 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
   return options_.base_frame;
 }
 
-void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResult& result,
+void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
   keyframe_publisher_.publish(
       toKeyframeMsg(job.id, detector_.session(), job.stamp, job.pose, job.frame_id));
@@ -527,7 +527,7 @@ void LoopClosureNode::publishResults(const KeyframeJob& job, const KeyframeResul
   if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(job, result, grey);
 }
 
-void LoopClosureNode::publishMatchImage(const KeyframeJob& job, const KeyframeResult& result,
+void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                                         const cv::Mat& grey) {
   if (result.candidates.empty()) return;
   const CandidateReport& best = result.candidates.front();

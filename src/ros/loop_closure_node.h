@@ -6,7 +6,6 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <unordered_map>
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -27,7 +26,7 @@
 #include "landmark_loop_closure/ResetDatabase.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/core/loop_detector.h"
-#include "landmark_loop_closure/runtime/bounded_queue.h"
+#include "landmark_loop_closure/runtime/detector_runtime.h"
 #include "loop_markers.h"
 
 namespace landmark_loop_closure {
@@ -39,8 +38,9 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node);
 /// The ROS side of the detector: subscriptions, a worker thread, publishers, diagnostics.
 ///
 /// Threading: subscriber and timer callbacks run on the node handles' single-threaded queue and
-/// only do cheap checks and keyframe selection; describing and searching run on one worker
-/// thread fed by a bounded queue, so a callback never waits for it.
+/// only do cheap checks and keyframe selection; describing and searching run on the
+/// DetectorRuntime's worker thread, whose callbacks publish the results, so a callback never
+/// waits for it.
 class LoopClosureNode {
  public:
   /// Throws std::runtime_error when database_path exists but cannot be loaded (autoload).
@@ -51,14 +51,18 @@ class LoopClosureNode {
   LoopClosureNode& operator=(const LoopClosureNode&) = delete;
 
  private:
-  struct KeyframeJob {
+  /// What the node hands the runtime with each frame (KeyframeJob::source).
+  struct FrameSource {
+    sensor_msgs::ImageConstPtr image;
+    std::string frame_id;  ///< The odometry frame of the pose.
+  };
+  /// A keyframe as the publishers need it.
+  struct NodeKeyframe {
     sensor_msgs::ImageConstPtr image;
     uint64_t id;
-    ros::Time stamp;
+    ros::Time stamp;  ///< The image's own stamp, to the nanosecond.
     Pose pose;
-    std::string frame_id;         ///< The odometry frame of `pose`.
-    CameraIntrinsics intrinsics;  ///< From the latest camera_info; invalid when none came.
-    uint64_t generation;          ///< time_generation_ when it was admitted.
+    std::string frame_id;  ///< The odometry frame of `pose`.
   };
   struct PendingImage {
     sensor_msgs::ImageConstPtr image;
@@ -78,8 +82,14 @@ class LoopClosureNode {
                   const std::string& frame_id);
   void reportRejected(const InputError& error);
 
-  void workerLoop();
-  void processKeyframe(const KeyframeJob& job);
+  // DetectorRuntime callbacks, on its worker thread with the detector locked.
+  static NodeKeyframe nodeKeyframe(const KeyframeJob& job);
+  bool prepareKeyframe(const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
+                       InputError* error);
+  void onTimelineReset();
+  void onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result);
+  void onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
+                      const PreparedKeyframe& prepared);
   /// The depth image nearest `stamp` within sync_slop, waiting briefly for one still on its way;
   /// empty when none, or when it is not in `camera_frame` (unregistered) or unusable.
   cv::Mat depthFor(const ros::Time& stamp, const std::string& camera_frame);
@@ -88,24 +98,28 @@ class LoopClosureNode {
   /// The loop's relative pose in the frame relative_pose_frame asks for, when possible; returns
   /// the frame it is in.
   std::string expressRelativePose(AcceptedLoop* loop, const std::string& camera_frame) const;
-  void publishResults(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
+  void publishResults(const NodeKeyframe& job, const KeyframeResult& result, const cv::Mat& grey);
   /// Online training just ended with this keyframe: publishes the keyframes it held, or logs why
-  /// training failed (false: nothing more to publish).
-  bool publishHeldKeyframes(const KeyframeJob& job, const KeyframeResult& result);
-  void publishMatchImage(const KeyframeJob& job, const KeyframeResult& result, const cv::Mat& grey);
+  /// training failed.
+  void publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
+                            const std::vector<ReleasedKeyframe>& held);
+  void publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
+                         const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   /// odom mode: "" or why images and odometry both arrive but never pair (stamps compared).
   std::string unpairedInputs(double now) const;
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
 
-  // Database file. Services run on their own thread and take detector_mutex_, so a save or load
-  // waits for the keyframe in hand and never blocks the image callbacks.
+  // Database file. Services run on their own thread and reach the detector through
+  // DetectorRuntime::withDetector, so a save or load waits for the keyframe in hand and never
+  // blocks the image callbacks.
   void advertiseServices();
   bool onSaveDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
   bool onLoadDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
-  /// Saves to `path` (or database_path); returns "" or why. Caller holds detector_mutex_.
+  /// Saves to `path` (or database_path); returns "" or why. Caller holds the detector (inside
+  /// withDetector or a runtime callback).
   std::string saveDatabase(const std::string& path);
   /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
   ros::Time stampOf(uint64_t id) const;
@@ -114,7 +128,6 @@ class LoopClosureNode {
   ros::NodeHandle private_node_;
   NodeOptions options_;
   LoopDetector detector_;
-  std::mutex detector_mutex_;  // Held by the worker per keyframe and by the database services.
 
   // Inputs.
   image_transport::ImageTransport image_transport_;
@@ -142,12 +155,7 @@ class LoopClosureNode {
   image_transport::Publisher match_image_publisher_;
   LoopMarkers markers_;                                      // Worker thread only.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
-  std::vector<uint64_t> held_for_training_;  // Worker thread: ids held by online training.
-
-  // Worker.
-  BoundedQueue<KeyframeJob> queue_;
-  std::thread worker_;
-  int stored_since_save_ = 0;  // Guarded by detector_mutex_.
+  int stored_since_save_ = 0;                                // Under the runtime's detector lock.
 
   // Database services.
   ros::CallbackQueue service_queue_;
@@ -165,7 +173,6 @@ class LoopClosureNode {
   std::atomic<uint64_t> keyframes_stored_{0};
   std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};
-  std::atomic<uint64_t> keyframes_dropped_{0};
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};
@@ -175,23 +182,20 @@ class LoopClosureNode {
   std::atomic<double> last_paired_wall_{0.0};  ///< odom mode: an image met its odometry.
   std::atomic<double> newest_image_stamp_{0.0};
   std::atomic<double> newest_odometry_stamp_{0.0};
-  /// Bumped each time the stamps jump back and time_jump_back is reset; the worker resets the
-  /// database when it meets a newer one (worker_generation_ is its own copy).
-  std::atomic<uint64_t> time_generation_{0};
-  uint64_t worker_generation_ = 0;
   std::atomic<bool> camera_info_seen_{false};
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
   std::mutex stats_mutex_;            // Guards what follows.
   std::map<InputErrorCode, uint64_t> rejected_;
   std::map<InputErrorCode, ros::WallTime> last_rejection_log_;
-  double last_processing_ms_ = 0.0;
-  double max_processing_ms_ = 0.0;
   size_t database_bytes_ = 0;
   uint64_t last_images_for_rate_ = 0;
   uint64_t last_odometry_for_rate_ = 0;
   ros::WallTime last_rate_time_;
   sensor_msgs::CameraInfoConstPtr camera_info_;
   std::string database_status_ = "in memory only";
+
+  // The worker, its queue and the detector lock; started last, stopped first.
+  std::unique_ptr<DetectorRuntime> runtime_;
 };
 
 }  // namespace landmark_loop_closure

@@ -31,49 +31,54 @@ std::string LoopClosureNode::saveDatabase(const std::string& path) {
 
 bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
-  std::lock_guard<std::mutex> lock(detector_mutex_);
-  const std::string error = saveDatabase(request.path);
-  response.success = error.empty();
-  response.keyframes = detector_.database().size();
-  response.message =
-      error.empty() ? "saved " + std::to_string(response.keyframes) + " keyframes" : error;
+  runtime_->withDetector([&](LoopDetector& detector) {
+    const std::string error = saveDatabase(request.path);
+    response.success = error.empty();
+    response.keyframes = detector.database().size();
+    response.message =
+        error.empty() ? "saved " + std::to_string(response.keyframes) + " keyframes" : error;
+    return false;
+  });
   return true;
 }
 
 bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
-  std::lock_guard<std::mutex> lock(detector_mutex_);
-  const std::string& path = request.path.empty() ? options_.database_path : request.path;
-  const std::string error = path.empty() ? "no path given and the parameter database_path is empty"
-                                         : detector_.loadDatabase(path);
-  response.success = error.empty();
-  response.keyframes = detector_.database().size();
-  if (error.empty()) {
+  runtime_->withDetector([&](LoopDetector& detector) {
+    const std::string& path = request.path.empty() ? options_.database_path : request.path;
+    const std::string error = path.empty()
+                                  ? "no path given and the parameter database_path is empty"
+                                  : detector.loadDatabase(path);
+    response.success = error.empty();
+    response.keyframes = detector.database().size();
+    if (!error.empty()) {
+      response.message = error;
+      ROS_ERROR("%s", error.c_str());
+      return false;
+    }
     keyframe_stamps_.clear();
-    held_for_training_.clear();
     markers_.clear();
     response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
-                       std::to_string(detector_.session());
-    session_ = detector_.session();
+                       std::to_string(detector.session());
+    session_ = detector.session();
     std::lock_guard<std::mutex> stats(stats_mutex_);
     database_status_ = "loaded " + path;
-  } else {
-    response.message = error;
-    ROS_ERROR("%s", error.c_str());
-  }
+    return true;  // The keyframes held for online training belonged to the replaced map.
+  });
   return true;
 }
 
 bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
-  std::lock_guard<std::mutex> lock(detector_mutex_);
-  const size_t forgotten = detector_.database().size();
-  detector_.reset();
-  session_ = detector_.session();
-  keyframe_stamps_.clear();
-  held_for_training_.clear();
-  markers_.clear();
-  response.success = true;
-  response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+  runtime_->withDetector([&](LoopDetector& detector) {
+    const size_t forgotten = detector.database().size();
+    detector.reset();
+    session_ = detector.session();
+    keyframe_stamps_.clear();
+    markers_.clear();
+    response.success = true;
+    response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+    return true;
+  });
   return true;
 }
 
@@ -84,27 +89,26 @@ ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   return record ? ros::Time(record->stamp) : ros::Time();
 }
 
-bool LoopClosureNode::publishHeldKeyframes(const KeyframeJob& job, const KeyframeResult& result) {
-  const std::vector<uint64_t> held = std::move(held_for_training_);
-  held_for_training_.clear();
+void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
+                                           const std::vector<ReleasedKeyframe>& held) {
   if (!detector_.extractor()) {
     ROS_ERROR("%s", result.training_summary.c_str());
-    for (const uint64_t id : held) keyframe_stamps_.erase(id);
-    return false;
+    for (const ReleasedKeyframe& keyframe : held) keyframe_stamps_.erase(keyframe.id);
+    return;
   }
   ROS_INFO("%s; %zu held keyframes stored, detecting loops from now on",
            result.training_summary.c_str(), held.size() + 1);
   // The keyframes held during training are stored now: they go out as keyframes (their loops
   // among themselves are not published), so later loops into them refer to known keyframes.
-  for (const uint64_t id : held) {
-    const KeyframeRecord* record = detector_.database().findById(id);
+  for (const ReleasedKeyframe& keyframe : held) {
+    const KeyframeRecord* record = detector_.database().findById(keyframe.id);
     if (!record) continue;
     ++keyframes_stored_;
-    keyframe_publisher_.publish(
-        toKeyframeMsg(id, record->session, keyframe_stamps_.at(id), record->pose, job.frame_id));
+    keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session,
+                                              keyframe_stamps_.at(keyframe.id), record->pose,
+                                              job.frame_id));
     markers_.addKeyframe(record->pose);
   }
-  return true;
 }
 
 }  // namespace landmark_loop_closure

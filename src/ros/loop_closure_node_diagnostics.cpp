@@ -43,7 +43,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   } else if (!unpaired.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
     ROS_WARN_THROTTLE(kWarningPeriod, "%s", unpaired.c_str());
-  } else if (keyframes_dropped_ > 0) {
+  } else if (runtime_->keyframesDropped() > 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "Running; the worker has dropped keyframes");
   } else {
@@ -67,16 +67,16 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("database file", database_status_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
-  status.add("keyframes dropped (worker busy)", keyframes_dropped_.load());
-  status.add("queued keyframes", queue_.size());
+  status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());
+  status.add("queued keyframes", runtime_->queued());
   status.add("odometry jumps", odometry_jumps_.load());
   if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
   if (options_.use_depth) {
     status.add("keyframes with depth", keyframes_with_depth_.load());
     status.add("keyframes without depth", keyframes_without_depth_.load());
   }
-  status.addf("last keyframe processing (ms)", "%.1f", last_processing_ms_);
-  status.addf("max keyframe processing (ms)", "%.1f", max_processing_ms_);
+  status.addf("last keyframe processing (ms)", "%.1f", runtime_->lastProcessingMs());
+  status.addf("max keyframe processing (ms)", "%.1f", runtime_->maxProcessingMs());
   for (const auto& [code, count] : rejected_) {
     status.add(std::string("rejected: ") + toString(code), count);
   }

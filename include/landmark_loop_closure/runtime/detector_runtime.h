@@ -1,0 +1,146 @@
+// The detector as a running service, without ROS: frames are admitted on the caller's thread
+// (cheap checks and the keyframe rule), keyframes go through a bounded queue to one worker thread
+// that describes and searches them, so the caller never waits. It owns the drop policy (the
+// oldest queued keyframe goes when the queue is full), time jumping back (drop the frame, or start
+// a new timeline), the keyframes online training holds, and the lock the map services share with
+// the worker. The node only feeds it and listens.
+#pragma once
+
+#include <any>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/runtime/bounded_queue.h"
+
+namespace landmark_loop_closure {
+
+enum class TimeJumpPolicy {
+  kDrop,   ///< Frames stamped before the last keyframe are refused (kStampNotIncreasing).
+  kReset,  ///< A jump back of more than time_jump_back_s forgets the map and starts over.
+};
+
+struct RuntimeOptions {
+  size_t queue_size = 8;  ///< Keyframes waiting for the worker; when full the oldest is dropped.
+  TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
+  double time_jump_back_s = 1.0;
+};
+
+/// A keyframe on its way to the worker. `source` is the caller's own (the node keeps its image
+/// message there); the runtime only hands it back.
+struct KeyframeJob {
+  uint64_t id = 0;
+  double stamp = 0.0;
+  Pose pose;
+  CameraIntrinsics intrinsics;
+  std::any source;
+  uint64_t generation = 0;  ///< The timeline it was admitted in.
+};
+
+/// A frame as the caller receives it.
+struct FrameInput {
+  double stamp = 0.0;
+  Pose pose;
+  int width = 0;
+  int height = 0;
+  int cv_type = 0;
+  CameraIntrinsics intrinsics;
+  std::any source;
+};
+
+struct RuntimeAdmission {
+  FrameAdmission admission;
+  /// The stamps jumped back by this many seconds and the map will be forgotten (kReset).
+  std::optional<double> timeline_restarted_after_s;
+  bool queued = false;          ///< A keyframe, handed to the worker.
+  bool dropped_oldest = false;  ///< ...which pushed the oldest queued keyframe out.
+};
+
+/// The worker's images for one keyframe.
+struct PreparedKeyframe {
+  cv::Mat image;  ///< Grey, or BGR when the descriptor asked for colour.
+  cv::Mat grey;   ///< Always grey (match images).
+  cv::Mat depth;  ///< Registered depth, or empty.
+};
+
+/// A keyframe online training held, handed back to the caller when training ends.
+struct ReleasedKeyframe {
+  uint64_t id = 0;
+  double stamp = 0.0;
+  std::any source;
+};
+
+/// What the runtime calls back, all on the worker thread, with the detector locked.
+struct RuntimeListener {
+  /// The images of a job: false (and `error` set) refuses it.
+  std::function<bool(const KeyframeJob&, bool wants_colour, PreparedKeyframe*, InputError*)>
+      prepare;
+  /// A job or keyframe refused by prepare() or by the detector.
+  std::function<void(const InputError&)> rejected;
+  /// The first keyframe of a new timeline: the map was just forgotten.
+  std::function<void()> timeline_reset;
+  /// Online training holds this keyframe (result.held_for_training of them so far).
+  std::function<void(const KeyframeJob&, const KeyframeResult&)> held;
+  /// Online training ended with this keyframe: `released` were stored (detector has an
+  /// extractor) or are lost (it has none; result.training_summary says why).
+  std::function<void(const KeyframeJob&, const KeyframeResult&,
+                     const std::vector<ReleasedKeyframe>&)>
+      training_finished;
+  /// A keyframe described, searched and (in mapping mode) stored.
+  std::function<void(const KeyframeJob&, const KeyframeResult&, const PreparedKeyframe&)> keyframe;
+};
+
+class DetectorRuntime {
+ public:
+  /// Starts the worker. `detector` must outlive the runtime.
+  DetectorRuntime(LoopDetector* detector, const RuntimeOptions& options, RuntimeListener listener);
+  /// stop().
+  ~DetectorRuntime();
+  DetectorRuntime(const DetectorRuntime&) = delete;
+  DetectorRuntime& operator=(const DetectorRuntime&) = delete;
+
+  /// Caller's thread: input checks, time jumps and the keyframe rule; keyframes are queued.
+  RuntimeAdmission admit(FrameInput frame);
+
+  /// Runs `action` on the detector with the worker held off (map services). `action` returns
+  /// true when it replaced or forgot the map: the keyframes online training held are dropped.
+  void withDetector(const std::function<bool(LoopDetector&)>& action);
+
+  /// Stops the worker after the keyframe in hand; queued keyframes are dropped. Idempotent.
+  void stop();
+
+  uint64_t keyframesDropped() const { return dropped_; }
+  uint64_t staleKeyframesDropped() const { return stale_; }
+  size_t queued() const { return queue_.size(); }
+  /// Worker time of the last keyframe and the longest so far, in milliseconds.
+  double lastProcessingMs() const { return last_ms_; }
+  double maxProcessingMs() const { return max_ms_; }
+
+ private:
+  void work();
+  void process(KeyframeJob& job);
+
+  LoopDetector* detector_;
+  const RuntimeOptions options_;
+  const RuntimeListener listener_;
+  BoundedQueue<KeyframeJob> queue_;
+  std::mutex detector_mutex_;
+  std::atomic<uint64_t> generation_{0};  ///< Bumped on each time jump back (kReset).
+  uint64_t worker_generation_ = 0;       ///< Worker: the timeline it is in.
+  std::vector<ReleasedKeyframe> held_;   ///< Worker, under detector_mutex_.
+  std::atomic<uint64_t> dropped_{0};
+  std::atomic<uint64_t> stale_{0};
+  std::atomic<double> last_ms_{0.0};
+  std::atomic<double> max_ms_{0.0};
+  std::thread worker_;
+};
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,114 @@
+#include "landmark_loop_closure/runtime/detector_runtime.h"
+
+#include <algorithm>
+#include <chrono>
+#include <utility>
+
+namespace landmark_loop_closure {
+
+DetectorRuntime::DetectorRuntime(LoopDetector* detector, const RuntimeOptions& options,
+                                 RuntimeListener listener)
+    : detector_(detector),
+      options_(options),
+      listener_(std::move(listener)),
+      queue_(options.queue_size) {
+  worker_ = std::thread(&DetectorRuntime::work, this);
+}
+
+DetectorRuntime::~DetectorRuntime() { stop(); }
+
+void DetectorRuntime::stop() {
+  queue_.close();
+  if (worker_.joinable()) worker_.join();
+}
+
+RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
+  RuntimeAdmission result;
+  const auto admit_frame = [&] {
+    return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type);
+  };
+  result.admission = admit_frame();
+  if (result.admission.error &&
+      result.admission.error->code == InputErrorCode::kStampNotIncreasing &&
+      options_.time_jump_back == TimeJumpPolicy::kReset) {
+    const double back = detector_->lastKeyframeStamp().value_or(frame.stamp) - frame.stamp;
+    if (back > options_.time_jump_back_s) {
+      // The worker forgets the map when it takes the first keyframe of the new timeline, and
+      // drops keyframes of the old one still queued.
+      ++generation_;
+      detector_->restartAdmission();
+      result.timeline_restarted_after_s = back;
+      result.admission = admit_frame();
+    }
+  }
+  if (!result.admission.isKeyframe()) return result;
+  KeyframeJob job;
+  job.id = result.admission.keyframe_id;
+  job.stamp = frame.stamp;
+  job.pose = normalisedPose(frame.pose);  // Within tolerance of unit length once admitted.
+  job.intrinsics = frame.intrinsics;
+  job.source = std::move(frame.source);
+  job.generation = generation_.load();
+  result.queued = true;
+  result.dropped_oldest = queue_.push(std::move(job));
+  if (result.dropped_oldest) ++dropped_;
+  return result;
+}
+
+void DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& action) {
+  const std::lock_guard<std::mutex> lock(detector_mutex_);
+  if (action(*detector_)) held_.clear();
+}
+
+void DetectorRuntime::work() {
+  while (std::optional<KeyframeJob> job = queue_.pop()) process(*job);
+}
+
+void DetectorRuntime::process(KeyframeJob& job) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::lock_guard<std::mutex> lock(detector_mutex_);
+  if (job.generation < generation_.load()) {  // From before time jumped back.
+    ++stale_;
+    return;
+  }
+  if (job.generation > worker_generation_) {
+    worker_generation_ = job.generation;
+    detector_->reset();
+    held_.clear();
+    if (listener_.timeline_reset) listener_.timeline_reset();
+  }
+  const auto reject = [this](const InputError& error) {
+    if (listener_.rejected) listener_.rejected(error);
+  };
+  PreparedKeyframe prepared;
+  InputError error{InputErrorCode::kUnsupportedImageType, "the frame could not be prepared"};
+  const bool colour = detector_->extractor() && detector_->extractor()->wantsColour();
+  if (listener_.prepare && !listener_.prepare(job, colour, &prepared, &error)) {
+    reject(error);
+    return;
+  }
+  const KeyframeResult result = detector_->addKeyframe(job.id, job.stamp, job.pose, prepared.image,
+                                                       job.intrinsics, prepared.depth);
+  if (result.error) {
+    reject(*result.error);
+    return;
+  }
+  if (result.held_for_training > 0) {
+    held_.push_back({job.id, job.stamp, job.source});
+    if (listener_.held) listener_.held(job, result);
+    return;
+  }
+  if (!result.training_summary.empty()) {
+    const std::vector<ReleasedKeyframe> released = std::move(held_);
+    held_.clear();
+    if (listener_.training_finished) listener_.training_finished(job, result, released);
+    if (!detector_->extractor()) return;
+  }
+  if (listener_.keyframe) listener_.keyframe(job, result, prepared);
+  const double elapsed =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  last_ms_ = elapsed;
+  max_ms_ = std::max(max_ms_.load(), elapsed);
+}
+
+}  // namespace landmark_loop_closure

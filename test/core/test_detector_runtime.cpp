@@ -1,0 +1,266 @@
+// The runtime without ROS: keyframes reach the worker in order and give the offline detector's
+// loops, a full queue drops the oldest while the caller never waits, time jumping back is refused
+// or starts a new timeline (stale keyframes dropped), refused jobs are reported, and the map
+// services run between keyframes.
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/runtime/detector_runtime.h"
+#include "small_detector.h"
+
+using namespace landmark_loop_closure;
+using namespace landmark_loop_closure::test_support;
+
+namespace {
+
+// Records what the runtime reports; prepare() can be held closed to keep the worker busy.
+class Recorder {
+ public:
+  RuntimeListener listener() {
+    RuntimeListener listener;
+    listener.prepare = [this](const KeyframeJob& job, bool, PreparedKeyframe* prepared,
+                              InputError* error) {
+      std::unique_lock<std::mutex> lock(mutex_);
+      ++preparing_;
+      changed_.notify_all();
+      changed_.wait(lock, [this] { return open_; });
+      const cv::Mat& image = std::any_cast<const cv::Mat&>(job.source);
+      if (image.empty()) {
+        *error = {InputErrorCode::kUnsupportedImageType, "empty test image"};
+        return false;
+      }
+      prepared->image = prepared->grey = image;
+      return true;
+    };
+    listener.rejected = [this](const InputError& error) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      rejected_.push_back(error.code);
+      ++done_;
+      changed_.notify_all();
+    };
+    listener.timeline_reset = [this] {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      ++resets_;
+    };
+    listener.keyframe = [this](const KeyframeJob& job, const KeyframeResult& result,
+                               const PreparedKeyframe&) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      processed_.push_back(job.id);
+      if (result.loop) loops_.emplace_back(job.id, result.loop->match_id);
+      ++done_;
+      changed_.notify_all();
+    };
+    return listener;
+  }
+
+  void close() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    open_ = false;
+  }
+  void open() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+  /// Waits until `count` jobs entered prepare(), or `done` jobs finished; false after 10 s.
+  bool waitPreparing(int count) {
+    return waitFor([&] { return preparing_ >= count; });
+  }
+  bool waitDone(int count) {
+    return waitFor([&] { return done_ >= count; });
+  }
+
+  std::vector<uint64_t> processed() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return processed_;
+  }
+  std::vector<std::pair<uint64_t, uint64_t>> loops() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return loops_;
+  }
+  std::vector<InputErrorCode> rejected() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return rejected_;
+  }
+  int resets() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return resets_;
+  }
+
+ private:
+  bool waitFor(const std::function<bool()>& condition) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return changed_.wait_for(lock, std::chrono::seconds(10), condition);
+  }
+
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = true;
+  int preparing_ = 0;
+  int done_ = 0;
+  int resets_ = 0;
+  std::vector<uint64_t> processed_;
+  std::vector<std::pair<uint64_t, uint64_t>> loops_;
+  std::vector<InputErrorCode> rejected_;
+};
+
+// Frame i: x = i metres, stamp `stamp` (default i s), showing place `value`.
+FrameInput frame(int i, int value, double stamp = -1.0) {
+  FrameInput input;
+  input.stamp = stamp < 0 ? i : stamp;
+  input.pose = planarPose(i, 0, 0);
+  const cv::Mat image = place(value);
+  input.width = image.cols;
+  input.height = image.rows;
+  input.cv_type = image.type();
+  input.source = image;
+  return input;
+}
+
+std::unique_ptr<LoopDetector> smallDetector() {
+  return std::make_unique<LoopDetector>(smallOptions(), std::make_shared<PlaceExtractor>());
+}
+
+}  // namespace
+
+TEST(DetectorRuntime, KeyframesReachTheWorkerInOrderWithTheOfflineDetectorsLoops) {
+  // 20 places, then the first 10 again further along the line.
+  std::vector<int> places;
+  for (int i = 0; i < 20; ++i) places.push_back(i * 10);
+  for (int i = 0; i < 10; ++i) places.push_back(i * 10);
+
+  std::vector<std::pair<uint64_t, uint64_t>> offline_loops;
+  const std::unique_ptr<LoopDetector> offline = smallDetector();
+  for (size_t i = 0; i < places.size(); ++i) {
+    const FrameResult result = feed(offline.get(), static_cast<int>(i), places[i]);
+    if (result.keyframe && result.keyframe->loop) {
+      offline_loops.emplace_back(result.keyframe->keyframe_id, result.keyframe->loop->match_id);
+    }
+  }
+  ASSERT_FALSE(offline_loops.empty());
+
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  RuntimeOptions options;
+  options.queue_size = 100;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  for (size_t i = 0; i < places.size(); ++i) {
+    const RuntimeAdmission admitted = runtime.admit(frame(static_cast<int>(i), places[i]));
+    EXPECT_TRUE(admitted.queued);
+    EXPECT_FALSE(admitted.dropped_oldest);
+  }
+  ASSERT_TRUE(recorder.waitDone(static_cast<int>(places.size())));
+  const std::vector<uint64_t> processed = recorder.processed();
+  EXPECT_TRUE(std::is_sorted(processed.begin(), processed.end()));
+  EXPECT_EQ(processed.size(), places.size());
+  EXPECT_EQ(recorder.loops(), offline_loops);
+  EXPECT_EQ(runtime.keyframesDropped(), 0u);
+  EXPECT_GT(runtime.maxProcessingMs(), 0.0);
+}
+
+TEST(DetectorRuntime, AFullQueueDropsTheOldestWhileTheCallerNeverWaits) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  recorder.close();  // The worker stays busy with the first keyframe.
+  RuntimeOptions options;
+  options.queue_size = 2;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  runtime.admit(frame(0, 0));
+  ASSERT_TRUE(recorder.waitPreparing(1));
+  int dropped = 0;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 1; i < 6; ++i) dropped += runtime.admit(frame(i, i * 10)).dropped_oldest ? 1 : 0;
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+  EXPECT_EQ(dropped, 3);
+  EXPECT_EQ(runtime.keyframesDropped(), 3u);
+  EXPECT_EQ(runtime.queued(), 2u);
+  recorder.open();
+  ASSERT_TRUE(recorder.waitDone(3));
+  const std::vector<uint64_t> processed = recorder.processed();
+  ASSERT_EQ(processed.size(), 3u);
+  EXPECT_LT(processed[0], processed[1]);
+  EXPECT_LT(processed[1], processed[2]);
+  EXPECT_EQ(detector->database().size(), 3u) << "the in-hand keyframe and the two newest";
+}
+
+TEST(DetectorRuntime, TimeJumpingBackIsRefusedByDefault) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, recorder.listener());
+  for (int i = 0; i < 5; ++i) runtime.admit(frame(i, i * 10, 100.0 + i));
+  const RuntimeAdmission back = runtime.admit(frame(5, 50, 50.0));
+  ASSERT_TRUE(back.admission.error);
+  EXPECT_EQ(back.admission.error->code, InputErrorCode::kStampNotIncreasing);
+  EXPECT_FALSE(back.timeline_restarted_after_s);
+  ASSERT_TRUE(recorder.waitDone(5));
+  EXPECT_EQ(recorder.resets(), 0);
+  EXPECT_EQ(detector->database().size(), 5u);
+}
+
+TEST(DetectorRuntime, TimeJumpingBackWithResetStartsANewTimelineAndDropsStaleKeyframes) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  recorder.close();
+  RuntimeOptions options;
+  options.queue_size = 10;
+  options.time_jump_back = TimeJumpPolicy::kReset;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  runtime.admit(frame(0, 0, 100.0));
+  ASSERT_TRUE(recorder.waitPreparing(1));  // In hand: it belongs to the old timeline.
+  runtime.admit(frame(1, 10, 101.0));
+  runtime.admit(frame(2, 20, 102.0));  // Queued: dropped as stale.
+  const RuntimeAdmission jump = runtime.admit(frame(3, 30, 10.0));
+  ASSERT_TRUE(jump.timeline_restarted_after_s);
+  EXPECT_NEAR(*jump.timeline_restarted_after_s, 92.0, 1e-9);
+  EXPECT_TRUE(jump.queued);
+  // A small step back stays refused: it is jitter, not a new timeline.
+  const RuntimeAdmission jitter = runtime.admit(frame(4, 40, 9.5));
+  ASSERT_TRUE(jitter.admission.error);
+  EXPECT_FALSE(jitter.timeline_restarted_after_s);
+  recorder.open();
+  ASSERT_TRUE(recorder.waitDone(2));
+  EXPECT_EQ(recorder.resets(), 1);
+  EXPECT_EQ(runtime.staleKeyframesDropped(), 2u);
+  EXPECT_EQ(detector->database().size(), 1u) << "only the new timeline's keyframe";
+}
+
+TEST(DetectorRuntime, RefusedJobsAreReportedAndStoreNothing) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, recorder.listener());
+  FrameInput broken = frame(0, 0);
+  broken.source = cv::Mat();
+  runtime.admit(std::move(broken));
+  runtime.admit(frame(1, 10));
+  ASSERT_TRUE(recorder.waitDone(2));
+  ASSERT_EQ(recorder.rejected().size(), 1u);
+  EXPECT_EQ(recorder.rejected()[0], InputErrorCode::kUnsupportedImageType);
+  EXPECT_EQ(detector->database().size(), 1u);
+}
+
+TEST(DetectorRuntime, MapServicesRunBetweenKeyframesAndStopIsFinal) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, recorder.listener());
+  for (int i = 0; i < 4; ++i) runtime.admit(frame(i, i * 10));
+  ASSERT_TRUE(recorder.waitDone(4));
+  size_t forgotten = 0;
+  runtime.withDetector([&](LoopDetector& held) {
+    forgotten = held.database().size();
+    held.reset();
+    return true;
+  });
+  EXPECT_EQ(forgotten, 4u);
+  EXPECT_EQ(detector->database().size(), 0u);
+  runtime.stop();
+  runtime.stop();  // Idempotent, as the destructor calls it again.
+  EXPECT_TRUE(runtime.admit(frame(10, 100)).queued);  // Admitted, never processed.
+  EXPECT_EQ(detector->database().size(), 0u);
+}
