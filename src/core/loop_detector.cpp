@@ -7,17 +7,12 @@
 #include <stdexcept>
 
 #include "landmark_loop_closure/common/image_helpers.h"
+#include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/database/database_file.h"
 
 namespace landmark_loop_closure {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 constexpr int kThumbnailWidth = 160;
 constexpr int kThumbnailHeight = 120;
@@ -379,141 +374,6 @@ bool LoopDetector::overMemoryBudget() const {
   return budget > 0.0 && static_cast<double>(database_.bytes()) >= budget * 1e6;
 }
 
-void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
-                          const QueryResult& query, const KeyframeRecord& query_keyframe,
-                          const CameraIntrinsics& intrinsics) {
-  if (query.status != QueryStatus::kSearched) {
-    consistency_.reset();
-    return;
-  }
-  const auto rerank_start = Clock::now();
-  std::vector<CandidateReport>& reports = result->candidates;
-  std::vector<size_t> indices;
-  for (const Candidate& candidate : query.candidates) {
-    const KeyframeRecord& stored = database_.at(candidate.index);
-    CandidateReport report;
-    report.match_id = stored.id;
-    report.match_stamp = stored.stamp;
-    report.global_score = candidate.global_score;
-    report.score = extractor_->reranks() ? extractor_->similarity(descriptor, stored.descriptor)
-                                         : extractor_->globalScore(candidate.global_score);
-    report.image_score = report.score;
-    reports.push_back(report);
-    indices.push_back(candidate.index);
-  }
-  if (options_.acceptance.sequence.enabled() &&
-      !scoreSequences(&reports, descriptor, indices, query_keyframe.stamp)) {
-    result->times.rerank_ms = millisecondsSince(rerank_start);
-    return;
-  }
-  std::stable_sort(
-      reports.begin(), reports.end(),
-      [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
-  result->times.rerank_ms = millisecondsSince(rerank_start);
-
-  std::vector<PathPoint> above_threshold;
-  for (CandidateReport& report : reports) {
-    if (report.score < options_.acceptance.min_score) continue;
-    const KeyframeRecord* match = database_.findById(report.match_id);
-    // Earlier sessions' odometry is another frame with its own drift: nothing to compare.
-    if (mode_ == DetectorMode::kMapping && match->session == session_) {
-      const OdometryGateDecision gate =
-          checkOdometry(options_.odometry_gate, query_keyframe.pose, query_keyframe.path,
-                        match->pose, match->path);
-      if (!gate.consistent) {
-        report.verdict = CandidateVerdict::kOdometryRejected;
-        report.detail = gate.reason();
-        continue;
-      }
-    }
-    above_threshold.push_back({match->id, match->path.metres});
-  }
-  const std::vector<TemporalConsistency::Chain> chains =
-      consistency_.update({query_keyframe.id, query_keyframe.path.metres}, above_threshold);
-
-  size_t chain_index = 0;
-  for (CandidateReport& report : reports) {
-    if (report.score < options_.acceptance.min_score) {
-      report.verdict = CandidateVerdict::kBelowThreshold;
-      continue;
-    }
-    if (report.verdict == CandidateVerdict::kOdometryRejected) continue;
-    const TemporalConsistency::Chain& chain = chains[chain_index++];
-    report.consistent_keyframes = chain.keyframes;
-    if (!consistentLongEnough(chain, &report.detail)) {
-      report.verdict = CandidateVerdict::kAwaitingConsistency;
-    } else if (result->loop) {
-      report.verdict = CandidateVerdict::kOutscored;
-    } else {
-      const KeyframeRecord* match = database_.findById(report.match_id);
-      AcceptedLoop loop;
-      const auto verify_start = Clock::now();
-      const bool verified =
-          verify(query_keyframe.local_features, *match, intrinsics, &report, &loop);
-      result->times.verify_ms += millisecondsSince(verify_start);
-      if (!verified) continue;
-      report.verdict = CandidateVerdict::kAccepted;
-      loop.match_id = match->id;
-      loop.match_session = match->session;
-      loop.match_stamp = match->stamp;
-      loop.match_pose = match->pose;
-      loop.global_score = report.global_score;
-      loop.score = report.score;
-      loop.consistent_keyframes = report.consistent_keyframes;
-      result->loop = loop;
-    }
-  }
-}
-
-bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
-                                  const ImageDescriptor& descriptor,
-                                  const std::vector<size_t>& indices, double stamp) {
-  std::vector<SequenceCandidate> candidates;
-  for (size_t i = 0; i < reports->size(); ++i) {
-    SequenceCandidate candidate;
-    candidate.index = indices[i];
-    candidate.image_score = (*reports)[i].score;
-    candidates.push_back(candidate);
-  }
-  DatabaseOptions search = options_.database;
-  if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
-  sequence_.score(
-      database_, *extractor_,
-      [&](size_t index) { return database_.eligible(index, stamp, search, session_); },
-      &candidates);
-  std::vector<CandidateReport> scored;
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    const SequenceCandidate& candidate = candidates[i];
-    CandidateReport report;
-    if (i < reports->size()) {
-      report = (*reports)[i];
-    } else {
-      const KeyframeRecord& stored = database_.at(candidate.index);
-      report.match_id = stored.id;
-      report.match_stamp = stored.stamp;
-      report.global_score = cosineSimilarity(descriptor.global, stored.descriptor.global);
-      report.image_score = candidate.image_score;
-    }
-    report.score = candidate.score;
-    scored.push_back(report);
-  }
-  *reports = std::move(scored);
-  if (sequence_.full()) return true;
-  // Too short a history for a sequence: nothing is believed yet.
-  std::stable_sort(
-      reports->begin(), reports->end(),
-      [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
-  for (CandidateReport& report : *reports) {
-    report.verdict = report.score < options_.acceptance.min_score
-                         ? CandidateVerdict::kBelowThreshold
-                         : CandidateVerdict::kAwaitingConsistency;
-    report.detail = "sequence of " + std::to_string(sequence_.history()) + " of " +
-                    std::to_string(options_.acceptance.sequence.length) + " keyframes";
-  }
-  consistency_.reset();
-  return false;
-}
-
 void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
                              const CameraIntrinsics& intrinsics, LocalFeatures* features) const {
   if (!intrinsics.valid() || features->empty()) return;
@@ -533,55 +393,6 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
     triangulateKeypoints(neighbour.local_features, camera.inverse() * neighbour_camera, intrinsics,
                          options_.verification, options_.metric_pose, features);
   }
-}
-
-bool LoopDetector::consistentLongEnough(const TemporalConsistency::Chain& chain,
-                                        std::string* detail) const {
-  const AcceptanceOptions& acceptance = options_.acceptance;
-  if (acceptance.unit() == ConsistencyUnit::kKeyframes) {
-    return chain.keyframes >= acceptance.consistent_keyframes;
-  }
-  if (chain.metres >= acceptance.consistent_distance_m) return true;
-  std::ostringstream text;
-  text.precision(2);
-  text << std::fixed << chain.metres << " of " << acceptance.consistent_distance_m << " m";
-  *detail = text.str();
-  return false;
-}
-
-bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& match,
-                          const CameraIntrinsics& intrinsics, CandidateReport* report,
-                          AcceptedLoop* loop) {
-  if (!options_.verification.enabled) return true;
-  VerificationResult check = verifier_.verify(features, match.local_features, intrinsics);
-  report->inliers = check.inliers;
-  if (check.placeConfirmed()) {
-    // The place is confirmed; depths of the match's keypoints can still give a metric pose, even
-    // where two views left the pose ambiguous or without parallax.
-    if (!match.local_features.points3d.empty()) {
-      MetricPoseResult metric = estimateMetricPose(
-          features, match.local_features,
-          ratioTestMatches(features, match.local_features, options_.verification.ratio_test),
-          intrinsics, options_.verification, options_.metric_pose);
-      if (metric.found) {
-        loop->relative_pose = metric.pose;
-      } else {
-        report->detail = "no metric pose: " + metric.failure;
-      }
-      loop->metric_pose = std::move(metric);
-    }
-    if (!loop->relative_pose && check.accepted() && options_.verification.publish_scale_free_pose) {
-      loop->relative_pose = check.pose;
-    }
-    loop->verification = std::move(check);
-    return true;
-  }
-  if (check.verdict == VerificationVerdict::kNoIntrinsics && !options_.verification.required) {
-    return true;  // Unverified: published without a relative pose.
-  }
-  report->verdict = CandidateVerdict::kGeometryRejected;
-  report->detail = toString(check.verdict);
-  return false;
 }
 
 FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image,

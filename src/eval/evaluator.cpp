@@ -7,17 +7,14 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/common/stopwatch.h"
+
 namespace landmark_loop_closure {
 namespace eval {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 namespace fs = std::filesystem;
-
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 bool isImageFile(const fs::path& path) {
   std::string extension = path.extension().string();

@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
@@ -27,11 +28,6 @@
 namespace {
 
 using namespace landmark_loop_closure;
-using Clock = std::chrono::steady_clock;
-
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 std::vector<cv::Mat> loadImages(const std::string& folder, double corridor_offset) {
   std::vector<cv::Mat> images;
