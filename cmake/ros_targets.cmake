@@ -16,6 +16,8 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/ros_parameter_source.cpp
   src/ros/loop_markers.cpp
   src/ros/loop_closure_node.cpp
+  src/ros/loop_closure_node_inputs.cpp
+  src/ros/loop_closure_node_outputs.cpp
   src/ros/loop_closure_node_database.cpp
   src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)

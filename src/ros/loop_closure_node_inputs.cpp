@@ -1,0 +1,262 @@
+// The node's inputs: image/odometry pairs or tf lookups, camera_info and depth, admitted into the
+// runtime; on the worker, a keyframe's images and depth prepared for the detector.
+#include "loop_closure_node.h"
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include <cv_bridge/cv_bridge.h>
+#include <image_transport/camera_common.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "landmark_loop_closure/Keyframe.h"
+#include "landmark_loop_closure/LoopCandidateArray.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/core/match_image.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
+#include "landmark_loop_closure/geometry/metric_pose.h"
+#include "messages/ros_conversions.h"
+#include "ros_parameter_source.h"
+
+namespace landmark_loop_closure {
+
+namespace {
+
+constexpr double kRejectionLogPeriod = 5.0;  // Seconds between log lines for one kind of error.
+constexpr size_t kMaxPendingTf = 100;
+constexpr size_t kMaxBufferedDepths = 30;
+constexpr double kDepthWait = 0.2;  // Seconds the worker waits for a keyframe's depth image.
+constexpr double kDepthPollPeriod = 0.005;
+constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the stream stopped.
+
+}  // namespace
+
+void LoopClosureNode::onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
+                                          const nav_msgs::OdometryConstPtr& odometry) {
+  last_paired_wall_ = wallNow();
+  const std::string& frame =
+      odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
+  admitFrame(image, fromRos(odometry->pose.pose), frame);
+}
+
+void LoopClosureNode::onImageForTf(const sensor_msgs::ImageConstPtr& image) {
+  ++images_received_;
+  last_image_wall_ = wallNow();
+  pending_tf_.push_back({image, ros::WallTime::now()});
+  if (pending_tf_.size() > kMaxPendingTf) {
+    pending_tf_.pop_front();
+    ++tf_timeouts_;
+  }
+  retryPendingTf();
+}
+
+void LoopClosureNode::retryPendingTf() {
+  while (!pending_tf_.empty()) {
+    const PendingImage& pending = pending_tf_.front();
+    const ros::Time stamp = pending.image->header.stamp;
+    std::string error;
+    if (tf_buffer_->canTransform(options_.odom_frame, options_.base_frame, stamp, &error)) {
+      const geometry_msgs::TransformStamped transform =
+          tf_buffer_->lookupTransform(options_.odom_frame, options_.base_frame, stamp);
+      last_odometry_wall_ = wallNow();
+      ++odometry_received_;
+      const Pose pose = Pose::fromIsometry(tf2::transformToEigen(transform));
+      const sensor_msgs::ImageConstPtr image = pending.image;
+      pending_tf_.pop_front();
+      admitFrame(image, pose, options_.odom_frame);
+      continue;
+    }
+    if ((ros::WallTime::now() - pending.received).toSec() < options_.tf_timeout) return;
+    ++tf_timeouts_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Dropped image at %.3f: no transform %s -> %s after %.2f s (%s)",
+                      stamp.toSec(), options_.odom_frame.c_str(), options_.base_frame.c_str(),
+                      options_.tf_timeout, error.c_str());
+    pending_tf_.pop_front();
+  }
+}
+
+void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  camera_info_ = info;
+  camera_info_seen_ = true;
+}
+
+void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
+  std::lock_guard<std::mutex> lock(depth_mutex_);
+  depth_buffer_.push_back(depth);
+  if (depth_buffer_.size() > kMaxBufferedDepths) depth_buffer_.pop_front();
+}
+
+void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
+                                 const std::string& frame_id) {
+  if (auto error = checkImageMessage(*image)) {
+    reportRejected(*error);
+    return;
+  }
+  FrameInput frame;
+  frame.stamp = toSeconds(image->header.stamp);
+  frame.pose = pose;
+  frame.width = static_cast<int>(image->width);
+  frame.height = static_cast<int>(image->height);
+  frame.cv_type = *cvTypeOfEncoding(image->encoding);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (camera_info_) frame.intrinsics = fromCameraInfo(*camera_info_);
+  }
+  frame.source = FrameSource{image, frame_id};
+  const RuntimeAdmission admitted = runtime_->admit(std::move(frame));
+  if (admitted.timeline_restarted_after_s) {
+    ROS_WARN(
+        "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
+        "keyframe and starting over (time_jump_back: reset)",
+        *admitted.timeline_restarted_after_s);
+  }
+  const FrameAdmission& admission = admitted.admission;
+  if (admission.error) {
+    reportRejected(*admission.error);
+    return;
+  }
+  ++frames_admitted_;
+  const Selection& selection = admission.selection;
+  if (selection.verdict == SelectionVerdict::kOdometryJump) {
+    ++odometry_jumps_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Odometry jumped: motion %.2f since the last keyframe exceeds "
+                      "keyframe/max_motion %.2f; frame refused (tracking lost?)",
+                      selection.motion, options_.detector.keyframe.max_motion);
+    return;
+  }
+  if (selection.reanchored) {
+    ROS_WARN(
+        "Odometry stayed %.2f away from the last keyframe for %d frames: taking it as "
+        "re-initialised and starting from keyframe %lu",
+        selection.motion, options_.detector.keyframe.jump_reanchor_frames,
+        static_cast<unsigned long>(admission.keyframe_id));
+  }
+  if (admitted.dropped_oldest) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
+                      "far); raise worker_queue_size or keyframe/min_motion",
+                      static_cast<unsigned long>(runtime_->keyframesDropped()));
+  }
+}
+
+void LoopClosureNode::reportRejected(const InputError& error) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++rejected_[error.code];
+  const ros::WallTime now = ros::WallTime::now();
+  auto last = last_rejection_log_.find(error.code);
+  if (last != last_rejection_log_.end() && (now - last->second).toSec() < kRejectionLogPeriod) {
+    return;
+  }
+  last_rejection_log_[error.code] = now;
+  ROS_ERROR("Dropped frame (%s, %lu so far): %s", toString(error.code),
+            static_cast<unsigned long>(rejected_[error.code]), error.message.c_str());
+}
+
+bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
+                                      PreparedKeyframe* prepared, InputError* error) {
+  const auto& source = std::any_cast<const FrameSource&>(job.source);
+  try {
+    prepared->grey = toGrey(*source.image);
+    prepared->image = colour ? toBgr(*source.image) : prepared->grey;
+  } catch (const cv::Exception& exception) {
+    *error = {InputErrorCode::kUnsupportedImageType, exception.what()};
+    return false;
+  }
+  const std::string& camera_frame = source.image->header.frame_id;
+  if (options_.camera_mount_from_tf) updateCameraMount(camera_frame);
+  if (options_.use_depth) {
+    prepared->depth = depthFor(source.image->header.stamp, camera_frame);
+    ++(prepared->depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
+  }
+  return true;
+}
+
+cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& camera_frame) {
+  const ros::Duration slop(options_.sync_slop);
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(kDepthWait);
+  sensor_msgs::ImageConstPtr nearest;
+  while (true) {
+    bool later_arrived = false;
+    bool stream_alive = false;
+    {
+      std::lock_guard<std::mutex> lock(depth_mutex_);
+      // Waiting only helps while depth comes: none for a second before this keyframe, or nobody
+      // publishing it, and waiting would only slow the worker down.
+      stream_alive =
+          depth_buffer_.empty()
+              ? depth_subscriber_.getNumPublishers() > 0
+              : depth_buffer_.back()->header.stamp + ros::Duration(kDepthSilence) > stamp;
+      const auto gap = [&stamp](const sensor_msgs::ImageConstPtr& depth) {
+        const ros::Time& other = depth->header.stamp;
+        return other > stamp ? other - stamp : stamp - other;
+      };
+      for (const sensor_msgs::ImageConstPtr& candidate : depth_buffer_) {
+        later_arrived |= candidate->header.stamp > stamp + slop;
+        if (gap(candidate) <= slop && (!nearest || gap(candidate) < gap(nearest))) {
+          nearest = candidate;
+        }
+      }
+    }
+    // A depth image newer than the slop means the matching one will not come any more.
+    if (nearest || later_arrived || !stream_alive || ros::WallTime::now() > give_up || !ros::ok()) {
+      break;
+    }
+    ros::WallDuration(kDepthPollPeriod).sleep();
+  }
+  if (!nearest) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "No depth image within sync_slop %.3f s of the keyframe at %.3f: its "
+                      "keypoint depths are triangulated instead (if enabled)",
+                      options_.sync_slop, stamp.toSec());
+    return {};
+  }
+  std::string error;
+  cv::Mat depth = toDepth(*nearest, &error);
+  if (!error.empty()) {
+    ROS_WARN_THROTTLE(kWarningPeriod, "Depth image at %.3f not used: %s",
+                      nearest->header.stamp.toSec(), error.c_str());
+    return {};
+  }
+  // Depth from another camera's frame would put every point in the wrong place.
+  if (nearest->header.frame_id != camera_frame) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Depth image not used: its frame '%s' is not the image's '%s' (subscribe to "
+                      "a depth topic registered to the image)",
+                      nearest->header.frame_id.c_str(), camera_frame.c_str());
+    return {};
+  }
+  return depth;
+}
+
+void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
+  if (camera_frame == camera_mount_frame_ && detector_.cameraMount()) return;
+  if (camera_frame.empty()) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Images carry no frame_id, so camera_mount/from_tf cannot look the camera "
+                      "up in tf: keypoint depths are not triangulated");
+    return;
+  }
+  std::string error;
+  if (!tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
+    detector_.setCameraMount(std::nullopt);
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "No tf %s -> %s yet for camera_mount/from_tf (%s): keypoint depths are not "
+                      "triangulated until it comes",
+                      options_.base_frame.c_str(), camera_frame.c_str(), error.c_str());
+    return;
+  }
+  const Pose mount = Pose::fromIsometry(tf2::transformToEigen(
+      tf_buffer_->lookupTransform(options_.base_frame, camera_frame, ros::Time(0))));
+  detector_.setCameraMount(mount);
+  camera_mount_frame_ = camera_frame;
+  ROS_INFO("Camera mount from tf: %s in %s at (%.3f, %.3f, %.3f) m", camera_frame.c_str(),
+           options_.base_frame.c_str(), mount.position.x(), mount.position.y(), mount.position.z());
+}
+
+}  // namespace landmark_loop_closure

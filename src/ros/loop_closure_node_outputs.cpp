@@ -1,0 +1,171 @@
+// The node's outputs, on the runtime's worker thread: keyframes, loops, candidates, markers and
+// the match image, and the bookkeeping of keyframes online training held.
+#include "loop_closure_node.h"
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include <cv_bridge/cv_bridge.h>
+#include <image_transport/camera_common.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "landmark_loop_closure/Keyframe.h"
+#include "landmark_loop_closure/LoopCandidateArray.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/core/match_image.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
+#include "landmark_loop_closure/geometry/metric_pose.h"
+#include "messages/ros_conversions.h"
+#include "ros_parameter_source.h"
+
+namespace landmark_loop_closure {
+
+LoopClosureNode::NodeKeyframe LoopClosureNode::nodeKeyframe(const KeyframeJob& job) {
+  const auto& source = std::any_cast<const FrameSource&>(job.source);
+  return {source.image, job.id, source.image->header.stamp, job.pose, source.frame_id};
+}
+
+void LoopClosureNode::onTimelineReset() {
+  session_ = detector_.session();
+  keyframe_stamps_.clear();
+  markers_.clear();
+}
+
+void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result) {
+  keyframe_stamps_[job.id] = nodeKeyframe(job).stamp;
+  ROS_INFO_THROTTLE(
+      kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
+      result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
+}
+
+void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
+                                     const PreparedKeyframe& prepared) {
+  const NodeKeyframe keyframe = nodeKeyframe(job);
+  ++keyframes_stored_;
+  if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
+    ++keyframes_over_budget_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Database memory budget of %.0f MB reached (%zu keyframes): keyframes are "
+                      "searched for loops but no longer stored",
+                      options_.detector.database.memory_budget_mb, detector_.database().size());
+  }
+  keyframe_stamps_[job.id] = keyframe.stamp;
+  publishResults(keyframe, result, prepared.grey);
+  if (options_.autosave_every > 0 && !options_.database_path.empty() &&
+      detector_.mode() == DetectorMode::kMapping &&
+      ++stored_since_save_ >= options_.autosave_every) {
+    const std::string error = saveDatabase("");
+    if (!error.empty()) ROS_ERROR_THROTTLE(kWarningPeriod, "Autosave failed: %s", error.c_str());
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  database_bytes_ = detector_.database().bytes();
+}
+
+std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
+                                                 const std::string& camera_frame) const {
+  if (options_.relative_pose_frame != "base" || !loop->relative_pose ||
+      !loop->relative_pose->metric) {
+    return camera_frame;
+  }
+  const std::optional<Pose>& mount = detector_.cameraMount();
+  if (!mount) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Relative pose left in the camera frame %s: the camera mount is not known "
+                      "yet (camera_mount/from_tf)",
+                      camera_frame.c_str());
+    return camera_frame;
+  }
+  loop->relative_pose = inBodyFrame(*loop->relative_pose, *mount);
+  return options_.base_frame;
+}
+
+void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
+                                     const cv::Mat& grey) {
+  keyframe_publisher_.publish(
+      toKeyframeMsg(job.id, detector_.session(), job.stamp, job.pose, job.frame_id));
+  if (result.loop) {
+    AcceptedLoop loop = *result.loop;
+    const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);
+    loop_publisher_.publish(
+        toLoopMsg(loop, job.stamp, stampOf(loop.match_id), job.frame_id, pose_frame));
+    ++loops_published_;
+    ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
+             static_cast<unsigned long>(result.loop->query_id),
+             static_cast<unsigned long>(result.loop->match_id), result.loop->score,
+             result.loop->consistent_keyframes);
+  }
+  if (candidates_publisher_.getNumSubscribers() > 0) {
+    candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id,
+                                                  [this](uint64_t id) { return stampOf(id); }));
+  }
+
+  markers_.setFrameId(job.frame_id);
+  markers_.addKeyframe(job.pose);
+  // A loop into an earlier session joins two odometry frames: no line can be drawn in this one.
+  if (result.loop && result.loop->match_session == result.loop->query_session) {
+    markers_.addLoop(*result.loop);
+  }
+  for (const CandidateReport& candidate : result.candidates) {
+    if (candidate.verdict != CandidateVerdict::kAwaitingConsistency &&
+        candidate.verdict != CandidateVerdict::kOutscored &&
+        candidate.verdict != CandidateVerdict::kOdometryRejected) {
+      continue;
+    }
+    const KeyframeRecord* match = detector_.database().findById(candidate.match_id);
+    if (match && match->session == detector_.session()) {
+      markers_.addRejected(job.pose, match->pose);
+    }
+  }
+  if (markers_publisher_.getNumSubscribers() > 0) {
+    markers_publisher_.publish(markers_.toMsg(job.stamp));
+  }
+  if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(job, result, grey);
+}
+
+void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
+                                        const cv::Mat& grey) {
+  if (result.candidates.empty()) return;
+  const CandidateReport& best = result.candidates.front();
+  const KeyframeRecord* match = detector_.database().findById(best.match_id);
+  std::ostringstream caption;
+  caption.precision(3);
+  caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
+          << std::fixed << best.score << "  " << toString(best.verdict);
+  if (!best.detail.empty()) caption << ": " << best.detail;
+  if (result.loop && result.loop->verification) {
+    caption << "  " << result.loop->verification->inliers << " inliers";
+  }
+  // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
+  const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
+  const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail_jpeg) : cv::Mat();
+  const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail_jpeg) : cv::Mat();
+  std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
+  std::vector<std::pair<cv::Point2f, cv::Point2f>> inlier_pairs;
+  if (query && match && !query_thumbnail.empty()) {
+    for (const LandmarkMatch& pair :
+         matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features)) {
+      landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
+                                  match->descriptor.landmark_boxes[pair.b]);
+    }
+    if (result.loop && result.loop->match_id == match->id && result.loop->verification &&
+        query->local_features.image_size.width > 0) {
+      const float scale =
+          static_cast<float>(query_thumbnail.cols) / query->local_features.image_size.width;
+      for (const auto& [q, m] : result.loop->verification->inlier_pairs) {
+        inlier_pairs.emplace_back(q * scale, m * scale);
+      }
+    }
+  }
+  const cv::Mat& query_picture = query_thumbnail.empty() ? grey : query_thumbnail;
+  const cv::Mat picture = renderMatchImage(query_picture, match_thumbnail, caption.str(),
+                                           best.verdict == CandidateVerdict::kAccepted, 240,
+                                           landmark_pairs, inlier_pairs);
+  std_msgs::Header header;
+  header.stamp = job.stamp;
+  match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
+}
+
+}  // namespace landmark_loop_closure
