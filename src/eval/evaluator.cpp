@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <limits>
 #include <numeric>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
 
 namespace landmark_loop_closure {
 namespace eval {
@@ -49,15 +51,52 @@ class SimilarityGrid {
   cv::Mat grid_;
 };
 
-struct Scored {
-  size_t index;
-  double global;
+// The database images searched as the node searches its keyframes: a KeyframeDatabase (exact
+// search, no exclusion windows) filled with valid images in order, image j as keyframe id j + 1.
+class DatabaseSearch {
+ public:
+  DatabaseSearch(const DescribedImages& images, const DescriptorExtractor& extractor,
+                 const MatchingOptions& options)
+      : images_(images), database_(extractor.globalDimension()) {
+    search_.exclude_recent_keyframes = 0;
+    search_.exclude_recent_seconds = 0.0;
+    search_.min_size = 1;
+    search_.top_k = extractor.reranks() ? std::max(1, options.shortlist) : 1;
+    search_.index.type = "exact";
+  }
+
+  /// Makes images [0, end) searchable (only ever grows).
+  void growTo(size_t end) {
+    for (; added_ < end; ++added_) {
+      if (!images_.valid[added_]) continue;
+      KeyframeRecord record;
+      record.id = added_ + 1;
+      record.stamp = static_cast<double>(added_);
+      record.descriptor = images_.descriptors[added_];
+      database_.add(std::move(record));
+    }
+  }
+
+  /// The shortlist of `query`, best global score first, as database image indices and scores.
+  std::vector<Candidate> shortlist(const ImageDescriptor& query) const {
+    const QueryResult found = database_.query(query.global, 0.0, search_);
+    std::vector<Candidate> candidates = found.candidates;
+    for (Candidate& candidate : candidates) candidate.index = candidate.id - 1;
+    return candidates;
+  }
+
+ private:
+  const DescribedImages& images_;
+  KeyframeDatabase database_;
+  DatabaseOptions search_;
+  size_t added_ = 0;
 };
 
-// Best database match of one query among database[0, end) (skipping invalid ones).
+// Best database match of one query among the searchable images (skipping invalid ones); every
+// pair's score goes into the similarity picture.
 QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
-                        const DescribedImages& database, size_t end, const GroundTruth& truth,
-                        const DescriptorExtractor& extractor, const MatchingOptions& options,
+                        const DescribedImages& database, size_t end, const DatabaseSearch& search,
+                        const GroundTruth& truth, const DescriptorExtractor& extractor,
                         SimilarityGrid* grid) {
   QueryOutcome outcome;
   outcome.query = query_index;
@@ -68,30 +107,24 @@ QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
       break;
     }
   }
-  std::vector<Scored> scored;
-  scored.reserve(end);
   for (size_t j = 0; j < end; ++j) {
     if (!database.valid[j]) continue;
-    const double score =
-        extractor.globalScore(cosineSimilarity(query.global, database.descriptors[j].global));
-    scored.push_back({j, score});
-    grid->add(query_index, j, score);
+    grid->add(
+        query_index, j,
+        extractor.globalScore(cosineSimilarity(query.global, database.descriptors[j].global)));
   }
-  if (scored.empty()) return outcome;
-  const size_t keep = extractor.reranks() ? std::min<size_t>(scored.size(), options.shortlist) : 1;
-  std::partial_sort(scored.begin(), scored.begin() + static_cast<std::ptrdiff_t>(keep),
-                    scored.end(),
-                    [](const Scored& a, const Scored& b) { return a.global > b.global; });
-  size_t best = scored[0].index;
-  double best_score = scored[0].global;
-  if (extractor.reranks()) {
-    best_score = -std::numeric_limits<double>::infinity();
-    for (size_t k = 0; k < keep; ++k) {
-      const double score = extractor.similarity(query, database.descriptors[scored[k].index]);
-      if (score > best_score) {
-        best_score = score;
-        best = scored[k].index;
-      }
+  const std::vector<Candidate> candidates = search.shortlist(query);
+  if (candidates.empty()) return outcome;
+  // Re-ranked as the detector re-ranks: the extractor's similarity, or the global score.
+  size_t best = candidates[0].index;
+  double best_score = -std::numeric_limits<double>::infinity();
+  for (const Candidate& candidate : candidates) {
+    const double score = extractor.reranks()
+                             ? extractor.similarity(query, database.descriptors[candidate.index])
+                             : extractor.globalScore(candidate.global_score);
+    if (score > best_score) {
+      best_score = score;
+      best = candidate.index;
     }
   }
   outcome.match = static_cast<long>(best);
@@ -226,13 +259,15 @@ Evaluation evaluateTraversals(const DescribedImages& database, const DescribedIm
                            std::to_string(database.size()) + " database images");
   }
   SimilarityGrid grid(queries.size(), database.size(), options.matrix_size);
+  DatabaseSearch search(database, extractor, options);
+  search.growTo(database.size());
   std::vector<QueryOutcome> outcomes;
   std::vector<double> query_ms;
   for (size_t q = 0; q < queries.size(); ++q) {
     if (!queries.valid[q]) continue;
     const auto start = Clock::now();
-    outcomes.push_back(matchQuery(q, queries.descriptors[q], database, database.size(), truth,
-                                  extractor, options, &grid));
+    outcomes.push_back(matchQuery(q, queries.descriptors[q], database, database.size(), search,
+                                  truth, extractor, &grid));
     query_ms.push_back(millisecondsSince(start));
     if (progress) progress(q + 1, queries.size());
   }
@@ -249,15 +284,17 @@ Evaluation evaluateSequence(const DescribedImages& images, const GroundTruth& tr
                            std::to_string(images.size()) + " images");
   }
   SimilarityGrid grid(images.size(), images.size(), options.matrix_size);
+  DatabaseSearch search(images, extractor, options);
   std::vector<QueryOutcome> outcomes;
   std::vector<double> query_ms;
   for (size_t i = 0; i < images.size(); ++i) {
     if (!images.valid[i]) continue;
-    const long end = static_cast<long>(i) - options.exclude_recent;
+    const size_t end =
+        static_cast<size_t>(std::max(0L, static_cast<long>(i) - options.exclude_recent));
     const auto start = Clock::now();
-    outcomes.push_back(matchQuery(i, images.descriptors[i], images,
-                                  static_cast<size_t>(std::max(0L, end)), truth, extractor, options,
-                                  &grid));
+    search.growTo(end);
+    outcomes.push_back(
+        matchQuery(i, images.descriptors[i], images, end, search, truth, extractor, &grid));
     query_ms.push_back(millisecondsSince(start));
     if (progress) progress(i + 1, images.size());
   }
