@@ -10,22 +10,33 @@ bool OptionReader::isKnown(const std::string& key) const {
                      [&key](const ParameterRecord& record) { return record.key == key; });
 }
 
+const std::vector<std::pair<std::string, PoseSource>>& poseSourceNames() {
+  static const std::vector<std::pair<std::string, PoseSource>> names = {{"odom", PoseSource::kOdom},
+                                                                        {"tf", PoseSource::kTf}};
+  return names;
+}
+
+const std::vector<std::pair<std::string, RelativePoseFrame>>& relativePoseFrameNames() {
+  static const std::vector<std::pair<std::string, RelativePoseFrame>> names = {
+      {"camera", RelativePoseFrame::kCamera}, {"base", RelativePoseFrame::kBase}};
+  return names;
+}
+
+const std::vector<std::pair<std::string, TimeJumpPolicy>>& timeJumpPolicyNames() {
+  static const std::vector<std::pair<std::string, TimeJumpPolicy>> names = {
+      {"drop", TimeJumpPolicy::kDrop}, {"reset", TimeJumpPolicy::kReset}};
+  return names;
+}
+
 std::string NodeOptions::validate() const {
   std::ostringstream errors;
-  if (pose_source != "odom" && pose_source != "tf") {
-    errors << "pose_source must be 'odom' or 'tf' (got '" << pose_source << "')\n";
-  }
-  if (relative_pose_frame != "camera" && relative_pose_frame != "base") {
-    errors << "relative_pose_frame must be 'camera' or 'base' (got '" << relative_pose_frame
-           << "')\n";
-  }
-  const bool needs_base =
-      pose_source == "tf" || relative_pose_frame == "base" || camera_mount_from_tf;
+  const bool needs_base = pose_source == PoseSource::kTf ||
+                          relative_pose_frame == RelativePoseFrame::kBase || camera_mount_from_tf;
   if (needs_base && base_frame.empty()) {
     errors << "base_frame must not be empty with pose_source tf, relative_pose_frame base or "
               "camera_mount/from_tf\n";
   }
-  if (pose_source == "tf") {
+  if (pose_source == PoseSource::kTf) {
     if (odom_frame.empty()) errors << "odom_frame must not be empty when pose_source is tf\n";
     if (odom_frame == base_frame && !odom_frame.empty()) {
       errors << "odom_frame and base_frame are both '" << odom_frame << "'\n";
@@ -39,9 +50,6 @@ std::string NodeOptions::validate() const {
     errors << "worker_queue_size must be >= 1 (got " << worker_queue_size << ")\n";
   }
   if (!(input_timeout > 0.0)) errors << "input_timeout must be > 0 (got " << input_timeout << ")\n";
-  if (time_jump_back != "drop" && time_jump_back != "reset") {
-    errors << "time_jump_back must be 'drop' or 'reset' (got '" << time_jump_back << "')\n";
-  }
   if (!(time_jump_back_s > 0.0)) {
     errors << "time_jump_back_s must be > 0 (got " << time_jump_back_s << ")\n";
   }
@@ -53,7 +61,7 @@ std::string NodeOptions::validate() const {
 }
 
 void readNodeOptions(OptionReader* reader, NodeOptions* options) {
-  reader->read("pose_source", &options->pose_source);
+  reader->readChoice("pose_source", &options->pose_source, poseSourceNames());
   reader->read("odom_frame", &options->odom_frame);
   reader->read("base_frame", &options->base_frame);
   reader->read("tf_timeout", &options->tf_timeout);
@@ -61,11 +69,12 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("sync_slop", &options->sync_slop);
   reader->read("worker_queue_size", &options->worker_queue_size);
   reader->read("input_timeout", &options->input_timeout);
-  reader->read("time_jump_back", &options->time_jump_back);
+  reader->readChoice("time_jump_back", &options->time_jump_back, timeJumpPolicyNames());
   reader->read("time_jump_back_s", &options->time_jump_back_s);
   reader->read("publish_rejected_markers", &options->publish_rejected_markers);
   reader->read("use_depth", &options->use_depth);
-  reader->read("relative_pose_frame", &options->relative_pose_frame);
+  reader->readChoice("relative_pose_frame", &options->relative_pose_frame,
+                     relativePoseFrameNames());
   reader->read("camera_mount/from_tf", &options->camera_mount_from_tf);
   reader->read("database_path", &options->database_path);
   reader->read("autoload", &options->autoload);
@@ -73,7 +82,7 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("save_on_shutdown", &options->save_on_shutdown);
 
   LoopDetectorOptions& detector = options->detector;
-  reader->read("mode", &detector.mode);
+  reader->readChoice("mode", &detector.mode, detectorModeNames());
   reader->read("input/min_image_side", &detector.input.min_image_side);
   reader->read("input/max_image_pixels", &detector.input.max_image_pixels);
   reader->read("input/quaternion_norm_tolerance", &detector.input.quaternion_norm_tolerance);
@@ -149,7 +158,8 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   reader->read("acceptance/min_score", &detector.acceptance.min_score);
   reader->read("acceptance/consistent_keyframes", &detector.acceptance.consistent_keyframes);
   reader->read("acceptance/index_window", &detector.acceptance.index_window);
-  reader->read("acceptance/consistency_unit", &detector.acceptance.consistency_unit);
+  reader->readChoice("acceptance/consistency_unit", &detector.acceptance.consistency_unit,
+                     consistencyUnitNames());
   reader->read("acceptance/consistent_distance_m", &detector.acceptance.consistent_distance_m);
   reader->read("acceptance/match_window_m", &detector.acceptance.match_window_m);
   reader->read("acceptance/sequence_length", &detector.acceptance.sequence.length);

@@ -147,7 +147,7 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
 bool LoopDetector::consistentLongEnough(const TemporalConsistency::Chain& chain,
                                         std::string* detail) const {
   const AcceptanceOptions& acceptance = options_.acceptance;
-  if (acceptance.unit() == ConsistencyUnit::kKeyframes) {
+  if (acceptance.consistency_unit == ConsistencyUnit::kKeyframes) {
     return chain.keyframes >= acceptance.consistent_keyframes;
   }
   if (chain.metres >= acceptance.consistent_distance_m) return true;

@@ -30,11 +30,6 @@ std::string AcceptanceOptions::validate() const {
   if (index_window < 0) {
     errors << "acceptance/index_window must be >= 0 (got " << index_window << ")\n";
   }
-  ConsistencyUnit parsed;
-  if (!parseConsistencyUnit(consistency_unit, &parsed)) {
-    errors << "acceptance/consistency_unit must be keyframes or metres (got '" << consistency_unit
-           << "')\n";
-  }
   if (!(consistent_distance_m >= 0.0)) {
     errors << "acceptance/consistent_distance_m must be >= 0 (got " << consistent_distance_m
            << ")\n";
@@ -46,21 +41,10 @@ std::string AcceptanceOptions::validate() const {
   return errors.str();
 }
 
-ConsistencyUnit AcceptanceOptions::unit() const {
-  ConsistencyUnit parsed = ConsistencyUnit::kKeyframes;
-  parseConsistencyUnit(consistency_unit, &parsed);
-  return parsed;
-}
-
-bool parseDetectorMode(const std::string& text, DetectorMode* mode) {
-  if (text == "mapping") {
-    *mode = DetectorMode::kMapping;
-  } else if (text == "localization") {
-    *mode = DetectorMode::kLocalization;
-  } else {
-    return false;
-  }
-  return true;
+const std::vector<std::pair<std::string, DetectorMode>>& detectorModeNames() {
+  static const std::vector<std::pair<std::string, DetectorMode>> names = {
+      {"mapping", DetectorMode::kMapping}, {"localization", DetectorMode::kLocalization}};
+  return names;
 }
 
 const char* toString(DetectorMode mode) {
@@ -69,10 +53,6 @@ const char* toString(DetectorMode mode) {
 
 std::string LoopDetectorOptions::validate() const {
   std::ostringstream errors;
-  DetectorMode parsed_mode;
-  if (!parseDetectorMode(mode, &parsed_mode)) {
-    errors << "mode must be mapping or localization (got '" << mode << "')\n";
-  }
   if (input.min_image_side < 1) {
     errors << "input/min_image_side must be >= 1 (got " << input.min_image_side << ")\n";
   }
@@ -123,15 +103,15 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       verifier_(options.verification),
       selector_(options.keyframe),
       database_(extractor_ ? extractor_->globalDimension() : 1, options.database.index),
-      consistency_(options.acceptance.unit(),
-                   options.acceptance.unit() == ConsistencyUnit::kKeyframes
+      consistency_(options.acceptance.consistency_unit,
+                   options.acceptance.consistency_unit == ConsistencyUnit::kKeyframes
                        ? static_cast<double>(options.acceptance.index_window)
                        : options.acceptance.match_window_m),
       sequence_(options.acceptance.sequence),
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
-  parseDetectorMode(options.mode, &mode_);
+  mode_ = options.mode;
   if (!extractor_) {
     if (!needsOnlineTraining(options.descriptor)) {
       throw std::invalid_argument("a descriptor extractor is required");

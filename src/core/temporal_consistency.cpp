@@ -5,15 +5,20 @@
 
 namespace landmark_loop_closure {
 
+const std::vector<std::pair<std::string, ConsistencyUnit>>& consistencyUnitNames() {
+  static const std::vector<std::pair<std::string, ConsistencyUnit>> names = {
+      {"keyframes", ConsistencyUnit::kKeyframes}, {"metres", ConsistencyUnit::kMetres}};
+  return names;
+}
+
 bool parseConsistencyUnit(const std::string& text, ConsistencyUnit* unit) {
-  if (text == "keyframes") {
-    *unit = ConsistencyUnit::kKeyframes;
-  } else if (text == "metres") {
-    *unit = ConsistencyUnit::kMetres;
-  } else {
-    return false;
+  for (const auto& [name, value] : consistencyUnitNames()) {
+    if (name == text) {
+      *unit = value;
+      return true;
+    }
   }
-  return true;
+  return false;
 }
 
 bool TemporalConsistency::extends(const PathPoint& match, const PathPoint& previous,

@@ -97,8 +97,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   }
   RuntimeOptions runtime_options;
   runtime_options.queue_size = static_cast<size_t>(options_.worker_queue_size);
-  runtime_options.time_jump_back =
-      options_.time_jump_back == "reset" ? TimeJumpPolicy::kReset : TimeJumpPolicy::kDrop;
+  runtime_options.time_jump_back = options_.time_jump_back;
   runtime_options.time_jump_back_s = options_.time_jump_back_s;
   RuntimeListener listener;
   listener.prepare = [this](const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
@@ -128,8 +127,9 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                 std::to_string(options_.detector.descriptor.broad.online_training_keyframes) +
                 " keyframes, then written to " + options_.detector.descriptor.broad.model + ")";
   ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
-           toString(detector_.mode()), descriptor.c_str(), options_.pose_source.c_str(),
-           image_topic_.c_str(), odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+           toString(detector_.mode()), descriptor.c_str(),
+           nameOf(poseSourceNames(), options_.pose_source).c_str(), image_topic_.c_str(),
+           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
   if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
     ROS_WARN(
@@ -163,11 +163,11 @@ void LoopClosureNode::subscribe() {
   if (options_.use_depth) {
     depth_subscriber_ = image_transport_.subscribe("depth", 5, &LoopClosureNode::onDepth, this);
   }
-  if (options_.pose_source == "tf" || options_.camera_mount_from_tf) {
+  if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf) {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
   }
-  if (options_.pose_source == "tf") {
+  if (options_.pose_source == PoseSource::kTf) {
     image_subscriber_ =
         image_transport_.subscribe("image", 5, &LoopClosureNode::onImageForTf, this);
     tf_timer_ = node_.createWallTimer(ros::WallDuration(kTfRetryPeriod),

@@ -26,7 +26,7 @@ std::string LoopClosureNode::unpairedInputs(double now) const {
 
 void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double now = wallNow();
-  const bool use_odom = options_.pose_source == "odom";
+  const bool use_odom = options_.pose_source == PoseSource::kOdom;
   std::ostringstream waiting;
   if (now - last_image_wall_ > options_.input_timeout) waiting << image_topic_;
   if (use_odom && now - last_odometry_wall_ > options_.input_timeout) {

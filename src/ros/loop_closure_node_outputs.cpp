@@ -66,7 +66,7 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
 
 std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
                                                  const std::string& camera_frame) const {
-  if (options_.relative_pose_frame != "base" || !loop->relative_pose ||
+  if (options_.relative_pose_frame != RelativePoseFrame::kBase || !loop->relative_pose ||
       !loop->relative_pose->metric) {
     return camera_frame;
   }

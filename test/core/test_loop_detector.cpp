@@ -281,7 +281,7 @@ namespace {
 // A detector counting consistency in metres, after 40 keyframes 1 m apart showing places 0-39.
 std::unique_ptr<LoopDetector> mappedInMetres(double consistent_distance_m) {
   LoopDetectorOptions options = smallOptions();
-  options.acceptance.consistency_unit = "metres";
+  options.acceptance.consistency_unit = ConsistencyUnit::kMetres;
   options.acceptance.consistent_distance_m = consistent_distance_m;
   options.acceptance.match_window_m = 0.5;
   auto detector = std::make_unique<LoopDetector>(options, std::make_shared<PlaceExtractor>());
@@ -319,12 +319,10 @@ TEST(LoopDetector, MetreConsistencyIsBrokenByAJumpAlongTheOldPath) {
 
 TEST(LoopDetector, AcceptanceOptionsAreValidated) {
   LoopDetectorOptions options;
-  options.mode = "relocalise";
-  options.acceptance.consistency_unit = "meters";
   options.acceptance.consistent_distance_m = -1.0;
   options.acceptance.match_window_m = std::numeric_limits<double>::quiet_NaN();
   const std::string problems = options.validate();
-  for (const char* key : {"mode", "consistency_unit", "consistent_distance_m", "match_window_m"}) {
+  for (const char* key : {"consistent_distance_m", "match_window_m"}) {
     EXPECT_NE(problems.find(key), std::string::npos) << key << "\n" << problems;
   }
 }

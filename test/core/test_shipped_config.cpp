@@ -76,11 +76,39 @@ TEST(YamlParameterSource, MissingFileNamesThePath) {
 
 TEST(NodeOptions, ValidateCatchesNonsense) {
   NodeOptions options;
-  options.pose_source = "gps";
   options.sync_slop = 0.0;
   options.detector.acceptance.min_score = 3.0;
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("pose_source"), std::string::npos) << errors;
   EXPECT_NE(errors.find("sync_slop"), std::string::npos) << errors;
   EXPECT_NE(errors.find("acceptance/min_score"), std::string::npos) << errors;
+}
+
+TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
+  const YamlParameterSource source(YAML::Load(
+      "pose_source: tf\nrelative_pose_frame: base\ntime_jump_back: reset\nmode: localization\n"
+      "acceptance: {consistency_unit: metres}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  EXPECT_EQ(options.pose_source, PoseSource::kTf);
+  EXPECT_EQ(options.relative_pose_frame, RelativePoseFrame::kBase);
+  EXPECT_EQ(options.time_jump_back, TimeJumpPolicy::kReset);
+  EXPECT_EQ(options.detector.mode, DetectorMode::kLocalization);
+  EXPECT_EQ(options.detector.acceptance.consistency_unit, ConsistencyUnit::kMetres);
+
+  const YamlParameterSource wrong(
+      YAML::Load("pose_source: gps\nmode: relocalise\nacceptance: {consistency_unit: meters}\n"));
+  OptionReader wrong_reader(wrong);
+  NodeOptions kept;
+  readNodeOptions(&wrong_reader, &kept);
+  const std::string& errors = wrong_reader.errors();
+  EXPECT_NE(errors.find("pose_source must be one of 'odom', 'tf' (got 'gps')"), std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("mode must be one of 'mapping', 'localization'"), std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("acceptance/consistency_unit must be one of 'keyframes', 'metres'"),
+            std::string::npos)
+      << errors;
+  EXPECT_EQ(kept.pose_source, PoseSource::kOdom) << "the default stays";
 }

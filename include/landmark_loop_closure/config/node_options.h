@@ -1,17 +1,44 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "landmark_loop_closure/config/parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/runtime/detector_runtime.h"
 
 namespace landmark_loop_closure {
+
+/// Where the robot's pose comes from.
+enum class PoseSource {
+  kOdom,  ///< nav_msgs/Odometry synced with the images.
+  kTf,    ///< A tf lookup odom_frame <- base_frame at each image's stamp.
+};
+/// The frame published metric relative poses are expressed in.
+enum class RelativePoseFrame {
+  kCamera,  ///< The image's optical frame.
+  kBase,    ///< The robot's base_frame.
+};
+
+/// The parameters' words for each value ("odom", "tf"; "camera", "base"; "drop", "reset").
+const std::vector<std::pair<std::string, PoseSource>>& poseSourceNames();
+const std::vector<std::pair<std::string, RelativePoseFrame>>& relativePoseFrameNames();
+const std::vector<std::pair<std::string, TimeJumpPolicy>>& timeJumpPolicyNames();
+/// The word of a value in such a table.
+template <typename Enum>
+std::string nameOf(const std::vector<std::pair<std::string, Enum>>& names, Enum value) {
+  for (const auto& [name, choice] : names) {
+    if (choice == value) return name;
+  }
+  return "?";
+}
 
 /// Everything the nodelet reads from its private parameters. Each key and default is documented
 /// once, in config/default.yaml; a test checks that file against these defaults.
 struct NodeOptions {
-  std::string pose_source = "odom";  ///< "odom": nav_msgs/Odometry synced with images; "tf".
-  std::string odom_frame = "odom";   ///< tf mode: fixed frame of the lookup.
+  PoseSource pose_source = PoseSource::kOdom;
+  std::string odom_frame = "odom";  ///< tf mode: fixed frame of the lookup.
   /// The robot's body frame: tf mode looks its pose up; camera_mount_from_tf and
   /// relative_pose_frame "base" use it in both modes.
   std::string base_frame = "base_link";
@@ -21,15 +48,14 @@ struct NodeOptions {
   int worker_queue_size = 8;   ///< Keyframes waiting for the worker thread.
   double input_timeout = 5.0;  ///< Seconds without input before diagnostics warn.
   /// A frame stamped more than time_jump_back_s before the last keyframe (bag restarted, simulated
-  /// clock reset): "drop" it (and every frame until time passes the last keyframe again), or
-  /// "reset": forget every keyframe, as ~reset does, and start over from it. Smaller steps back
+  /// clock reset): kDrop it (and every frame until time passes the last keyframe again), or
+  /// kReset: forget every keyframe, as ~reset does, and start over from it. Smaller steps back
   /// are out-of-order frames and always dropped.
-  std::string time_jump_back = "drop";
+  TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
   double time_jump_back_s = 1.0;
   bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
   bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
-  /// Frame of published metric relative poses: "camera" (the image's optical frame) or "base".
-  std::string relative_pose_frame = "camera";
+  RelativePoseFrame relative_pose_frame = RelativePoseFrame::kCamera;
   /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
   bool camera_mount_from_tf = false;
   /// Keyframe database file: loaded at start when it exists (autoload), saved every

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace landmark_loop_closure {
@@ -36,6 +37,38 @@ class OptionReader {
   void read(const std::string& key, int* value) { readAny(key, value, "an integer"); }
   void read(const std::string& key, bool* value) { readAny(key, value, "true or false"); }
   void read(const std::string& key, std::string* value) { readAny(key, value, "a string"); }
+
+  /// A string naming one of `choices`, stored as its value; any other text is an error that names
+  /// them all, and the default is kept.
+  template <typename Enum>
+  void readChoice(const std::string& key, Enum* value,
+                  const std::vector<std::pair<std::string, Enum>>& choices) {
+    std::string default_text;
+    for (const auto& [name, choice] : choices) {
+      if (choice == *value) default_text = name;
+    }
+    ParameterRecord record;
+    record.key = key;
+    std::string text = default_text;
+    const ParameterLookup lookup = source_.get(key, &text);
+    if (lookup == ParameterLookup::kWrongType) {
+      errors_ += key + " must be a string\n";
+    } else if (lookup == ParameterLookup::kFound) {
+      record.found = true;
+      record.equals_default = text == default_text;
+      bool known = false;
+      std::string names;
+      for (const auto& [name, choice] : choices) {
+        names += (names.empty() ? "'" : ", '") + name + "'";
+        if (name == text) {
+          *value = choice;
+          known = true;
+        }
+      }
+      if (!known) errors_ += key + " must be one of " + names + " (got '" + text + "')\n";
+    }
+    records_.push_back(record);
+  }
 
   const std::vector<ParameterRecord>& records() const { return records_; }
   /// Type errors, one per line ("keyframe/min_motion must be a number").

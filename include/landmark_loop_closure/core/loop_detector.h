@@ -28,10 +28,10 @@ constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
   double min_score = 0.6;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
-  /// "keyframes": a loop needs consistent_keyframes consecutive keyframes whose matches agree
-  /// within index_window ids; "metres": the query must travel consistent_distance_m while its
+  /// kKeyframes: a loop needs consistent_keyframes consecutive keyframes whose matches agree
+  /// within index_window ids; kMetres: the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).
-  std::string consistency_unit = "keyframes";
+  ConsistencyUnit consistency_unit = ConsistencyUnit::kKeyframes;
   int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
   double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
@@ -39,8 +39,6 @@ struct AcceptanceOptions {
   /// Sequence matching (sequence_length > 1): the threshold applies to a candidate's best path
   /// mean over the last keyframes instead of its own score (SequenceMatcher).
   SequenceMatchingOptions sequence;
-
-  ConsistencyUnit unit() const;  ///< consistency_unit parsed (kKeyframes when invalid).
 
   std::string validate() const;
 };
@@ -50,11 +48,12 @@ struct AcceptanceOptions {
 /// current odometry need not share a frame or a drift history with the map's.
 enum class DetectorMode { kMapping, kLocalization };
 
-bool parseDetectorMode(const std::string& text, DetectorMode* mode);
+/// The parameter's words for each mode: "mapping", "localization".
+const std::vector<std::pair<std::string, DetectorMode>>& detectorModeNames();
 const char* toString(DetectorMode mode);
 
 struct LoopDetectorOptions {
-  std::string mode = "mapping";  ///< "mapping" or "localization" (DetectorMode).
+  DetectorMode mode = DetectorMode::kMapping;
   InputLimits input;
   KeyframeSelectorOptions keyframe;
   DescriptorOptions descriptor;

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace landmark_loop_closure {
@@ -12,6 +13,8 @@ enum class ConsistencyUnit {
   kMetres,     ///< Chains measured by the query's travelled path; matches agree within metres.
 };
 
+/// The parameter's words for each unit: "keyframes", "metres".
+const std::vector<std::pair<std::string, ConsistencyUnit>>& consistencyUnitNames();
 /// Parses "keyframes" or "metres"; false for anything else.
 bool parseConsistencyUnit(const std::string& text, ConsistencyUnit* unit);
 
