@@ -92,12 +92,22 @@ class DatabaseSearch {
   size_t added_ = 0;
 };
 
-// Best database match of one query among the searchable images (skipping invalid ones); every
-// pair's score goes into the similarity picture.
+// Every pair's global score of one query, for the similarity picture (not timed: the search
+// scores them again, as the node would).
+void drawQuery(size_t query_index, const ImageDescriptor& query, const DescribedImages& database,
+               size_t end, const DescriptorExtractor& extractor, SimilarityGrid* grid) {
+  for (size_t j = 0; j < end; ++j) {
+    if (!database.valid[j]) continue;
+    grid->add(
+        query_index, j,
+        extractor.globalScore(cosineSimilarity(query.global, database.descriptors[j].global)));
+  }
+}
+
+// Best database match of one query among the searchable images (skipping invalid ones).
 QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
                         const DescribedImages& database, size_t end, const DatabaseSearch& search,
-                        const GroundTruth& truth, const DescriptorExtractor& extractor,
-                        SimilarityGrid* grid) {
+                        const GroundTruth& truth, const DescriptorExtractor& extractor) {
   QueryOutcome outcome;
   outcome.query = query_index;
   outcome.has_truth = false;
@@ -106,12 +116,6 @@ QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
       outcome.has_truth = true;
       break;
     }
-  }
-  for (size_t j = 0; j < end; ++j) {
-    if (!database.valid[j]) continue;
-    grid->add(
-        query_index, j,
-        extractor.globalScore(cosineSimilarity(query.global, database.descriptors[j].global)));
   }
   const std::vector<Candidate> candidates = search.shortlist(query);
   if (candidates.empty()) return outcome;
@@ -265,9 +269,10 @@ Evaluation evaluateTraversals(const DescribedImages& database, const DescribedIm
   std::vector<double> query_ms;
   for (size_t q = 0; q < queries.size(); ++q) {
     if (!queries.valid[q]) continue;
+    drawQuery(q, queries.descriptors[q], database, database.size(), extractor, &grid);
     const auto start = Clock::now();
-    outcomes.push_back(matchQuery(q, queries.descriptors[q], database, database.size(), search,
-                                  truth, extractor, &grid));
+    outcomes.push_back(
+        matchQuery(q, queries.descriptors[q], database, database.size(), search, truth, extractor));
     query_ms.push_back(millisecondsSince(start));
     if (progress) progress(q + 1, queries.size());
   }
@@ -291,10 +296,10 @@ Evaluation evaluateSequence(const DescribedImages& images, const GroundTruth& tr
     if (!images.valid[i]) continue;
     const size_t end =
         static_cast<size_t>(std::max(0L, static_cast<long>(i) - options.exclude_recent));
-    const auto start = Clock::now();
     search.growTo(end);
-    outcomes.push_back(
-        matchQuery(i, images.descriptors[i], images, end, search, truth, extractor, &grid));
+    drawQuery(i, images.descriptors[i], images, end, extractor, &grid);
+    const auto start = Clock::now();
+    outcomes.push_back(matchQuery(i, images.descriptors[i], images, end, search, truth, extractor));
     query_ms.push_back(millisecondsSince(start));
     if (progress) progress(i + 1, images.size());
   }
