@@ -94,7 +94,7 @@ void DetectorRuntime::process(KeyframeJob& job) {
     return;
   }
   if (result.held_for_training > 0) {
-    held_.push_back({job.id, job.stamp, job.source});
+    held_.push_back({job.id, job.stamp});
     if (listener_.held) listener_.held(job, result);
     return;
   }

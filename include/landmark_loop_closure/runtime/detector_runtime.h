@@ -72,10 +72,10 @@ struct PreparedKeyframe {
 };
 
 /// A keyframe online training held, handed back to the caller when training ends.
+/// (Its source is not kept: holding every image until training ends would cost their memory.)
 struct ReleasedKeyframe {
   uint64_t id = 0;
   double stamp = 0.0;
-  std::any source;
 };
 
 /// What the runtime calls back, all on the worker thread, with the detector locked.
