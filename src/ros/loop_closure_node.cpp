@@ -5,20 +5,14 @@
 
 #include <chrono>
 #include <filesystem>
-#include <sstream>
 #include <stdexcept>
 
-#include <cv_bridge/cv_bridge.h>
 #include <image_transport/camera_common.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/core/match_image.h"
-#include "landmark_loop_closure/descriptors/landmarks.h"
-#include "landmark_loop_closure/geometry/metric_pose.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 

@@ -191,7 +191,7 @@ class LoopClosureNode {
   uint64_t last_images_for_rate_ = 0;
   uint64_t last_odometry_for_rate_ = 0;
   ros::WallTime last_rate_time_;
-  sensor_msgs::CameraInfoConstPtr camera_info_;
+  CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "in memory only";
 
   // The worker, its queue and the detector lock; started last, stopped first.

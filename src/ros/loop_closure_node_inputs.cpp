@@ -2,24 +2,10 @@
 // runtime; on the worker, a keyframe's images and depth prepared for the detector.
 #include "loop_closure_node.h"
 
-#include <chrono>
-#include <filesystem>
-#include <sstream>
-#include <stdexcept>
-
 #include <cv_bridge/cv_bridge.h>
-#include <image_transport/camera_common.h>
 #include <tf2_eigen/tf2_eigen.h>
-#include <visualization_msgs/MarkerArray.h>
 
-#include "landmark_loop_closure/Keyframe.h"
-#include "landmark_loop_closure/LoopCandidateArray.h"
-#include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/core/match_image.h"
-#include "landmark_loop_closure/descriptors/landmarks.h"
-#include "landmark_loop_closure/geometry/metric_pose.h"
 #include "messages/ros_conversions.h"
-#include "ros_parameter_source.h"
 
 namespace landmark_loop_closure {
 
@@ -81,7 +67,7 @@ void LoopClosureNode::retryPendingTf() {
 
 void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  camera_info_ = info;
+  camera_intrinsics_ = fromCameraInfo(*info);  // Converted once, not on every image.
   camera_info_seen_ = true;
 }
 
@@ -105,7 +91,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   frame.cv_type = *cvTypeOfEncoding(image->encoding);
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (camera_info_) frame.intrinsics = fromCameraInfo(*camera_info_);
+    frame.intrinsics = camera_intrinsics_;
   }
   frame.source = FrameSource{image, frame_id};
   const RuntimeAdmission admitted = runtime_->admit(std::move(frame));

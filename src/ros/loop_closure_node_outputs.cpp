@@ -2,14 +2,9 @@
 // the match image, and the bookkeeping of keyframes online training held.
 #include "loop_closure_node.h"
 
-#include <chrono>
-#include <filesystem>
 #include <sstream>
-#include <stdexcept>
 
 #include <cv_bridge/cv_bridge.h>
-#include <image_transport/camera_common.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "landmark_loop_closure/Keyframe.h"
@@ -19,7 +14,6 @@
 #include "landmark_loop_closure/descriptors/landmarks.h"
 #include "landmark_loop_closure/geometry/metric_pose.h"
 #include "messages/ros_conversions.h"
-#include "ros_parameter_source.h"
 
 namespace landmark_loop_closure {
 
