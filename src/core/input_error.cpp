@@ -8,6 +8,24 @@
 
 namespace landmark_loop_closure {
 
+const ParameterTable<InputLimits>& InputLimits::parameters() {
+  using O = InputLimits;
+  static const auto table =
+      ParameterTable<O>("input/", "")
+          .integer("min_image_side", &O::min_image_side, atLeast(1),
+                   "images with a side shorter than this (px) are dropped.")
+          .integer("max_image_pixels", &O::max_image_pixels, atLeast(1),
+                   "images with more pixels (8K = 7680x4320) are dropped as corrupt.")
+          .number("quaternion_norm_tolerance", &O::quaternion_norm_tolerance,
+                  openBetween(0, 1, true, true),
+                  "|norm(q) - 1| above this drops the pose; below, q is renormalised.")
+          .number("min_image_contrast", &O::min_image_contrast, atLeast(0),
+                  "keyframes whose grey-level standard deviation (0-255) is lower (lens cap, "
+                  "darkness, white-out) are dropped: such images all look alike and would match "
+                  "each other. 0: off.");
+  return table;
+}
+
 const char* toString(InputErrorCode code) {
   switch (code) {
     case InputErrorCode::kEmptyImage:

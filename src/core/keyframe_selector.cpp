@@ -6,25 +6,36 @@
 
 namespace landmark_loop_closure {
 
+const ParameterTable<KeyframeSelectorOptions>& KeyframeSelectorOptions::parameters() {
+  using O = KeyframeSelectorOptions;
+  static const auto table =
+      ParameterTable<O>("keyframe/",
+                        "Keyframes: M = translation_weight * |dt| + rotation_weight * |(roll, "
+                        "pitch, yaw)| since the last keyframe. The defaults suit a handheld camera "
+                        "or a wheeled robot at walking speed: a keyframe every ~0.3 m or ~17 deg.")
+          .number("translation_weight", &O::translation_weight, atLeast(0), "per metre.")
+          .number("rotation_weight", &O::rotation_weight, atLeast(0), "per radian.")
+          .number("min_motion", &O::min_motion, atLeast(0),
+                  "M below this: redundant frame, not a keyframe.")
+          .number("max_motion", &O::max_motion, above(0),
+                  "M above this: odometry jump (tracking lost?), frame refused and logged.")
+          .number("max_time_gap", &O::max_time_gap, atLeast(0),
+                  "seconds without a keyframe that force one even when standing still; 0 = off.")
+          .integer("jump_reanchor_frames", &O::jump_reanchor_frames, atLeast(0),
+                   "after this many consecutive jump frames the odometry is taken as "
+                   "re-initialised and the next frame becomes a keyframe; 0 = never.");
+  return table;
+}
+
 std::string KeyframeSelectorOptions::validate() const {
   std::ostringstream errors;
-  if (!(translation_weight >= 0.0) || !(rotation_weight >= 0.0) ||
-      translation_weight + rotation_weight <= 0.0) {
-    errors << "keyframe/translation_weight and keyframe/rotation_weight must be >= 0 and not both "
-              "0 (got "
-           << translation_weight << ", " << rotation_weight << ")\n";
+  errors << parameters().check(*this);
+  if (translation_weight + rotation_weight <= 0.0) {
+    errors << "keyframe/translation_weight and keyframe/rotation_weight must not both be 0\n";
   }
-  if (!(min_motion >= 0.0))
-    errors << "keyframe/min_motion must be >= 0 (got " << min_motion << ")\n";
   if (!(max_motion > min_motion)) {
     errors << "keyframe/max_motion (" << max_motion
            << ") must be greater than keyframe/min_motion (" << min_motion << ")\n";
-  }
-  if (!(max_time_gap >= 0.0)) {
-    errors << "keyframe/max_time_gap must be >= 0, 0 = off (got " << max_time_gap << ")\n";
-  }
-  if (jump_reanchor_frames < 0) {
-    errors << "keyframe/jump_reanchor_frames must be >= 0 (got " << jump_reanchor_frames << ")\n";
   }
   return errors.str();
 }

@@ -19,26 +19,37 @@ constexpr int kThumbnailHeight = 120;
 
 }  // namespace
 
+const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
+  using O = AcceptanceOptions;
+  static const auto table =
+      ParameterTable<O>("acceptance/", "precision first.")
+          .number("min_score", &O::min_score, between(-1, 1),
+                  "final similarity a candidate needs; its scale depends on descriptor/type. "
+                  "backbone: correct matches score 0.52-0.62 (10th percentile-median) on Gardens "
+                  "Point across day/night, wrong ones up to 0.60; the generated corridor scores "
+                  "everything higher (its images look alike) and relies on the consistency, "
+                  "odometry and geometric checks below. Set 0.25 for landmarks (the node does "
+                  "when it falls back to it), 0.7 for hog, 0.97 for calc.")
+          .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
+                  "how a place must stay matched before a loop is believed: \"keyframes\": "
+                  "consistent_keyframes keyframes in a row, matches within index_window ids; "
+                  "\"metres\": the robot travels consistent_distance_m while its matches stay "
+                  "within match_window_m (plus its own step) along the old path - independent of "
+                  "keyframe spacing and of dropped keyframes.")
+          .integer("consistent_keyframes", &O::consistent_keyframes, atLeast(1),
+                   "k: consecutive keyframes that must match the same stretch of the map.")
+          .integer("index_window", &O::index_window, atLeast(0),
+                   "their matches may differ by at most this many keyframe ids.")
+          .number("consistent_distance_m", &O::consistent_distance_m, atLeast(0),
+                  "metres: query travel over which the place must stay matched.")
+          .number("match_window_m", &O::match_window_m, atLeast(0),
+                  "metres: consecutive matches agree within this plus the query's step.")
+          .group(&O::sequence, SequenceMatchingOptions::parameters());
+  return table;
+}
+
 std::string AcceptanceOptions::validate() const {
-  std::ostringstream errors;
-  if (!(min_score >= -1.0 && min_score <= 1.0)) {
-    errors << "acceptance/min_score must be in [-1, 1] (got " << min_score << ")\n";
-  }
-  if (consistent_keyframes < 1) {
-    errors << "acceptance/consistent_keyframes must be >= 1 (got " << consistent_keyframes << ")\n";
-  }
-  if (index_window < 0) {
-    errors << "acceptance/index_window must be >= 0 (got " << index_window << ")\n";
-  }
-  if (!(consistent_distance_m >= 0.0)) {
-    errors << "acceptance/consistent_distance_m must be >= 0 (got " << consistent_distance_m
-           << ")\n";
-  }
-  if (!(match_window_m >= 0.0)) {
-    errors << "acceptance/match_window_m must be >= 0 (got " << match_window_m << ")\n";
-  }
-  errors << sequence.validate();
-  return errors.str();
+  return parameters().check(*this) + sequence.validate();
 }
 
 const std::vector<std::pair<std::string, DetectorMode>>& detectorModeNames() {
@@ -51,30 +62,41 @@ const char* toString(DetectorMode mode) {
   return mode == DetectorMode::kMapping ? "mapping" : "localization";
 }
 
+const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::parameters() {
+  using O = LoopDetectorOptions;
+  static const auto table =
+      ParameterTable<O>("", "")
+          .choice("mode", &O::mode, detectorModeNames(),
+                  "\"mapping\": search every keyframe and store it. \"localization\": search "
+                  "only, store nothing, no odometry gate (this run's odometry shares no frame with "
+                  "the map's); for revisiting a map loaded from database_path.")
+          .group(&O::input, InputLimits::parameters())
+          .group(&O::keyframe, KeyframeSelectorOptions::parameters())
+          .group(&O::descriptor, DescriptorOptions::parameters())
+          .flag("descriptor/keep_thumbnails", &O::keep_thumbnails,
+                "keep a 160x120 grey copy per keyframe (19 KB) for ~match_image.")
+          .group(&O::database, DatabaseOptions::parameters())
+          .group(&O::acceptance, AcceptanceOptions::parameters())
+          .group(&O::odometry_gate, OdometryGateOptions::parameters())
+          .group(&O::verification, VerificationOptions::parameters())
+          .group(&O::metric_pose, MetricPoseOptions::parameters())
+          .integer("metric_pose/triangulation_keyframes", &O::triangulation_keyframes, atLeast(1),
+                   "previous keyframes used; farther ones add baseline.")
+          .group(&O::camera_mount, CameraMount::parameters());
+  return table;
+}
+
 std::string LoopDetectorOptions::validate() const {
   std::ostringstream errors;
-  if (input.min_image_side < 1) {
-    errors << "input/min_image_side must be >= 1 (got " << input.min_image_side << ")\n";
-  }
+  errors << parameters().check(*this) << InputLimits::parameters().check(input);
   if (input.max_image_pixels <
       static_cast<long long>(input.min_image_side) * input.min_image_side) {
     errors << "input/max_image_pixels (" << input.max_image_pixels
            << ") is smaller than a minimum-size image\n";
   }
-  if (!(input.min_image_contrast >= 0.0)) {
-    errors << "input/min_image_contrast must be >= 0 (got " << input.min_image_contrast << ")\n";
-  }
-  if (!(input.quaternion_norm_tolerance > 0.0 && input.quaternion_norm_tolerance < 1.0)) {
-    errors << "input/quaternion_norm_tolerance must be in (0, 1) (got "
-           << input.quaternion_norm_tolerance << ")\n";
-  }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
          << acceptance.validate() << odometry_gate.validate() << verification.validate()
          << metric_pose.validate() << camera_mount.validate();
-  if (triangulation_keyframes < 1) {
-    errors << "metric_pose/triangulation_keyframes must be >= 1 (got " << triangulation_keyframes
-           << ")\n";
-  }
   return errors.str();
 }
 

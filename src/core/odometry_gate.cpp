@@ -6,19 +6,26 @@
 
 namespace landmark_loop_closure {
 
-std::string OdometryGateOptions::validate() const {
-  std::ostringstream errors;
-  const auto non_negative = [&errors](const char* name, double value) {
-    if (!(value >= 0.0 && std::isfinite(value))) {
-      errors << "odometry_gate/" << name << " must be >= 0 (got " << value << ")\n";
-    }
-  };
-  non_negative("drift_per_metre", drift_per_metre);
-  non_negative("drift_per_radian", drift_per_radian);
-  non_negative("drift_floor_m", drift_floor_m);
-  non_negative("max_view_distance_m", max_view_distance_m);
-  return errors.str();
+const ParameterTable<OdometryGateOptions>& OdometryGateOptions::parameters() {
+  using O = OdometryGateOptions;
+  static const auto table =
+      ParameterTable<O>("odometry_gate/",
+                        "refuses loops the odometry cannot have drifted into (precision first).")
+          .flag("enabled", &O::enabled, "")
+          .number("drift_per_metre", &O::drift_per_metre, atLeast(0),
+                  "metres of position error the odometry gains per metre travelled between the "
+                  "two keyframes (path summed over keyframes).")
+          .number("drift_per_radian", &O::drift_per_radian, atLeast(0),
+                  "metres of position error gained per radian turned between them.")
+          .number("drift_floor_m", &O::drift_floor_m, atLeast(0), "allowed in any case.")
+          .number("max_view_distance_m", &O::max_view_distance_m, atLeast(0),
+                  "cameras farther apart than this cannot see the same place, so a loop asks for "
+                  "at least (odometry distance - this) of correction; refused when that exceeds "
+                  "floor + drift. Shown as \"odometry_rejected\".");
+  return table;
 }
+
+std::string OdometryGateOptions::validate() const { return parameters().check(*this); }
 
 std::string OdometryGateDecision::reason() const {
   if (consistent) return "";

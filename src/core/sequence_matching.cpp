@@ -16,19 +16,33 @@ std::vector<double> SequenceMatchingOptions::speeds() const {
   return values;
 }
 
+const ParameterTable<SequenceMatchingOptions>& SequenceMatchingOptions::parameters() {
+  using O = SequenceMatchingOptions;
+  static const auto table =
+      ParameterTable<O>("acceptance/sequence_", "")
+          .integer("length", &O::length, between(1, 100),
+                   "L > 1: sequence matching (SeqSLAM-style): a candidate's score becomes the best "
+                   "mean similarity along a straight path of the last L keyframes against the "
+                   "database keyframes ending at it; min_score applies to that mean, and earlier "
+                   "keyframes' candidates, carried forward, join the shortlist. No loop is "
+                   "believed before L keyframes have come.")
+          .number("min_speed", &O::min_speed, openBetween(0, 10, true, false),
+                  "database keyframes per query keyframe along a path, slowest ...")
+          .number("max_speed", &O::max_speed, openBetween(0, 10, true, false),
+                  "... and fastest (keyframes are spaced by motion, so revisits run near 1);")
+          .number("speed_step", &O::speed_step, above(0),
+                  "speeds tried from min to max in this step.");
+  return table;
+}
+
 std::string SequenceMatchingOptions::validate() const {
   std::ostringstream errors;
-  if (length < 1 || length > 100) {
-    errors << "acceptance/sequence_length must be in [1, 100] (got " << length << ")\n";
+  errors << parameters().check(*this);
+  if (!(max_speed >= min_speed)) {
+    errors << "acceptance/sequence_max_speed (" << max_speed
+           << ") must be >= acceptance/sequence_min_speed (" << min_speed << ")\n";
   }
-  if (!(min_speed > 0.0) || !(max_speed >= min_speed) || !(max_speed <= 10.0)) {
-    errors << "acceptance/sequence_min_speed and sequence_max_speed must satisfy 0 < min <= max "
-              "<= 10 (got "
-           << min_speed << ", " << max_speed << ")\n";
-  }
-  if (!(speed_step > 0.0)) {
-    errors << "acceptance/sequence_speed_step must be > 0 (got " << speed_step << ")\n";
-  } else if ((max_speed - min_speed) / speed_step > 100.0) {
+  if (speed_step > 0.0 && (max_speed - min_speed) / speed_step > 100.0) {
     errors << "acceptance/sequence_speed_step gives more than 100 speeds\n";
   }
   return errors.str();

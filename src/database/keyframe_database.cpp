@@ -9,23 +9,28 @@
 
 namespace landmark_loop_closure {
 
+const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
+  using O = DatabaseOptions;
+  static const auto table =
+      ParameterTable<O>("database/", "database search.")
+          .integer("exclude_recent_keyframes", &O::exclude_recent_keyframes, atLeast(0),
+                   "the newest N keyframes are never loop candidates.")
+          .number("exclude_recent_seconds", &O::exclude_recent_seconds, atLeast(0),
+                  "nor are keyframes less than this many seconds older than the query.")
+          .integer("min_size", &O::min_size, atLeast(1),
+                   "no search until the database holds this many keyframes.")
+          .integer("top_k", &O::top_k, atLeast(1),
+                   "candidates kept per query (landmarks re-rank them all).")
+          .number("memory_budget_mb", &O::memory_budget_mb, atLeast(0),
+                  "0: no limit. Past this many MB (diagnostics \"database bytes\", ~53 KB per "
+                  "keyframe shipped) keyframes are still searched for loops but no longer stored; "
+                  "a warning says so.")
+          .group(&O::index, IndexOptions::parameters());
+  return table;
+}
+
 std::string DatabaseOptions::validate() const {
-  std::ostringstream errors;
-  if (exclude_recent_keyframes < 0) {
-    errors << "database/exclude_recent_keyframes must be >= 0 (got " << exclude_recent_keyframes
-           << ")\n";
-  }
-  if (!(exclude_recent_seconds >= 0.0)) {
-    errors << "database/exclude_recent_seconds must be >= 0 (got " << exclude_recent_seconds
-           << ")\n";
-  }
-  if (min_size < 1) errors << "database/min_size must be >= 1 (got " << min_size << ")\n";
-  if (top_k < 1) errors << "database/top_k must be >= 1 (got " << top_k << ")\n";
-  if (!(memory_budget_mb >= 0.0)) {
-    errors << "database/memory_budget_mb must be >= 0 (got " << memory_budget_mb << ")\n";
-  }
-  errors << index.validate();
-  return errors.str();
+  return parameters().check(*this) + index.validate();
 }
 
 const char* toString(QueryStatus status) {

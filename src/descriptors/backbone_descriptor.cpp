@@ -174,43 +174,69 @@ double BackboneDescriptor::similarity(const ImageDescriptor& query,
   return (1.0 - options_.rerank_weight) * global + options_.rerank_weight * landmarks;
 }
 
+const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::parameters() {
+  using O = DescriptorOptions::Backbone;
+  static const auto table =
+      ParameterTable<O>(
+          "descriptor/backbone/",
+          "type backbone: the landmark-ConvNet on a pretrained ImageNet network "
+          "(MobileNetV2 from the npm package nsfwjs, MIT; scripts/fetch_backbone.sh).")
+          .text("model", &O::model,
+                "ONNX file; \"\" = the package's model/mobilenet_v2.onnx. Any ONNX network with "
+                "named feature-map outputs works (README: bring your own).")
+          .text("layer", &O::layer, "output the global grid and the landmarks are described from.")
+          .text("proposal_layer", &O::proposal_layer,
+                "output whose activations give the landmark boxes; \"\" = layer.")
+          .integer("input_width", &O::input_width, between(32, 4096),
+                   "the network's input size (the image is resized to it) ...")
+          .integer("input_height", &O::input_height, between(32, 4096), "")
+          .word("colour", &O::colour, {"rgb", "bgr", "grey"},
+                "... channel order and normalisation: per channel, pixels in [0, 1]: (pixel - "
+                "mean) / std. nsfwjs's network takes [0, 1]; torchvision's \"0.485 0.456 0.406\" "
+                "/ \"0.229 0.224 0.225\".")
+          .text("mean", &O::mean, "")
+          .text("std", &O::std, "")
+          .integer("grid_rows", &O::grid_rows, between(1, 16),
+                   "global descriptor: the layer average-pooled over rows x cols cells ...")
+          .integer("grid_cols", &O::grid_cols, between(1, 16),
+                   "... (3x4x96 = 1152 values); the spatial layout is what survives night.")
+          .word("normalisation", &O::normalisation, {"cells", "whole", "centred"},
+                "\"cells\": each cell L2-normalised, then the whole (won on Gardens Point); "
+                "\"whole\": the whole vector only; \"centred\": each channel's mean over the cells "
+                "removed first (bench/README.md has all three).")
+          .integer("max_landmarks", &O::max_landmarks, between(0, 500),
+                   "landmark boxes from the activations (8-connected components, energy = mean "
+                   "activation), for ~match_image and re-ranking; 0 = none.")
+          .integer("landmark_grid", &O::landmark_grid, between(1, 8),
+                   "a landmark is the layer's maps inside its box, grid x grid cells ...")
+          .word("landmark_features", &O::landmark_features, {"backbone", "hog"},
+                "... (\"backbone\"), or \"hog\": the HOG of its 32x32 patch of the image at "
+                "320x240 (324 values), as the package's own encoder does.")
+          .number("rerank_weight", &O::rerank_weight, between(0, 1),
+                  "final score = (1 - w) * global + w * landmark similarity. 0: landmarks do not "
+                  "re-rank (they lost on Gardens Point and the corridor).")
+          .number("hog_weight", &O::hog_weight, between(0, 1),
+                  "share of a whole-image HOG's cosine in the global score.")
+          .integer("min_network_width", &O::min_network_width, between(0, 4096),
+                   "images narrower than this (px) are described by the HOG alone: the network "
+                   "fails on tiny images (Nordland's 64x32), HOG does not.")
+          .integer("hog_width", &O::hog_width, between(16, 512),
+                   "the HOG's window: the image is resized to it (multiples of 8); ...")
+          .integer("hog_height", &O::hog_height, between(16, 512),
+                   "16x16 blocks, 8 px cells and stride, 9 bins: 3168 values.");
+  return table;
+}
+
 namespace {
 
 std::string validateBackbone(const DescriptorOptions& options) {
   const DescriptorOptions::Backbone& backbone = options.backbone;
-  std::string errors;
-  const auto range = [&errors](const std::string& key, double value, double low, double high) {
-    if (!(value >= low && value <= high)) {
-      std::ostringstream line;
-      line << "descriptor/backbone/" << key << " must be in [" << low << ", " << high << "] (got "
-           << value << ")\n";
-      errors += line.str();
-    }
-  };
+  std::string errors = DescriptorOptions::Backbone::parameters().check(backbone);
   if (backbone.layer.empty()) errors += "descriptor/backbone/layer is empty\n";
-  range("input_width", backbone.input_width, 32, 4096);
-  range("input_height", backbone.input_height, 32, 4096);
-  range("grid_rows", backbone.grid_rows, 1, 16);
-  range("grid_cols", backbone.grid_cols, 1, 16);
-  range("max_landmarks", backbone.max_landmarks, 0, 500);
-  range("landmark_grid", backbone.landmark_grid, 1, 8);
-  range("rerank_weight", backbone.rerank_weight, 0, 1);
-  range("hog_weight", backbone.hog_weight, 0, 1);
-  range("min_network_width", backbone.min_network_width, 0, 4096);
-  if (backbone.hog_width % 8 != 0 || backbone.hog_height % 8 != 0 || backbone.hog_width < 16 ||
-      backbone.hog_height < 16 || backbone.hog_width > 512 || backbone.hog_height > 512) {
-    errors +=
-        "descriptor/backbone/hog_width and hog_height must be multiples of 8 in [16, 512] (got " +
-        std::to_string(backbone.hog_width) + "x" + std::to_string(backbone.hog_height) + ")\n";
-  }
-  if (backbone.normalisation != "cells" && backbone.normalisation != "whole" &&
-      backbone.normalisation != "centred") {
-    errors += "descriptor/backbone/normalisation must be 'cells', 'whole' or 'centred' (got '" +
-              backbone.normalisation + "')\n";
-  }
-  if (backbone.landmark_features != "backbone" && backbone.landmark_features != "hog") {
-    errors += "descriptor/backbone/landmark_features must be 'backbone' or 'hog' (got '" +
-              backbone.landmark_features + "')\n";
+  if (backbone.hog_width % 8 != 0 || backbone.hog_height % 8 != 0) {
+    errors += "descriptor/backbone/hog_width and hog_height must be multiples of 8 (got " +
+              std::to_string(backbone.hog_width) + "x" + std::to_string(backbone.hog_height) +
+              ")\n";
   }
   if (backbone.rerank_weight > 0 && backbone.max_landmarks == 0) {
     errors += "descriptor/backbone/rerank_weight > 0 needs max_landmarks > 0\n";

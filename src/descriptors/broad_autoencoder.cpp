@@ -285,6 +285,21 @@ ImageDescriptor BroadDescriptor::describe(const cv::Mat& image) const {
   return descriptor;
 }
 
+const ParameterTable<DescriptorOptions::Broad>& DescriptorOptions::Broad::parameters() {
+  using O = DescriptorOptions::Broad;
+  static const auto table =
+      ParameterTable<O>("descriptor/broad/",
+                        "type broad: FLCD-BA's broad autoencoder (methods.md section 3).")
+          .text("model", &O::model, "file written by `lcd_train broad`; required for type broad.")
+          .integer("online_training_keyframes", &O::online_training_keyframes, atLeast(0),
+                   "> 0 and `model` does not exist yet: keyframes are held until this many have "
+                   "come (at least 10), the autoencoder trains on them in the background (~10 s "
+                   "on one core) while later keyframes are held too, is written to `model`, and "
+                   "every held keyframe is stored and published; detection starts there. The "
+                   "next start loads `model`.");
+  return table;
+}
+
 DescriptorType broadDescriptorType() {
   DescriptorType type;
   type.name = "broad";

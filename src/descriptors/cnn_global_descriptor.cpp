@@ -30,10 +30,8 @@ cv::dnn::Net loadOnnxNetwork(const std::string& path) {
 
 std::string validateNetworkInput(const std::string& prefix, const std::string& colour,
                                  const std::string& mean, const std::string& deviation) {
+  // The colour word itself is checked with the other keys; here only the numbers' count.
   std::string errors;
-  if (colour != "rgb" && colour != "bgr" && colour != "grey") {
-    errors += prefix + "colour must be 'rgb', 'bgr' or 'grey' (got '" + colour + "')\n";
-  }
   const size_t channels = colour == "grey" ? 1 : 3;
   for (const auto& [key, text] : {std::pair<const char*, const std::string&>{"mean", mean},
                                   std::pair<const char*, const std::string&>{"std", deviation}}) {
@@ -200,26 +198,40 @@ double CnnGlobalDescriptor::globalScore(double cosine) const {
   return 1.0 - std::sqrt(std::max(0.0, 2.0 - 2.0 * cosine)) / 2.0;
 }
 
+const ParameterTable<DescriptorOptions::Cnn>& DescriptorOptions::Cnn::parameters() {
+  using O = DescriptorOptions::Cnn;
+  static const auto table =
+      ParameterTable<O>("descriptor/cnn/",
+                        "type cnn_pca: a CNN layer pooled, PCA-whitened (methods.md section 2).")
+          .text("model", &O::model,
+                "ONNX file; \"\" = the package's encoder. README: a ResNet-50 instead.")
+          .text("layer", &O::layer, "output read; \"\" = the network's last layer.")
+          .integer("input_width", &O::input_width, between(8, 4096), "the network's input size ...")
+          .integer("input_height", &O::input_height, between(8, 4096), "")
+          .word("colour", &O::colour, {"rgb", "bgr", "grey"},
+                "... and channel order: \"rgb\", \"bgr\" (the camera's colour image is "
+                "converted; a mono camera's grey fills every channel) or \"grey\".")
+          .text("mean", &O::mean,
+                "per channel, pixels in [0, 1]: (pixel - mean) / std; 3 values for a colour "
+                "network, e.g. \"0.485 0.456 0.406\" / \"0.229 0.224 0.225\".")
+          .text("std", &O::std, "")
+          .word("pooling", &O::pooling, {"average", "max", "none"},
+                "layer -> vector: \"average\" or \"max\" per channel, \"none\" = all values.")
+          .text("whitening", &O::whitening,
+                "`lcd_train whitening` file; \"\" = the model's path + \".whitening\" when it "
+                "exists, \"none\" = normalised layer without whitening.")
+          .word("similarity", &O::similarity, {"distance", "cosine"},
+                "\"distance\": 1 - D/2, D the distance of the unit vectors (the paper's 1 - "
+                "D/max(D)); \"cosine\". Both rank alike.");
+  return table;
+}
+
 namespace {
 
 std::string validateCnn(const DescriptorOptions& options) {
   const DescriptorOptions::Cnn& cnn = options.cnn;
-  std::string errors;
-  if (cnn.input_width < 8 || cnn.input_height < 8 || cnn.input_width > 4096 ||
-      cnn.input_height > 4096) {
-    errors += "descriptor/cnn/input_width and input_height must be in [8, 4096] (got " +
-              std::to_string(cnn.input_width) + "x" + std::to_string(cnn.input_height) + ")\n";
-  }
-  errors += validateNetworkInput("descriptor/cnn/", cnn.colour, cnn.mean, cnn.std);
-  if (cnn.pooling != "average" && cnn.pooling != "max" && cnn.pooling != "none") {
-    errors +=
-        "descriptor/cnn/pooling must be 'average', 'max' or 'none' (got '" + cnn.pooling + "')\n";
-  }
-  if (cnn.similarity != "distance" && cnn.similarity != "cosine") {
-    errors +=
-        "descriptor/cnn/similarity must be 'distance' or 'cosine' (got '" + cnn.similarity + "')\n";
-  }
-  return errors;
+  return DescriptorOptions::Cnn::parameters().check(cnn) +
+         validateNetworkInput("descriptor/cnn/", cnn.colour, cnn.mean, cnn.std);
 }
 
 }  // namespace

@@ -59,52 +59,56 @@ DescriptorOptions withBackboneFallback(const DescriptorOptions& options, std::st
   return fallback;
 }
 
+const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
+  using O = DescriptorOptions;
+  std::string types;
+  for (const DescriptorType& type : descriptorRegistry()) {
+    types += (types.empty() ? " \"" : "; \"") + type.name + "\": " + type.summary;
+  }
+  static const auto table =
+      ParameterTable<O>("descriptor/", "")
+          .word("type", &O::type, descriptorTypes(),
+                "what describes a keyframe; without the fetched backbone network the node warns "
+                "and runs \"landmarks\" instead. Compared in bench/README.md." +
+                    types + ".")
+          .text("model", &O::model, "ONNX file; \"\" = the package's model/calc_encoder.onnx.")
+          .integer("max_landmarks", &O::max_landmarks, atLeast(1),
+                   "landmarks kept per image (highest conv2 activation energy first).")
+          .number("max_landmark_area", &O::max_landmark_area, openBetween(0, 1, true, false),
+                  "a box covering more than this fraction of the image is no landmark.")
+          .word("landmark_features", &O::landmark_features, {"hog", "conv", "conv_per_landmark"},
+                "what describes a landmark: \"hog\" of its patch of the working image (324 "
+                "values), \"conv\": the conv2 maps of the shared pass inside the box (128 x grid "
+                "x grid), \"conv_per_landmark\": one network pass per box (1064, ~30x slower). hog "
+                "won on Gardens Point day/night (bench/README.md).")
+          .integer("working_width", &O::working_width, between(32, 4096),
+                   "the image the landmark patches are cut from; the network itself ...")
+          .integer("working_height", &O::working_height, between(32, 4096),
+                   "... always sees 160x120.")
+          .integer("landmark_patch", &O::landmark_patch, between(8, 256),
+                   "side of a landmark's HOG patch in pixels (a multiple of 4).")
+          .integer("landmark_grid", &O::landmark_grid, between(1, 16),
+                   "conv: a landmark's box resampled to grid x grid cells ...")
+          .word("landmark_layer", &O::landmark_layer, {"conv2", "conv3"},
+                "... of this layer's maps: \"conv2\" (128 channels) or \"conv3\" (4).")
+          .word("landmark_storage", &O::landmark_storage, {"float16", "float32"},
+                "\"float16\" halves the landmark bytes with no measured loss; or \"float32\".")
+          .word("shape_weighting", &O::shape_weighting, {"penalise", "paper"},
+                "\"penalise\" box-shape disagreement (Suenderhauf) or \"paper\" (as printed).")
+          .group(&O::cnn, Cnn::parameters())
+          .group(&O::backbone, Backbone::parameters())
+          .group(&O::broad, Broad::parameters());
+  return table;
+}
+
 std::string DescriptorOptions::validate() const {
-  std::string errors;
-  if (findDescriptorType(type) == nullptr) {
-    std::string known;
-    for (const std::string& name : descriptorTypes()) known += (known.empty() ? "" : ", ") + name;
-    errors += "descriptor/type must be one of: " + known + " (got '" + type + "')\n";
-  }
-  if (max_landmarks < 1) {
-    errors += "descriptor/max_landmarks must be >= 1 (got " + std::to_string(max_landmarks) + ")\n";
-  }
-  if (landmark_grid < 1 || landmark_grid > 16) {
-    errors +=
-        "descriptor/landmark_grid must be in [1, 16] (got " + std::to_string(landmark_grid) + ")\n";
-  }
-  if (landmark_layer != "conv3" && landmark_layer != "conv2") {
-    errors +=
-        "descriptor/landmark_layer must be 'conv3' or 'conv2' (got '" + landmark_layer + "')\n";
-  }
-  if (shape_weighting != "penalise" && shape_weighting != "paper") {
-    errors += "descriptor/shape_weighting must be 'penalise' or 'paper' (got '" + shape_weighting +
-              "')\n";
-  }
-  if (landmark_features != "hog" && landmark_features != "conv" &&
-      landmark_features != "conv_per_landmark") {
-    errors += "descriptor/landmark_features must be 'hog', 'conv' or 'conv_per_landmark' (got '" +
-              landmark_features + "')\n";
-  }
-  if (working_width < 32 || working_height < 32 || working_width > 4096 || working_height > 4096) {
-    errors += "descriptor/working_width and working_height must be in [32, 4096] (got " +
-              std::to_string(working_width) + "x" + std::to_string(working_height) + ")\n";
-  }
-  if (landmark_patch < 8 || landmark_patch > 256 || landmark_patch % 4 != 0) {
-    errors += "descriptor/landmark_patch must be a multiple of 4 in [8, 256] (got " +
+  std::string errors = parameters().check(*this) + Broad::parameters().check(broad);
+  if (landmark_patch % 4 != 0) {
+    errors += "descriptor/landmark_patch must be a multiple of 4 (got " +
               std::to_string(landmark_patch) + ")\n";
   }
-  if (!(max_landmark_area > 0.0 && max_landmark_area <= 1.0)) {
-    errors += "descriptor/max_landmark_area must be in (0, 1] (got " +
-              std::to_string(max_landmark_area) + ")\n";
-  }
-  if (landmark_storage != "float16" && landmark_storage != "float32") {
-    errors += "descriptor/landmark_storage must be 'float16' or 'float32' (got '" +
-              landmark_storage + "')\n";
-  }
   if (const DescriptorType* entry = findDescriptorType(type)) errors += entry->validate(*this);
-  if (broad.online_training_keyframes < 0 ||
-      (broad.online_training_keyframes > 0 && broad.online_training_keyframes < 10)) {
+  if (broad.online_training_keyframes > 0 && broad.online_training_keyframes < 10) {
     errors += "descriptor/broad/online_training_keyframes must be 0 (off) or >= 10 (got " +
               std::to_string(broad.online_training_keyframes) + ")\n";
   }

@@ -263,44 +263,52 @@ size_t LocalFeatures::bytes() const {
          points3d.size() * sizeof(cv::Point3f) + depth_sd.size() * sizeof(float);
 }
 
-std::string VerificationOptions::validate() const {
-  std::ostringstream errors;
-  if (max_image_width < 64) errors << "verification/max_image_width must be >= 64\n";
-  if (max_features < 8) errors << "verification/max_features must be >= 8\n";
-  if (orb_levels < 1 || orb_levels > 8) {
-    errors << "verification/orb_levels must be in [1, 8] (got " << orb_levels << ")\n";
-  }
-  if (ambiguity_directions < 0) {
-    errors << "verification/ambiguity_directions must be >= 0 (got " << ambiguity_directions
-           << ")\n";
-  }
-  if (!(keypoint_sigma_px >= 0.0)) {
-    errors << "verification/keypoint_sigma_px must be >= 0 (got " << keypoint_sigma_px << ")\n";
-  }
-  if (!(max_rotation_sd_deg > 0.0)) {
-    errors << "verification/max_rotation_sd_deg must be > 0 (got " << max_rotation_sd_deg << ")\n";
-  }
-  if (!(max_direction_sd_deg > 0.0)) {
-    errors << "verification/max_direction_sd_deg must be > 0 (got " << max_direction_sd_deg
-           << ")\n";
-  }
-  if (!(ratio_test > 0.0 && ratio_test <= 1.0)) {
-    errors << "verification/ratio_test must be in (0, 1] (got " << ratio_test << ")\n";
-  }
-  if (!(ransac_threshold_px > 0.0)) {
-    errors << "verification/ransac_threshold_px must be > 0 (got " << ransac_threshold_px << ")\n";
-  }
-  if (min_inliers < 8) {
-    errors << "verification/min_inliers must be >= 8 (got " << min_inliers << ")\n";
-  }
-  if (!(min_spread >= 0.0 && min_spread <= 1.0)) {
-    errors << "verification/min_spread must be in [0, 1] (got " << min_spread << ")\n";
-  }
-  if (!(min_parallax_deg >= 0.0 && min_parallax_deg < 90.0)) {
-    errors << "verification/min_parallax_deg must be in [0, 90) (got " << min_parallax_deg << ")\n";
-  }
-  return errors.str();
+const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
+  using O = VerificationOptions;
+  static const auto table =
+      ParameterTable<O>("verification/",
+                        "geometric verification: a loop must also agree on geometry.")
+          .flag("enabled", &O::enabled,
+                "ORB keypoints per keyframe (~13 KB); a loop needs enough well-spread matches "
+                "that agree with one essential matrix (RANSAC, camera_info's K), else it is "
+                "refused as geometry_rejected.")
+          .flag("required", &O::required,
+                "true: refuse loops that cannot be checked (no camera_info yet); false: publish "
+                "them unverified (verified and has_relative_pose false).")
+          .flag("publish_scale_free_pose", &O::publish_scale_free_pose,
+                "monocular poses (rotation + unit direction) go out with has_relative_pose true. "
+                "Off by default: on generated pairs about one in four accepted poses is further "
+                "off than its covariance says (README).")
+          .integer("max_image_width", &O::max_image_width, atLeast(64),
+                   "keypoints are found on the image shrunk to at most this width.")
+          .integer("max_features", &O::max_features, atLeast(8), "ORB keypoints kept per keyframe.")
+          .number("ratio_test", &O::ratio_test, openBetween(0, 1, true, false),
+                  "a keypoint match needs best / second-best Hamming distance below this.")
+          .number("ransac_threshold_px", &O::ransac_threshold_px, above(0),
+                  "RANSAC inlier threshold, pixels.")
+          .integer("min_inliers", &O::min_inliers, atLeast(8),
+                   "fewer geometric inliers: the loop is refused.")
+          .number("min_spread", &O::min_spread, between(0, 1),
+                  "share of a 4x4 grid over the query image that must hold inliers.")
+          .number("min_parallax_deg", &O::min_parallax_deg, openBetween(0, 90, false, true),
+                  "median ray angle after rotation; below it (pure rotation) the translation is "
+                  "undefined: the place is confirmed, without a pose.")
+          .integer("orb_levels", &O::orb_levels, between(1, 8),
+                   "ORB pyramid levels (scale 1.2); keypoints of coarser levels sit up to a pixel "
+                   "off, which skews the pose, and revisits are seen at similar scale.")
+          .integer("ambiguity_directions", &O::ambiguity_directions, atLeast(0),
+                   "translation directions over the half sphere where the best rotation is "
+                   "fitted: directions the matches cannot rule out widen the covariance.")
+          .number("keypoint_sigma_px", &O::keypoint_sigma_px, atLeast(0),
+                  "keypoint noise assumed at least (pixels) in the covariance and that test.")
+          .number("max_rotation_sd_deg", &O::max_rotation_sd_deg, above(0),
+                  "larger rotation uncertainty: refused as \"pose ambiguous\".")
+          .number("max_direction_sd_deg", &O::max_direction_sd_deg, above(0),
+                  "larger translation-direction uncertainty: refused the same way.");
+  return table;
 }
+
+std::string VerificationOptions::validate() const { return parameters().check(*this); }
 
 const char* toString(VerificationVerdict verdict) {
   switch (verdict) {

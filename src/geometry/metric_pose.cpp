@@ -185,37 +185,36 @@ PnpProblem subset(const PnpProblem& all, const std::vector<size_t>& indices) {
 
 }  // namespace
 
-std::string MetricPoseOptions::validate() const {
-  std::ostringstream errors;
-  if (!(min_triangulation_angle_deg > 0.0 && min_triangulation_angle_deg < 90.0)) {
-    errors << "metric_pose/min_triangulation_angle_deg must be in (0, 90) (got "
-           << min_triangulation_angle_deg << ")\n";
-  }
-  if (!(max_point_depth_m > 0.0)) {
-    errors << "metric_pose/max_point_depth_m must be > 0 (got " << max_point_depth_m << ")\n";
-  }
-  if (!(max_reprojection_px > 0.0)) {
-    errors << "metric_pose/max_reprojection_px must be > 0 (got " << max_reprojection_px << ")\n";
-  }
-  if (min_inliers < 6) {
-    errors << "metric_pose/min_inliers must be >= 6 (got " << min_inliers << ")\n";
-  }
-  if (!(max_translation_sd_m > 0.0)) {
-    errors << "metric_pose/max_translation_sd_m must be > 0 (got " << max_translation_sd_m << ")\n";
-  }
-  if (!(max_rotation_sd_deg > 0.0)) {
-    errors << "metric_pose/max_rotation_sd_deg must be > 0 (got " << max_rotation_sd_deg << ")\n";
-  }
-  if (!(depth_image_sd_per_m2 >= 0.0)) {
-    errors << "metric_pose/depth_image_sd_per_m2 must be >= 0 (got " << depth_image_sd_per_m2
-           << ")\n";
-  }
-  if (!(depth_image_metres_per_unit > 0.0)) {
-    errors << "metric_pose/depth_image_metres_per_unit must be > 0 (got "
-           << depth_image_metres_per_unit << ")\n";
-  }
-  return errors.str();
+const ParameterTable<MetricPoseOptions>& MetricPoseOptions::parameters() {
+  using O = MetricPoseOptions;
+  static const auto table =
+      ParameterTable<O>("metric_pose/",
+                        "metric relative pose: keypoint depths of the match keyframe, then PnP.")
+          .flag("triangulate_from_odometry", &O::triangulate_from_odometry,
+                "without a depth image, triangulate each keyframe's keypoints against the "
+                "previous keyframes with the odometry's motion (its drift over a few keyframes is "
+                "small): this gives the metric scale.")
+          .number("min_triangulation_angle_deg", &O::min_triangulation_angle_deg,
+                  openBetween(0, 90, true, true),
+                  "rays meeting at a smaller angle give too noisy a depth.")
+          .number("max_point_depth_m", &O::max_point_depth_m, above(0),
+                  "farther points, and depth readings, are dropped.")
+          .number("max_reprojection_px", &O::max_reprojection_px, above(0),
+                  "a triangulated point must reproject this close in the other view; also the "
+                  "PnP RANSAC inlier threshold.")
+          .integer("min_inliers", &O::min_inliers, atLeast(6),
+                   "fewer PnP inliers: the loop keeps no metric pose (still verified).")
+          .number("max_translation_sd_m", &O::max_translation_sd_m, above(0),
+                  "larger uncertainty: no metric pose (see the candidate's detail).")
+          .number("max_rotation_sd_deg", &O::max_rotation_sd_deg, above(0), "")
+          .number("depth_image_metres_per_unit", &O::depth_image_metres_per_unit, above(0),
+                  "16UC1 depth images (millimetres); 32FC1 ones are metres.")
+          .number("depth_image_sd_per_m2", &O::depth_image_sd_per_m2, atLeast(0),
+                  "depth-camera noise: sd = this * depth^2 (metres).");
+  return table;
 }
+
+std::string MetricPoseOptions::validate() const { return parameters().check(*this); }
 
 int triangulateKeypoints(const LocalFeatures& neighbour,
                          const Eigen::Isometry3d& neighbour_in_keyframe,

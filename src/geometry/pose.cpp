@@ -50,12 +50,26 @@ Pose CameraMount::toPose() const {
   return pose;
 }
 
-std::string CameraMount::validate() const {
-  for (const double value : {x, y, z, roll, pitch, yaw}) {
-    if (!std::isfinite(value)) return "camera_mount values must be finite numbers\n";
-  }
-  return "";
+const ParameterTable<CameraMount>& CameraMount::parameters() {
+  using O = CameraMount;
+  static const auto table =
+      ParameterTable<O>("camera_mount/",
+                        "where the camera sits on the robot (base_frame -> camera optical frame): "
+                        "turns the odometry's motion into the camera's, for triangulation, and "
+                        "camera-frame relative poses into base_frame ones.")
+          .number("x", &O::x, anyFinite(),
+                  "metres, in the odometry's body frame (x forward, y left, z up).")
+          .number("y", &O::y, anyFinite(), "")
+          .number("z", &O::z, anyFinite(), "")
+          .number("roll", &O::roll, anyFinite(),
+                  "radians, fixed axes, as static_transform_publisher takes them;")
+          .number("pitch", &O::pitch, anyFinite(),
+                  "the default is a camera looking along the body's x axis.")
+          .number("yaw", &O::yaw, anyFinite(), "");
+  return table;
 }
+
+std::string CameraMount::validate() const { return parameters().check(*this); }
 
 PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
   PathLength extended = path;

@@ -5,7 +5,7 @@
 
 #include <ros/node_handle.h>
 
-#include "landmark_loop_closure/config/parameter_source.h"
+#include "landmark_loop_closure/common/parameter_source.h"
 
 namespace landmark_loop_closure {
 

@@ -1,6 +1,9 @@
 // Every shipped config file must load into NodeOptions without unknown keys or type errors and
-// validate; config/default.yaml must document every option with its built-in default.
+// validate; config/default.yaml must be exactly what the parameter declarations render.
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -38,19 +41,6 @@ TEST(ShippedConfig, EveryFileLoadsAndValidates) {
     for (const std::string& key : source.keys()) {
       EXPECT_TRUE(reader.isKnown(key)) << "unknown key " << key;
     }
-  }
-}
-
-TEST(ShippedConfig, DefaultYamlDocumentsEveryOptionWithItsDefault) {
-  const YamlParameterSource source =
-      YamlParameterSource::fromFile(std::string(PACKAGE_SOURCE_DIR) + "/config/default.yaml");
-  OptionReader reader(source);
-  NodeOptions options;
-  readNodeOptions(&reader, &options);
-  for (const ParameterRecord& record : reader.records()) {
-    EXPECT_TRUE(record.found) << record.key << " is missing from config/default.yaml";
-    EXPECT_TRUE(record.equals_default)
-        << record.key << " in config/default.yaml differs from the built-in default";
   }
 }
 
@@ -111,4 +101,61 @@ TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
             std::string::npos)
       << errors;
   EXPECT_EQ(kept.pose_source, PoseSource::kOdom) << "the default stays";
+}
+
+TEST(ShippedConfig, DefaultYamlIsTheDeclaredParameters) {
+  std::ifstream file(std::string(PACKAGE_SOURCE_DIR) + "/config/default.yaml");
+  ASSERT_TRUE(file.good());
+  const std::string shipped((std::istreambuf_iterator<char>(file)),
+                            std::istreambuf_iterator<char>());
+  EXPECT_EQ(shipped, documentedDefaultsYaml())
+      << "config/default.yaml differs from the parameter declarations; regenerate it with\n"
+         "  rosrun landmark_loop_closure lcd_config defaults > config/default.yaml";
+}
+
+TEST(ParameterTable, RangesWordsAndTextsReadBack) {
+  EXPECT_EQ(between(1, 16).describe(), "in [1, 16]");
+  EXPECT_EQ(openBetween(0, 1, true, false).describe(), "in (0, 1]");
+  EXPECT_EQ(atLeast(0).describe(), ">= 0");
+  EXPECT_FALSE(atLeast(0).contains(std::numeric_limits<double>::quiet_NaN()));
+  EXPECT_FALSE(atLeast(0).contains(std::numeric_limits<double>::infinity()));
+  EXPECT_TRUE(above(0).contains(1e-9));
+  EXPECT_FALSE(above(0).contains(0));
+  for (const double value : {0.05, 0.001, -1.5707963267948966, 33177600.0, 10.0, 1e-12}) {
+    EXPECT_EQ(std::stod(yamlValueText(value)), value) << yamlValueText(value);
+  }
+  EXPECT_EQ(yamlValueText(10.0), "10.0");
+  EXPECT_EQ(yamlValueText(std::string("0 0 0")), "\"0 0 0\"");
+  EXPECT_EQ(yamlValueText(std::string("")), "\"\"");
+  EXPECT_EQ(yamlValueText(std::string("true")), "\"true\"");
+  EXPECT_EQ(yamlValueText(std::string("block_12_add")), "block_12_add");
+
+  // The rendered defaults read back as the defaults, with nothing unknown.
+  const YamlParameterSource source(YAML::Load(documentedDefaultsYaml()));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  for (const ParameterRecord& record : reader.records()) {
+    EXPECT_TRUE(record.found && record.equals_default) << record.key;
+  }
+  for (const std::string& key : source.keys()) EXPECT_TRUE(reader.isKnown(key)) << key;
+}
+
+TEST(ParameterTable, OutOfRangeValuesAreNamedWithTheirRange) {
+  NodeOptions options;
+  options.detector.keyframe.min_motion = -1;
+  options.detector.database.index.neighbors = 2;
+  options.detector.descriptor.landmark_layer = "conv9";
+  options.detector.camera_mount.roll = std::numeric_limits<double>::infinity();
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("keyframe/min_motion must be >= 0 (got -1.0)"), std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("database/index/neighbors must be in [4, 128] (got 2)"), std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("descriptor/landmark_layer must be one of 'conv2', 'conv3' (got 'conv9')"),
+            std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("camera_mount/roll must be a finite number (got .inf)"), std::string::npos)
+      << errors;
 }

@@ -4,7 +4,7 @@
 #include <utility>
 #include <vector>
 
-#include "landmark_loop_closure/config/parameter_source.h"
+#include "landmark_loop_closure/common/parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 
@@ -34,8 +34,8 @@ std::string nameOf(const std::vector<std::pair<std::string, Enum>>& names, Enum 
   return "?";
 }
 
-/// Everything the nodelet reads from its private parameters. Each key and default is documented
-/// once, in config/default.yaml; a test checks that file against these defaults.
+/// Everything the nodelet reads from its private parameters. The in-class initialisers are the
+/// defaults; parameters() declares each key's range and description.
 struct NodeOptions {
   PoseSource pose_source = PoseSource::kOdom;
   std::string odom_frame = "odom";  ///< tf mode: fixed frame of the lookup.
@@ -69,11 +69,17 @@ struct NodeOptions {
   /// fetched): one line for the node to warn with. Empty otherwise.
   std::string fallback_warning;
 
+  /// Every key the nodelet reads, each declared once with its range and description.
+  static const ParameterTable<NodeOptions>& parameters();
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
 };
 
 /// Reads every option; absent keys keep their defaults.
 void readNodeOptions(OptionReader* reader, NodeOptions* options);
+
+/// config/default.yaml as the parameter tables describe it: every key with its default and
+/// description. A test keeps the shipped file equal to it; `lcd_config defaults` writes it.
+std::string documentedDefaultsYaml();
 
 }  // namespace landmark_loop_closure

@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
@@ -38,6 +39,9 @@ struct InputLimits {
   /// Grey-level standard deviation (0-255 scale) below which an image has no texture to
   /// recognise a place by; 0 turns the check off.
   double min_image_contrast = 2.0;
+
+  /// Keys under input/, documented in config/default.yaml; validated with the detector's options.
+  static const ParameterTable<InputLimits>& parameters();
 };
 
 /// Checks image dimensions and type (8- or 16-bit, 1, 3 or 4 channels).

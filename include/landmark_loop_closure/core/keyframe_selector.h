@@ -3,6 +3,7 @@
 #include <optional>
 #include <string>
 
+#include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
@@ -20,6 +21,8 @@ struct KeyframeSelectorOptions {
   /// re-initialised and the next frame becomes a keyframe again; 0 = never re-anchor.
   int jump_reanchor_frames = 15;
 
+  /// Keys under keyframe/, documented in config/default.yaml.
+  static const ParameterTable<KeyframeSelectorOptions>& parameters();
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
 };

@@ -40,6 +40,8 @@ struct AcceptanceOptions {
   /// mean over the last keyframes instead of its own score (SequenceMatcher).
   SequenceMatchingOptions sequence;
 
+  /// Keys under acceptance/, documented in config/default.yaml.
+  static const ParameterTable<AcceptanceOptions>& parameters();
   std::string validate() const;
 };
 
@@ -70,6 +72,9 @@ struct LoopDetectorOptions {
   CameraMount camera_mount;
   bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
 
+  /// Every detector key (mode, input/, keyframe/, descriptor/, ...), documented in
+  /// config/default.yaml.
+  static const ParameterTable<LoopDetectorOptions>& parameters();
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
 };

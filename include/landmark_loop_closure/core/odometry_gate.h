@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
@@ -17,6 +18,8 @@ struct OdometryGateOptions {
   /// between them implies is their odometry distance minus this.
   double max_view_distance_m = 4.0;
 
+  /// Keys under odometry_gate/, documented in config/default.yaml.
+  static const ParameterTable<OdometryGateOptions>& parameters();
   std::string validate() const;
 };
 

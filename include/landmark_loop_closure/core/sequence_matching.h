@@ -6,6 +6,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 
@@ -23,7 +24,9 @@ struct SequenceMatchingOptions {
 
   bool enabled() const { return length > 1; }
   std::vector<double> speeds() const;
-  std::string validate() const;  ///< Empty when valid (keys under acceptance/sequence_*).
+  /// Keys acceptance/sequence_*, documented in config/default.yaml.
+  static const ParameterTable<SequenceMatchingOptions>& parameters();
+  std::string validate() const;  ///< Empty when valid.
 };
 
 /// One candidate as the sequence matcher sees it: its database position and scores.

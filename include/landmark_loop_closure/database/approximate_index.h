@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "landmark_loop_closure/common/parameter_table.h"
+
 namespace landmark_loop_closure {
 
 /// How the database searches its global descriptors.
@@ -23,6 +25,8 @@ struct IndexOptions {
   bool buildsGraph() const { return type != "exact"; }
   /// Settings a saved graph must match to be reused (ef_search may differ).
   std::string graphIdentity() const;
+  /// Keys under database/index/, documented in config/default.yaml.
+  static const ParameterTable<IndexOptions>& parameters();
   std::string validate() const;
 };
 

@@ -46,6 +46,8 @@ struct DatabaseOptions {
   /// graph is kept, and approximate_from and ef_search apply.
   IndexOptions index;
 
+  /// Keys under database/, documented in config/default.yaml.
+  static const ParameterTable<DatabaseOptions>& parameters();
   std::string validate() const;
 };
 

@@ -76,8 +76,8 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
 cv::Mat networkInputBlob(const cv::Mat& image, cv::Size size, const std::string& colour,
                          const std::vector<double>& mean, const std::vector<double>& deviation);
 
-/// Problems with a network's input settings (colour rgb/bgr/grey; one mean and one std > 0 per
-/// channel), one line each naming `prefix` + key; "" = usable.
+/// Problems with a network's mean and std for its colour (one mean and one std > 0 per channel),
+/// one line each naming `prefix` + key; "" = usable.
 std::string validateNetworkInput(const std::string& prefix, const std::string& colour,
                                  const std::string& mean, const std::string& deviation);
 

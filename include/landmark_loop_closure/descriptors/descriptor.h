@@ -6,6 +6,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/common/parameter_table.h"
+
 namespace landmark_loop_closure {
 
 struct CnnGlobalOptions;
@@ -89,6 +91,8 @@ struct DescriptorOptions {
     /// "none" = no whitening.
     std::string whitening;
     std::string similarity = "distance";  ///< "distance" (1 - D / 2, the paper's) or "cosine".
+
+    static const ParameterTable<Cnn>& parameters();  ///< Keys under descriptor/cnn/.
   } cnn;
 
   /// backbone: the landmark-ConvNet on a pretrained network (scripts/fetch_backbone.sh converts
@@ -113,6 +117,8 @@ struct DescriptorOptions {
     int min_network_width = 160;  ///< Narrower images are described by the HOG alone.
     int hog_width = 96;           ///< The HOG window the image is resized to.
     int hog_height = 72;
+
+    static const ParameterTable<Backbone>& parameters();  ///< Keys under descriptor/backbone/.
   } backbone;
 
   /// broad: FLCD-BA's broad autoencoder (methods.md section 3).
@@ -121,8 +127,13 @@ struct DescriptorOptions {
     /// > 0 and no model file yet: the detector trains on the session's first N keyframes,
     /// writes the model file, then describes them and every later keyframe.
     int online_training_keyframes = 0;
+
+    static const ParameterTable<Broad>& parameters();  ///< Keys under descriptor/broad/.
   } broad;
 
+  /// Keys under descriptor/, documented in config/default.yaml. The type's own keys are checked
+  /// only when that type is chosen.
+  static const ParameterTable<DescriptorOptions>& parameters();
   std::string validate() const;
 };
 

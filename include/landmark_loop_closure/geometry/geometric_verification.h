@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/geometry/camera_intrinsics.h"
 
 namespace landmark_loop_closure {
@@ -50,6 +51,8 @@ struct VerificationOptions {
   double max_rotation_sd_deg = 1.0;   ///< Larger rotation uncertainty: the loop is refused.
   double max_direction_sd_deg = 5.0;  ///< Same for the translation direction.
 
+  /// Keys under verification/, documented in config/default.yaml.
+  static const ParameterTable<VerificationOptions>& parameters();
   std::string validate() const;
 };
 

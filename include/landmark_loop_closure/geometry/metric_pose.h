@@ -30,6 +30,8 @@ struct MetricPoseOptions {
   /// with the square of the distance).
   double depth_image_sd_per_m2 = 0.003;
 
+  /// Keys under metric_pose/, documented in config/default.yaml.
+  static const ParameterTable<MetricPoseOptions>& parameters();
   std::string validate() const;
 };
 

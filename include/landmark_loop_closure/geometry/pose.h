@@ -5,6 +5,8 @@
 
 #include <Eigen/Geometry>
 
+#include "landmark_loop_closure/common/parameter_table.h"
+
 namespace landmark_loop_closure {
 
 /// A rigid body pose in the odometry frame: position in metres, orientation as a unit quaternion.
@@ -32,6 +34,8 @@ struct CameraMount {
   double yaw = -M_PI / 2.0;
 
   Pose toPose() const;
+  /// Keys under camera_mount/, documented in config/default.yaml.
+  static const ParameterTable<CameraMount>& parameters();
   std::string validate() const;
 };
 
