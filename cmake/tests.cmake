@@ -11,6 +11,7 @@ set(CORE_TESTS
   test_sequence_matching
   test_bounded_queue
   test_detector_runtime
+  test_input_monitor
   test_match_image
   test_landmarks
   test_convnet_descriptor

@@ -27,6 +27,17 @@ constexpr double kDiagnosticsPeriod = 1.0;
 
 double LoopClosureNode::wallNow() { return ros::WallTime::now().toSec(); }
 
+namespace {
+
+InputMonitorOptions inputMonitorOptions(const NodeOptions& options) {
+  InputMonitorOptions monitor;
+  monitor.timeout_s = options.input_timeout;
+  monitor.sync_slop_s = options.sync_slop;
+  return monitor;
+}
+
+}  // namespace
+
 NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   const RosParameterSource source(private_node);
   OptionReader reader(source);
@@ -52,6 +63,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                                       ? nullptr
                                       : makeDescriptorExtractor(options.detector.descriptor)),
       image_transport_(node),
+      inputs_(inputMonitorOptions(options), wallNow()),
       markers_(options.odom_frame, options.detector.acceptance.min_score,
                options.publish_rejected_markers),
       diagnostics_(node, private_node, ros::this_node::getName()) {
@@ -65,8 +77,6 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
-  last_rate_time_ = ros::WallTime::now();
-  last_paired_wall_ = wallNow();  // Inputs get input_timeout to pair before a warning.
   diagnostics_timer_ =
       node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
                             [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
@@ -174,15 +184,11 @@ void LoopClosureNode::subscribe() {
   odom_filter_.subscribe(node_, "odom", queue);
   image_filter_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
       [this](const sensor_msgs::ImageConstPtr& image) {
-        ++images_received_;
-        last_image_wall_ = wallNow();
-        newest_image_stamp_ = image->header.stamp.toSec();
+        inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
       }));
   odom_filter_.registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
       [this](const nav_msgs::OdometryConstPtr& odometry) {
-        ++odometry_received_;
-        last_odometry_wall_ = wallNow();
-        newest_odometry_stamp_ = odometry->header.stamp.toSec();
+        inputs_.poseArrived(wallNow(), odometry->header.stamp.toSec());
       }));
   sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
                                                                       image_filter_, odom_filter_);

@@ -2,7 +2,6 @@
 
 #include <atomic>
 #include <deque>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -27,6 +26,8 @@
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
+#include "landmark_loop_closure/runtime/input_monitor.h"
+#include "landmark_loop_closure/runtime/stamped_buffer.h"
 #include "loop_markers.h"
 
 namespace landmark_loop_closure {
@@ -106,8 +107,6 @@ class LoopClosureNode {
   void publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                          const cv::Mat& grey);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
-  /// odom mode: "" or why images and odometry both arrive but never pair (stamps compared).
-  std::string unpairedInputs(double now) const;
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
 
@@ -137,8 +136,8 @@ class LoopClosureNode {
   image_transport::Subscriber image_subscriber_;
   ros::Subscriber camera_info_subscriber_;
   image_transport::Subscriber depth_subscriber_;
-  std::mutex depth_mutex_;  // Guards depth_buffer_ (filled by callbacks, read by the worker).
-  std::deque<sensor_msgs::ImageConstPtr> depth_buffer_;
+  InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.
+  StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{30};  // Callbacks fill, worker reads.
   std::string camera_mount_frame_;  // Worker thread only: the frame the tf mount was found for.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
@@ -167,8 +166,6 @@ class LoopClosureNode {
   // Diagnostics; counters are written by both threads.
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
-  std::atomic<uint64_t> images_received_{0};
-  std::atomic<uint64_t> odometry_received_{0};
   std::atomic<uint64_t> frames_admitted_{0};
   std::atomic<uint64_t> keyframes_stored_{0};
   std::atomic<uint64_t> keyframes_over_budget_{0};
@@ -177,20 +174,10 @@ class LoopClosureNode {
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};
   std::atomic<uint64_t> keyframes_without_depth_{0};
-  std::atomic<double> last_image_wall_{0.0};
-  std::atomic<double> last_odometry_wall_{0.0};
-  std::atomic<double> last_paired_wall_{0.0};  ///< odom mode: an image met its odometry.
-  std::atomic<double> newest_image_stamp_{0.0};
-  std::atomic<double> newest_odometry_stamp_{0.0};
   std::atomic<bool> camera_info_seen_{false};
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
   std::mutex stats_mutex_;            // Guards what follows.
-  std::map<InputErrorCode, uint64_t> rejected_;
-  std::map<InputErrorCode, ros::WallTime> last_rejection_log_;
   size_t database_bytes_ = 0;
-  uint64_t last_images_for_rate_ = 0;
-  uint64_t last_odometry_for_rate_ = 0;
-  ros::WallTime last_rate_time_;
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "in memory only";
 

@@ -1,42 +1,24 @@
 // The node's diagnostics: input health, counters, timings.
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
+#include <sstream>
 #include <string>
 
 #include "loop_closure_node.h"
 
 namespace landmark_loop_closure {
 
-std::string LoopClosureNode::unpairedInputs(double now) const {
-  const double timeout = options_.input_timeout;
-  const bool both_arrive =
-      now - last_image_wall_ <= timeout && now - last_odometry_wall_ <= timeout;
-  if (!both_arrive || now - last_paired_wall_ <= timeout) return "";
-  char text[320];
-  std::snprintf(text, sizeof(text),
-                "Images and odometry arrive but none paired within sync_slop %.3f s for %.0f s: "
-                "newest image stamp %.3f, newest odometry stamp %.3f (%.3f s apart); frames are "
-                "dropped until their stamps agree",
-                options_.sync_slop, timeout, newest_image_stamp_.load(),
-                newest_odometry_stamp_.load(),
-                std::abs(newest_image_stamp_.load() - newest_odometry_stamp_.load()));
-  return text;
-}
-
 void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double now = wallNow();
   const bool use_odom = options_.pose_source == PoseSource::kOdom;
   std::ostringstream waiting;
-  if (now - last_image_wall_ > options_.input_timeout) waiting << image_topic_;
-  if (use_odom && now - last_odometry_wall_ > options_.input_timeout) {
+  if (inputs_.imageSilent(now)) waiting << image_topic_;
+  if (use_odom && inputs_.poseSilent(now)) {
     waiting << (waiting.tellp() > 0 ? " and " : "") << odom_topic_;
   }
-  if (!use_odom && tf_timeouts_ > 0 && now - last_odometry_wall_ > options_.input_timeout) {
+  if (!use_odom && tf_timeouts_ > 0 && inputs_.poseSilent(now)) {
     waiting << (waiting.tellp() > 0 ? " and " : "") << "tf " << options_.odom_frame << " -> "
             << options_.base_frame;
   }
-  const std::string unpaired = use_odom ? unpairedInputs(now) : "";
+  const std::string unpaired = use_odom ? inputs_.unpaired(now) : "";
   if (waiting.tellp() > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
                     options_.input_timeout, waiting.str().c_str());
@@ -50,15 +32,12 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
   }
 
+  const InputMonitor::Rates rates = inputs_.takeRates(now);
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  const double elapsed = std::max(1e-3, (ros::WallTime::now() - last_rate_time_).toSec());
   status.add("image topic", image_topic_);
   if (use_odom) status.add("odometry topic", odom_topic_);
-  status.addf("image rate (Hz)", "%.1f", (images_received_ - last_images_for_rate_) / elapsed);
-  status.addf("pose rate (Hz)", "%.1f", (odometry_received_ - last_odometry_for_rate_) / elapsed);
-  last_images_for_rate_ = images_received_;
-  last_odometry_for_rate_ = odometry_received_;
-  last_rate_time_ = ros::WallTime::now();
+  status.addf("image rate (Hz)", "%.1f", rates.image_hz);
+  status.addf("pose rate (Hz)", "%.1f", rates.pose_hz);
   status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
   status.add("frames admitted", frames_admitted_.load());
   status.add("keyframes", keyframes_stored_.load());
@@ -77,7 +56,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   }
   status.addf("last keyframe processing (ms)", "%.1f", runtime_->lastProcessingMs());
   status.addf("max keyframe processing (ms)", "%.1f", runtime_->maxProcessingMs());
-  for (const auto& [code, count] : rejected_) {
+  for (const auto& [code, count] : inputs_.rejections()) {
     status.add(std::string("rejected: ") + toString(code), count);
   }
 }

@@ -11,26 +11,22 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr double kRejectionLogPeriod = 5.0;  // Seconds between log lines for one kind of error.
 constexpr size_t kMaxPendingTf = 100;
-constexpr size_t kMaxBufferedDepths = 30;
-constexpr double kDepthWait = 0.2;  // Seconds the worker waits for a keyframe's depth image.
-constexpr double kDepthPollPeriod = 0.005;
+constexpr double kDepthWait = 0.2;     // Seconds the worker waits for a keyframe's depth image.
 constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the stream stopped.
 
 }  // namespace
 
 void LoopClosureNode::onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
                                           const nav_msgs::OdometryConstPtr& odometry) {
-  last_paired_wall_ = wallNow();
+  inputs_.paired(wallNow());
   const std::string& frame =
       odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
   admitFrame(image, fromRos(odometry->pose.pose), frame);
 }
 
 void LoopClosureNode::onImageForTf(const sensor_msgs::ImageConstPtr& image) {
-  ++images_received_;
-  last_image_wall_ = wallNow();
+  inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
   pending_tf_.push_back({image, ros::WallTime::now()});
   if (pending_tf_.size() > kMaxPendingTf) {
     pending_tf_.pop_front();
@@ -47,8 +43,7 @@ void LoopClosureNode::retryPendingTf() {
     if (tf_buffer_->canTransform(options_.odom_frame, options_.base_frame, stamp, &error)) {
       const geometry_msgs::TransformStamped transform =
           tf_buffer_->lookupTransform(options_.odom_frame, options_.base_frame, stamp);
-      last_odometry_wall_ = wallNow();
-      ++odometry_received_;
+      inputs_.poseArrived(wallNow(), stamp.toSec());
       const Pose pose = Pose::fromIsometry(tf2::transformToEigen(transform));
       const sensor_msgs::ImageConstPtr image = pending.image;
       pending_tf_.pop_front();
@@ -72,9 +67,7 @@ void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) 
 }
 
 void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
-  std::lock_guard<std::mutex> lock(depth_mutex_);
-  depth_buffer_.push_back(depth);
-  if (depth_buffer_.size() > kMaxBufferedDepths) depth_buffer_.pop_front();
+  depth_buffer_.push(depth->header.stamp.toSec(), depth);
 }
 
 void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
@@ -132,16 +125,10 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
 }
 
 void LoopClosureNode::reportRejected(const InputError& error) {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++rejected_[error.code];
-  const ros::WallTime now = ros::WallTime::now();
-  auto last = last_rejection_log_.find(error.code);
-  if (last != last_rejection_log_.end() && (now - last->second).toSec() < kRejectionLogPeriod) {
-    return;
-  }
-  last_rejection_log_[error.code] = now;
+  uint64_t count = 0;
+  if (!inputs_.rejected(error.code, wallNow(), &count)) return;
   ROS_ERROR("Dropped frame (%s, %lu so far): %s", toString(error.code),
-            static_cast<unsigned long>(rejected_[error.code]), error.message.c_str());
+            static_cast<unsigned long>(count), error.message.c_str());
 }
 
 bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
@@ -164,37 +151,12 @@ bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
 }
 
 cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& camera_frame) {
-  const ros::Duration slop(options_.sync_slop);
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(kDepthWait);
-  sensor_msgs::ImageConstPtr nearest;
-  while (true) {
-    bool later_arrived = false;
-    bool stream_alive = false;
-    {
-      std::lock_guard<std::mutex> lock(depth_mutex_);
-      // Waiting only helps while depth comes: none for a second before this keyframe, or nobody
-      // publishing it, and waiting would only slow the worker down.
-      stream_alive =
-          depth_buffer_.empty()
-              ? depth_subscriber_.getNumPublishers() > 0
-              : depth_buffer_.back()->header.stamp + ros::Duration(kDepthSilence) > stamp;
-      const auto gap = [&stamp](const sensor_msgs::ImageConstPtr& depth) {
-        const ros::Time& other = depth->header.stamp;
-        return other > stamp ? other - stamp : stamp - other;
-      };
-      for (const sensor_msgs::ImageConstPtr& candidate : depth_buffer_) {
-        later_arrived |= candidate->header.stamp > stamp + slop;
-        if (gap(candidate) <= slop && (!nearest || gap(candidate) < gap(nearest))) {
-          nearest = candidate;
-        }
-      }
-    }
-    // A depth image newer than the slop means the matching one will not come any more.
-    if (nearest || later_arrived || !stream_alive || ros::WallTime::now() > give_up || !ros::ok()) {
-      break;
-    }
-    ros::WallDuration(kDepthPollPeriod).sleep();
-  }
+  StampedWait wait;
+  wait.slop_s = options_.sync_slop;
+  wait.max_wait_s = kDepthWait;
+  wait.silence_s = kDepthSilence;
+  const std::optional<sensor_msgs::ImageConstPtr> nearest =
+      depth_buffer_.nearest(stamp.toSec(), wait, depth_subscriber_.getNumPublishers() > 0);
   if (!nearest) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "No depth image within sync_slop %.3f s of the keyframe at %.3f: its "
@@ -203,18 +165,19 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
     return {};
   }
   std::string error;
-  cv::Mat depth = toDepth(*nearest, &error);
+  const sensor_msgs::Image& depth_image = **nearest;
+  cv::Mat depth = toDepth(depth_image, &error);
   if (!error.empty()) {
     ROS_WARN_THROTTLE(kWarningPeriod, "Depth image at %.3f not used: %s",
-                      nearest->header.stamp.toSec(), error.c_str());
+                      depth_image.header.stamp.toSec(), error.c_str());
     return {};
   }
   // Depth from another camera's frame would put every point in the wrong place.
-  if (nearest->header.frame_id != camera_frame) {
+  if (depth_image.header.frame_id != camera_frame) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Depth image not used: its frame '%s' is not the image's '%s' (subscribe to "
                       "a depth topic registered to the image)",
-                      nearest->header.frame_id.c_str(), camera_frame.c_str());
+                      depth_image.header.frame_id.c_str(), camera_frame.c_str());
     return {};
   }
   return depth;

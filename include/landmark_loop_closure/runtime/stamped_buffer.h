@@ -1,0 +1,83 @@
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <utility>
+
+namespace landmark_loop_closure {
+
+/// When waiting for an item near a stamp is worth it.
+struct StampedWait {
+  double slop_s = 0.05;     ///< An item matches when its stamp is this close.
+  double max_wait_s = 0.2;  ///< Longest wait for a match that has not come yet.
+  /// The stream counts as stopped when its newest item is this much older than the stamp asked
+  /// for: waiting would only slow the caller down.
+  double silence_s = 1.0;
+};
+
+/// Items of a side stream (depth images) by stamp, newest last, at most `capacity` kept. Producers
+/// (subscriber callbacks) never wait; one consumer asks for the item nearest a stamp and waits a
+/// bounded time for it while it may still come.
+template <typename T>
+class StampedBuffer {
+ public:
+  explicit StampedBuffer(size_t capacity) : capacity_(capacity == 0 ? 1 : capacity) {}
+
+  void push(double stamp, T item) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      items_.emplace_back(stamp, std::move(item));
+      if (items_.size() > capacity_) items_.pop_front();
+    }
+    arrived_.notify_all();
+  }
+
+  /// The item nearest `stamp` within wait.slop_s. Waits up to wait.max_wait_s while none matches
+  /// yet, no item newer than stamp + slop has come (the matching one would have come first), and
+  /// the stream is alive: its newest item within wait.silence_s of the stamp or, when nothing
+  /// came yet, `producers_present`.
+  std::optional<T> nearest(double stamp, const StampedWait& wait, bool producers_present) {
+    const auto give_up = std::chrono::steady_clock::now() +
+                         std::chrono::duration<double>(std::max(0.0, wait.max_wait_s));
+    std::unique_lock<std::mutex> lock(mutex_);
+    bool timed_out = false;
+    while (true) {
+      const T* best = nullptr;
+      double best_gap = wait.slop_s;
+      bool later_arrived = false;
+      for (const auto& [item_stamp, item] : items_) {
+        later_arrived |= item_stamp > stamp + wait.slop_s;
+        const double gap = std::abs(item_stamp - stamp);
+        if (gap <= best_gap) {
+          best = &item;
+          best_gap = gap;
+        }
+      }
+      if (best != nullptr) return *best;
+      const bool alive =
+          items_.empty() ? producers_present : items_.back().first + wait.silence_s > stamp;
+      if (timed_out || later_arrived || !alive) return std::nullopt;
+      // After a timeout the loop looks once more: an item may have come with it.
+      timed_out = arrived_.wait_until(lock, give_up) == std::cv_status::timeout;
+    }
+  }
+
+  size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return items_.size();
+  }
+
+ private:
+  const size_t capacity_;
+  mutable std::mutex mutex_;
+  std::condition_variable arrived_;
+  std::deque<std::pair<double, T>> items_;
+};
+
+}  // namespace landmark_loop_closure
