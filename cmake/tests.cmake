@@ -12,6 +12,7 @@ set(CORE_TESTS
   test_bounded_queue
   test_detector_runtime
   test_input_monitor
+  test_keyframe_store
   test_match_image
   test_landmarks
   test_convnet_descriptor
@@ -30,6 +31,8 @@ foreach(name ${CORE_TESTS})
   target_compile_definitions(${name} PRIVATE
     PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
+# The store test edits a map as a newer version would have written it.
+target_link_libraries(test_keyframe_store SQLite::SQLite3)
 
 # Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.
 foreach(name test_ground_truth test_evaluation test_baselines_regression test_loop_detector_sim)

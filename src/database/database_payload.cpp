@@ -129,6 +129,9 @@ PayloadReader::PayloadReader(int fd, uint64_t payload_offset, uint64_t begin, ui
       remaining_(end >= begin ? end - begin : 0),
       next_read_(begin) {}
 
+PayloadReader::PayloadReader(const uint8_t* data, size_t size)
+    : fd_(-1), memory_(data), payload_offset_(0), end_(size), remaining_(size), next_read_(0) {}
+
 void PayloadReader::bytes(void* out, size_t size) {
   if (size > remaining_) throw FormatError("an entry runs past the end of its part of the file");
   remaining_ -= size;
@@ -205,7 +208,11 @@ void PayloadReader::refill() {
   const size_t size = static_cast<size_t>(std::min<uint64_t>(end_ - next_read_, kChunkBytes));
   if (size == 0) throw FormatError("truncated: the file ends inside its payload");
   chunk_.resize(size);
-  readAt(fd_, payload_offset_ + next_read_, chunk_.data(), size);
+  if (memory_ != nullptr) {
+    std::memcpy(chunk_.data(), memory_ + next_read_, size);
+  } else {
+    readAt(fd_, payload_offset_ + next_read_, chunk_.data(), size);
+  }
   crc_ = crc32c(crc_, chunk_.data(), size);
   next_read_ += size;
   position_ = 0;

@@ -70,6 +70,8 @@ class PayloadWriter {
 class PayloadReader {
  public:
   PayloadReader(int fd, uint64_t payload_offset, uint64_t begin, uint64_t end);
+  /// Reads `size` bytes held in memory (a record of the keyframe store).
+  PayloadReader(const uint8_t* data, size_t size);
 
   void bytes(void* out, size_t size);
   uint32_t u32();
@@ -93,7 +95,8 @@ class PayloadReader {
   void refill();
 
   int fd_;
-  uint64_t payload_offset_;  ///< File offset of the payload's first byte.
+  const uint8_t* memory_ = nullptr;  ///< Set: reads come from here instead of fd_.
+  uint64_t payload_offset_;          ///< File offset of the payload's first byte.
   uint64_t end_;
   uint64_t remaining_;  ///< Range bytes not yet handed out.
   uint64_t next_read_;  ///< Payload offset of the next byte to read from the file.

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "../../src/common/crc32c.h"
+#include "keyframe_fixtures.h"
 #include "landmark_loop_closure/database/database_file.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
@@ -24,73 +25,10 @@ namespace {
 constexpr int kDimension = 6;
 const std::string kIdentity = "type=test dimension=6";
 
-KeyframeRecord makeKeyframe(uint64_t id, uint32_t session) {
-  KeyframeRecord keyframe;
-  keyframe.id = id;
-  keyframe.session = session;
-  keyframe.stamp = 1700000000.25 + static_cast<double>(id);
-  keyframe.pose.position = Eigen::Vector3d(1.5 * id, -2.0, 0.125);
-  keyframe.pose.orientation =
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * id, Eigen::Vector3d::UnitZ()));
-  keyframe.path = {0.3 * id, 0.01 * id};
-  for (int i = 0; i < kDimension; ++i) keyframe.descriptor.global.push_back(0.1f * i + id);
-  keyframe.descriptor.landmark_boxes = {{1.0f, 2.0f, 30.5f, 40.25f}, {5.0f, 6.0f, 7.0f, 8.0f}};
-  cv::Mat features(2, 4, CV_32F);
-  cv::randu(features, -1.0, 1.0);
-  features.convertTo(keyframe.descriptor.landmark_features, CV_16F);
-  LocalFeatures& local = keyframe.local_features;
-  local.points = {{10.5f, 20.25f}, {300.0f, 200.0f}, {0.0f, 0.0f}};
-  local.descriptors = cv::Mat(3, 32, CV_8U);
-  cv::randu(local.descriptors, 0, 256);
-  local.image_size = cv::Size(320, 240);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  local.points3d = {{0.1f, 0.2f, 3.0f}, {nan, nan, nan}, {-1.0f, 0.5f, 12.0f}};
-  local.depth_sd = {0.02f, nan, 0.4f};
-  keyframe.thumbnail_jpeg =
-      encodeThumbnail(cv::Mat(12, 16, CV_8U, cv::Scalar(static_cast<double>(id % 200))));
-  return keyframe;
-}
-
 KeyframeDatabase makeDatabase(int keyframes) {
   KeyframeDatabase database(kDimension);
   for (int i = 0; i < keyframes; ++i) database.add(makeKeyframe(10 + 3 * i, i < 2 ? 0 : 1));
   return database;
-}
-
-bool sameMat(const cv::Mat& a, const cv::Mat& b) {
-  if (a.size() != b.size() || a.type() != b.type()) return false;
-  if (a.empty()) return true;
-  const size_t row_bytes = static_cast<size_t>(a.cols) * a.elemSize();
-  for (int r = 0; r < a.rows; ++r) {
-    if (std::memcmp(a.ptr(r), b.ptr(r), row_bytes) != 0) return false;
-  }
-  return true;
-}
-
-bool sameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
-
-void expectSame(const KeyframeRecord& a, const KeyframeRecord& b) {
-  EXPECT_EQ(a.id, b.id);
-  EXPECT_EQ(a.session, b.session);
-  EXPECT_EQ(a.stamp, b.stamp);
-  EXPECT_EQ(a.pose.position, b.pose.position);
-  EXPECT_EQ(a.pose.orientation.coeffs(), b.pose.orientation.coeffs());
-  EXPECT_EQ(a.path.metres, b.path.metres);
-  EXPECT_EQ(a.path.radians, b.path.radians);
-  EXPECT_EQ(a.descriptor.global, b.descriptor.global);
-  EXPECT_EQ(a.descriptor.landmark_boxes, b.descriptor.landmark_boxes);
-  EXPECT_TRUE(sameMat(a.descriptor.landmark_features, b.descriptor.landmark_features));
-  EXPECT_EQ(a.local_features.points, b.local_features.points);
-  EXPECT_TRUE(sameMat(a.local_features.descriptors, b.local_features.descriptors));
-  EXPECT_EQ(a.local_features.image_size, b.local_features.image_size);
-  ASSERT_EQ(a.local_features.points3d.size(), b.local_features.points3d.size());
-  for (size_t i = 0; i < a.local_features.points3d.size(); ++i) {
-    const cv::Point3f& p = a.local_features.points3d[i];
-    const cv::Point3f& q = b.local_features.points3d[i];
-    EXPECT_TRUE(sameFloat(p.x, q.x) && sameFloat(p.y, q.y) && sameFloat(p.z, q.z)) << i;
-    EXPECT_TRUE(sameFloat(a.local_features.depth_sd[i], b.local_features.depth_sd[i])) << i;
-  }
-  EXPECT_EQ(a.thumbnail_jpeg, b.thumbnail_jpeg);
 }
 
 std::vector<char> readBytes(const fs::path& path) {

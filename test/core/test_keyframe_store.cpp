@@ -1,0 +1,173 @@
+// The keyframe store: every field survives a commit and a reopen; a writer killed with SIGKILL at
+// any moment loses no keyframe add() returned for and leaves a map that opens; foreign, newer,
+// locked and non-regular files are refused with a reason.
+#include <signal.h>
+#include <sqlite3.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "keyframe_fixtures.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
+
+using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kDimension = 6;
+const std::string kIdentity = "type=test dimension=6";
+
+class KeyframeStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = fs::temp_directory_path() /
+              ("keyframe_store_" + std::to_string(::getpid()) + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_);
+    path_ = (folder_ / "map.db").string();
+  }
+  void TearDown() override { fs::remove_all(folder_); }
+
+  std::string refusal(const std::string& path, const std::string& identity = kIdentity,
+                      int dimension = kDimension) {
+    try {
+      KeyframeStore::open(path, identity, dimension);
+    } catch (const std::runtime_error& error) {
+      return error.what();
+    }
+    return "";
+  }
+
+  fs::path folder_;
+  std::string path_;
+};
+
+}  // namespace
+
+TEST_F(KeyframeStoreTest, EveryFieldSurvivesAReopen) {
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    for (uint64_t id = 10; id < 20; ++id) store->add(makeKeyframe(id, id < 15 ? 0 : 1));
+    EXPECT_EQ(store->size(), 10u);
+  }
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->size(), 10u);
+  EXPECT_EQ(store->sessions(), (std::vector<uint32_t>{0, 1}));
+  for (uint64_t id = 10; id < 20; ++id) {
+    const std::optional<KeyframeRecord> keyframe = store->get(id);
+    ASSERT_TRUE(keyframe) << id;
+    expectSame(*keyframe, makeKeyframe(id, id < 15 ? 0 : 1));
+  }
+  EXPECT_FALSE(store->get(9));
+  std::vector<uint64_t> ids;
+  store->forEachGlobal([&ids](uint64_t id, uint32_t, double stamp, std::vector<float> global) {
+    ids.push_back(id);
+    EXPECT_EQ(global, makeKeyframe(id, 0).descriptor.global);
+    EXPECT_EQ(stamp, makeKeyframe(id, 0).stamp);
+  });
+  EXPECT_EQ(ids.size(), 10u);
+  EXPECT_EQ(ids.front(), 10u);
+}
+
+TEST_F(KeyframeStoreTest, RefusesAnIdNotAfterTheLastAndKeepsWhatItHas) {
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  store->add(makeKeyframe(5, 0));
+  EXPECT_THROW(store->add(makeKeyframe(5, 0)), std::runtime_error);
+  EXPECT_THROW(store->add(makeKeyframe(3, 0)), std::runtime_error);
+  EXPECT_EQ(store->size(), 1u);
+  store->add(makeKeyframe(6, 0));
+  EXPECT_EQ(store->size(), 2u);
+}
+
+TEST_F(KeyframeStoreTest, RefusesForeignNewerLockedAndNonRegularFiles) {
+  { KeyframeStore::open(path_, kIdentity, kDimension)->add(makeKeyframe(1, 0)); }
+  EXPECT_NE(refusal(path_, "type=other").find("other descriptors"), std::string::npos);
+  EXPECT_NE(refusal(path_, kIdentity, 7).find("global descriptors of 6 values"), std::string::npos);
+
+  {
+    auto open_store = KeyframeStore::open(path_, kIdentity, kDimension);
+    // A second node on the same map, as another process would be.
+    const pid_t child = ::fork();
+    if (child == 0) {
+      const bool refused = refusal(path_).find("open in another process") != std::string::npos;
+      ::_exit(refused ? 0 : 1);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the second open was not refused";
+  }
+
+  const std::string fifo = (folder_ / "fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_NE(refusal(fifo).find("is not a regular file"), std::string::npos);
+  EXPECT_NE(refusal(folder_.string()).find("is not a regular file"), std::string::npos);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5)) << "blocked";
+
+  std::ofstream(folder_ / "text.db") << "not a map at all, just text that is long enough to be "
+                                        "mistaken for nothing in particular\n";
+  EXPECT_NE(refusal((folder_ / "text.db").string()).find("map "), std::string::npos);
+  EXPECT_NE(refusal((folder_ / "missing" / "map.db").string()).find("cannot be written"),
+            std::string::npos);
+}
+
+TEST_F(KeyframeStoreTest, RefusesAMapOfANewerFormat) {
+  { KeyframeStore::open(path_, kIdentity, kDimension); }
+  // Written as a newer version would: only its format number differs.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  EXPECT_EQ(sqlite3_exec(db, "UPDATE meta SET value = '99' WHERE key = 'format_version'", nullptr,
+                         nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  EXPECT_NE(refusal(path_).find("newer version (format 99"), std::string::npos);
+}
+
+TEST_F(KeyframeStoreTest, AWriterKilledMidRunLosesNoCommittedKeyframe) {
+  int pipe_ends[2];
+  ASSERT_EQ(::pipe(pipe_ends), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(pipe_ends[0]);
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    for (uint64_t id = 1;; ++id) {
+      store->add(makeKeyframe(id, 0));
+      // Reported only once add() returned: the parent counts on every reported id.
+      if (::write(pipe_ends[1], &id, sizeof(id)) != sizeof(id)) ::_exit(1);
+    }
+  }
+  ::close(pipe_ends[1]);
+  uint64_t committed = 0;
+  uint64_t id = 0;
+  while (committed < 1000 && ::read(pipe_ends[0], &id, sizeof(id)) == sizeof(id)) committed = id;
+  ::kill(child, SIGKILL);
+  // Anything reported between the last read and the kill was committed too.
+  while (::read(pipe_ends[0], &id, sizeof(id)) == sizeof(id)) committed = id;
+  ::close(pipe_ends[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the writer was meant to be killed";
+  ASSERT_GE(committed, 1000u);
+
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_GE(store->size(), committed);
+  EXPECT_LE(store->size(), committed + 1) << "at most the keyframe being written when killed";
+  for (uint64_t check = 1; check <= committed; check += 37) {
+    const std::optional<KeyframeRecord> keyframe = store->get(check);
+    ASSERT_TRUE(keyframe) << "committed keyframe " << check << " lost";
+    expectSame(*keyframe, makeKeyframe(check, 0));
+  }
+  ASSERT_TRUE(store->get(committed));
+  store->add(makeKeyframe(committed + 10, 1));  // And it goes on from there.
+}
