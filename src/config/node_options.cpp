@@ -27,18 +27,15 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
   using O = NodeOptions;
   static const auto table =
       ParameterTable<O>("", "")
-          .section("Keyframe database on disk")
+          .section("The map on disk")
           .text("database_path", &O::database_path,
-                "file of the keyframe database; \"\" = kept in memory only. Services "
-                "~save_database / ~load_database (path \"\" = this one) and ~reset.")
-          .flag("autoload", &O::autoload,
-                "load database_path at start when it exists: its keyframes become earlier "
-                "sessions. A file that cannot be loaded (corrupt, other descriptors) stops the "
-                "node with the reason, so it is never overwritten.")
-          .integer("autosave_every", &O::autosave_every, atLeast(0),
-                   "save every this many keyframes (0 = off); a crash loses at most these.")
-          .flag("save_on_shutdown", &O::save_on_shutdown,
-                "save when the node stops (with database_path set).")
+                "the map: an SQLite file (created when missing) whose keyframes are loaded at "
+                "start as earlier sessions; every keyframe is committed to it when it is stored, "
+                "so a crash loses at most the keyframes still queued. \"\" = memory only. "
+                "Services ~save_database (a copy to `path`), ~load_database (switch to the map "
+                "at `path`) and ~reset (the old file is kept as PATH.reset-TIME). A file that "
+                "cannot be opened (damaged, other descriptors, open in another node, the earlier "
+                "format: `lcd_db convert`) stops the node with the reason and is left alone.")
           .section("Inputs")
           .choice("pose_source", &O::pose_source, poseSourceNames(),
                   "\"odom\": images synced with nav_msgs/Odometry on `odom`; \"tf\": images only, "

@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
 #include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
-#include "landmark_loop_closure/database/database_file.h"
 
 namespace landmark_loop_closure {
 
@@ -171,11 +171,17 @@ KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
   const std::string summary = training_->summary();
   std::vector<HeldKeyframe> held = training_->release();
   training_.reset();
+  std::string map_error;
+  if (!pending_map_path_.empty()) {
+    map_error = openMap(pending_map_path_);
+    pending_map_path_.clear();
+  }
   for (const HeldKeyframe& frame : held) {
     result =
         addKeyframe(frame.id, frame.stamp, frame.pose, frame.image, frame.intrinsics, frame.depth);
   }
   result.training_summary = summary;
+  if (!map_error.empty()) result.store_error = map_error;
   return result;
 }
 
@@ -185,23 +191,66 @@ std::string LoopDetector::saveDatabase(const std::string& path) const {
            std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
            " keyframes held)";
   }
-  return landmark_loop_closure::saveDatabase(database_, descriptor_identity_, path);
+  std::error_code same_error;
+  if (store_ && std::filesystem::equivalent(path, store_->path(), same_error)) return "";
+  try {
+    if (store_) {
+      store_->copyTo(path);
+      return "";
+    }
+    const std::string partial = path + ".partial";
+    std::filesystem::remove(partial);
+    KeyframeStore::open(partial, descriptor_identity_, database_.globalDimension())
+        ->addAll(database_);
+    KeyframeStore::replaceFile(partial, path);
+  } catch (const std::exception& error) {
+    std::filesystem::remove(path + ".partial", same_error);
+    return error.what();
+  }
+  return "";
 }
 
-std::string LoopDetector::loadDatabase(const std::string& path) {
+std::string LoopDetector::openMap(const std::string& path) {
   if (training_) {
-    return "cannot load " + path + " before online training has made the descriptor";
+    // The map's descriptor identity is known once training has made the descriptor.
+    pending_map_path_ = path;
+    return "";
   }
-  LoadedDatabase loaded = landmark_loop_closure::loadDatabase(
-      path, descriptor_identity_, database_.globalDimension(), database_.indexOptions());
-  if (!loaded.database) return loaded.error;
-  database_ = std::move(*loaded.database);
+  std::unique_ptr<KeyframeStore> store;
+  const IndexOptions index = database_.indexOptions();
+  IndexOptions exact = index;
+  exact.type = "exact";  // The graph is read, or built once, after every keyframe is in.
+  KeyframeDatabase loaded(database_.globalDimension(), exact);
+  bool graph_reused = false;
   uint32_t last_session = 0;
   uint64_t last_id = 0;
-  for (size_t i = 0; i < database_.size(); ++i) {
-    last_session = std::max(last_session, database_.at(i).session);
-    last_id = std::max(last_id, database_.at(i).id);
+  try {
+    store = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
+    store->forEach([&](KeyframeRecord keyframe) {
+      last_session = std::max(last_session, keyframe.session);
+      last_id = std::max(last_id, keyframe.id);
+      loaded.add(std::move(keyframe));
+    });
+    std::unique_ptr<ApproximateIndex> graph;
+    if (index.buildsGraph()) {
+      if (std::optional<std::vector<uint8_t>> bytes = store->loadGraph(index.graphIdentity())) {
+        try {
+          graph = ApproximateIndex::fromBytes(std::move(*bytes), loaded.globalDimension(),
+                                              index.neighbors);
+        } catch (const std::runtime_error&) {
+          graph.reset();  // A damaged graph is built again from the keyframes.
+        }
+        if (graph && graph->size() != loaded.size()) graph.reset();
+      }
+    }
+    graph_reused = graph != nullptr;
+    loaded.setIndex(index, std::move(graph));
+  } catch (const std::exception& error) {
+    return error.what();
   }
+  map_graph_reused_ = graph_reused;
+  database_ = std::move(loaded);
+  store_ = std::move(store);
   session_ = database_.empty() ? 0 : last_session + 1;
   uint64_t next = next_keyframe_id_.load();
   while (!database_.empty() && next <= last_id &&
@@ -213,13 +262,46 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
   return "";
 }
 
-void LoopDetector::reset() {
+std::string LoopDetector::saveMapGraph() {
+  if (!store_ || database_.graph() == nullptr) return "";
+  try {
+    store_->saveGraph(database_.indexOptions().graphIdentity(), database_.size(),
+                      database_.graph()->toBytes());
+  } catch (const std::exception& error) {
+    return error.what();
+  }
+  return "";
+}
+
+std::string LoopDetector::loadDatabase(const std::string& path) {
+  if (!std::filesystem::exists(path)) return "map " + path + ": does not exist";
+  return openMap(path);
+}
+
+std::string LoopDetector::reset() {
   if (training_) training_->clear();
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   consistency_.reset();
   sequence_.reset();
   last_keyframe_.reset();
+  if (!store_ || store_->size() == 0) return "";
+  // The forgotten keyframes stay on disk: a reset never shortens a saved map.
+  const std::string path = store_->path();
+  store_.reset();
+  const std::string kept = path + ".reset-" +
+                           std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
+                                              std::chrono::system_clock::now().time_since_epoch())
+                                              .count());
+  std::error_code error;
+  std::filesystem::rename(path, kept, error);
+  if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
+  try {
+    store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
+  } catch (const std::exception& open_error) {
+    return std::string(open_error.what()) + "; keyframes are kept in memory only";
+  }
+  return "the earlier map is kept as " + kept;
 }
 
 void LoopDetector::restartAdmission() {
@@ -365,6 +447,13 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (options_.keep_thumbnails) {
     keyframe.thumbnail_jpeg =
         encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
+  }
+  if (store_) {
+    try {
+      store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
+    } catch (const std::exception& error) {
+      result.store_error = error.what();
+    }
   }
   database_.add(std::move(keyframe));
   result.stored = true;

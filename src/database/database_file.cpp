@@ -362,4 +362,27 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
   return loaded;
 }
 
+std::string readDatabaseFileIdentity(const std::string& path, std::string* descriptor_identity,
+                                     int* global_dimension) {
+  try {
+    const FileDescriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK));
+    if (file.get() < 0) throw FormatError(std::string("cannot open it: ") + std::strerror(errno));
+    struct stat status {};
+    if (::fstat(file.get(), &status) != 0 || !S_ISREG(status.st_mode)) {
+      throw FormatError("not a regular file");
+    }
+    const uint64_t file_bytes = static_cast<uint64_t>(status.st_size);
+    if (file_bytes < kHeaderBytes) throw FormatError("truncated: shorter than the header");
+    uint8_t header[kHeaderBytes];
+    database_payload::readAt(file.get(), 0, header, kHeaderBytes);
+    if (std::memcmp(header, kMagic, 8) != 0) throw FormatError("not a keyframe database file");
+    PayloadReader in(file.get(), kHeaderBytes, 0, file_bytes - kHeaderBytes);
+    *descriptor_identity = in.string();
+    *global_dimension = static_cast<int>(in.u32());
+  } catch (const FormatError& error) {
+    return "refused " + path + ": " + error.what();
+  }
+  return "";
+}
+
 }  // namespace landmark_loop_closure

@@ -7,6 +7,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <optional>
@@ -121,7 +123,40 @@ struct KeyframeStore::Connection {
 std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
                                                    const std::string& descriptor_identity,
                                                    int global_dimension) {
+  return openChecked(path, &descriptor_identity, global_dimension);
+}
+
+std::unique_ptr<KeyframeStore> KeyframeStore::openExisting(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw storeError(path, "does not exist");
+  return openChecked(path, nullptr, 0);
+}
+
+bool KeyframeStore::isOldMapFile(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return false;
+  char magic[8] = {};
+  const bool read = std::fread(magic, 1, 8, file) == 8;
+  std::fclose(file);
+  return read && std::memcmp(magic, "LLCKFDB\n", 8) == 0;
+}
+
+std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& path,
+                                                          const std::string* descriptor_identity,
+                                                          int global_dimension) {
   checkPath(path);
+  if (!std::filesystem::exists(path)) {
+    // A log left by an earlier map at this path would be replayed into the new one.
+    std::error_code ignored;
+    for (const char* journal : {"-wal", "-shm", "-journal"}) {
+      std::filesystem::remove(path + journal, ignored);
+    }
+  }
+  if (isOldMapFile(path)) {
+    throw storeError(path,
+                     "is a map file of the earlier format; convert it once with "
+                     "`rosrun landmark_loop_closure lcd_db convert " +
+                         path + " NEW_PATH`");
+  }
   auto connection = std::make_unique<Connection>();
   connection->path = path;
   if (sqlite3_open_v2(path.c_str(), &connection->db,
@@ -145,12 +180,17 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
   connection->execute(
       "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
       "CREATE TABLE IF NOT EXISTS keyframes (id INTEGER PRIMARY KEY, session INTEGER NOT NULL, "
-      "stamp REAL NOT NULL, global BLOB NOT NULL, record BLOB NOT NULL)",
+      "stamp REAL NOT NULL, global BLOB NOT NULL, record BLOB NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS graph (slot INTEGER PRIMARY KEY CHECK (slot = 0), "
+      "identity TEXT NOT NULL, keyframes INTEGER NOT NULL, bytes BLOB NOT NULL)",
       "cannot be written");
   const std::optional<std::string> version = connection->meta("format_version");
+  if (!version && descriptor_identity == nullptr) {
+    throw storeError(path, "is not a keyframe map (it has no settings)");
+  }
   if (!version) {
     connection->setMeta("format_version", std::to_string(kFormatVersion));
-    connection->setMeta("descriptor_identity", descriptor_identity);
+    connection->setMeta("descriptor_identity", *descriptor_identity);
     connection->setMeta("global_dimension", std::to_string(global_dimension));
   } else {
     int stored_version = 0;
@@ -164,12 +204,14 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
                                  std::to_string(kFormatVersion) + ")");
     }
     const std::string stored_identity = connection->meta("descriptor_identity").value_or("");
-    if (stored_identity != descriptor_identity) {
+    if (descriptor_identity != nullptr && stored_identity != *descriptor_identity) {
       throw storeError(path, "holds keyframes of other descriptors (" + stored_identity +
-                                 "; this node uses " + descriptor_identity + ")");
+                                 "; this node uses " + *descriptor_identity + ")");
     }
     const std::string stored_dimension = connection->meta("global_dimension").value_or("");
-    if (stored_dimension != std::to_string(global_dimension)) {
+    if (descriptor_identity == nullptr) {
+      global_dimension = std::atoi(stored_dimension.c_str());
+    } else if (stored_dimension != std::to_string(global_dimension)) {
       throw storeError(path, "holds global descriptors of " + stored_dimension + " values, not " +
                                  std::to_string(global_dimension));
     }
@@ -187,7 +229,13 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
   connection->insert = connection->prepare(
       "INSERT INTO keyframes (id, session, stamp, global, record) VALUES (?, ?, ?, ?, ?)");
   connection->select = connection->prepare("SELECT record FROM keyframes WHERE id = ?");
-  return std::unique_ptr<KeyframeStore>(new KeyframeStore(path, std::move(connection)));
+  const std::string identity = descriptor_identity != nullptr
+                                   ? *descriptor_identity
+                                   : connection->meta("descriptor_identity").value_or("");
+  std::unique_ptr<KeyframeStore> store(new KeyframeStore(path, std::move(connection)));
+  store->descriptor_identity_ = identity;
+  store->global_dimension_ = global_dimension;
+  return store;
 }
 
 KeyframeStore::KeyframeStore(std::string path, std::unique_ptr<Connection> connection)
@@ -215,6 +263,80 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
   if (status != SQLITE_DONE) c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
   c.last_id = keyframe.id;
   ++c.count;
+}
+
+void KeyframeStore::addAll(const KeyframeDatabase& database) {
+  Connection& c = *connection_;
+  const std::optional<uint64_t> last_id = c.last_id;
+  const size_t count = c.count;
+  c.execute("BEGIN IMMEDIATE", "cannot be written");
+  try {
+    for (size_t i = 0; i < database.size(); ++i) add(database.at(i));
+  } catch (...) {
+    sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+    c.last_id = last_id;
+    c.count = count;
+    throw;
+  }
+  c.execute("COMMIT", "cannot be written");
+}
+
+void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) const {
+  Connection& c = *connection_;
+  sqlite3_stmt* statement = c.prepare("SELECT id, record FROM keyframes ORDER BY id");
+  int status;
+  while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
+    const auto* bytes = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 1));
+    const size_t size = static_cast<size_t>(sqlite3_column_bytes(statement, 1));
+    KeyframeRecord keyframe;
+    try {
+      keyframe = database_payload::decodeKeyframe(bytes, size);
+    } catch (const std::exception& error) {
+      const int64_t id = sqlite3_column_int64(statement, 0);
+      sqlite3_finalize(statement);
+      throw storeError(path_, "keyframe " + std::to_string(id) + " is damaged: " + error.what());
+    }
+    visit(std::move(keyframe));
+  }
+  sqlite3_finalize(statement);
+  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
+}
+
+void KeyframeStore::copyTo(const std::string& target) const {
+  const std::string partial = target + ".partial";
+  std::filesystem::remove(partial);
+  sqlite3* copy = nullptr;
+  const auto fail = [&](const std::string& what) {
+    const std::string reason = copy != nullptr ? sqlite3_errmsg(copy) : "cannot be created";
+    if (copy != nullptr) sqlite3_close(copy);
+    std::filesystem::remove(partial);
+    throw storeError(target, what + ": " + reason);
+  };
+  if (sqlite3_open_v2(partial.c_str(), &copy, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE,
+                      nullptr) != SQLITE_OK) {
+    fail("cannot be created");
+  }
+  sqlite3_backup* backup = sqlite3_backup_init(copy, "main", connection_->db, "main");
+  if (backup == nullptr) fail("cannot be written");
+  const int status = sqlite3_backup_step(backup, -1);
+  sqlite3_backup_finish(backup);
+  if (status != SQLITE_DONE) fail("cannot be written");
+  sqlite3_close(copy);
+  try {
+    replaceFile(partial, target);
+  } catch (...) {
+    std::filesystem::remove(partial);
+    throw;
+  }
+}
+
+void KeyframeStore::replaceFile(const std::string& from, const std::string& to) {
+  std::error_code error;
+  for (const char* journal : {"-wal", "-shm", "-journal"}) {
+    std::filesystem::remove(to + journal, error);
+  }
+  std::filesystem::rename(from, to, error);
+  if (error) throw storeError(to, "cannot be written: " + error.message());
 }
 
 std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
@@ -252,6 +374,41 @@ void KeyframeStore::forEachGlobal(
   }
   sqlite3_finalize(statement);
   if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
+}
+
+void KeyframeStore::saveGraph(const std::string& graph_identity, size_t keyframes,
+                              const std::vector<uint8_t>& bytes) {
+  Connection& c = *connection_;
+  if (bytes.size() > static_cast<size_t>(sqlite3_limit(c.db, SQLITE_LIMIT_LENGTH, -1))) {
+    throw storeError(path_, "the search graph (" + std::to_string(bytes.size() >> 20) +
+                                " MB) is larger than one SQLite value; it is built at next start");
+  }
+  sqlite3_stmt* statement = c.prepare(
+      "INSERT OR REPLACE INTO graph (slot, identity, keyframes, bytes) VALUES (0, ?, ?, ?)");
+  sqlite3_bind_text(statement, 1, graph_identity.c_str(), -1, SQLITE_TRANSIENT);
+  sqlite3_bind_int64(statement, 2, static_cast<sqlite3_int64>(keyframes));
+  sqlite3_bind_blob64(statement, 3, bytes.data(), bytes.size(), SQLITE_STATIC);
+  const int status = sqlite3_step(statement);
+  sqlite3_finalize(statement);
+  if (status != SQLITE_DONE) c.fail("the search graph not saved");
+}
+
+std::optional<std::vector<uint8_t>> KeyframeStore::loadGraph(
+    const std::string& graph_identity) const {
+  Connection& c = *connection_;
+  sqlite3_stmt* statement =
+      c.prepare("SELECT identity, keyframes, bytes FROM graph WHERE slot = 0");
+  std::optional<std::vector<uint8_t>> bytes;
+  if (sqlite3_step(statement) == SQLITE_ROW) {
+    const std::string identity = reinterpret_cast<const char*>(sqlite3_column_text(statement, 0));
+    const auto keyframes = static_cast<size_t>(sqlite3_column_int64(statement, 1));
+    if (identity == graph_identity && keyframes == c.count) {
+      const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 2));
+      bytes.emplace(data, data + sqlite3_column_bytes(statement, 2));
+    }
+  }
+  sqlite3_finalize(statement);
+  return bytes;
 }
 
 size_t KeyframeStore::size() const { return connection_->count; }

@@ -83,21 +83,28 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
-  if (!options_.database_path.empty() && options_.autoload &&
-      std::filesystem::exists(options_.database_path)) {
-    // Refusing to start keeps a file that cannot be read from being overwritten by the next save.
+  if (!options_.database_path.empty()) {
+    // Refusing to start leaves a map that cannot be opened as it is.
     const auto load_start = std::chrono::steady_clock::now();
-    const std::string error = detector_.loadDatabase(options_.database_path);
+    const std::string error = detector_.openMap(options_.database_path);
     const double load_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
-    if (!error.empty()) {
-      throw std::runtime_error(error + " (move the file away or set autoload false)");
-    }
-    database_status_ = "loaded " + options_.database_path;
+    if (!error.empty()) throw std::runtime_error(error);
+    database_status_ = options_.database_path;
     session_ = detector_.session();
-    ROS_INFO("Loaded %zu keyframes from %s in %.2f s; this run is session %u",
-             detector_.database().size(), options_.database_path.c_str(), load_s,
-             detector_.session());
+    if (!detector_.extractor()) {
+      ROS_INFO("Map %s is opened once online training has made the descriptor",
+               options_.database_path.c_str());
+    } else {
+      const char* graph = detector_.database().graph() == nullptr ? "off"
+                          : detector_.mapGraphReused()            ? "read"
+                                                                  : "built";
+      ROS_INFO(
+          "Map %s: %zu keyframes loaded in %.2f s (search graph %s); this run is session %u, "
+          "every keyframe committed as it is stored",
+          options_.database_path.c_str(), detector_.database().size(), load_s, graph,
+          detector_.session());
+    }
   }
   RuntimeOptions runtime_options;
   runtime_options.queue_size = static_cast<size_t>(options_.worker_queue_size);
@@ -145,18 +152,15 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 LoopClosureNode::~LoopClosureNode() {
   if (service_spinner_) service_spinner_->stop();
   runtime_->stop();
-  if (options_.save_on_shutdown && !options_.database_path.empty()) {
-    runtime_->withDetector([this](LoopDetector& detector) {
-      const std::string error = saveDatabase("");
-      if (error.empty()) {
-        ROS_INFO("Saved %zu keyframes to %s", detector.database().size(),
-                 options_.database_path.c_str());
-      } else {
-        ROS_ERROR("Could not save the keyframe database at shutdown: %s", error.c_str());
-      }
-      return false;
-    });
-  }
+  runtime_->withDetector([](LoopDetector& detector) {
+    if (detector.mapPath().empty()) return false;
+    const std::string error = detector.saveMapGraph();
+    if (!error.empty()) ROS_WARN("%s", error.c_str());
+    ROS_INFO("Map %s: %zu keyframes, each committed when it was stored%s",
+             detector.mapPath().c_str(), detector.database().size(),
+             error.empty() ? ", and the search graph" : "");
+    return false;
+  });
 }
 
 void LoopClosureNode::subscribe() {

@@ -44,7 +44,7 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node);
 /// waits for it.
 class LoopClosureNode {
  public:
-  /// Throws std::runtime_error when database_path exists but cannot be loaded (autoload).
+  /// Throws std::runtime_error when the map at database_path cannot be opened.
   LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_node, const NodeOptions& options);
   ~LoopClosureNode();
 
@@ -154,7 +154,6 @@ class LoopClosureNode {
   image_transport::Publisher match_image_publisher_;
   LoopMarkers markers_;                                      // Worker thread only.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
-  int stored_since_save_ = 0;                                // Under the runtime's detector lock.
 
   // Database services.
   ros::CallbackQueue service_queue_;
@@ -179,7 +178,7 @@ class LoopClosureNode {
   std::mutex stats_mutex_;            // Guards what follows.
   size_t database_bytes_ = 0;
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
-  std::string database_status_ = "in memory only";
+  std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
 
   // The worker, its queue and the detector lock; started last, stopped first.
   std::unique_ptr<DetectorRuntime> runtime_;

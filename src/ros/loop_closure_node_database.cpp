@@ -20,23 +20,32 @@ void LoopClosureNode::advertiseServices() {
 }
 
 std::string LoopClosureNode::saveDatabase(const std::string& path) {
-  const std::string& target = path.empty() ? options_.database_path : path;
-  if (target.empty()) return "no path given and the parameter database_path is empty";
+  const std::string target = path.empty() ? detector_.mapPath() : path;
+  if (target.empty()) return "no path given and no map open (the parameter database_path is empty)";
   const std::string error = detector_.saveDatabase(target);
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  database_status_ = error.empty() ? "saved " + target : error;
-  if (error.empty()) stored_since_save_ = 0;
+  if (!error.empty()) database_status_ = error;
   return error;
 }
 
 bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
   runtime_->withDetector([&](LoopDetector& detector) {
-    const std::string error = saveDatabase(request.path);
+    std::string error = saveDatabase(request.path);
+    const bool own_map = request.path.empty() || request.path == detector.mapPath();
+    if (error.empty() && own_map) error = detector.saveMapGraph();  // A checkpoint.
     response.success = error.empty();
     response.keyframes = detector.database().size();
-    response.message =
-        error.empty() ? "saved " + std::to_string(response.keyframes) + " keyframes" : error;
+    response.message = !error.empty() ? error
+                       : own_map      ? "all " + std::to_string(response.keyframes) +
+                                       " keyframes are committed to " + detector.mapPath()
+                                 : "copied " + std::to_string(response.keyframes) +
+                                       " keyframes to " + request.path;
+    if (error.empty()) {
+      ROS_INFO("%s", response.message.c_str());
+    } else {
+      ROS_ERROR("Could not save the map: %s", error.c_str());
+    }
     return false;
   });
   return true;
@@ -45,10 +54,9 @@ bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
 bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
   runtime_->withDetector([&](LoopDetector& detector) {
-    const std::string& path = request.path.empty() ? options_.database_path : request.path;
-    const std::string error = path.empty()
-                                  ? "no path given and the parameter database_path is empty"
-                                  : detector.loadDatabase(path);
+    const std::string path = request.path.empty() ? detector.mapPath() : request.path;
+    const std::string error =
+        path.empty() ? "no path given and no map open" : detector.loadDatabase(path);
     response.success = error.empty();
     response.keyframes = detector.database().size();
     if (!error.empty()) {
@@ -62,7 +70,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                        std::to_string(detector.session());
     session_ = detector.session();
     std::lock_guard<std::mutex> stats(stats_mutex_);
-    database_status_ = "loaded " + path;
+    database_status_ = path;
     return true;  // The keyframes held for online training belonged to the replaced map.
   });
   return true;
@@ -71,12 +79,14 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
 bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
   runtime_->withDetector([&](LoopDetector& detector) {
     const size_t forgotten = detector.database().size();
-    detector.reset();
+    const std::string note = detector.reset();
     session_ = detector.session();
     keyframe_stamps_.clear();
     markers_.clear();
     response.success = true;
-    response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+    response.message =
+        "forgot " + std::to_string(forgotten) + " keyframes" + (note.empty() ? "" : "; " + note);
+    ROS_INFO("Reset: %s", response.message.c_str());
     return true;
   });
   return true;
@@ -95,6 +105,10 @@ void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const Keyfra
     ROS_ERROR("%s", result.training_summary.c_str());
     for (const ReleasedKeyframe& keyframe : held) keyframe_stamps_.erase(keyframe.id);
     return;
+  }
+  if (!result.store_error.empty()) {
+    ROS_ERROR("The map %s could not be opened: %s; keyframes are kept in memory only",
+              options_.database_path.c_str(), result.store_error.c_str());
   }
   ROS_INFO("%s; %zu held keyframes stored, detecting loops from now on",
            result.training_summary.c_str(), held.size() + 1);

@@ -43,7 +43,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("keyframes", keyframes_stored_.load());
   status.add("database bytes", database_bytes_);
   status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
-  status.add("database file", database_status_);
+  status.add("map", database_status_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());

@@ -48,11 +48,9 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
   }
   keyframe_stamps_[job.id] = keyframe.stamp;
   publishResults(keyframe, result, prepared.grey);
-  if (options_.autosave_every > 0 && !options_.database_path.empty() &&
-      detector_.mode() == DetectorMode::kMapping &&
-      ++stored_since_save_ >= options_.autosave_every) {
-    const std::string error = saveDatabase("");
-    if (!error.empty()) ROS_ERROR_THROTTLE(kWarningPeriod, "Autosave failed: %s", error.c_str());
+  if (!result.store_error.empty()) {
+    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu is kept in memory only: %s",
+                       static_cast<unsigned long>(job.id), result.store_error.c_str());
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   database_bytes_ = detector_.database().bytes();

@@ -11,13 +11,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
 
 #include "keyframe_fixtures.h"
+#include "landmark_loop_closure/database/database_file.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
+#include "landmark_loop_closure/database/map_tools.h"
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;
@@ -170,4 +173,106 @@ TEST_F(KeyframeStoreTest, AWriterKilledMidRunLosesNoCommittedKeyframe) {
   }
   ASSERT_TRUE(store->get(committed));
   store->add(makeKeyframe(committed + 10, 1));  // And it goes on from there.
+}
+
+TEST_F(KeyframeStoreTest, CopiesAndBatchesAreWholeAndToolsOpenAnyMap) {
+  KeyframeDatabase database(kDimension);
+  for (uint64_t id = 1; id <= 20; ++id) database.add(makeKeyframe(id, id <= 10 ? 0 : 1));
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  store->addAll(database);
+  EXPECT_EQ(store->size(), 20u);
+  EXPECT_THROW(store->addAll(database), std::runtime_error) << "ids not after the last";
+  EXPECT_EQ(store->size(), 20u) << "a failed batch adds nothing";
+
+  const std::string copy = (folder_ / "copy.db").string();
+  std::ofstream(copy) << "an older copy";
+  store->copyTo(copy);
+  store.reset();
+
+  auto opened = KeyframeStore::openExisting(copy);
+  EXPECT_EQ(opened->descriptorIdentity(), kIdentity);
+  EXPECT_EQ(opened->globalDimension(), kDimension);
+  uint64_t next = 1;
+  opened->forEach([&next](KeyframeRecord keyframe) {
+    expectSame(keyframe, makeKeyframe(next, next <= 10 ? 0 : 1));
+    ++next;
+  });
+  EXPECT_EQ(next, 21u);
+  EXPECT_THROW(KeyframeStore::openExisting((folder_ / "none.db").string()), std::runtime_error);
+}
+
+TEST_F(KeyframeStoreTest, AMapOfTheEarlierFormatIsNamedWithItsConversion) {
+  std::ofstream(path_, std::ios::binary) << "LLCKFDB\n" << std::string(64, '\0');
+  EXPECT_TRUE(KeyframeStore::isOldMapFile(path_));
+  EXPECT_NE(refusal(path_).find("lcd_db convert"), std::string::npos) << refusal(path_);
+}
+
+TEST_F(KeyframeStoreTest, MapsOfTheEarlierFormatConvertOnceWithEveryField) {
+  KeyframeDatabase database(kDimension);
+  for (uint64_t id = 3; id < 13; ++id) database.add(makeKeyframe(id, id < 8 ? 0 : 1));
+  const std::string old_file = (folder_ / "old.lcdb").string();
+  ASSERT_EQ(saveDatabase(database, kIdentity, old_file), "");
+
+  EXPECT_EQ(convertMapFile(old_file, path_), 10u);
+  const MapSummary summary = summariseMap(path_);
+  EXPECT_EQ(summary.descriptor_identity, kIdentity);
+  EXPECT_EQ(summary.global_dimension, kDimension);
+  EXPECT_EQ(summary.keyframes_per_session, (std::map<uint32_t, size_t>{{0, 5}, {1, 5}}));
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  for (uint64_t id = 3; id < 13; ++id)
+    expectSame(*store->get(id), makeKeyframe(id, id < 8 ? 0 : 1));
+  store.reset();
+  EXPECT_THROW(convertMapFile(old_file, path_), std::runtime_error) << "never over a map";
+  EXPECT_THROW(convertMapFile(path_, (folder_ / "again.db").string()), std::runtime_error)
+      << "a store is no file of the earlier format";
+  EXPECT_FALSE(fs::exists(folder_ / "again.db"));
+  EXPECT_FALSE(fs::exists(folder_ / "again.db.partial"));
+}
+
+TEST_F(KeyframeStoreTest, SessionsExportAndRobotsMapsMerge) {
+  const std::string robot_a = (folder_ / "a.db").string();
+  const std::string robot_b = (folder_ / "b.db").string();
+  {
+    auto a = KeyframeStore::open(robot_a, kIdentity, kDimension);
+    for (uint64_t id = 0; id < 6; ++id) a->add(makeKeyframe(id, id < 3 ? 0 : 1));
+    auto b = KeyframeStore::open(robot_b, kIdentity, kDimension);
+    for (uint64_t id = 0; id < 4; ++id) b->add(makeKeyframe(id, 0));
+  }
+  const std::string session_1 = (folder_ / "session1.db").string();
+  EXPECT_EQ(exportSession(robot_a, 1, session_1), 3u);
+  EXPECT_EQ(summariseMap(session_1).keyframes_per_session, (std::map<uint32_t, size_t>{{1, 3}}));
+
+  const std::string merged = (folder_ / "merged.db").string();
+  std::vector<uint32_t> first_sessions;
+  EXPECT_EQ(mergeMaps(merged, {robot_a, robot_b}, &first_sessions), 10u);
+  EXPECT_EQ(first_sessions, (std::vector<uint32_t>{0, 2}));
+  auto store = KeyframeStore::openExisting(merged);
+  // Robot b's first keyframe: renumbered after robot a's six, its session after a's two.
+  const std::optional<KeyframeRecord> moved = store->get(6);
+  ASSERT_TRUE(moved);
+  EXPECT_EQ(moved->session, 2u);
+  EXPECT_EQ(moved->stamp, makeKeyframe(0, 0).stamp);
+  EXPECT_EQ(moved->descriptor.global, makeKeyframe(0, 0).descriptor.global);
+  store.reset();
+
+  const std::string other = (folder_ / "other.db").string();
+  { KeyframeStore::open(other, "type=other", kDimension)->add(makeKeyframe(0, 0)); }
+  try {
+    mergeMaps((folder_ / "mixed.db").string(), {robot_a, other});
+    FAIL() << "maps of other descriptors were merged";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("other descriptors"), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(folder_ / "mixed.db"));
+}
+
+TEST_F(KeyframeStoreTest, ASavedSearchGraphIsOnlyGivenBackForTheKeyframesItHolds) {
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  for (uint64_t id = 0; id < 5; ++id) store->add(makeKeyframe(id, 0));
+  const std::vector<uint8_t> bytes = {1, 2, 3, 4};
+  store->saveGraph("hnsw M=16", 5, bytes);
+  EXPECT_EQ(store->loadGraph("hnsw M=16"), bytes);
+  EXPECT_FALSE(store->loadGraph("hnsw M=32")) << "other graph settings";
+  store->add(makeKeyframe(5, 0));  // As after a crash: keyframes the graph does not hold.
+  EXPECT_FALSE(store->loadGraph("hnsw M=16"));
 }

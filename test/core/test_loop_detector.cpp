@@ -333,6 +333,11 @@ std::string temporaryPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() / ("lcd_detector_" + name)).string();
 }
 
+/// A map file and the write-ahead log SQLite may leave beside it.
+void removeMap(const std::string& path) {
+  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+}
+
 }  // namespace
 
 TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
@@ -370,7 +375,7 @@ TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
   ASSERT_EQ(next_run.database().size(), 43u);
   EXPECT_EQ(next_run.database().at(42).session, 1u);
   EXPECT_EQ(next_run.database().at(42).id, 42u);
-  std::filesystem::remove(path);
+  removeMap(path);
 }
 
 TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
@@ -391,10 +396,62 @@ TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
   }
   EXPECT_NE(detector.loadDatabase(path).find("other descriptors"), std::string::npos);
   EXPECT_EQ(detector.database().size(), 12u);
-  std::filesystem::remove(path);
+  removeMap(path);
 
   detector.reset();
   EXPECT_TRUE(detector.database().empty());
   EXPECT_FALSE(feed(&detector, 12, 12).keyframe->error);
   EXPECT_EQ(detector.database().size(), 1u);
+}
+
+TEST(LoopDetector, AnOpenMapHasEveryStoredKeyframeAndAResetKeepsItAside) {
+  const std::string path = temporaryPath("open_map.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    EXPECT_EQ(detector.mapPath(), path);
+    for (int i = 0; i < 15; ++i) feed(&detector, i, i);
+  }  // No save: every keyframe was committed when it was stored.
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  EXPECT_EQ(detector.database().size(), 15u);
+  EXPECT_EQ(detector.session(), 1u);
+
+  const std::string note = detector.reset();
+  EXPECT_NE(note.find("kept as " + path + ".reset-"), std::string::npos) << note;
+  EXPECT_TRUE(detector.database().empty());
+  feed(&detector, 20, 20);
+  const std::string kept = note.substr(note.find(path));
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 15u) << "the reset map is whole";
+  removeMap(path);
+  removeMap(kept);
+}
+
+TEST(LoopDetector, AMapKeepsItsSearchGraphAcrossACleanRestartOnly) {
+  const std::string path = temporaryPath("graph_map.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.database.index.type = "approximate";
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    EXPECT_TRUE(detector.mapGraphReused());
+    ASSERT_NE(detector.database().graph(), nullptr);
+    EXPECT_EQ(detector.database().graph()->size(), 12u);
+    feed(&detector, 12, 12);  // Then stopped without saving the graph, as a crash would.
+  }
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  EXPECT_FALSE(detector.mapGraphReused()) << "the saved graph misses the last keyframe";
+  ASSERT_NE(detector.database().graph(), nullptr);
+  EXPECT_EQ(detector.database().graph()->size(), 13u);
+  removeMap(path);
 }

@@ -1,8 +1,9 @@
 // Robots map, stop, and come back: the node is stopped after the first lap of the corridor
-// (saving its database at shutdown) and started again for the second lap with its odometry
+// (its map committed keyframe by keyframe) and started again for the second lap with its odometry
 // restarted at the origin. The second run loads the first run's keyframes as session 0 and finds
-// loops into them. Also: a killed node keeps what autosave wrote; a corrupt database or a missing
-// or corrupt model stops the node at start, saying which file.
+// loops into them. Also: a node killed mid-run keeps every keyframe it published (each is
+// committed first); a corrupt map or a missing or corrupt model stops the node at start, saying
+// which file.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -20,6 +21,7 @@
 
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/eval/true_loop.h"
 #include "node_harness.h"
 
@@ -168,6 +170,9 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
   ResetDatabase reset;
   ASSERT_TRUE(ros::service::call("/loop_closure/reset", reset));
   EXPECT_TRUE(reset.response.success);
+  // The forgotten keyframes stay on disk under another name.
+  EXPECT_NE(reset.response.message.find("kept as " + path + ".reset-"), std::string::npos)
+      << reset.response.message;
   DatabaseFile load;
   load.request.path = copy;
   ASSERT_TRUE(ros::service::call("/loop_closure/load_database", load));
@@ -213,23 +218,30 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
               first_run_keyframes, second_run_keyframes, second_run_loops.size());
   EXPECT_GE(true_loops, 20u);
   std::filesystem::remove(path);
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
+    if (entry.path().string().rfind(path + ".reset-", 0) == 0) std::filesystem::remove(entry);
+  }
 }
 
 TEST(LoopClosureNode, ACorruptDatabaseFileStopsTheNodeAndIsLeftAlone) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "lcd_node_corrupt.lcdb").string();
-  const std::string garbage = "LLCKFDB\nnot really a database";
-  {
-    std::ofstream file(path, std::ios::binary);
-    file << garbage;
+  // The earlier format, and a file that is no map at all.
+  for (const std::string& garbage : {std::string("LLCKFDB\nnot really a database"),
+                                     std::string(4096, 'x') + "no SQLite header either"}) {
+    {
+      std::ofstream file(path, std::ios::binary);
+      file << garbage;
+    }
+    ros::param::set("/loop_closure/database_path", path);
+    const pid_t node = startNode();
+    ASSERT_GT(node, 0);
+    const int status = exitStatus(node);
+    EXPECT_NE(status, -1) << "the node started with a corrupt map";
+    EXPECT_NE(status, 0);
+    EXPECT_EQ(readFile(path), garbage);  // Left as it was.
   }
-  ros::param::set("/loop_closure/database_path", path);
-  const pid_t node = startNode();
-  ASSERT_GT(node, 0);
-  const int status = exitStatus(node);
-  EXPECT_NE(status, -1) << "the node started with a corrupt database file";
-  EXPECT_NE(status, 0);
-  EXPECT_EQ(readFile(path), garbage);  // Not overwritten by a save at shutdown.
   std::filesystem::remove(path);
   ros::param::set("/loop_closure/database_path", std::string());
 }
@@ -261,12 +273,10 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
   std::filesystem::remove(log);
 }
 
-TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItAutosaved) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "lcd_node_killed.lcdb").string();
+TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
+  const std::string path = (std::filesystem::temp_directory_path() / "lcd_node_killed.db").string();
   std::filesystem::remove(path);
   ros::param::set("/loop_closure/database_path", path);
-  ros::param::set("/loop_closure/autosave_every", 1);
 
   test_support::NodeHarness harness;
   const pid_t first = startNode();
@@ -278,16 +288,22 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItAutosaved) {
   SequenceGenerator sequence(world, CameraModel{}, options);
   ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
-  while (ros::ok() && sequence.next(&frame) && frame.index < 400) {
+  // Killed mid-run, frames still arriving and keyframes in the worker's hands.
+  while (ros::ok() && sequence.next(&frame) && frame.index < 300) {
     harness.publish(frame.stamp, frame.odom, frame.image);
     ros::spinOnce();
     rate.sleep();
   }
-  harness.waitUntilQuiet();
-  const size_t keyframes = harness.keyframes().size();
-  ASSERT_GT(keyframes, 50u);
-  kill(-first, SIGKILL);  // No shutdown save: only what autosave wrote survives.
+  kill(-first, SIGKILL);
   waitpid(first, nullptr, 0);
+  // A keyframe is published after it is committed: every one received must be in the map.
+  const ros::WallTime drain = ros::WallTime::now() + ros::WallDuration(1.0);
+  while (ros::WallTime::now() < drain) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  const std::map<uint64_t, ros::Time> published = harness.keyframes();
+  ASSERT_GT(published.size(), 50u);
 
   // The master still lists the killed node until the new one takes its name: call until the new
   // one answers.
@@ -303,9 +319,17 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItAutosaved) {
   }
   ASSERT_TRUE(answered) << "the restarted node did not answer";
   EXPECT_TRUE(save.response.success) << save.response.message;
-  EXPECT_EQ(save.response.keyframes, keyframes);
+  EXPECT_GE(save.response.keyframes, published.size());
   EXPECT_TRUE(stopNode(second));
-  ros::param::set("/loop_closure/autosave_every", 0);
+
+  const auto copy = KeyframeStore::openExisting(save.request.path);
+  for (const auto& [id, stamp] : published) {
+    const std::optional<KeyframeRecord> keyframe = copy->get(id);
+    ASSERT_TRUE(keyframe) << "published keyframe " << id << " was not in the map after the kill";
+    EXPECT_NEAR(keyframe->stamp, stamp.toSec(), 1e-6);
+  }
+  std::printf("killed after %zu published keyframes; the map held %lu\n", published.size(),
+              save.response.keyframes);
   ros::param::set("/loop_closure/database_path", std::string());
   std::filesystem::remove(path);
   std::filesystem::remove(save.request.path);

@@ -58,12 +58,9 @@ struct NodeOptions {
   RelativePoseFrame relative_pose_frame = RelativePoseFrame::kCamera;
   /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
   bool camera_mount_from_tf = false;
-  /// Keyframe database file: loaded at start when it exists (autoload), saved every
-  /// autosave_every keyframes and at shutdown (save_on_shutdown); "" = none.
+  /// The map (KeyframeStore): its keyframes are loaded at start as earlier sessions and every
+  /// keyframe is committed to it when stored; "" = memory only.
   std::string database_path;
-  bool autoload = true;
-  int autosave_every = 0;  ///< Keyframes between saves; 0 = only at shutdown and on request.
-  bool save_on_shutdown = true;
   LoopDetectorOptions detector;
   /// Set when the options had to change to run at all (the pretrained backbone was never
   /// fetched): one line for the node to warn with. Empty otherwise.

@@ -17,6 +17,7 @@
 #include "landmark_loop_closure/core/sequence_matching.h"
 #include "landmark_loop_closure/core/temporal_consistency.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/geometry/metric_pose.h"
@@ -156,6 +157,8 @@ struct KeyframeResult {
   /// failed) and the result of the last held keyframe, stored with all the others.
   int held_for_training = 0;
   std::string training_summary;
+  /// Stored in memory but not committed to the map on disk (disk full, file gone): why.
+  std::string store_error;
 };
 
 struct FrameResult {
@@ -197,16 +200,31 @@ class LoopDetector {
   void setCameraMount(const std::optional<Pose>& mount);
   const std::optional<Pose>& cameraMount() const { return camera_mount_; }
 
-  /// Worker thread: writes the database to `path` (database_file.h, atomically). Returns "" or why.
+  /// Worker thread: the map at `path` (a KeyframeStore, created when missing) becomes the
+  /// database: its keyframes are loaded as earlier sessions (new keyframes get the next session
+  /// number and ids after every loaded one, chains and the path start again, and the odometry
+  /// gate leaves loops into earlier sessions alone, their odometry frame being another), and
+  /// every keyframe stored from now on is committed to it when it is added. On refusal returns
+  /// why and changes nothing; "" on success. Call it before frames are admitted: ids already
+  /// handed out below the loaded ones are refused. While online training holds keyframes the map
+  /// is opened when training ends (its result's store_error says if that failed).
+  std::string openMap(const std::string& path);
+  /// Worker thread: keeps the search graph in the open map for the next start (it changes with
+  /// every keyframe, so it is written at shutdown, not as keyframes come). Returns "" or why.
+  std::string saveMapGraph();
+  /// Whether the last openMap() found the map's saved search graph (else it was built).
+  bool mapGraphReused() const { return map_graph_reused_; }
+  /// Worker thread: the open map's file, or "" when keyframes live in memory only.
+  std::string mapPath() const { return store_ ? store_->path() : ""; }
+  /// Worker thread: writes a copy of the keyframes to `path` as a map (atomically: the copy
+  /// appears whole or not at all, replacing what was there). The open map's own path: nothing to
+  /// do, every keyframe is committed. Returns "" or why.
   std::string saveDatabase(const std::string& path) const;
-  /// Worker thread: replaces the database with the one in `path`, as earlier sessions: new
-  /// keyframes get the next session number and ids after every loaded one, chains and the path
-  /// start again, and the odometry gate leaves loops into earlier sessions alone (their odometry
-  /// frame is another). On refusal returns why and changes nothing; "" on success.
-  /// Call it before frames are admitted: ids already handed out below the loaded ones are refused.
+  /// Worker thread: openMap() on an existing file.
   std::string loadDatabase(const std::string& path);
-  /// Worker thread: forgets every keyframe, chain and session.
-  void reset();
+  /// Worker thread: forgets every keyframe, chain and session. With a map open, its file is
+  /// kept under a new name (returned) and a fresh map starts at its path.
+  std::string reset();
   /// Receiving thread: forgets the last keyframe and image size, so that the next frame starts the
   /// keyframe rule afresh whatever its stamp (time jumped back). Pair it with reset().
   void restartAdmission();
@@ -273,6 +291,9 @@ class LoopDetector {
 
   // Search state (worker thread).
   KeyframeDatabase database_;
+  std::unique_ptr<KeyframeStore> store_;  ///< The map on disk; null: memory only.
+  std::string pending_map_path_;          ///< Opened once online training has made the descriptor.
+  bool map_graph_reused_ = false;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

@@ -48,4 +48,9 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
                             int global_dimension, const IndexOptions& index = {},
                             int max_threads = 0);
 
+/// The descriptor identity and global dimension a file was written with, read without loading
+/// it (for converting it); "" on success, else why it cannot be read.
+std::string readDatabaseFileIdentity(const std::string& path, std::string* descriptor_identity,
+                                     int* global_dimension);
+
 }  // namespace landmark_loop_closure

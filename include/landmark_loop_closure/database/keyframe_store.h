@@ -16,7 +16,8 @@ namespace landmark_loop_closure {
 /// always opens. Inspectable with the sqlite3 tool:
 ///   meta(key, value): format_version, descriptor_identity, global_dimension
 ///   keyframes(id, session, stamp, global, record): `global` is the float32 global descriptor
-///   (what search keeps in RAM), `record` the whole keyframe in the map file's layout.
+///   (what search keeps in RAM), `record` the whole keyframe in the map file's layout;
+///   graph(identity, keyframes, bytes): the search graph as of the last clean shutdown.
 /// One process at a time: the file is locked while open. Not thread-safe; one owner.
 class KeyframeStore {
  public:
@@ -29,6 +30,16 @@ class KeyframeStore {
   static std::unique_ptr<KeyframeStore> open(const std::string& path,
                                              const std::string& descriptor_identity,
                                              int global_dimension);
+  /// Opens an existing map whatever its descriptors (tools that copy or merge maps). Throws as
+  /// open() does, and when `path` does not exist.
+  static std::unique_ptr<KeyframeStore> openExisting(const std::string& path);
+  /// True when `path` starts like the map file of the earlier format (database_file.h), which
+  /// `lcd_db convert` turns into a store once.
+  static bool isOldMapFile(const std::string& path);
+  /// Renames the closed map `from` over `to`, first removing a write-ahead log left beside `to`
+  /// by an earlier file there (SQLite would replay it into the new one). Throws
+  /// std::runtime_error naming `to`.
+  static void replaceFile(const std::string& from, const std::string& to);
   ~KeyframeStore();
   KeyframeStore(const KeyframeStore&) = delete;
   KeyframeStore& operator=(const KeyframeStore&) = delete;
@@ -36,6 +47,8 @@ class KeyframeStore {
   /// Writes and commits one keyframe. Throws std::runtime_error (disk full, id not greater than
   /// the last) with the store unchanged.
   void add(const KeyframeRecord& keyframe);
+  /// Writes every keyframe of `database` in one transaction: all or none.
+  void addAll(const KeyframeDatabase& database);
   /// The keyframe with this id, read from disk; nullopt when there is none. Throws
   /// std::runtime_error for a damaged record.
   std::optional<KeyframeRecord> get(uint64_t id) const;
@@ -43,7 +56,22 @@ class KeyframeStore {
   /// rest: what a search index needs.
   void forEachGlobal(const std::function<void(uint64_t id, uint32_t session, double stamp,
                                               std::vector<float> global)>& visit) const;
+  /// Every keyframe, whole, in id order.
+  void forEach(const std::function<void(KeyframeRecord)>& visit) const;
+  /// Writes a consistent copy of the map to `target` (SQLite's online backup) and renames it over
+  /// whatever was there: the copy appears whole or not at all.
+  void copyTo(const std::string& target) const;
+  /// Keeps the search graph of the map's keyframes (ApproximateIndex::toBytes) for the next open:
+  /// written at a clean shutdown, since it changes with every keyframe. `graph_identity`:
+  /// IndexOptions::graphIdentity(); `keyframes`: how many keyframes it holds.
+  void saveGraph(const std::string& graph_identity, size_t keyframes,
+                 const std::vector<uint8_t>& bytes);
+  /// The saved graph when it was made with `graph_identity` over exactly the keyframes stored now
+  /// (not after a crash, which leaves an older one); nullopt otherwise.
+  std::optional<std::vector<uint8_t>> loadGraph(const std::string& graph_identity) const;
   size_t size() const;
+  const std::string& descriptorIdentity() const { return descriptor_identity_; }
+  int globalDimension() const { return global_dimension_; }
   /// The sessions stored, ascending.
   std::vector<uint32_t> sessions() const;
   const std::string& path() const { return path_; }
@@ -51,8 +79,13 @@ class KeyframeStore {
  private:
   struct Connection;
   KeyframeStore(std::string path, std::unique_ptr<Connection> connection);
+  static std::unique_ptr<KeyframeStore> openChecked(const std::string& path,
+                                                    const std::string* descriptor_identity,
+                                                    int global_dimension);
 
   std::string path_;
+  std::string descriptor_identity_;
+  int global_dimension_ = 0;
   std::unique_ptr<Connection> connection_;
 };
 
