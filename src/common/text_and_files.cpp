@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/common/text_and_files.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -42,6 +43,39 @@ std::vector<double> parseNumberList(const std::string& text) {
     values.push_back(value);
   }
   return values;
+}
+
+std::string expandPath(const std::string& path) {
+  std::string expanded;
+  size_t start = 0;
+  const char* home = std::getenv("HOME");
+  if (home != nullptr && !path.empty() && path[0] == '~' && (path.size() == 1 || path[1] == '/')) {
+    expanded = home;
+    start = 1;
+  }
+  for (size_t i = start; i < path.size(); ++i) {
+    if (path[i] != '$' || i + 1 >= path.size()) {
+      expanded += path[i];
+      continue;
+    }
+    const bool braced = path[i + 1] == '{';
+    size_t end = i + (braced ? 2 : 1);
+    while (end < path.size() &&
+           (std::isalnum(static_cast<unsigned char>(path[end])) || path[end] == '_')) {
+      ++end;
+    }
+    const size_t name_start = i + (braced ? 2 : 1);
+    const std::string name = path.substr(name_start, end - name_start);
+    const bool closed = !braced || (end < path.size() && path[end] == '}');
+    const char* value = name.empty() || !closed ? nullptr : std::getenv(name.c_str());
+    if (value == nullptr) {
+      expanded += path[i];  // Not a variable, or unset: kept as written.
+      continue;
+    }
+    expanded += value;
+    i = end + (braced ? 1 : 0) - 1;
+  }
+  return expanded;
 }
 
 }  // namespace landmark_loop_closure

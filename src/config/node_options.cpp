@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <sstream>
 
+#include "landmark_loop_closure/common/text_and_files.h"
+
 namespace landmark_loop_closure {
 
 const std::vector<std::pair<std::string, PoseSource>>& poseSourceNames() {
@@ -31,7 +33,8 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
           .text("database_path", &O::database_path,
                 "the map: an SQLite file (created when missing) whose keyframes are loaded at "
                 "start as earlier sessions; every keyframe is committed to it when it is stored, "
-                "so a crash loses at most the keyframes still queued. \"\" = memory only. "
+                "so a crash loses at most the keyframes still queued. \"\" = memory only. A "
+                "leading ~ and $VARIABLES are expanded, here and in the model paths. "
                 "Services ~save_database (a copy to `path`), ~load_database (switch to the map "
                 "at `path`) and ~reset (the old file is kept as PATH.reset-TIME). A file that "
                 "cannot be opened (damaged, other descriptors, open in another node, the earlier "
@@ -117,6 +120,13 @@ std::string documentedDefaultsYaml() {
 void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   NodeOptions::parameters().read(reader, options);
   LoopDetectorOptions& detector = options->detector;
+  // Paths as users write them in launch and YAML files ("~/maps/lab.db", "$HOME/models/...").
+  DescriptorOptions& descriptor = detector.descriptor;
+  for (std::string* path :
+       {&options->database_path, &descriptor.model, &descriptor.cnn.model,
+        &descriptor.cnn.whitening, &descriptor.backbone.model, &descriptor.broad.model}) {
+    *path = expandPath(*path);
+  }
 
   // Without the fetched backbone the package's own encoder runs, with its own score scale.
   std::string warning;

@@ -1,5 +1,6 @@
 // Every shipped config file must load into NodeOptions without unknown keys or type errors and
 // validate; config/default.yaml must be exactly what the parameter declarations render.
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -8,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 
@@ -158,4 +160,25 @@ TEST(ParameterTable, OutOfRangeValuesAreNamedWithTheirRange) {
       << errors;
   EXPECT_NE(errors.find("camera_mount/roll must be a finite number (got .inf)"), std::string::npos)
       << errors;
+}
+
+TEST(NodeOptions, PathsExpandHomeAndVariablesAsAShellWould) {
+  ::setenv("HOME", "/home/robot", 1);
+  ::setenv("LCD_TEST_MAPS", "/data/maps", 1);
+  ::unsetenv("LCD_TEST_UNSET");
+  EXPECT_EQ(expandPath("~/maps/lab.db"), "/home/robot/maps/lab.db");
+  EXPECT_EQ(expandPath("~"), "/home/robot");
+  EXPECT_EQ(expandPath("~other/lab.db"), "~other/lab.db") << "another user's home: left alone";
+  EXPECT_EQ(expandPath("$LCD_TEST_MAPS/lab.db"), "/data/maps/lab.db");
+  EXPECT_EQ(expandPath("${LCD_TEST_MAPS}_old/lab.db"), "/data/maps_old/lab.db");
+  EXPECT_EQ(expandPath("$LCD_TEST_UNSET/lab.db"), "$LCD_TEST_UNSET/lab.db") << "named in the error";
+  EXPECT_EQ(expandPath("/plain/path$"), "/plain/path$");
+
+  const YamlParameterSource source(YAML::Load(
+      "database_path: ~/maps/lab.db\ndescriptor: {backbone: {model: $LCD_TEST_MAPS/n.onnx}}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(options.database_path, "/home/robot/maps/lab.db");
+  EXPECT_EQ(options.detector.descriptor.backbone.model, "/data/maps/n.onnx");
 }
