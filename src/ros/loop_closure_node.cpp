@@ -92,6 +92,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
     if (!error.empty()) throw std::runtime_error(error);
     database_status_ = options_.database_path;
     session_ = detector_.session();
+    noteMapSize(detector_);
     if (!detector_.extractor()) {
       ROS_INFO("Map %s is opened once online training has made the descriptor",
                options_.database_path.c_str());

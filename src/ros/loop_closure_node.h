@@ -106,6 +106,9 @@ class LoopClosureNode {
                             const std::vector<ReleasedKeyframe>& held);
   void publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                          const cv::Mat& grey);
+  /// Diagnostics read the map's real size and bytes: called wherever the database changes
+  /// (start, keyframe, held keyframes, load, reset). Caller holds the detector.
+  void noteMapSize(const LoopDetector& detector);
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
@@ -166,7 +169,7 @@ class LoopClosureNode {
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
   std::atomic<uint64_t> frames_admitted_{0};
-  std::atomic<uint64_t> keyframes_stored_{0};
+  std::atomic<uint64_t> map_keyframes_{0};  ///< The database's size, set wherever it changes.
   std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};
   std::atomic<uint64_t> tf_timeouts_{0};
@@ -177,6 +180,8 @@ class LoopClosureNode {
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
   std::mutex stats_mutex_;            // Guards what follows.
   size_t database_bytes_ = 0;
+  uint64_t drops_seen_ = 0;       // Diagnostics timer only: keyframes dropped at the last look,
+  double last_drop_wall_ = -1e9;  // and when that count last grew.
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
 

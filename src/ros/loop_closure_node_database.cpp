@@ -69,6 +69,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
                        std::to_string(detector.session());
     session_ = detector.session();
+    noteMapSize(detector);
     std::lock_guard<std::mutex> stats(stats_mutex_);
     database_status_ = path;
     return true;  // The keyframes held for online training belonged to the replaced map.
@@ -81,6 +82,7 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
     const size_t forgotten = detector.database().size();
     const std::string note = detector.reset();
     session_ = detector.session();
+    noteMapSize(detector);
     keyframe_stamps_.clear();
     markers_.clear();
     response.success = true;
@@ -117,12 +119,12 @@ void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const Keyfra
   for (const ReleasedKeyframe& keyframe : held) {
     const KeyframeRecord* record = detector_.database().findById(keyframe.id);
     if (!record) continue;
-    ++keyframes_stored_;
     keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session,
                                               keyframe_stamps_.at(keyframe.id), record->pose,
                                               job.frame_id));
     markers_.addKeyframe(record->pose);
   }
+  noteMapSize(detector_);
 }
 
 }  // namespace landmark_loop_closure

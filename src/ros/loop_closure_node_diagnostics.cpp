@@ -6,8 +6,19 @@
 
 namespace landmark_loop_closure {
 
+namespace {
+
+constexpr double kDropWarningS = 30.0;  // A drop keeps diagnostics at WARN this long.
+
+}  // namespace
+
 void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double now = wallNow();
+  const uint64_t drops = runtime_->keyframesDropped();
+  if (drops > drops_seen_) {
+    drops_seen_ = drops;
+    last_drop_wall_ = now;
+  }
   const bool use_odom = options_.pose_source == PoseSource::kOdom;
   std::ostringstream waiting;
   if (inputs_.imageSilent(now)) waiting << image_topic_;
@@ -25,9 +36,9 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   } else if (!unpaired.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
     ROS_WARN_THROTTLE(kWarningPeriod, "%s", unpaired.c_str());
-  } else if (runtime_->keyframesDropped() > 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "Running; the worker has dropped keyframes");
+  } else if (now - last_drop_wall_ < kDropWarningS) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "Running; the worker dropped keyframes in the last %.0f s", kDropWarningS);
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
   }
@@ -40,7 +51,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.addf("pose rate (Hz)", "%.1f", rates.pose_hz);
   status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
   status.add("frames admitted", frames_admitted_.load());
-  status.add("keyframes", keyframes_stored_.load());
+  status.add("keyframes", map_keyframes_.load());
   status.add("database bytes", database_bytes_);
   status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
   status.add("map", database_status_);

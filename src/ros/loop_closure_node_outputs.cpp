@@ -22,7 +22,14 @@ LoopClosureNode::NodeKeyframe LoopClosureNode::nodeKeyframe(const KeyframeJob& j
   return {source.image, job.id, source.image->header.stamp, job.pose, source.frame_id};
 }
 
+void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
+  map_keyframes_ = detector.database().size();
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  database_bytes_ = detector.database().bytes();
+}
+
 void LoopClosureNode::onTimelineReset() {
+  noteMapSize(detector_);
   session_ = detector_.session();
   keyframe_stamps_.clear();
   markers_.clear();
@@ -38,7 +45,6 @@ void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeRe
 void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
                                      const PreparedKeyframe& prepared) {
   const NodeKeyframe keyframe = nodeKeyframe(job);
-  ++keyframes_stored_;
   if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
     ++keyframes_over_budget_;
     ROS_WARN_THROTTLE(kWarningPeriod,
@@ -52,8 +58,7 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
     ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu is kept in memory only: %s",
                        static_cast<unsigned long>(job.id), result.store_error.c_str());
   }
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  database_bytes_ = detector_.database().bytes();
+  noteMapSize(detector_);
 }
 
 std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,

@@ -167,9 +167,21 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
   EXPECT_TRUE(save.response.success) << save.response.message;
   const uint64_t stored = save.response.keyframes;
   EXPECT_EQ(stored, harness.keyframes().size());
+  // Diagnostics report the map as it is: loaded keyframes included, nothing after a reset.
+  const auto diagnosticBecomes = [&harness](const std::string& key, const std::string& value) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(5.0);
+    while (harness.diagnostic(key) != value && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+    return harness.diagnostic(key) == value;
+  };
+  EXPECT_TRUE(diagnosticBecomes("keyframes", std::to_string(stored)))
+      << harness.diagnostic("keyframes");
   ResetDatabase reset;
   ASSERT_TRUE(ros::service::call("/loop_closure/reset", reset));
   EXPECT_TRUE(reset.response.success);
+  EXPECT_TRUE(diagnosticBecomes("keyframes", "0")) << harness.diagnostic("keyframes");
   // The forgotten keyframes stay on disk under another name.
   EXPECT_NE(reset.response.message.find("kept as " + path + ".reset-"), std::string::npos)
       << reset.response.message;
@@ -178,6 +190,8 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
   ASSERT_TRUE(ros::service::call("/loop_closure/load_database", load));
   EXPECT_TRUE(load.response.success) << load.response.message;
   EXPECT_EQ(load.response.keyframes, stored);
+  EXPECT_TRUE(diagnosticBecomes("keyframes", std::to_string(stored)))
+      << harness.diagnostic("keyframes");
   DatabaseFile missing;
   missing.request.path = path + ".missing";
   ASSERT_TRUE(ros::service::call("/loop_closure/load_database", missing));
