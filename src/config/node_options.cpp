@@ -68,6 +68,11 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                   "start over from it. Smaller steps back are always dropped.")
           .number("time_jump_back_s", &O::time_jump_back_s, above(0),
                   "seconds back that count as a jump rather than an out-of-order frame.")
+          .number("max_stamp_ahead_s", &O::max_stamp_ahead_s, atLeast(0),
+                  "frames stamped more than this ahead of the node's clock (wall time, or /clock "
+                  "with use_sim_time) are dropped before they can become a keyframe: one such "
+                  "frame would make every later one \"not after the last keyframe\" until the "
+                  "clock caught up. 0 = off.")
           .flag("publish_rejected_markers", &O::publish_rejected_markers,
                 "also draw rejected loop candidates in ~markers (grey lines).")
           .flag("use_depth", &O::use_depth,

@@ -81,6 +81,7 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
   runtime_->withDetector([&](LoopDetector& detector) {
     const size_t forgotten = detector.database().size();
     const std::string note = detector.reset();
+    runtime_->restartTimeline();  // New frames are not bounded by the old timeline's stamps.
     session_ = detector.session();
     noteMapSize(detector);
     keyframe_stamps_.clear();

@@ -82,6 +82,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   frame.width = static_cast<int>(image->width);
   frame.height = static_cast<int>(image->height);
   frame.cv_type = *cvTypeOfEncoding(image->encoding);
+  frame.clock = ros::Time::now().toSec();
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     frame.intrinsics = camera_intrinsics_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 #include <utility>
 
 namespace landmark_loop_closure {
@@ -24,6 +25,17 @@ void DetectorRuntime::stop() {
 
 RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
   RuntimeAdmission result;
+  if (options_.max_stamp_ahead_s > 0.0 && frame.clock > 0.0 &&
+      frame.stamp > frame.clock + options_.max_stamp_ahead_s) {
+    std::ostringstream message;
+    message.precision(3);
+    message << std::fixed << "stamp " << frame.stamp << " s is " << frame.stamp - frame.clock
+            << " s ahead of the clock (" << frame.clock << " s); more than max_stamp_ahead_s "
+            << options_.max_stamp_ahead_s;
+    result.admission.error = InputError{InputErrorCode::kStampInFuture, message.str()};
+    return result;
+  }
+  if (restart_timeline_.exchange(false)) detector_->restartAdmission();
   const auto admit_frame = [&] {
     return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type);
   };

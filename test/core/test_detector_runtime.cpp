@@ -204,6 +204,50 @@ TEST(DetectorRuntime, TimeJumpingBackIsRefusedByDefault) {
   EXPECT_EQ(detector->database().size(), 5u);
 }
 
+TEST(DetectorRuntime, AFrameStampedAheadOfTheClockIsRefusedAndCannotWedgeLaterFrames) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  RuntimeOptions options;
+  options.max_stamp_ahead_s = 5.0;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  const auto at = [](FrameInput input, double clock) {
+    input.clock = clock;
+    return input;
+  };
+  for (int i = 0; i < 5; ++i)
+    EXPECT_TRUE(runtime.admit(at(frame(i, i * 10, 100.0 + i), 100.0 + i)).queued);
+  // A day ahead (a wrong clock on the sender): refused before it can become a keyframe.
+  const RuntimeAdmission future = runtime.admit(at(frame(5, 50, 100.0 + 86400.0), 105.0));
+  ASSERT_TRUE(future.admission.error);
+  EXPECT_EQ(future.admission.error->code, InputErrorCode::kStampInFuture);
+  EXPECT_NE(future.admission.error->message.find("ahead of the clock"), std::string::npos);
+  // Frames after it go on as before.
+  EXPECT_TRUE(runtime.admit(at(frame(6, 60, 106.0), 106.0)).queued);
+  // Within the tolerance, or with no clock yet (simulated time not started): admitted.
+  EXPECT_TRUE(runtime.admit(at(frame(7, 70, 110.0), 107.0)).queued);
+  EXPECT_TRUE(runtime.admit(at(frame(8, 80, 111.0), 0.0)).queued);
+  ASSERT_TRUE(recorder.waitDone(8));
+  EXPECT_EQ(detector->database().size(), 8u);
+}
+
+TEST(DetectorRuntime, RestartingTheTimelineLetsEarlierStampsInAfterAReset) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, recorder.listener());
+  for (int i = 0; i < 5; ++i) runtime.admit(frame(i, i * 10, 100.0 + i));
+  ASSERT_TRUE(recorder.waitDone(5));
+  // ~reset: the map is forgotten and the old timeline's stamps no longer bound new ones.
+  runtime.withDetector([](LoopDetector& held) {
+    held.reset();
+    return true;
+  });
+  runtime.restartTimeline();
+  EXPECT_TRUE(runtime.admit(frame(0, 0, 10.0)).queued) << "refused as before the old keyframes";
+  EXPECT_TRUE(runtime.admit(frame(1, 10, 11.0)).queued);
+  ASSERT_TRUE(recorder.waitDone(7));
+  EXPECT_EQ(detector->database().size(), 2u);
+}
+
 TEST(DetectorRuntime, TimeJumpingBackWithResetStartsANewTimelineAndDropsStaleKeyframes) {
   const std::unique_ptr<LoopDetector> detector = smallDetector();
   Recorder recorder;

@@ -53,6 +53,9 @@ struct NodeOptions {
   /// are out-of-order frames and always dropped.
   TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
   double time_jump_back_s = 1.0;
+  /// Frames stamped more than this ahead of the node's clock (wall, or /clock with use_sim_time)
+  /// are refused; 0 = off.
+  double max_stamp_ahead_s = 5.0;
   bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
   bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
   RelativePoseFrame relative_pose_frame = RelativePoseFrame::kCamera;

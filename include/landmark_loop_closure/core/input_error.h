@@ -19,6 +19,7 @@ enum class InputErrorCode {
   kUnsupportedImageType,
   kNonFiniteStamp,
   kStampNotIncreasing,
+  kStampInFuture,  ///< Ahead of the receiving clock: it would wedge every later frame.
   kNonFinitePose,
   kNonUnitQuaternion,
   kNoTexture,  ///< Nearly uniform image (lens cap, darkness, overexposure): all such look alike.

@@ -32,6 +32,10 @@ struct RuntimeOptions {
   size_t queue_size = 8;  ///< Keyframes waiting for the worker; when full the oldest is dropped.
   TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
   double time_jump_back_s = 1.0;
+  /// A frame stamped more than this ahead of FrameInput::clock is refused before it can become a
+  /// keyframe: every later frame would otherwise be "not after the last keyframe" until the
+  /// clock caught up. 0: off.
+  double max_stamp_ahead_s = 0.0;
 };
 
 /// A keyframe on its way to the worker. `source` is the caller's own (the node keeps its image
@@ -54,6 +58,9 @@ struct FrameInput {
   int cv_type = 0;
   CameraIntrinsics intrinsics;
   std::any source;
+  /// The receiver's clock when the frame came (wall or simulated), seconds; 0 or less: unknown
+  /// (a simulated clock not started yet), no check.
+  double clock = 0.0;
 };
 
 struct RuntimeAdmission {
@@ -108,6 +115,9 @@ class DetectorRuntime {
   DetectorRuntime& operator=(const DetectorRuntime&) = delete;
 
   /// Caller's thread: input checks, time jumps and the keyframe rule; keyframes are queued.
+  /// Any thread: the next admitted frame starts the keyframe rule afresh, whatever its stamp
+  /// (after ~reset: the old timeline's last keyframe no longer bounds the new one's stamps).
+  void restartTimeline() { restart_timeline_ = true; }
   RuntimeAdmission admit(FrameInput frame);
 
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
@@ -134,8 +144,9 @@ class DetectorRuntime {
   BoundedQueue<KeyframeJob> queue_;
   std::mutex detector_mutex_;
   std::atomic<uint64_t> generation_{0};  ///< Bumped on each time jump back (kReset).
-  uint64_t worker_generation_ = 0;       ///< Worker: the timeline it is in.
-  std::vector<ReleasedKeyframe> held_;   ///< Worker, under detector_mutex_.
+  std::atomic<bool> restart_timeline_{false};
+  uint64_t worker_generation_ = 0;      ///< Worker: the timeline it is in.
+  std::vector<ReleasedKeyframe> held_;  ///< Worker, under detector_mutex_.
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> stale_{0};
   std::atomic<double> last_ms_{0.0};
