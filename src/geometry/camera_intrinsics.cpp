@@ -1,12 +1,42 @@
 #include "landmark_loop_closure/geometry/camera_intrinsics.h"
 
 #include <cmath>
+#include <sstream>
 
 namespace landmark_loop_closure {
 
-bool CameraIntrinsics::valid() const {
-  return std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy) &&
-         fx > 0.0 && fy > 0.0 && image_size.width > 0 && image_size.height > 0;
+std::string CameraIntrinsics::problem() const {
+  std::ostringstream text;
+  if (!(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy))) {
+    text << "K holds a non-finite value (fx " << fx << ", fy " << fy << ", cx " << cx << ", cy "
+         << cy << ")";
+  } else if (image_size.width <= 0 || image_size.height <= 0) {
+    text << "image size " << image_size.width << "x" << image_size.height << " is empty";
+  } else if (!(fx > 0.0) || !(fy > 0.0)) {
+    text << "focal lengths fx " << fx << ", fy " << fy
+         << " must be > 0 (K all zeros: no calibration)";
+  } else if (fx > 100.0 * image_size.width || fy > 100.0 * image_size.width) {
+    text << "focal lengths fx " << fx << ", fy " << fy << " are over 100 image widths";
+  } else if (cx < 0.0 || cy < 0.0 || cx >= image_size.width || cy >= image_size.height) {
+    text << "principal point (" << cx << ", " << cy << ") lies outside the " << image_size.width
+         << "x" << image_size.height << " image";
+  }
+  return text.str();
+}
+
+std::string CameraIntrinsics::problemFor(cv::Size image) const {
+  const std::string own = problem();
+  if (!own.empty() || image.area() == 0) return own;
+  const double ratio = static_cast<double>(image_size.width) / image_size.height;
+  const double image_ratio = static_cast<double>(image.width) / image.height;
+  if (std::abs(ratio / image_ratio - 1.0) > 0.02) {
+    std::ostringstream text;
+    text << "its size " << image_size.width << "x" << image_size.height
+         << " has another aspect ratio than the " << image.width << "x" << image.height
+         << " images";
+    return text.str();
+  }
+  return "";
 }
 
 CameraIntrinsics CameraIntrinsics::scaledTo(cv::Size size) const {

@@ -109,6 +109,7 @@ class LoopClosureNode {
   /// Diagnostics read the map's real size and bytes: called wherever the database changes
   /// (start, keyframe, held keyframes, load, reset). Caller holds the detector.
   void noteMapSize(const LoopDetector& detector);
+  std::string cameraInfoProblem();
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
@@ -177,6 +178,7 @@ class LoopClosureNode {
   std::atomic<uint64_t> keyframes_with_depth_{0};
   std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<bool> camera_info_seen_{false};
+  std::string camera_info_problem_;   ///< Under stats_mutex_: why camera_info is unusable, or "".
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
   std::mutex stats_mutex_;            // Guards what follows.
   size_t database_bytes_ = 0;

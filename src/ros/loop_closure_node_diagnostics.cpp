@@ -6,6 +6,11 @@
 
 namespace landmark_loop_closure {
 
+std::string LoopClosureNode::cameraInfoProblem() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return camera_info_problem_;
+}
+
 namespace {
 
 constexpr double kDropWarningS = 30.0;  // A drop keeps diagnostics at WARN this long.
@@ -36,6 +41,9 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   } else if (!unpaired.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
     ROS_WARN_THROTTLE(kWarningPeriod, "%s", unpaired.c_str());
+  } else if (const std::string problem = cameraInfoProblem(); !problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "Running; geometric check off: camera_info invalid (" + problem + ")");
   } else if (now - last_drop_wall_ < kDropWarningS) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                     "Running; the worker dropped keyframes in the last %.0f s", kDropWarningS);
@@ -49,7 +57,9 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   if (use_odom) status.add("odometry topic", odom_topic_);
   status.addf("image rate (Hz)", "%.1f", rates.image_hz);
   status.addf("pose rate (Hz)", "%.1f", rates.pose_hz);
-  status.add("camera_info received", camera_info_seen_ ? "yes" : "no");
+  status.add("camera_info", !camera_info_seen_             ? "none received"
+                            : camera_info_problem_.empty() ? "usable"
+                                                           : "invalid: " + camera_info_problem_);
   status.add("frames admitted", frames_admitted_.load());
   status.add("keyframes", map_keyframes_.load());
   status.add("database bytes", database_bytes_);

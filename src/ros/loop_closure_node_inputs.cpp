@@ -86,6 +86,16 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     frame.intrinsics = camera_intrinsics_;
+    // Unusable calibration turns the geometric check off: said once per period, and in the
+    // diagnostics and every loop's log line, instead of silently.
+    if (camera_info_seen_) {
+      camera_info_problem_ = frame.intrinsics.problemFor(cv::Size(frame.width, frame.height));
+      if (!camera_info_problem_.empty()) {
+        ROS_WARN_THROTTLE(kWarningPeriod, "camera_info not used, the geometric check is off: %s",
+                          camera_info_problem_.c_str());
+        frame.intrinsics = CameraIntrinsics();
+      }
+    }
   }
   frame.source = FrameSource{image, frame_id};
   const RuntimeAdmission admitted = runtime_->admit(std::move(frame));

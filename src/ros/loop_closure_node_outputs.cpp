@@ -89,10 +89,14 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
     loop_publisher_.publish(
         toLoopMsg(loop, job.stamp, stampOf(loop.match_id), job.frame_id, pose_frame));
     ++loops_published_;
-    ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes)",
+    const bool checked = result.loop->verification.has_value();
+    ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes, %s)",
              static_cast<unsigned long>(result.loop->query_id),
              static_cast<unsigned long>(result.loop->match_id), result.loop->score,
-             result.loop->consistent_keyframes);
+             result.loop->consistent_keyframes,
+             checked                                   ? "verified"
+             : !options_.detector.verification.enabled ? "unverified: verification off"
+                                                       : "unverified: no usable camera_info");
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
     candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id,

@@ -2,6 +2,7 @@
 // cases it must refuse with their reason.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <vector>
 
@@ -176,4 +177,35 @@ TEST(GeometricVerification, OptionsAreValidated) {
   for (const char* key : {"min_inliers", "ratio_test", "min_spread"}) {
     EXPECT_NE(errors.find(key), std::string::npos) << key;
   }
+}
+
+TEST(CameraIntrinsics, UnusableCalibrationIsNamedField) {
+  CameraIntrinsics good;
+  good.fx = good.fy = 200.0;
+  good.cx = 159.5;
+  good.cy = 119.5;
+  good.image_size = cv::Size(320, 240);
+  EXPECT_EQ(good.problem(), "");
+  EXPECT_EQ(good.problemFor(cv::Size(640, 480)), "") << "the same camera at twice the size";
+
+  const auto problem = [&good](const std::function<void(CameraIntrinsics*)>& spoil) {
+    CameraIntrinsics spoilt = good;
+    spoil(&spoilt);
+    EXPECT_FALSE(spoilt.valid());
+    return spoilt.problem();
+  };
+  EXPECT_NE(
+      problem([](CameraIntrinsics* k) { k->fx = k->fy = k->cx = k->cy = 0.0; }).find("K all zeros"),
+      std::string::npos);
+  EXPECT_NE(problem([](CameraIntrinsics* k) { k->fx = -200.0; }).find("must be > 0"),
+            std::string::npos);
+  EXPECT_NE(problem([](CameraIntrinsics* k) { k->cy = std::nan(""); }).find("non-finite"),
+            std::string::npos);
+  EXPECT_NE(problem([](CameraIntrinsics* k) { k->image_size = cv::Size(0, 0); }).find("empty"),
+            std::string::npos);
+  EXPECT_NE(problem([](CameraIntrinsics* k) { k->fx = 1e300; }).find("over 100 image widths"),
+            std::string::npos);
+  EXPECT_NE(problem([](CameraIntrinsics* k) { k->cx = 900.0; }).find("principal point"),
+            std::string::npos);
+  EXPECT_NE(good.problemFor(cv::Size(640, 360)).find("aspect ratio"), std::string::npos);
 }

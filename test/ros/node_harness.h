@@ -78,6 +78,9 @@ class NodeHarness {
     return false;
   }
 
+  /// From now on camera_info carries K all zeros, as an uncalibrated driver sends it.
+  void breakCameraInfo() { broken_camera_info_ = true; }
+
   /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
   /// the same stamp, or the odometry `odometry_offset` seconds later; `corrupt_pose` puts NaN in x.
   void publish(double stamp, const sim::Pose2D& odom, const cv::Mat& image,
@@ -114,15 +117,10 @@ class NodeHarness {
     info.header = header;
     info.width = static_cast<uint32_t>(camera.width);
     info.height = static_cast<uint32_t>(camera.height);
-    info.K = {camera.focal_px,
-              0.0,
-              (camera.width - 1) / 2.0,
-              0.0,
-              camera.focal_px,
-              (camera.height - 1) / 2.0,
-              0.0,
-              0.0,
-              1.0};
+    const double focal = broken_camera_info_ ? 0.0 : camera.focal_px;  // K all zeros: uncalibrated.
+    info.K = {focal, 0.0,   broken_camera_info_ ? 0.0 : (camera.width - 1) / 2.0,
+              0.0,   focal, broken_camera_info_ ? 0.0 : (camera.height - 1) / 2.0,
+              0.0,   0.0,   1.0};
     camera_info_publisher_.publish(info);
   }
 
@@ -225,6 +223,7 @@ class NodeHarness {
   ros::Publisher odom_publisher_;
   ros::Publisher tf_publisher_;
   ros::Publisher camera_info_publisher_;
+  bool broken_camera_info_ = false;
   ros::Publisher depth_publisher_;
   ros::Publisher static_tf_publisher_;
   ros::Subscriber keyframe_subscriber_;

@@ -57,6 +57,23 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   EXPECT_NE(harness.diagnostic("rejected: unsupported_image_type"), "");
   EXPECT_NE(harness.diagnostic("rejected: non_finite_pose"), "");
   EXPECT_NE(harness.diagnostic("rejected: no_texture"), "");
+  EXPECT_EQ(harness.diagnostic("camera_info"), "usable");
+
+  // An uncalibrated camera (K all zeros): the geometric check goes off, and says so.
+  harness.breakCameraInfo();
+  for (int i = 1; i <= 20; ++i) {
+    harness.publish(frame.stamp + 0.1 * i, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+  }
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(5.0);
+  while (harness.diagnostic("camera_info").rfind("invalid", 0) != 0 && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+  }
+  EXPECT_EQ(harness.diagnostic("camera_info").rfind("invalid: focal lengths fx 0", 0), 0u)
+      << harness.diagnostic("camera_info");
+  EXPECT_TRUE(harness.summarySaid("geometric check off: camera_info invalid"));
 }
 
 int main(int argc, char** argv) {
