@@ -2,6 +2,35 @@
 
 namespace landmark_loop_closure {
 
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, double* out) {
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    *out = static_cast<double>(value);
+  } else if (value.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    *out = static_cast<int>(value);
+  } else {
+    return ParameterLookup::kWrongType;
+  }
+  return ParameterLookup::kFound;
+}
+
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, int* out) {
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeInt) return ParameterLookup::kWrongType;
+  *out = static_cast<int>(value);
+  return ParameterLookup::kFound;
+}
+
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, bool* out) {
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeBoolean) return ParameterLookup::kWrongType;
+  *out = static_cast<bool>(value);
+  return ParameterLookup::kFound;
+}
+
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, std::string* out) {
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeString) return ParameterLookup::kWrongType;
+  *out = static_cast<std::string>(value);
+  return ParameterLookup::kFound;
+}
+
 ParameterLookup RosParameterSource::get(const std::string& key, double* value) const {
   return lookup(key, value);
 }

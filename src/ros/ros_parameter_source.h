@@ -9,6 +9,13 @@
 
 namespace landmark_loop_closure {
 
+/// A parameter server value as the type asked for, strictly: an integer key refuses 2.5 instead
+/// of truncating it; a number key takes an integer.
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, double* out);
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, int* out);
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, bool* out);
+ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, std::string* out);
+
 /// Parameters from the ROS parameter server, relative to a (private) node handle.
 class RosParameterSource : public ParameterSource {
  public:
@@ -25,8 +32,9 @@ class RosParameterSource : public ParameterSource {
  private:
   template <typename T>
   ParameterLookup lookup(const std::string& key, T* value) const {
-    if (!node_.hasParam(key)) return ParameterLookup::kAbsent;
-    return node_.getParam(key, *value) ? ParameterLookup::kFound : ParameterLookup::kWrongType;
+    XmlRpc::XmlRpcValue raw;
+    if (!node_.hasParam(key) || !node_.getParam(key, raw)) return ParameterLookup::kAbsent;
+    return fromXmlRpc(raw, value);
   }
 
   ros::NodeHandle node_;

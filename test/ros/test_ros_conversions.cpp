@@ -12,6 +12,7 @@
 #include "../../fuzz/image_message_input.h"
 #include "../../src/messages/ros_conversions.h"
 #include "../../src/ros/loop_markers.h"
+#include "../../src/ros/ros_parameter_source.h"
 
 using namespace landmark_loop_closure;
 
@@ -332,4 +333,26 @@ TEST(RosConversions, EveryKeptFuzzInputIsRefusedOrConverted) {
     ++inputs;
   }
   EXPECT_GE(inputs, 5);
+}
+
+TEST(RosParameterSource, IntegersAreStrictAndNumbersTakeIntegers) {
+  XmlRpc::XmlRpcValue two_and_a_half(2.5);
+  XmlRpc::XmlRpcValue eight(8);
+  XmlRpc::XmlRpcValue word("fast");
+  XmlRpc::XmlRpcValue yes(true);
+  int integer = 0;
+  EXPECT_EQ(fromXmlRpc(two_and_a_half, &integer), ParameterLookup::kWrongType)
+      << "worker_queue_size: 2.5 must not become 2";
+  EXPECT_EQ(fromXmlRpc(eight, &integer), ParameterLookup::kFound);
+  EXPECT_EQ(integer, 8);
+  double number = 0.0;
+  EXPECT_EQ(fromXmlRpc(eight, &number), ParameterLookup::kFound);
+  EXPECT_EQ(number, 8.0);
+  EXPECT_EQ(fromXmlRpc(word, &number), ParameterLookup::kWrongType);
+  bool flag = false;
+  EXPECT_EQ(fromXmlRpc(eight, &flag), ParameterLookup::kWrongType);
+  EXPECT_EQ(fromXmlRpc(yes, &flag), ParameterLookup::kFound);
+  std::string text;
+  EXPECT_EQ(fromXmlRpc(eight, &text), ParameterLookup::kWrongType);
+  EXPECT_EQ(fromXmlRpc(word, &text), ParameterLookup::kFound);
 }
