@@ -216,6 +216,19 @@ const ParameterTable<MetricPoseOptions>& MetricPoseOptions::parameters() {
 
 std::string MetricPoseOptions::validate() const { return parameters().check(*this); }
 
+bool hasUsableDepth(const cv::Mat& depth) {
+  if (depth.empty()) return false;
+  if (depth.depth() == CV_16U) return cv::countNonZero(depth.reshape(1)) > 0;
+  if (depth.depth() != CV_32F) return false;
+  for (int r = 0; r < depth.rows; ++r) {
+    const float* row = depth.ptr<float>(r);
+    for (int c = 0; c < depth.cols * depth.channels(); ++c) {
+      if (std::isfinite(row[c]) && row[c] > 0.0f) return true;
+    }
+  }
+  return false;
+}
+
 int triangulateKeypoints(const LocalFeatures& neighbour,
                          const Eigen::Isometry3d& neighbour_in_keyframe,
                          const CameraIntrinsics& intrinsics,

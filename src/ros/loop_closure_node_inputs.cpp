@@ -5,6 +5,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "landmark_loop_closure/geometry/metric_pose.h"
 #include "messages/ros_conversions.h"
 
 namespace landmark_loop_closure {
@@ -181,6 +182,13 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
   if (!error.empty()) {
     ROS_WARN_THROTTLE(kWarningPeriod, "Depth image at %.3f not used: %s",
                       depth_image.header.stamp.toSec(), error.c_str());
+    return {};
+  }
+  if (!hasUsableDepth(depth)) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Depth image at %.3f not used: no finite positive reading in it (all zero, "
+                      "NaN, Inf or negative)",
+                      depth_image.header.stamp.toSec());
     return {};
   }
   // Depth from another camera's frame would put every point in the wrong place.

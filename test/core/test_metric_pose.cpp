@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -333,4 +334,20 @@ TEST(InBodyFrame, GivesTheBodiesRelativePoseAndCarriesTheCovariance) {
   const RelativePose back = inBodyFrame(in_body, Pose::fromIsometry(m.inverse()));
   EXPECT_LT((isometry(back).matrix() - isometry(in_camera).matrix()).norm(), 1e-12);
   EXPECT_LT((back.covariance - in_camera.covariance).norm(), 1e-12);
+}
+
+TEST(DepthImage, OnlyFiniteReadingsAboveZeroCount) {
+  EXPECT_FALSE(hasUsableDepth(cv::Mat()));
+  EXPECT_FALSE(hasUsableDepth(cv::Mat::zeros(4, 5, CV_16UC1)));
+  cv::Mat millimetres = cv::Mat::zeros(4, 5, CV_16UC1);
+  millimetres.at<uint16_t>(2, 3) = 1500;
+  EXPECT_TRUE(hasUsableDepth(millimetres));
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(),
+                          std::numeric_limits<float>::infinity(), -2.0f, 0.0f}) {
+    EXPECT_FALSE(hasUsableDepth(cv::Mat(4, 5, CV_32FC1, cv::Scalar(bad)))) << bad;
+  }
+  cv::Mat metres(4, 5, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  metres.at<float>(3, 4) = 2.5f;
+  EXPECT_TRUE(hasUsableDepth(metres));
+  EXPECT_FALSE(hasUsableDepth(cv::Mat(4, 5, CV_8UC1, cv::Scalar(7)))) << "not a depth type";
 }

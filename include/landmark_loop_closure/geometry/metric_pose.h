@@ -58,6 +58,10 @@ int triangulateKeypoints(const LocalFeatures& neighbour,
                          const VerificationOptions& verification, const MetricPoseOptions& options,
                          LocalFeatures* keyframe);
 
+/// Whether a depth image (16-bit unsigned or 32-bit float) holds at least one finite positive
+/// reading; one that does not (all zero, NaN, Inf or negative) gives no depth at all.
+bool hasUsableDepth(const cv::Mat& depth);
+
 /// Depths for `keyframe`'s keypoints from a depth image registered to its camera (any size:
 /// keypoints are scaled to it). 16-bit unsigned depths are multiplied by
 /// depth_image_metres_per_unit, 32-bit float ones are metres; zero, NaN and out-of-range
