@@ -9,6 +9,7 @@
 
 #include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/database/map_tools.h"
 
 namespace landmark_loop_closure {
 
@@ -196,15 +197,10 @@ std::string LoopDetector::saveDatabase(const std::string& path) const {
   try {
     if (store_) {
       store_->copyTo(path);
-      return "";
+    } else {
+      writeMap(database_, descriptor_identity_, path);
     }
-    const std::string partial = path + ".partial";
-    std::filesystem::remove(partial);
-    KeyframeStore::open(partial, descriptor_identity_, database_.globalDimension())
-        ->addAll(database_);
-    KeyframeStore::replaceFile(partial, path);
   } catch (const std::exception& error) {
-    std::filesystem::remove(path + ".partial", same_error);
     return error.what();
   }
   return "";

@@ -14,13 +14,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// Writes keyframes into a new map at `out` through a partial file renamed at the end, so the map
-/// appears whole or not at all; memory stays flat whatever the map's size.
+/// Writes keyframes into a map at `out` through a partial file renamed at the end, so the map
+/// appears whole or not at all; memory stays flat whatever the map's size. `replace`: an existing
+/// `out` is replaced, else refused.
 class MapWriter {
  public:
-  MapWriter(const std::string& out, const std::string& identity, int dimension)
+  MapWriter(const std::string& out, const std::string& identity, int dimension,
+            bool replace = false)
       : out_(out), partial_(out + ".partial") {
-    if (fs::exists(out)) throw std::runtime_error(out + " exists already; not overwritten");
+    if (!replace && fs::exists(out)) {
+      throw std::runtime_error(out + " exists already; not overwritten");
+    }
     fs::remove(partial_);
     store_ = KeyframeStore::open(partial_, identity, dimension);
   }
@@ -32,6 +36,7 @@ class MapWriter {
     }
   }
   void add(const KeyframeRecord& keyframe) { store_->add(keyframe); }
+  void addAll(const KeyframeDatabase& database) { store_->addAll(database); }
   size_t finish() {
     const size_t written = store_->size();
     store_.reset();
@@ -58,6 +63,13 @@ MapSummary summariseMap(const std::string& path) {
     ++summary.keyframes_per_session[session];
   });
   return summary;
+}
+
+size_t writeMap(const KeyframeDatabase& database, const std::string& descriptor_identity,
+                const std::string& out) {
+  MapWriter writer(out, descriptor_identity, database.globalDimension(), true);
+  writer.addAll(database);
+  return writer.finish();
 }
 
 size_t convertMapFile(const std::string& old_file, const std::string& out) {

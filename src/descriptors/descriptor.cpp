@@ -61,16 +61,19 @@ DescriptorOptions withBackboneFallback(const DescriptorOptions& options, std::st
 
 const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
   using O = DescriptorOptions;
-  std::string types;
-  for (const DescriptorType& type : descriptorRegistry()) {
-    types += (types.empty() ? " \"" : "; \"") + type.name + "\": " + type.summary;
-  }
+  const auto types = [] {
+    std::string list;
+    for (const DescriptorType& type : descriptorRegistry()) {
+      list += (list.empty() ? " \"" : "; \"") + type.name + "\": " + type.summary;
+    }
+    return list;
+  };
   static const auto table =
       ParameterTable<O>("descriptor/", "")
           .word("type", &O::type, descriptorTypes(),
                 "what describes a keyframe; without the fetched backbone network the node warns "
                 "and runs \"landmarks\" instead. Compared in bench/README.md." +
-                    types + ".")
+                    types() + ".")
           .text("model", &O::model, "ONNX file; \"\" = the package's model/calc_encoder.onnx.")
           .integer("max_landmarks", &O::max_landmarks, atLeast(1),
                    "landmarks kept per image (highest conv2 activation energy first).")

@@ -6,6 +6,12 @@
 namespace landmark_loop_closure {
 
 std::string CameraIntrinsics::problem() const {
+  const bool usable = std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) &&
+                      std::isfinite(cy) && image_size.width > 0 && image_size.height > 0 &&
+                      fx > 0.0 && fy > 0.0 && fx <= 100.0 * image_size.width &&
+                      fy <= 100.0 * image_size.width && cx >= 0.0 && cy >= 0.0 &&
+                      cx < image_size.width && cy < image_size.height;
+  if (usable) return "";  // The common case builds no text: valid() runs for every keyframe.
   std::ostringstream text;
   if (!(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy))) {
     text << "K holds a non-finite value (fx " << fx << ", fy " << fy << ", cx " << cx << ", cy "

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "landmark_loop_closure/database/keyframe_database.h"
+
 namespace landmark_loop_closure {
 
 /// What a map holds, for `lcd_db info`.
@@ -16,6 +18,11 @@ struct MapSummary {
 
 /// Reads a map's settings and counts its keyframes per session (ids and globals only).
 MapSummary summariseMap(const std::string& path);
+
+/// Writes `database` as a map at `out`, replacing what was there, whole or not at all (one
+/// transaction through a partial file). Throws std::runtime_error naming the file.
+size_t writeMap(const KeyframeDatabase& database, const std::string& descriptor_identity,
+                const std::string& out);
 
 // Each of the following writes a new map at `out`, which must not exist, through a partial file
 // renamed at the end (the map appears whole or not at all; memory stays flat), and returns the
