@@ -20,13 +20,23 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   std::vector<CandidateReport>& reports = result->candidates;
   std::vector<size_t> indices;
   for (const Candidate& candidate : query.candidates) {
-    const KeyframeRecord& stored = database_.at(candidate.index);
+    const KeyframeSummary& stored = database_.summary(candidate.index);
     CandidateReport report;
     report.match_id = stored.id;
     report.match_stamp = stored.stamp;
     report.global_score = candidate.global_score;
-    report.score = extractor_->reranks() ? extractor_->similarity(descriptor, stored.descriptor)
-                                         : extractor_->globalScore(candidate.global_score);
+    report.score = extractor_->globalScore(candidate.global_score);
+    if (extractor_->reranks()) {
+      const std::shared_ptr<const KeyframeRecord> record = database_.record(candidate.index);
+      if (!record) {
+        report.verdict = CandidateVerdict::kUnreadable;
+        report.detail = "its record could not be read from the map";
+        reports.push_back(report);
+        indices.push_back(candidate.index);
+        continue;
+      }
+      report.score = extractor_->similarity(descriptor, record->descriptor);
+    }
     report.image_score = report.score;
     reports.push_back(report);
     indices.push_back(candidate.index);
@@ -44,7 +54,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   std::vector<PathPoint> above_threshold;
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) continue;
-    const KeyframeRecord* match = database_.findById(report.match_id);
+    if (report.verdict == CandidateVerdict::kUnreadable) continue;
+    const KeyframeSummary* match = database_.findSummary(report.match_id);
     // Earlier sessions' odometry is another frame with its own drift: nothing to compare.
     if (mode_ == DetectorMode::kMapping && match->session == session_) {
       const OdometryGateDecision gate =
@@ -67,7 +78,10 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       report.verdict = CandidateVerdict::kBelowThreshold;
       continue;
     }
-    if (report.verdict == CandidateVerdict::kOdometryRejected) continue;
+    if (report.verdict == CandidateVerdict::kOdometryRejected ||
+        report.verdict == CandidateVerdict::kUnreadable) {
+      continue;
+    }
     const TemporalConsistency::Chain& chain = chains[chain_index++];
     report.consistent_keyframes = chain.keyframes;
     if (!consistentLongEnough(chain, &report.detail)) {
@@ -75,7 +89,12 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     } else if (result->loop) {
       report.verdict = CandidateVerdict::kOutscored;
     } else {
-      const KeyframeRecord* match = database_.findById(report.match_id);
+      const std::shared_ptr<const KeyframeRecord> match = database_.findRecord(report.match_id);
+      if (!match) {
+        report.verdict = CandidateVerdict::kUnreadable;
+        report.detail = "its record could not be read from the map";
+        continue;
+      }
       AcceptedLoop loop;
       const auto verify_start = Clock::now();
       const bool verified =
@@ -118,10 +137,10 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
     if (i < reports->size()) {
       report = (*reports)[i];
     } else {
-      const KeyframeRecord& stored = database_.at(candidate.index);
+      const KeyframeSummary& stored = database_.summary(candidate.index);
       report.match_id = stored.id;
       report.match_stamp = stored.stamp;
-      report.global_score = cosineSimilarity(descriptor.global, stored.descriptor.global);
+      report.global_score = database_.similarity(descriptor.global, candidate.index);
       report.image_score = candidate.image_score;
     }
     report.score = candidate.score;

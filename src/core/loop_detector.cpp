@@ -115,6 +115,8 @@ const char* toString(CandidateVerdict verdict) {
       return "odometry_rejected";
     case CandidateVerdict::kGeometryRejected:
       return "geometry_rejected";
+    case CandidateVerdict::kUnreadable:
+      return "unreadable";
   }
   return "unknown";
 }
@@ -222,22 +224,17 @@ std::string LoopDetector::openMap(const std::string& path) {
   uint64_t last_id = 0;
   try {
     store = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    store->forEach([&](KeyframeRecord keyframe) {
-      last_session = std::max(last_session, keyframe.session);
-      last_id = std::max(last_id, keyframe.id);
-      loaded.add(std::move(keyframe));
+    // Only what search needs is read; records come from the file for each query's candidates.
+    store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+      last_session = std::max(last_session, summary.session);
+      last_id = std::max(last_id, summary.id);
+      loaded.addSummary(summary, row, bytes);
     });
+    readRecordsFromStore(&loaded, store.get());
     std::unique_ptr<ApproximateIndex> graph;
     if (index.buildsGraph()) {
-      if (std::optional<std::vector<uint8_t>> bytes = store->loadGraph(index.graphIdentity())) {
-        try {
-          graph = ApproximateIndex::fromBytes(std::move(*bytes), loaded.globalDimension(),
-                                              index.neighbors);
-        } catch (const std::runtime_error&) {
-          graph.reset();  // A damaged graph is built again from the keyframes.
-        }
-        if (graph && graph->size() != loaded.size()) graph.reset();
-      }
+      // A graph saved before a crash lacks the last keyframes; setIndex links them in.
+      graph = store->loadGraph(index.graphIdentity(), loaded.vectors(), index.neighbors);
     }
     graph_reused = graph != nullptr;
     loaded.setIndex(index, std::move(graph));
@@ -258,11 +255,27 @@ std::string LoopDetector::openMap(const std::string& path) {
   return "";
 }
 
+void LoopDetector::readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store) {
+  // The newest keyframes (triangulation, the consistency chain) and a few queries' candidates.
+  const size_t cached =
+      static_cast<size_t>(4 * options_.database.top_k + options_.triangulation_keyframes +
+                          options_.acceptance.sequence.length) +
+      16;
+  database->readRecordsFrom(
+      [store](uint64_t id) -> std::optional<KeyframeRecord> {
+        try {
+          return store->get(id);
+        } catch (const std::exception&) {
+          return std::nullopt;  // A damaged record: its candidate is reported unreadable.
+        }
+      },
+      cached);
+}
+
 std::string LoopDetector::saveMapGraph() {
   if (!store_ || database_.graph() == nullptr) return "";
   try {
-    store_->saveGraph(database_.indexOptions().graphIdentity(), database_.size(),
-                      database_.graph()->toBytes());
+    store_->saveGraph(database_.indexOptions().graphIdentity(), *database_.graph());
   } catch (const std::exception& error) {
     return error.what();
   }
@@ -294,6 +307,7 @@ std::string LoopDetector::reset() {
   if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
+    readRecordsFromStore(&database_, store_.get());
   } catch (const std::exception& open_error) {
     return std::string(open_error.what()) + "; keyframes are kept in memory only";
   }
@@ -371,7 +385,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.error = std::move(error);
     return result;
   }
-  if (!database_.empty() && keyframe_id <= database_.at(database_.size() - 1).id) {
+  if (!database_.empty() && keyframe_id <= database_.summary(database_.size() - 1).id) {
     result.error = InputError{
         InputErrorCode::kStampNotIncreasing,
         "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
@@ -474,10 +488,10 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
   const size_t stored = database_.size();
   for (size_t back = 1;
        back <= static_cast<size_t>(options_.triangulation_keyframes) && back <= stored; ++back) {
-    const KeyframeRecord& neighbour = database_.at(stored - back);
-    if (neighbour.local_features.empty()) continue;
-    const Eigen::Isometry3d neighbour_camera = neighbour.pose.toIsometry() * mount;
-    triangulateKeypoints(neighbour.local_features, camera.inverse() * neighbour_camera, intrinsics,
+    const std::shared_ptr<const KeyframeRecord> neighbour = database_.record(stored - back);
+    if (!neighbour || neighbour->local_features.empty()) continue;
+    const Eigen::Isometry3d neighbour_camera = neighbour->pose.toIsometry() * mount;
+    triangulateKeypoints(neighbour->local_features, camera.inverse() * neighbour_camera, intrinsics,
                          options_.verification, options_.metric_pose, features);
   }
 }

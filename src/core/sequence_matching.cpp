@@ -57,11 +57,11 @@ double SequenceMatcher::similarity(Slot* slot, size_t index, const KeyframeDatab
                                    const DescriptorExtractor& extractor) const {
   const auto found = slot->similarity.find(index);
   if (found != slot->similarity.end()) return found->second;
-  const ImageDescriptor& stored = database.at(index).descriptor;
-  const double value =
-      extractor.reranks()
-          ? extractor.similarity(slot->descriptor, stored)
-          : extractor.globalScore(cosineSimilarity(slot->descriptor.global, stored.global));
+  double value = extractor.globalScore(database.similarity(slot->descriptor.global, index));
+  if (extractor.reranks()) {
+    const std::shared_ptr<const KeyframeRecord> stored = database.record(index);
+    value = stored ? extractor.similarity(slot->descriptor, stored->descriptor) : -1.0;
+  }
   slot->similarity.emplace(index, value);
   return value;
 }

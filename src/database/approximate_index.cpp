@@ -1,41 +1,33 @@
 #include "landmark_loop_closure/database/approximate_index.h"
 
-#include <omp.h>
+#include <hnswlib/hnswlib.h>
 
-#include <faiss/IndexFlat.h>
-#include <faiss/IndexHNSW.h>
-#include <faiss/impl/FaissException.h>
-#include <faiss/impl/io.h>
-#include <faiss/index_io.h>
-
+#include <cstring>
+#include <filesystem>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
 namespace landmark_loop_closure {
 
-namespace {
-
-// faiss parallelises with OpenMP; one vector at a time gains nothing from a thread team, and the
-// node's other threads need the cores. The setting belongs to the calling thread.
-void oneThread() { omp_set_num_threads(1); }
-
-}  // namespace
-
 std::string IndexOptions::graphIdentity() const {
   std::ostringstream identity;
-  identity << "hnsw_flat_ip M=" << neighbors << " efC=" << ef_construction;
+  identity << "hnsw_int8_rows M=" << neighbors << " efC=" << ef_construction;
   return identity.str();
 }
 
 const ParameterTable<IndexOptions>& IndexOptions::parameters() {
   using O = IndexOptions;
   static const auto table =
-      ParameterTable<O>("database/index/",
-                        "how global descriptors are searched (bench/results/scaling.md). The graph "
-                        "is saved with the database; changing neighbors or ef_construction "
-                        "rebuilds it at load (~0.5 ms per keyframe).")
+      ParameterTable<O>(
+          "database/index/",
+          "how global descriptors are searched: 8 bits per value (a scale per "
+          "keyframe), exactly or through an HNSW graph (bench/README.md, \"Map at "
+          "scale\"). The graph is saved beside the map file (PATH-graph) at shutdown; "
+          "changing neighbors or ef_construction rebuilds it at start (~1 ms per "
+          "keyframe).")
           .word("type", &O::type, {"exact", "approximate", "auto"},
-                "\"exact\": compare every keyframe; \"approximate\": an HNSW graph (faiss) gives "
+                "\"exact\": compare every keyframe; \"approximate\": an HNSW graph (hnswlib) gives "
                 "the shortlist; \"auto\": the graph is kept from the start, used once "
                 "approximate_from keyframes are stored.")
           .integer("approximate_from", &O::approximate_from, atLeast(1),
@@ -58,79 +50,206 @@ std::string IndexOptions::validate() const {
   return errors;
 }
 
-struct ApproximateIndex::Graph {
-  std::unique_ptr<faiss::IndexHNSW> index;
+namespace {
+
+// What the graph stores per element: the row number. The query is not a row, so it is passed as
+// this number and read from the space's context.
+using Row = uint32_t;
+constexpr Row kQueryRow = std::numeric_limits<Row>::max();
+
+class RowSpace : public hnswlib::SpaceInterface<float> {
+ public:
+  struct Context {
+    const QuantizedVectors* vectors = nullptr;
+    const uint8_t* query = nullptr;
+  };
+
+  explicit RowSpace(const QuantizedVectors* vectors) { context_.vectors = vectors; }
+  size_t get_data_size() override { return sizeof(Row); }
+  hnswlib::DISTFUNC<float> get_dist_func() override { return &distance; }
+  void* get_dist_func_param() override { return &context_; }
+  void setQuery(const uint8_t* query) { context_.query = query; }
+
+ private:
+  static const uint8_t* rowOf(const void* data, const Context& context) {
+    Row row;
+    std::memcpy(&row, data, sizeof(Row));
+    return row == kQueryRow ? context.query : context.vectors->row(row);
+  }
+  static float distance(const void* a, const void* b, const void* param) {
+    const auto& context = *static_cast<const Context*>(param);
+    return 1.0f - QuantizedVectors::dot(rowOf(a, context), rowOf(b, context),
+                                        context.vectors->dimension());
+  }
+
+  Context context_;
 };
 
-ApproximateIndex::ApproximateIndex(int dimension, std::unique_ptr<Graph> graph)
-    : dimension_(dimension), graph_(std::move(graph)) {}
+using Hnsw = hnswlib::HierarchicalNSW<float>;
 
-ApproximateIndex::ApproximateIndex(int dimension, int neighbors, int ef_construction)
-    : dimension_(dimension), graph_(std::make_unique<Graph>()) {
-  if (dimension <= 0) throw std::invalid_argument("index dimension must be > 0");
-  graph_->index =
-      std::make_unique<faiss::IndexHNSWFlat>(dimension, neighbors, faiss::METRIC_INNER_PRODUCT);
-  graph_->index->hnsw.efConstruction = ef_construction;
+// Bytes hnswlib's saveIndex writes: its header fields, the base layer, then each element's
+// upper-level links with their length. Checked after writing, since saveIndex reports no error.
+size_t savedBytes(const Hnsw& hnsw) {
+  size_t bytes = sizeof(hnsw.offsetLevel0_) + sizeof(hnsw.max_elements_) +
+                 sizeof(hnsw.cur_element_count) + sizeof(hnsw.size_data_per_element_) +
+                 sizeof(hnsw.label_offset_) + sizeof(hnsw.offsetData_) + sizeof(hnsw.maxlevel_) +
+                 sizeof(hnsw.enterpoint_node_) + sizeof(hnsw.maxM_) + sizeof(hnsw.maxM0_) +
+                 sizeof(hnsw.M_) + sizeof(hnsw.mult_) + sizeof(hnsw.ef_construction_);
+  bytes += hnsw.cur_element_count * hnsw.size_data_per_element_;
+  for (size_t i = 0; i < hnsw.cur_element_count; ++i) {
+    bytes += sizeof(unsigned int) + static_cast<size_t>(std::max(0, hnsw.element_levels_[i])) *
+                                        hnsw.size_links_per_element_;
+  }
+  return bytes;
+}
+
+size_t upperLinkBytes(const Hnsw& hnsw, size_t element) {
+  return static_cast<size_t>(std::max(0, hnsw.element_levels_[element])) *
+         hnsw.size_links_per_element_;
+}
+
+// Every element holds its own row and links only to elements of the graph: a graph read from a
+// file is never searched through a link that leads outside it.
+bool linksStayInside(const Hnsw& hnsw) {
+  const size_t count = hnsw.cur_element_count;
+  const auto inside = [&](const unsigned int* list, size_t capacity) {
+    const size_t links = hnsw.getListCount(const_cast<unsigned int*>(list));
+    if (links > capacity) return false;
+    const auto* ids = reinterpret_cast<const hnswlib::tableint*>(list + 1);
+    for (size_t i = 0; i < links; ++i) {
+      if (ids[i] >= count) return false;
+    }
+    return true;
+  };
+  for (size_t element = 0; element < count; ++element) {
+    const auto id = static_cast<hnswlib::tableint>(element);
+    Row row;
+    std::memcpy(&row, hnsw.getDataByInternalId(id), sizeof(Row));
+    if (row != element || hnsw.getExternalLabel(id) != element) return false;
+    if (!inside(hnsw.get_linklist0(id), hnsw.maxM0_)) return false;
+    for (int level = 1; level <= hnsw.element_levels_[element]; ++level) {
+      if (!inside(hnsw.get_linklist(id, level), hnsw.maxM_)) return false;
+    }
+  }
+  return count == 0 || static_cast<size_t>(hnsw.enterpoint_node_) < count;
+}
+
+}  // namespace
+
+struct ApproximateIndex::Graph {
+  explicit Graph(const QuantizedVectors* vectors) : space(vectors), vectors(vectors) {}
+  RowSpace space;
+  const QuantizedVectors* vectors;
+  std::unique_ptr<Hnsw> hnsw;
+  size_t upper_link_bytes = 0;  ///< Links above the base layer, allocated one element at a time.
+};
+
+ApproximateIndex::ApproximateIndex(std::unique_ptr<Graph> graph, int neighbors)
+    : graph_(std::move(graph)), neighbors_(neighbors) {}
+
+ApproximateIndex::ApproximateIndex(const QuantizedVectors* vectors, int neighbors,
+                                   int ef_construction)
+    : graph_(std::make_unique<Graph>(vectors)), neighbors_(neighbors) {
+  if (vectors == nullptr) throw std::invalid_argument("an index needs its vectors");
+  if (neighbors < 2) throw std::invalid_argument("an index needs at least 2 neighbours");
+  constexpr size_t kFirstCapacity = 1024;
+  graph_->hnsw =
+      std::make_unique<Hnsw>(&graph_->space, kFirstCapacity, static_cast<size_t>(neighbors),
+                             static_cast<size_t>(ef_construction));
 }
 
 ApproximateIndex::~ApproximateIndex() = default;
 
-void ApproximateIndex::add(const float* vector) {
-  oneThread();
-  graph_->index->add(1, vector);
+void ApproximateIndex::reserve(size_t rows) {
+  Hnsw& hnsw = *graph_->hnsw;
+  if (rows <= hnsw.max_elements_) return;
+  hnsw.resizeIndex(std::max(rows, 2 * hnsw.max_elements_));
 }
 
-size_t ApproximateIndex::size() const { return static_cast<size_t>(graph_->index->ntotal); }
+void ApproximateIndex::add() {
+  const size_t row = size();
+  if (row >= graph_->vectors->size()) {
+    throw std::logic_error("the graph has no vector row " + std::to_string(row) + " to add");
+  }
+  reserve(row + 1);
+  const auto data = static_cast<Row>(row);
+  graph_->hnsw->addPoint(&data, row);
+  graph_->upper_link_bytes += upperLinkBytes(*graph_->hnsw, row);
+}
 
-std::vector<std::pair<size_t, float>> ApproximateIndex::search(const float* query, size_t k,
+size_t ApproximateIndex::size() const { return graph_->hnsw->cur_element_count; }
+
+const QuantizedVectors* ApproximateIndex::vectors() const { return graph_->vectors; }
+
+std::vector<std::pair<size_t, float>> ApproximateIndex::search(const uint8_t* query, size_t k,
                                                                int ef_search) const {
   std::vector<std::pair<size_t, float>> found;
   if (k == 0 || size() == 0) return found;
-  oneThread();
-  // faiss 1.7.3 reads the search effort from the index, not from SearchParametersHNSW.
-  graph_->index->hnsw.efSearch = std::max(ef_search, static_cast<int>(k));
-  std::vector<float> scores(k);
-  std::vector<faiss::Index::idx_t> labels(k);
-  graph_->index->search(1, query, static_cast<faiss::Index::idx_t>(k), scores.data(),
-                        labels.data());
-  for (size_t i = 0; i < k; ++i) {
-    if (labels[i] >= 0) found.emplace_back(static_cast<size_t>(labels[i]), scores[i]);
+  graph_->space.setQuery(query);
+  graph_->hnsw->setEf(std::max(static_cast<size_t>(std::max(ef_search, 1)), k));
+  auto best = graph_->hnsw->searchKnn(&kQueryRow, k);
+  graph_->space.setQuery(nullptr);
+  found.resize(best.size());
+  for (size_t i = found.size(); i-- > 0; best.pop()) {  // The queue gives the worst first.
+    found[i] = {best.top().second, 1.0f - best.top().first};
   }
   return found;
 }
 
-std::vector<uint8_t> ApproximateIndex::toBytes() const {
-  faiss::VectorIOWriter writer;
-  faiss::write_index(graph_->index.get(), &writer);
-  return std::move(writer.data);
+void ApproximateIndex::save(const std::string& path) const {
+  const std::string temporary = path + ".tmp";
+  std::error_code error;
+  try {
+    graph_->hnsw->saveIndex(temporary);
+  } catch (const std::exception& failure) {
+    std::filesystem::remove(temporary, error);
+    throw std::runtime_error("search graph " + path + ": " + failure.what());
+  }
+  const uintmax_t written = std::filesystem::file_size(temporary, error);
+  if (error || written != savedBytes(*graph_->hnsw)) {
+    std::filesystem::remove(temporary, error);
+    throw std::runtime_error("search graph " + path + ": could not be written (disk full?)");
+  }
+  std::filesystem::rename(temporary, path, error);
+  if (error) {
+    std::filesystem::remove(temporary, error);
+    throw std::runtime_error("search graph " + path + ": " + error.message());
+  }
 }
 
-std::unique_ptr<ApproximateIndex> ApproximateIndex::fromBytes(std::vector<uint8_t> bytes,
-                                                              int dimension, int neighbors) {
-  faiss::VectorIOReader reader;
-  reader.data = std::move(bytes);
-  std::unique_ptr<faiss::Index> index;
+std::unique_ptr<ApproximateIndex> ApproximateIndex::load(const std::string& path,
+                                                         const QuantizedVectors* vectors,
+                                                         int neighbors) {
+  auto graph = std::make_unique<Graph>(vectors);
+  graph->hnsw = std::make_unique<Hnsw>(&graph->space);
+  const auto refuse = [&](const std::string& why) {
+    return std::runtime_error("search graph " + path + ": " + why);
+  };
   try {
-    index.reset(faiss::read_index(&reader));
-  } catch (const faiss::FaissException& error) {
-    throw std::runtime_error(std::string("not a readable HNSW index: ") + error.what());
+    graph->hnsw->loadIndex(path, &graph->space, std::max<size_t>(vectors->size(), 1));
+  } catch (const std::exception& error) {
+    throw refuse(error.what());
   }
-  auto* hnsw = dynamic_cast<faiss::IndexHNSWFlat*>(index.get());
-  if (!hnsw || hnsw->metric_type != faiss::METRIC_INNER_PRODUCT || hnsw->d != dimension ||
-      hnsw->hnsw.nb_neighbors(0) != 2 * neighbors) {
-    throw std::runtime_error("the stored HNSW index has another type, metric, dimension or shape");
+  const Hnsw& hnsw = *graph->hnsw;
+  if (hnsw.maxM0_ != 2 * static_cast<size_t>(neighbors) || hnsw.data_size_ != sizeof(Row) ||
+      hnsw.cur_element_count > vectors->size()) {
+    throw refuse("another shape, or more rows than the map holds");
   }
-  index.release();
-  auto graph = std::make_unique<Graph>();
-  graph->index.reset(hnsw);
-  return std::unique_ptr<ApproximateIndex>(new ApproximateIndex(dimension, std::move(graph)));
+  if (!linksStayInside(hnsw)) throw refuse("damaged (a link leads outside the graph)");
+  for (size_t i = 0; i < hnsw.cur_element_count; ++i) {
+    graph->upper_link_bytes += upperLinkBytes(hnsw, i);
+  }
+  return std::unique_ptr<ApproximateIndex>(new ApproximateIndex(std::move(graph), neighbors));
 }
 
 size_t ApproximateIndex::bytes() const {
-  const faiss::HNSW& hnsw = graph_->index->hnsw;
-  return size() * static_cast<size_t>(dimension_) * sizeof(float) +
-         hnsw.neighbors.capacity() * sizeof(faiss::HNSW::storage_idx_t) +
-         hnsw.levels.capacity() * sizeof(int) + hnsw.offsets.capacity() * sizeof(size_t);
+  const Hnsw& hnsw = *graph_->hnsw;
+  const size_t per_capacity = hnsw.size_data_per_element_ + sizeof(std::mutex) + sizeof(int) +
+                              sizeof(void*) + sizeof(hnswlib::vl_type);
+  // label_lookup_: an unordered_map node and bucket per element.
+  const size_t per_element = sizeof(std::pair<const size_t, hnswlib::tableint>) + 3 * sizeof(void*);
+  return hnsw.max_elements_ * per_capacity + hnsw.cur_element_count * per_element +
+         graph_->upper_link_bytes;
 }
 
 }  // namespace landmark_loop_closure

@@ -253,18 +253,12 @@ std::string saveDatabase(const KeyframeDatabase& database, const std::string& de
     offsets.reserve(database.size() + 1);
     for (size_t i = 0; i < database.size(); ++i) {
       offsets.push_back(out.written());
-      writeKeyframe(&out, database.at(i));
+      const std::shared_ptr<const KeyframeRecord> keyframe = database.record(i);
+      if (!keyframe) throw FormatError("keyframe " + std::to_string(i) + " cannot be read");
+      writeKeyframe(&out, *keyframe);
     }
     offsets.push_back(out.written());
-    // The graph takes minutes to rebuild at 100 000 keyframes and milliseconds to read.
-    if (database.graph()) {
-      out.string(database.indexOptions().graphIdentity());
-      const std::vector<uint8_t> graph = database.graph()->toBytes();
-      out.u64(graph.size());
-      out.bytes(graph.data(), graph.size());
-    } else {
-      out.string("");
-    }
+    out.string("");  // The graph lives beside the map store now; this format keeps none.
     for (const uint64_t offset : offsets) out.u64(offset);
     out.u64(database.size());
     out.flush();
@@ -340,21 +334,9 @@ LoadedDatabase loadDatabase(const std::string& path, const std::string& descript
       }
     }
     payload.keyframes = {};
-    std::unique_ptr<ApproximateIndex> graph;
-    if (index.buildsGraph() && payload.graph_identity == index.graphIdentity()) {
-      try {
-        graph = ApproximateIndex::fromBytes(std::move(payload.graph_bytes), global_dimension,
-                                            index.neighbors);
-      } catch (const std::runtime_error& error) {
-        throw FormatError(error.what());
-      }
-      if (graph->size() != database.size()) {
-        throw FormatError("the graph holds " + std::to_string(graph->size()) + " of " +
-                          std::to_string(database.size()) + " keyframes");
-      }
-    }
-    loaded.graph_rebuilt = index.buildsGraph() && !graph;
-    database.setIndex(index, std::move(graph));
+    // A graph stored in the file was faiss's, over float vectors: built again over 8-bit rows.
+    loaded.graph_rebuilt = index.buildsGraph();
+    database.setIndex(index);
     loaded.database = std::move(database);
   } catch (const FormatError& error) {
     loaded.error = "refused " + path + ": " + error.what();

@@ -32,7 +32,9 @@ bool hostIsLittleEndian() {
   return first == 1;
 }
 
-bool supportedMatType(int type) { return type == CV_8UC1 || type == CV_16FC1 || type == CV_32FC1; }
+bool supportedMatType(int type) {
+  return type == CV_8UC1 || type == CV_16UC1 || type == CV_16FC1 || type == CV_32FC1;
+}
 
 }  // namespace
 

@@ -22,9 +22,11 @@ const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
           .integer("top_k", &O::top_k, atLeast(1),
                    "candidates kept per query (landmarks re-rank them all).")
           .number("memory_budget_mb", &O::memory_budget_mb, atLeast(0),
-                  "0: no limit. Past this many MB (diagnostics \"database bytes\", ~53 KB per "
-                  "keyframe shipped) keyframes are still searched for loops but no longer stored; "
-                  "a warning says so.")
+                  "0: no limit. RAM of the keyframes (diagnostics \"database bytes\"): with a "
+                  "map file (database_path) search keeps ~4.7 KB per keyframe shipped and reads "
+                  "the rest from the file; without one every keyframe stays in RAM (~40 KB). Past "
+                  "the budget keyframes are still searched for loops but no longer stored; a "
+                  "warning says so.")
           .group(&O::index, IndexOptions::parameters());
   return table;
 }
@@ -47,7 +49,7 @@ const char* toString(QueryStatus status) {
 
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey) {
   std::vector<uint8_t> jpeg;
-  if (!grey.empty()) cv::imencode(".jpg", grey, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  if (!grey.empty()) cv::imencode(".jpg", grey, jpeg, {cv::IMWRITE_JPEG_QUALITY, 60});
   return jpeg;
 }
 
@@ -68,9 +70,14 @@ constexpr size_t kMaxExcludedForGraph = 2000;
 
 }  // namespace
 
-KeyframeDatabase::KeyframeDatabase(int global_dimension, IndexOptions index)
-    : global_dimension_(global_dimension) {
+size_t recordBytes(const KeyframeRecord& keyframe) {
+  return sizeof(KeyframeRecord) + keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
+         keyframe.thumbnail_jpeg.capacity();
+}
+
+KeyframeDatabase::KeyframeDatabase(int global_dimension, IndexOptions index) {
   if (global_dimension <= 0) throw std::invalid_argument("global descriptor dimension must be > 0");
+  vectors_ = std::make_unique<QuantizedVectors>(global_dimension);
   setIndex(index);
 }
 
@@ -82,10 +89,12 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
                                 std::unique_ptr<ApproximateIndex> graph) {
   const std::string problems = index.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
-  if (graph && (graph->size() != keyframes_.size() || graph->dimension() != global_dimension_)) {
+  if (graph && graph->vectors() != vectors_.get()) {
+    throw std::invalid_argument("the graph is not over this database's vectors");
+  }
+  if (graph && graph->size() > size()) {
     throw std::invalid_argument("the graph holds " + std::to_string(graph->size()) +
-                                " vectors, the database " + std::to_string(keyframes_.size()) +
-                                " keyframes");
+                                " vectors, the database " + std::to_string(size()) + " keyframes");
   }
   index_options_ = index;
   if (!index.buildsGraph()) {
@@ -93,35 +102,104 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
     return;
   }
   if (!graph) {
-    graph = std::make_unique<ApproximateIndex>(global_dimension_, index.neighbors,
-                                               index.ef_construction);
-    for (const KeyframeRecord& keyframe : keyframes_) graph->add(keyframe.descriptor.global.data());
+    graph =
+        std::make_unique<ApproximateIndex>(vectors_.get(), index.neighbors, index.ef_construction);
   }
+  while (graph->size() < size()) graph->add();
   graph_ = std::move(graph);
 }
 
+void KeyframeDatabase::addEntry(const KeyframeSummary& summary) {
+  summaries_.push_back(summary);
+  stamps_.push_back(summary.stamp);
+  if (graph_) graph_->add();
+}
+
 void KeyframeDatabase::add(KeyframeRecord keyframe) {
-  if (!keyframes_.empty() && keyframe.id <= keyframes_.back().id) {
+  if (!summaries_.empty() && keyframe.id <= summaries_.back().id) {
     throw std::invalid_argument("keyframe id " + std::to_string(keyframe.id) +
                                 " is not greater than the last stored id " +
-                                std::to_string(keyframes_.back().id));
+                                std::to_string(summaries_.back().id));
   }
-  if (static_cast<int>(keyframe.descriptor.global.size()) != global_dimension_) {
+  if (static_cast<int>(keyframe.descriptor.global.size()) != globalDimension()) {
     throw std::invalid_argument("global descriptor has " +
                                 std::to_string(keyframe.descriptor.global.size()) +
-                                " values, the database holds " + std::to_string(global_dimension_));
+                                " values, the database holds " + std::to_string(globalDimension()));
   }
-  if (graph_) graph_->add(keyframe.descriptor.global.data());
-  stamps_.push_back(keyframe.stamp);
-  content_bytes_ += keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
-                    keyframe.thumbnail_jpeg.capacity();
-  keyframes_.push_back(std::move(keyframe));
+  vectors_->append(keyframe.descriptor.global.data());
+  // The record carries what search compares, so a record read back from the map file (which
+  // keeps the 8-bit row) scores exactly as this one.
+  keyframe.descriptor.global = QuantizedVectors::decode(vectors_->row(size()), globalDimension());
+  addEntry(keyframe);
+  auto record = std::make_shared<const KeyframeRecord>(std::move(keyframe));
+  if (reader_) {
+    cache(std::move(record));
+  } else {
+    record_bytes_ += recordBytes(*record);
+    records_.push_back(std::move(record));
+  }
+}
+
+void KeyframeDatabase::addSummary(const KeyframeSummary& summary, const uint8_t* vector_row,
+                                  size_t row_bytes) {
+  if (!summaries_.empty() && summary.id <= summaries_.back().id) {
+    throw std::invalid_argument("keyframe id " + std::to_string(summary.id) +
+                                " is not greater than the last stored id " +
+                                std::to_string(summaries_.back().id));
+  }
+  vectors_->appendRow(vector_row, row_bytes);
+  addEntry(summary);
+  if (!reader_) records_.push_back(nullptr);
+}
+
+void KeyframeDatabase::readRecordsFrom(RecordReader reader, size_t cached_records) {
+  reader_ = std::move(reader);
+  cached_records_ = std::max<size_t>(cached_records, 1);
+  records_.clear();
+  cache_.clear();
+  cache_order_.clear();
+  record_bytes_ = 0;
+}
+
+void KeyframeDatabase::cache(std::shared_ptr<const KeyframeRecord> record) const {
+  const auto found = cache_.find(record->id);
+  if (found != cache_.end()) {
+    cache_order_.splice(cache_order_.end(), cache_order_, found->second);
+    return;
+  }
+  record_bytes_ += recordBytes(*record);
+  const uint64_t id = record->id;
+  cache_order_.push_back(std::move(record));
+  cache_[id] = std::prev(cache_order_.end());
+  while (cache_order_.size() > cached_records_) {
+    record_bytes_ -= recordBytes(*cache_order_.front());
+    cache_.erase(cache_order_.front()->id);
+    cache_order_.pop_front();
+  }
+}
+
+std::shared_ptr<const KeyframeRecord> KeyframeDatabase::record(size_t index) const {
+  const KeyframeSummary& summary = summaries_.at(index);
+  if (!reader_) return records_.at(index);
+  const auto found = cache_.find(summary.id);
+  if (found != cache_.end()) {
+    std::shared_ptr<const KeyframeRecord> record = *found->second;
+    cache(record);
+    return record;
+  }
+  ++record_reads_;
+  std::optional<KeyframeRecord> read = reader_(summary.id);
+  if (!read) return nullptr;
+  read->descriptor.global = QuantizedVectors::decode(vectors_->row(index), globalDimension());
+  auto record = std::make_shared<const KeyframeRecord>(std::move(*read));
+  cache(record);
+  return record;
 }
 
 size_t KeyframeDatabase::searchEnd(const DatabaseOptions& options, uint32_t session) const {
-  size_t end = keyframes_.size();
+  size_t end = summaries_.size();
   const size_t limit = static_cast<size_t>(options.exclude_recent_keyframes);
-  while (end > 0 && keyframes_.size() - end < limit && keyframes_[end - 1].session == session) {
+  while (end > 0 && summaries_.size() - end < limit && summaries_[end - 1].session == session) {
     --end;
   }
   return end;
@@ -133,17 +211,26 @@ bool KeyframeDatabase::eligible(size_t index, double stamp, const DatabaseOption
          std::abs(stamp - stamps_[index]) >= options.exclude_recent_seconds;
 }
 
+double KeyframeDatabase::similarity(const std::vector<float>& global, size_t index) const {
+  if (static_cast<int>(global.size()) != globalDimension()) {
+    throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
+                                " values, the database holds " + std::to_string(globalDimension()));
+  }
+  return vectors_->dot(QuantizedVectors::encode(global).data(), index);
+}
+
 QueryResult KeyframeDatabase::query(const std::vector<float>& global, double stamp,
                                     const DatabaseOptions& options, uint32_t session) const {
   QueryResult result;
-  if (keyframes_.size() < static_cast<size_t>(options.min_size)) {
+  if (size() < static_cast<size_t>(options.min_size)) {
     result.status = QueryStatus::kDatabaseTooSmall;
     return result;
   }
-  if (static_cast<int>(global.size()) != global_dimension_) {
+  if (static_cast<int>(global.size()) != globalDimension()) {
     throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
-                                " values, the database holds " + std::to_string(global_dimension_));
+                                " values, the database holds " + std::to_string(globalDimension()));
   }
+  const std::vector<uint8_t> row = QuantizedVectors::encode(global);
   const size_t end = searchEnd(options, session);
   const auto outside_time_window = [&](size_t index) {
     return std::abs(stamp - stamps_[index]) >= options.exclude_recent_seconds;
@@ -154,25 +241,24 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
     return result;
   }
   const IndexOptions& index = options.index;
-  const bool use_graph = graph_ && index.type != "exact" &&
-                         (index.type == "approximate" ||
-                          keyframes_.size() >= static_cast<size_t>(index.approximate_from));
+  const bool use_graph =
+      graph_ && index.type != "exact" &&
+      (index.type == "approximate" || size() >= static_cast<size_t>(index.approximate_from));
   std::vector<Candidate> scored;
-  const size_t excluded = keyframes_.size() - result.searched;
+  const size_t excluded = size() - result.searched;
   if (use_graph && excluded <= kMaxExcludedForGraph) {
     result.approximate = true;
     const size_t wanted = static_cast<size_t>(options.top_k) + excluded;
-    for (const auto& [index, score] : graph_->search(global.data(), wanted, index.ef_search)) {
+    for (const auto& [index, score] : graph_->search(row.data(), wanted, index.ef_search)) {
       if (index < end && outside_time_window(index)) {
-        scored.push_back({index, keyframes_[index].id, static_cast<double>(score)});
+        scored.push_back({index, summaries_[index].id, static_cast<double>(score)});
       }
     }
   } else {
     scored.reserve(result.searched);
     for (size_t index = 0; index < end; ++index) {
       if (!outside_time_window(index)) continue;
-      scored.push_back({index, keyframes_[index].id,
-                        cosineSimilarity(global, keyframes_[index].descriptor.global)});
+      scored.push_back({index, summaries_[index].id, vectors_->dot(row.data(), index)});
     }
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(options.top_k));
@@ -185,16 +271,28 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
   return result;
 }
 
-const KeyframeRecord* KeyframeDatabase::findById(uint64_t id) const {
+std::optional<size_t> KeyframeDatabase::indexOf(uint64_t id) const {
   const auto it =
-      std::lower_bound(keyframes_.begin(), keyframes_.end(), id,
-                       [](const KeyframeRecord& k, uint64_t value) { return k.id < value; });
-  return it != keyframes_.end() && it->id == id ? &*it : nullptr;
+      std::lower_bound(summaries_.begin(), summaries_.end(), id,
+                       [](const KeyframeSummary& k, uint64_t value) { return k.id < value; });
+  if (it == summaries_.end() || it->id != id) return std::nullopt;
+  return static_cast<size_t>(it - summaries_.begin());
+}
+
+const KeyframeSummary* KeyframeDatabase::findSummary(uint64_t id) const {
+  const std::optional<size_t> index = indexOf(id);
+  return index ? &summaries_[*index] : nullptr;
+}
+
+std::shared_ptr<const KeyframeRecord> KeyframeDatabase::findRecord(uint64_t id) const {
+  const std::optional<size_t> index = indexOf(id);
+  return index ? record(*index) : nullptr;
 }
 
 size_t KeyframeDatabase::bytes() const {
-  return keyframes_.size() * sizeof(KeyframeRecord) + stamps_.capacity() * sizeof(double) +
-         content_bytes_ + (graph_ ? graph_->bytes() : 0);
+  return summaries_.size() * sizeof(KeyframeSummary) + stamps_.capacity() * sizeof(double) +
+         records_.size() * sizeof(void*) + vectors_->bytes() + record_bytes_ +
+         (graph_ ? graph_->bytes() : 0);
 }
 
 }  // namespace landmark_loop_closure

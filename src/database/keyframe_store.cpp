@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/database/keyframe_store.h"
 
+#include "common/crc32c.h"
 #include "database/keyframe_codec.h"
 
 #include <sqlite3.h>
@@ -45,23 +46,22 @@ void checkPath(const std::string& path) {
   }
 }
 
-std::vector<uint8_t> encodeGlobal(const std::vector<float>& global) {
-  std::vector<uint8_t> bytes(global.size() * 4);
-  for (size_t i = 0; i < global.size(); ++i) {
-    uint32_t bits = 0;
-    std::memcpy(&bits, &global[i], 4);
-    encode(bits, bytes.data() + 4 * i);
-  }
-  return bytes;
-}
+std::string graphPathOf(const std::string& path) { return path + "-graph"; }
 
-std::vector<float> decodeGlobal(const uint8_t* bytes, size_t size) {
-  std::vector<float> global(size / 4);
-  for (size_t i = 0; i < global.size(); ++i) {
-    const uint32_t bits = decode<uint32_t>(bytes + 4 * i);
-    std::memcpy(&global[i], &bits, 4);
+// CRC-32C of a whole file, read in 1 MB pieces; nullopt when it cannot be read.
+std::optional<uint32_t> fileChecksum(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return std::nullopt;
+  std::vector<uint8_t> buffer(1 << 20);
+  uint32_t crc = 0;
+  size_t got = 0;
+  while ((got = std::fread(buffer.data(), 1, buffer.size(), file)) > 0) {
+    crc = crc32c(crc, buffer.data(), got);
   }
-  return global;
+  const bool failed = std::ferror(file) != 0;
+  std::fclose(file);
+  if (failed) return std::nullopt;
+  return crc;
 }
 
 }  // namespace
@@ -69,6 +69,7 @@ std::vector<float> decodeGlobal(const uint8_t* bytes, size_t size) {
 struct KeyframeStore::Connection {
   sqlite3* db = nullptr;
   sqlite3_stmt* insert = nullptr;
+  sqlite3_stmt* insert_record = nullptr;
   sqlite3_stmt* select = nullptr;
   std::string path;
   size_t count = 0;
@@ -76,6 +77,7 @@ struct KeyframeStore::Connection {
 
   ~Connection() {
     sqlite3_finalize(insert);
+    sqlite3_finalize(insert_record);
     sqlite3_finalize(select);
     if (db != nullptr) sqlite3_close(db);  // The last connection checkpoints the WAL.
   }
@@ -111,7 +113,7 @@ struct KeyframeStore::Connection {
   }
 
   void setMeta(const std::string& key, const std::string& value) {
-    sqlite3_stmt* statement = prepare("INSERT INTO meta (key, value) VALUES (?, ?)");
+    sqlite3_stmt* statement = prepare("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)");
     sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(statement, 2, value.c_str(), -1, SQLITE_TRANSIENT);
     const int status = sqlite3_step(statement);
@@ -180,9 +182,8 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   connection->execute(
       "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
       "CREATE TABLE IF NOT EXISTS keyframes (id INTEGER PRIMARY KEY, session INTEGER NOT NULL, "
-      "stamp REAL NOT NULL, global BLOB NOT NULL, record BLOB NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS graph (slot INTEGER PRIMARY KEY CHECK (slot = 0), "
-      "identity TEXT NOT NULL, keyframes INTEGER NOT NULL, bytes BLOB NOT NULL)",
+      "stamp REAL NOT NULL, motion BLOB NOT NULL, vector BLOB NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS records (id INTEGER PRIMARY KEY, record BLOB NOT NULL)",
       "cannot be written");
   const std::optional<std::string> version = connection->meta("format_version");
   if (!version && descriptor_identity == nullptr) {
@@ -202,6 +203,12 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
     if (stored_version > kFormatVersion) {
       throw storeError(path, "was written by a newer version (format " + *version + ", this is " +
                                  std::to_string(kFormatVersion) + ")");
+    }
+    if (stored_version < kFormatVersion) {
+      throw storeError(path, "is a map of the earlier format " + *version +
+                                 "; convert it once with `rosrun landmark_loop_closure lcd_db "
+                                 "convert " +
+                                 path + " NEW_PATH`");
     }
     const std::string stored_identity = connection->meta("descriptor_identity").value_or("");
     if (descriptor_identity != nullptr && stored_identity != *descriptor_identity) {
@@ -227,8 +234,11 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   }
   sqlite3_finalize(summary);
   connection->insert = connection->prepare(
-      "INSERT INTO keyframes (id, session, stamp, global, record) VALUES (?, ?, ?, ?, ?)");
-  connection->select = connection->prepare("SELECT record FROM keyframes WHERE id = ?");
+      "INSERT INTO keyframes (id, session, stamp, motion, vector) VALUES (?, ?, ?, ?, ?)");
+  connection->insert_record = connection->prepare("INSERT INTO records (id, record) VALUES (?, ?)");
+  connection->select = connection->prepare(
+      "SELECT k.session, k.stamp, k.motion, k.vector, r.record FROM keyframes k "
+      "JOIN records r ON r.id = k.id WHERE k.id = ?");
   const std::string identity = descriptor_identity != nullptr
                                    ? *descriptor_identity
                                    : connection->meta("descriptor_identity").value_or("");
@@ -243,24 +253,75 @@ KeyframeStore::KeyframeStore(std::string path, std::unique_ptr<Connection> conne
 
 KeyframeStore::~KeyframeStore() = default;
 
-void KeyframeStore::add(const KeyframeRecord& keyframe) {
+namespace {
+
+// Runs a prepared insert once with its bindings and clears it; true when it stored the row.
+bool insertRow(sqlite3_stmt* statement) {
+  const int status = sqlite3_step(statement);
+  sqlite3_reset(statement);
+  sqlite3_clear_bindings(statement);
+  return status == SQLITE_DONE;
+}
+
+KeyframeRecord readRow(sqlite3_stmt* row, int first_column, uint64_t id) {
+  KeyframeRecord keyframe;
+  keyframe.id = id;
+  keyframe.session = static_cast<uint32_t>(sqlite3_column_int64(row, first_column));
+  keyframe.stamp = sqlite3_column_double(row, first_column + 1);
+  const auto blob = [&](int column) {
+    return static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + column));
+  };
+  const auto bytes = [&](int column) {
+    return static_cast<size_t>(sqlite3_column_bytes(row, first_column + column));
+  };
+  database_payload::decodeMotion(blob(2), bytes(2), &keyframe);
+  const int dimension = static_cast<int>(bytes(3)) - static_cast<int>(sizeof(float));
+  if (dimension <= 0) throw database_payload::FormatError("its global vector is empty");
+  keyframe.descriptor.global = QuantizedVectors::decode(blob(3), dimension);
+  database_payload::decodeRecord(blob(4), bytes(4), &keyframe);
+  return keyframe;
+}
+
+}  // namespace
+
+void KeyframeStore::insert(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
   if (c.last_id && keyframe.id <= *c.last_id) {
     throw storeError(path_, "keyframe id " + std::to_string(keyframe.id) +
                                 " is not after the last stored " + std::to_string(*c.last_id));
   }
-  const std::vector<uint8_t> record = database_payload::encodeKeyframe(keyframe);
-  const std::vector<uint8_t> global = encodeGlobal(keyframe.descriptor.global);
-  sqlite3_bind_int64(c.insert, 1, static_cast<sqlite3_int64>(keyframe.id));
+  if (static_cast<int>(keyframe.descriptor.global.size()) != global_dimension_) {
+    throw storeError(path_, "keyframe " + std::to_string(keyframe.id) + " has a global vector of " +
+                                std::to_string(keyframe.descriptor.global.size()) +
+                                " values, not " + std::to_string(global_dimension_));
+  }
+  const std::vector<uint8_t> motion = database_payload::encodeMotion(keyframe);
+  const std::vector<uint8_t> vector = QuantizedVectors::encode(keyframe.descriptor.global);
+  const std::vector<uint8_t> record = database_payload::encodeRecord(keyframe);
+  const auto id = static_cast<sqlite3_int64>(keyframe.id);
+  sqlite3_bind_int64(c.insert, 1, id);
   sqlite3_bind_int64(c.insert, 2, keyframe.session);
   sqlite3_bind_double(c.insert, 3, keyframe.stamp);
-  sqlite3_bind_blob(c.insert, 4, global.data(), static_cast<int>(global.size()), SQLITE_STATIC);
-  sqlite3_bind_blob(c.insert, 5, record.data(), static_cast<int>(record.size()), SQLITE_STATIC);
-  // Outside an explicit transaction the statement commits on its own.
-  const int status = sqlite3_step(c.insert);
-  sqlite3_reset(c.insert);
-  sqlite3_clear_bindings(c.insert);
-  if (status != SQLITE_DONE) c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
+  sqlite3_bind_blob(c.insert, 4, motion.data(), static_cast<int>(motion.size()), SQLITE_STATIC);
+  sqlite3_bind_blob(c.insert, 5, vector.data(), static_cast<int>(vector.size()), SQLITE_STATIC);
+  sqlite3_bind_int64(c.insert_record, 1, id);
+  sqlite3_bind_blob(c.insert_record, 2, record.data(), static_cast<int>(record.size()),
+                    SQLITE_STATIC);
+  if (!insertRow(c.insert) || !insertRow(c.insert_record)) {
+    c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
+  }
+}
+
+void KeyframeStore::add(const KeyframeRecord& keyframe) {
+  Connection& c = *connection_;
+  c.execute("BEGIN IMMEDIATE", "keyframe " + std::to_string(keyframe.id) + " not stored");
+  try {
+    insert(keyframe);
+  } catch (...) {
+    sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  c.execute("COMMIT", "keyframe " + std::to_string(keyframe.id) + " not stored");
   c.last_id = keyframe.id;
   ++c.count;
 }
@@ -271,7 +332,16 @@ void KeyframeStore::addAll(const KeyframeDatabase& database) {
   const size_t count = c.count;
   c.execute("BEGIN IMMEDIATE", "cannot be written");
   try {
-    for (size_t i = 0; i < database.size(); ++i) add(database.at(i));
+    for (size_t i = 0; i < database.size(); ++i) {
+      const std::shared_ptr<const KeyframeRecord> keyframe = database.record(i);
+      if (!keyframe) {
+        throw storeError(path_, "keyframe " + std::to_string(database.summary(i).id) +
+                                    " could not be read to copy it");
+      }
+      insert(*keyframe);
+      c.last_id = keyframe->id;
+      ++c.count;
+    }
   } catch (...) {
     sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     c.last_id = last_id;
@@ -283,16 +353,16 @@ void KeyframeStore::addAll(const KeyframeDatabase& database) {
 
 void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) const {
   Connection& c = *connection_;
-  sqlite3_stmt* statement = c.prepare("SELECT id, record FROM keyframes ORDER BY id");
+  sqlite3_stmt* statement = c.prepare(
+      "SELECT k.id, k.session, k.stamp, k.motion, k.vector, r.record FROM keyframes k "
+      "JOIN records r ON r.id = k.id ORDER BY k.id");
   int status;
   while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
-    const auto* bytes = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 1));
-    const size_t size = static_cast<size_t>(sqlite3_column_bytes(statement, 1));
+    const auto id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
     KeyframeRecord keyframe;
     try {
-      keyframe = database_payload::decodeKeyframe(bytes, size);
+      keyframe = readRow(statement, 1, id);
     } catch (const std::exception& error) {
-      const int64_t id = sqlite3_column_int64(statement, 0);
       sqlite3_finalize(statement);
       throw storeError(path_, "keyframe " + std::to_string(id) + " is damaged: " + error.what());
     }
@@ -330,9 +400,43 @@ void KeyframeStore::copyTo(const std::string& target) const {
   }
 }
 
+void KeyframeStore::readFormat1(const std::string& path, std::string* descriptor_identity,
+                                int* global_dimension,
+                                const std::function<void(KeyframeRecord)>& visit) {
+  checkPath(path);
+  Connection c;
+  c.path = path;
+  if (sqlite3_open_v2(path.c_str(), &c.db, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX, nullptr) !=
+      SQLITE_OK) {
+    c.fail("cannot be opened");
+  }
+  if (c.meta("format_version").value_or("") != "1") {
+    throw storeError(path, "is not a map of store format 1");
+  }
+  *descriptor_identity = c.meta("descriptor_identity").value_or("");
+  *global_dimension = std::atoi(c.meta("global_dimension").value_or("0").c_str());
+  sqlite3_stmt* statement = c.prepare("SELECT id, record FROM keyframes ORDER BY id");
+  int status;
+  while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
+    KeyframeRecord keyframe;
+    try {
+      keyframe = database_payload::decodeKeyframe(
+          static_cast<const uint8_t*>(sqlite3_column_blob(statement, 1)),
+          static_cast<size_t>(sqlite3_column_bytes(statement, 1)));
+    } catch (const std::exception& error) {
+      const int64_t id = sqlite3_column_int64(statement, 0);
+      sqlite3_finalize(statement);
+      throw storeError(path, "keyframe " + std::to_string(id) + " is damaged: " + error.what());
+    }
+    visit(std::move(keyframe));
+  }
+  sqlite3_finalize(statement);
+  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
+}
+
 void KeyframeStore::replaceFile(const std::string& from, const std::string& to) {
   std::error_code error;
-  for (const char* journal : {"-wal", "-shm", "-journal"}) {
+  for (const char* journal : {"-wal", "-shm", "-journal", "-graph"}) {
     std::filesystem::remove(to + journal, error);
   }
   std::filesystem::rename(from, to, error);
@@ -345,11 +449,7 @@ std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
   std::optional<KeyframeRecord> keyframe;
   const int status = sqlite3_step(c.select);
   try {
-    if (status == SQLITE_ROW) {
-      const auto* bytes = static_cast<const uint8_t*>(sqlite3_column_blob(c.select, 0));
-      const size_t size = static_cast<size_t>(sqlite3_column_bytes(c.select, 0));
-      keyframe = database_payload::decodeKeyframe(bytes, size);
-    }
+    if (status == SQLITE_ROW) keyframe = readRow(c.select, 0, id);
   } catch (const std::exception& error) {
     sqlite3_reset(c.select);
     throw storeError(path_, "keyframe " + std::to_string(id) + " is damaged: " + error.what());
@@ -359,56 +459,73 @@ std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
   return keyframe;
 }
 
-void KeyframeStore::forEachGlobal(
-    const std::function<void(uint64_t, uint32_t, double, std::vector<float>)>& visit) const {
+void KeyframeStore::forEachSummary(
+    const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
+        visit) const {
   Connection& c = *connection_;
   sqlite3_stmt* statement =
-      c.prepare("SELECT id, session, stamp, global FROM keyframes ORDER BY id");
+      c.prepare("SELECT id, session, stamp, motion, vector FROM keyframes ORDER BY id");
+  const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
   int status;
   while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
-    const auto* bytes = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 3));
-    const size_t size = static_cast<size_t>(sqlite3_column_bytes(statement, 3));
-    visit(static_cast<uint64_t>(sqlite3_column_int64(statement, 0)),
-          static_cast<uint32_t>(sqlite3_column_int64(statement, 1)),
-          sqlite3_column_double(statement, 2), decodeGlobal(bytes, size));
+    KeyframeSummary summary;
+    summary.id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
+    summary.session = static_cast<uint32_t>(sqlite3_column_int64(statement, 1));
+    summary.stamp = sqlite3_column_double(statement, 2);
+    const auto* vector = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 4));
+    try {
+      database_payload::decodeMotion(static_cast<const uint8_t*>(sqlite3_column_blob(statement, 3)),
+                                     static_cast<size_t>(sqlite3_column_bytes(statement, 3)),
+                                     &summary);
+      if (static_cast<size_t>(sqlite3_column_bytes(statement, 4)) != row_bytes) {
+        throw database_payload::FormatError("its global vector has another length");
+      }
+    } catch (const std::exception& error) {
+      sqlite3_finalize(statement);
+      throw storeError(path_,
+                       "keyframe " + std::to_string(summary.id) + " is damaged: " + error.what());
+    }
+    visit(summary, vector, row_bytes);
   }
   sqlite3_finalize(statement);
   if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
 }
 
-void KeyframeStore::saveGraph(const std::string& graph_identity, size_t keyframes,
-                              const std::vector<uint8_t>& bytes) {
+std::string KeyframeStore::graphPath() const { return graphPathOf(path_); }
+
+void KeyframeStore::saveGraph(const std::string& graph_identity, const ApproximateIndex& graph) {
+  const std::string file = graphPath();
+  graph.save(file);
+  const std::optional<uint32_t> checksum = fileChecksum(file);
+  if (!checksum) throw storeError(path_, "the search graph " + file + " cannot be read back");
   Connection& c = *connection_;
-  if (bytes.size() > static_cast<size_t>(sqlite3_limit(c.db, SQLITE_LIMIT_LENGTH, -1))) {
-    throw storeError(path_, "the search graph (" + std::to_string(bytes.size() >> 20) +
-                                " MB) is larger than one SQLite value; it is built at next start");
+  c.execute("BEGIN IMMEDIATE", "the search graph not recorded");
+  try {
+    c.setMeta("graph_identity", graph_identity);
+    c.setMeta("graph_keyframes", std::to_string(graph.size()));
+    c.setMeta("graph_checksum", std::to_string(*checksum));
+  } catch (...) {
+    sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
   }
-  sqlite3_stmt* statement = c.prepare(
-      "INSERT OR REPLACE INTO graph (slot, identity, keyframes, bytes) VALUES (0, ?, ?, ?)");
-  sqlite3_bind_text(statement, 1, graph_identity.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_int64(statement, 2, static_cast<sqlite3_int64>(keyframes));
-  sqlite3_bind_blob64(statement, 3, bytes.data(), bytes.size(), SQLITE_STATIC);
-  const int status = sqlite3_step(statement);
-  sqlite3_finalize(statement);
-  if (status != SQLITE_DONE) c.fail("the search graph not saved");
+  c.execute("COMMIT", "the search graph not recorded");
 }
 
-std::optional<std::vector<uint8_t>> KeyframeStore::loadGraph(
-    const std::string& graph_identity) const {
+std::unique_ptr<ApproximateIndex> KeyframeStore::loadGraph(const std::string& graph_identity,
+                                                           const QuantizedVectors* vectors,
+                                                           int neighbors) const {
   Connection& c = *connection_;
-  sqlite3_stmt* statement =
-      c.prepare("SELECT identity, keyframes, bytes FROM graph WHERE slot = 0");
-  std::optional<std::vector<uint8_t>> bytes;
-  if (sqlite3_step(statement) == SQLITE_ROW) {
-    const std::string identity = reinterpret_cast<const char*>(sqlite3_column_text(statement, 0));
-    const auto keyframes = static_cast<size_t>(sqlite3_column_int64(statement, 1));
-    if (identity == graph_identity && keyframes == c.count) {
-      const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 2));
-      bytes.emplace(data, data + sqlite3_column_bytes(statement, 2));
-    }
+  if (c.meta("graph_identity").value_or("") != graph_identity) return nullptr;
+  const std::string file = graphPath();
+  const std::optional<uint32_t> checksum = fileChecksum(file);
+  if (!checksum || c.meta("graph_checksum").value_or("") != std::to_string(*checksum)) {
+    return nullptr;  // Written by another map at this path, or damaged: built again.
   }
-  sqlite3_finalize(statement);
-  return bytes;
+  try {
+    return ApproximateIndex::load(file, vectors, neighbors);
+  } catch (const std::runtime_error&) {
+    return nullptr;
+  }
 }
 
 size_t KeyframeStore::size() const { return connection_->count; }

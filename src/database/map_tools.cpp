@@ -59,8 +59,8 @@ MapSummary summariseMap(const std::string& path) {
   MapSummary summary;
   summary.descriptor_identity = store->descriptorIdentity();
   summary.global_dimension = store->globalDimension();
-  store->forEachGlobal([&summary](uint64_t, uint32_t session, double, std::vector<float>) {
-    ++summary.keyframes_per_session[session];
+  store->forEachSummary([&summary](const KeyframeSummary& keyframe, const uint8_t*, size_t) {
+    ++summary.keyframes_per_session[keyframe.session];
   });
   return summary;
 }
@@ -75,6 +75,14 @@ size_t writeMap(const KeyframeDatabase& database, const std::string& descriptor_
 size_t convertMapFile(const std::string& old_file, const std::string& out) {
   std::string identity;
   int dimension = 0;
+  if (!KeyframeStore::isOldMapFile(old_file)) {  // A map of the store's first format.
+    std::vector<KeyframeRecord> keyframes;
+    KeyframeStore::readFormat1(old_file, &identity, &dimension,
+                               [&](KeyframeRecord keyframe) { keyframes.push_back(keyframe); });
+    MapWriter writer(out, identity, dimension);
+    for (const KeyframeRecord& keyframe : keyframes) writer.add(keyframe);
+    return writer.finish();
+  }
   const std::string error = readDatabaseFileIdentity(old_file, &identity, &dimension);
   if (!error.empty()) throw std::runtime_error(error);
   IndexOptions exact;
@@ -82,7 +90,7 @@ size_t convertMapFile(const std::string& old_file, const std::string& out) {
   LoadedDatabase loaded = loadDatabase(old_file, identity, dimension, exact);
   if (!loaded.database) throw std::runtime_error(loaded.error);
   MapWriter writer(out, identity, dimension);
-  for (size_t i = 0; i < loaded.database->size(); ++i) writer.add(loaded.database->at(i));
+  for (size_t i = 0; i < loaded.database->size(); ++i) writer.add(*loaded.database->record(i));
   return writer.finish();
 }
 

@@ -229,6 +229,8 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
       return LoopCandidate::ODOMETRY_REJECTED;
     case CandidateVerdict::kGeometryRejected:
       return LoopCandidate::GEOMETRY_REJECTED;
+    case CandidateVerdict::kUnreadable:
+      return LoopCandidate::UNREADABLE;
   }
   return LoopCandidate::BELOW_THRESHOLD;
 }

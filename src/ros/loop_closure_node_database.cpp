@@ -98,8 +98,8 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
 ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   const auto known = keyframe_stamps_.find(id);
   if (known != keyframe_stamps_.end()) return known->second;
-  const KeyframeRecord* record = detector_.database().findById(id);
-  return record ? ros::Time(record->stamp) : ros::Time();
+  const KeyframeSummary* summary = detector_.database().findSummary(id);
+  return summary ? ros::Time(summary->stamp) : ros::Time();
 }
 
 void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
@@ -118,7 +118,7 @@ void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const Keyfra
   // The keyframes held during training are stored now: they go out as keyframes (their loops
   // among themselves are not published), so later loops into them refer to known keyframes.
   for (const ReleasedKeyframe& keyframe : held) {
-    const KeyframeRecord* record = detector_.database().findById(keyframe.id);
+    const KeyframeSummary* record = detector_.database().findSummary(keyframe.id);
     if (!record) continue;
     keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session,
                                               keyframe_stamps_.at(keyframe.id), record->pose,

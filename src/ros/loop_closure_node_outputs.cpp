@@ -115,7 +115,7 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
         candidate.verdict != CandidateVerdict::kOdometryRejected) {
       continue;
     }
-    const KeyframeRecord* match = detector_.database().findById(candidate.match_id);
+    const KeyframeSummary* match = detector_.database().findSummary(candidate.match_id);
     if (match && match->session == detector_.session()) {
       markers_.addRejected(job.pose, match->pose);
     }
@@ -130,7 +130,8 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
                                         const cv::Mat& grey) {
   if (result.candidates.empty()) return;
   const CandidateReport& best = result.candidates.front();
-  const KeyframeRecord* match = detector_.database().findById(best.match_id);
+  const std::shared_ptr<const KeyframeRecord> match =
+      detector_.database().findRecord(best.match_id);
   std::ostringstream caption;
   caption.precision(3);
   caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
@@ -140,7 +141,8 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
     caption << "  " << result.loop->verification->inliers << " inliers";
   }
   // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
-  const KeyframeRecord* query = detector_.database().findById(result.keyframe_id);
+  const std::shared_ptr<const KeyframeRecord> query =
+      detector_.database().findRecord(result.keyframe_id);
   const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail_jpeg) : cv::Mat();
   const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail_jpeg) : cv::Mat();
   std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;

@@ -121,8 +121,8 @@ int main(int argc, char** argv) {
       const Clock::time_point rerank_start = Clock::now();
       double best = -1.0;
       for (const Candidate& candidate : result.candidates) {
-        best =
-            std::max(best, extractor->similarity(query, database.at(candidate.index).descriptor));
+        best = std::max(best,
+                        extractor->similarity(query, database.record(candidate.index)->descriptor));
       }
       const double rerank_ms = millisecondsSince(rerank_start);
       if (best < -1.0) return 1;  // Keeps the re-rank from being optimised away.

@@ -186,7 +186,7 @@ int runQueries(const std::vector<size_t>& sizes, int queries, const std::vector<
       for (int q = 0; q < queries; ++q) {
         const size_t place = pick(route.random());
         ImageDescriptor query = workload.model.descriptor;
-        query.global = route.revisit(database.at(place).descriptor.global);
+        query.global = route.revisit(database.record(place)->descriptor.global);
         const double stamp = static_cast<double>(size) + 100.0;
         std::set<uint64_t> exact_ids;
         for (size_t r = 0; r < rows.size(); ++r) {
@@ -198,7 +198,7 @@ int runQueries(const std::vector<size_t>& sizes, int queries, const std::vector<
           rows[r].query_ms.push_back(msSince(start));
           if (workload.extractor->reranks()) {
             for (const Candidate& candidate : result.candidates) {
-              workload.extractor->similarity(query, database.at(candidate.index).descriptor);
+              workload.extractor->similarity(query, database.record(candidate.index)->descriptor);
             }
           }
           rows[r].total_ms.push_back(msSince(start));

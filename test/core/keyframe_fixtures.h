@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 
 namespace landmark_loop_closure {
 
@@ -38,6 +39,20 @@ inline KeyframeRecord makeKeyframe(uint64_t id, uint32_t session, int dimension 
   local.depth_sd = {0.02f, nan, 0.4f};
   keyframe.thumbnail_jpeg =
       encodeThumbnail(cv::Mat(12, 16, CV_8U, cv::Scalar(static_cast<double>(id % 200))));
+  return keyframe;
+}
+
+/// `keyframe` as the map store gives it back: the global vector in 8 bits, 3D points and depth
+/// deviations in float16 (keypoints are kept exactly at these positions).
+inline KeyframeRecord asStored(KeyframeRecord keyframe) {
+  keyframe.descriptor.global =
+      QuantizedVectors::decode(QuantizedVectors::encode(keyframe.descriptor.global).data(),
+                               static_cast<int>(keyframe.descriptor.global.size()));
+  for (cv::Point3f& point : keyframe.local_features.points3d) {
+    point = {float(cv::float16_t(point.x)), float(cv::float16_t(point.y)),
+             float(cv::float16_t(point.z))};
+  }
+  for (float& sd : keyframe.local_features.depth_sd) sd = float(cv::float16_t(sd));
   return keyframe;
 }
 

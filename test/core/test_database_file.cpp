@@ -67,8 +67,9 @@ TEST_F(DatabaseFileTest, EveryFieldSurvivesARoundTrip) {
   const LoadedDatabase loaded = loadDatabase(path_, kIdentity, kDimension);
   ASSERT_TRUE(loaded.database) << loaded.error;
   ASSERT_EQ(loaded.database->size(), saved.size());
-  for (size_t i = 0; i < saved.size(); ++i) expectSame(saved.at(i), loaded.database->at(i));
-  EXPECT_NE(loaded.database->findById(19), nullptr);
+  for (size_t i = 0; i < saved.size(); ++i)
+    expectSame(*saved.record(i), *loaded.database->record(i));
+  EXPECT_NE(loaded.database->findSummary(19), nullptr);
 }
 
 TEST_F(DatabaseFileTest, KeyframesReadOnSeveralThreadsAreTheSameAsOnOne) {
@@ -80,8 +81,9 @@ TEST_F(DatabaseFileTest, KeyframesReadOnSeveralThreadsAreTheSameAsOnOne) {
     const LoadedDatabase loaded = loadDatabase(path_, kIdentity, kDimension, {}, threads);
     ASSERT_TRUE(loaded.database) << loaded.error;
     ASSERT_EQ(loaded.database->size(), saved.size());
-    for (size_t i = 0; i < saved.size(); ++i) expectSame(saved.at(i), loaded.database->at(i));
-    EXPECT_FALSE(loaded.graph_rebuilt);
+    for (size_t i = 0; i < saved.size(); ++i) {
+      expectSame(*saved.record(i), *loaded.database->record(i));
+    }
   }
 }
 
@@ -105,7 +107,8 @@ TEST_F(DatabaseFileTest, AVersion2FileWithoutRecordTableIsStillRead) {
   const LoadedDatabase loaded = loadDatabase(path_, kIdentity, kDimension);
   ASSERT_TRUE(loaded.database) << loaded.error;
   ASSERT_EQ(loaded.database->size(), saved.size());
-  for (size_t i = 0; i < saved.size(); ++i) expectSame(saved.at(i), loaded.database->at(i));
+  for (size_t i = 0; i < saved.size(); ++i)
+    expectSame(*saved.record(i), *loaded.database->record(i));
 }
 
 TEST_F(DatabaseFileTest, AnEmptyDatabaseRoundTrips) {
@@ -226,9 +229,10 @@ TEST_F(DatabaseFileTest, RealDescriptorsCompareTheSameAfterLoading) {
   ASSERT_TRUE(loaded.database) << loaded.error;
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) {
-      EXPECT_EQ(extractor->similarity(database.at(a).descriptor, database.at(b).descriptor),
-                extractor->similarity(loaded.database->at(a).descriptor,
-                                      loaded.database->at(b).descriptor));
+      EXPECT_EQ(
+          extractor->similarity(database.record(a)->descriptor, database.record(b)->descriptor),
+          extractor->similarity(loaded.database->record(a)->descriptor,
+                                loaded.database->record(b)->descriptor));
     }
   }
 }
@@ -284,39 +288,6 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
   fs::remove(copy);
 }
 
-TEST_F(DatabaseFileTest, TheGraphIsStoredAndReusedWhenItsSettingsMatch) {
-  const KeyframeDatabase saved = makeDatabase(40);
-  ASSERT_NE(saved.graph(), nullptr);
-  ASSERT_EQ(saveDatabase(saved, kIdentity, path_), "");
-
-  const LoadedDatabase same = loadDatabase(path_, kIdentity, kDimension, saved.indexOptions());
-  ASSERT_TRUE(same.database) << same.error;
-  EXPECT_FALSE(same.graph_rebuilt);
-  ASSERT_NE(same.database->graph(), nullptr);
-  EXPECT_EQ(same.database->graph()->toBytes(), saved.graph()->toBytes());
-
-  IndexOptions denser = saved.indexOptions();
-  denser.neighbors = 24;
-  const LoadedDatabase other = loadDatabase(path_, kIdentity, kDimension, denser);
-  ASSERT_TRUE(other.database) << other.error;
-  EXPECT_TRUE(other.graph_rebuilt);
-  ASSERT_NE(other.database->graph(), nullptr);
-  EXPECT_EQ(other.database->graph()->size(), 40u);
-
-  IndexOptions exact;
-  exact.type = "exact";
-  const LoadedDatabase without = loadDatabase(path_, kIdentity, kDimension, exact);
-  ASSERT_TRUE(without.database) << without.error;
-  EXPECT_FALSE(without.graph_rebuilt);
-  EXPECT_EQ(without.database->graph(), nullptr);
-  // Saved without a graph, loaded with one: built while loading.
-  ASSERT_EQ(saveDatabase(*without.database, kIdentity, path_), "");
-  const LoadedDatabase built = loadDatabase(path_, kIdentity, kDimension);
-  ASSERT_TRUE(built.database) << built.error;
-  EXPECT_TRUE(built.graph_rebuilt);
-  EXPECT_EQ(built.database->graph()->size(), 40u);
-}
-
 TEST(DatabaseFileVersion1, IsStillReadAndItsThumbnailsBecomeJpeg) {
   // Written by the version-1 build (two keyframes of six values, 4x3 raw thumbnails).
   const fs::path file = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_database_file" /
@@ -326,7 +297,7 @@ TEST(DatabaseFileVersion1, IsStillReadAndItsThumbnailsBecomeJpeg) {
   ASSERT_EQ(loaded.database->size(), 2u);
   EXPECT_TRUE(loaded.graph_rebuilt);
   for (size_t i = 0; i < 2; ++i) {
-    const cv::Mat thumbnail = decodeThumbnail(loaded.database->at(i).thumbnail_jpeg);
+    const cv::Mat thumbnail = decodeThumbnail(loaded.database->record(i)->thumbnail_jpeg);
     EXPECT_EQ(thumbnail.size(), cv::Size(4, 3)) << i;
   }
 }

@@ -98,16 +98,16 @@ TEST(KeyframeDatabase, RefusesBadKeyframesAndKeepsWhatItHas) {
   wrong_length.descriptor.global.push_back(0.0f);
   EXPECT_THROW(database.add(wrong_length), std::invalid_argument);
   ASSERT_EQ(database.size(), 1u);
-  EXPECT_EQ(database.at(0).id, 5u);
+  EXPECT_EQ(database.summary(0).id, 5u);
 }
 
 TEST(KeyframeDatabase, FindsById) {
   KeyframeDatabase database(2);
   for (uint64_t id : {2u, 4u, 9u}) database.add(keyframe(id, id, 0.0));
-  ASSERT_NE(database.findById(4), nullptr);
-  EXPECT_EQ(database.findById(4)->stamp, 4.0);
-  EXPECT_EQ(database.findById(5), nullptr);
-  EXPECT_EQ(database.findById(100), nullptr);
+  ASSERT_NE(database.findSummary(4), nullptr);
+  EXPECT_EQ(database.findSummary(4)->stamp, 4.0);
+  EXPECT_EQ(database.findSummary(5), nullptr);
+  EXPECT_EQ(database.findSummary(100), nullptr);
   EXPECT_GT(database.bytes(), 3 * 2 * sizeof(float));
 }
 
@@ -188,9 +188,11 @@ TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
     for (const Candidate& c : b.candidates) exact_ids.insert(c.id);
     for (const Candidate& c : a.candidates) shared += static_cast<int>(exact_ids.count(c.id));
     best_same += a.candidates.front().id == b.candidates.front().id;
-    // Scores are the same cosine either way.
+    // Scores are the same 8-bit cosine either way, within 0.01 of the float one.
     EXPECT_NEAR(a.candidates.front().global_score,
-                cosineSimilarity(query, vectors[a.candidates.front().id]), 1e-5);
+                graph.similarity(query, a.candidates.front().index), 1e-6);
+    EXPECT_NEAR(a.candidates.front().global_score,
+                cosineSimilarity(query, vectors[a.candidates.front().id]), 0.01);
   }
   EXPECT_GE(shared, queries * 10 * 95 / 100);
   EXPECT_GE(best_same, queries * 98 / 100);
@@ -245,7 +247,14 @@ TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
   database.setIndex(IndexOptions{});
   ASSERT_NE(database.graph(), nullptr);
   EXPECT_EQ(database.graph()->size(), 50u);
-  EXPECT_THROW(database.setIndex(IndexOptions{}, std::make_unique<ApproximateIndex>(8, 16, 64)),
+  // A graph over other vectors, and one holding more keyframes than the database.
+  QuantizedVectors other(8);
+  EXPECT_THROW(
+      database.setIndex(IndexOptions{}, std::make_unique<ApproximateIndex>(&other, 16, 64)),
+      std::invalid_argument);
+  KeyframeDatabase larger = routeDatabase(route(60, 8, &random), IndexOptions{});
+  EXPECT_THROW(database.setIndex(IndexOptions{},
+                                 std::make_unique<ApproximateIndex>(larger.vectors(), 16, 64)),
                std::invalid_argument);
   EXPECT_NE(database.graph(), nullptr);  // Unchanged by the refused call.
   IndexOptions bad;

@@ -70,14 +70,18 @@ TEST_F(KeyframeStoreTest, EveryFieldSurvivesAReopen) {
   for (uint64_t id = 10; id < 20; ++id) {
     const std::optional<KeyframeRecord> keyframe = store->get(id);
     ASSERT_TRUE(keyframe) << id;
-    expectSame(*keyframe, makeKeyframe(id, id < 15 ? 0 : 1));
+    expectSame(*keyframe, asStored(makeKeyframe(id, id < 15 ? 0 : 1)));
   }
   EXPECT_FALSE(store->get(9));
   std::vector<uint64_t> ids;
-  store->forEachGlobal([&ids](uint64_t id, uint32_t, double stamp, std::vector<float> global) {
-    ids.push_back(id);
-    EXPECT_EQ(global, makeKeyframe(id, 0).descriptor.global);
-    EXPECT_EQ(stamp, makeKeyframe(id, 0).stamp);
+  store->forEachSummary([&ids](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+    ids.push_back(summary.id);
+    const KeyframeRecord expected = makeKeyframe(summary.id, 0);
+    EXPECT_EQ(QuantizedVectors::decode(row, kDimension), asStored(expected).descriptor.global);
+    EXPECT_EQ(bytes, 4u + kDimension);
+    EXPECT_EQ(summary.stamp, expected.stamp);
+    EXPECT_EQ(summary.pose.position, expected.pose.position);
+    EXPECT_EQ(summary.path.metres, expected.path.metres);
   });
   EXPECT_EQ(ids.size(), 10u);
   EXPECT_EQ(ids.front(), 10u);
@@ -169,7 +173,7 @@ TEST_F(KeyframeStoreTest, AWriterKilledMidRunLosesNoCommittedKeyframe) {
   for (uint64_t check = 1; check <= committed; check += 37) {
     const std::optional<KeyframeRecord> keyframe = store->get(check);
     ASSERT_TRUE(keyframe) << "committed keyframe " << check << " lost";
-    expectSame(*keyframe, makeKeyframe(check, 0));
+    expectSame(*keyframe, asStored(makeKeyframe(check, 0)));
   }
   ASSERT_TRUE(store->get(committed));
   store->add(makeKeyframe(committed + 10, 1));  // And it goes on from there.
@@ -194,7 +198,7 @@ TEST_F(KeyframeStoreTest, CopiesAndBatchesAreWholeAndToolsOpenAnyMap) {
   EXPECT_EQ(opened->globalDimension(), kDimension);
   uint64_t next = 1;
   opened->forEach([&next](KeyframeRecord keyframe) {
-    expectSame(keyframe, makeKeyframe(next, next <= 10 ? 0 : 1));
+    expectSame(keyframe, asStored(makeKeyframe(next, next <= 10 ? 0 : 1)));
     ++next;
   });
   EXPECT_EQ(next, 21u);
@@ -220,11 +224,11 @@ TEST_F(KeyframeStoreTest, MapsOfTheEarlierFormatConvertOnceWithEveryField) {
   EXPECT_EQ(summary.keyframes_per_session, (std::map<uint32_t, size_t>{{0, 5}, {1, 5}}));
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   for (uint64_t id = 3; id < 13; ++id)
-    expectSame(*store->get(id), makeKeyframe(id, id < 8 ? 0 : 1));
+    expectSame(*store->get(id), asStored(makeKeyframe(id, id < 8 ? 0 : 1)));
   store.reset();
   EXPECT_THROW(convertMapFile(old_file, path_), std::runtime_error) << "never over a map";
   EXPECT_THROW(convertMapFile(path_, (folder_ / "again.db").string()), std::runtime_error)
-      << "a store is no file of the earlier format";
+      << "a map of the current format is not converted";
   EXPECT_FALSE(fs::exists(folder_ / "again.db"));
   EXPECT_FALSE(fs::exists(folder_ / "again.db.partial"));
 }
@@ -252,7 +256,7 @@ TEST_F(KeyframeStoreTest, SessionsExportAndRobotsMapsMerge) {
   ASSERT_TRUE(moved);
   EXPECT_EQ(moved->session, 2u);
   EXPECT_EQ(moved->stamp, makeKeyframe(0, 0).stamp);
-  EXPECT_EQ(moved->descriptor.global, makeKeyframe(0, 0).descriptor.global);
+  EXPECT_EQ(moved->descriptor.global, asStored(makeKeyframe(0, 0)).descriptor.global);
   store.reset();
 
   const std::string other = (folder_ / "other.db").string();
@@ -266,13 +270,81 @@ TEST_F(KeyframeStoreTest, SessionsExportAndRobotsMapsMerge) {
   EXPECT_FALSE(fs::exists(folder_ / "mixed.db"));
 }
 
-TEST_F(KeyframeStoreTest, ASavedSearchGraphIsOnlyGivenBackForTheKeyframesItHolds) {
+TEST_F(KeyframeStoreTest, ASavedSearchGraphIsGivenBackOnlyForItsSettingsAndItsOwnFile) {
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   for (uint64_t id = 0; id < 5; ++id) store->add(makeKeyframe(id, 0));
-  const std::vector<uint8_t> bytes = {1, 2, 3, 4};
-  store->saveGraph("hnsw M=16", 5, bytes);
-  EXPECT_EQ(store->loadGraph("hnsw M=16"), bytes);
-  EXPECT_FALSE(store->loadGraph("hnsw M=32")) << "other graph settings";
-  store->add(makeKeyframe(5, 0));  // As after a crash: keyframes the graph does not hold.
-  EXPECT_FALSE(store->loadGraph("hnsw M=16"));
+  const auto openDatabase = [&] {
+    KeyframeDatabase database(kDimension, IndexOptions{});
+    store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+      database.addSummary(summary, row, bytes);
+    });
+    return database;
+  };
+  const KeyframeDatabase database = openDatabase();
+  ASSERT_NE(database.graph(), nullptr);
+  store->saveGraph("hnsw M=16", *database.graph());
+
+  KeyframeDatabase reopened = openDatabase();
+  auto graph = store->loadGraph("hnsw M=16", reopened.vectors(), 16);
+  ASSERT_NE(graph, nullptr);
+  EXPECT_EQ(graph->size(), 5u);
+  EXPECT_EQ(store->loadGraph("hnsw M=32", reopened.vectors(), 16), nullptr) << "other settings";
+
+  // After a crash the map holds keyframes the graph does not: it is given back and the
+  // database links the rest in.
+  store->add(makeKeyframe(5, 0));
+  KeyframeDatabase grown = openDatabase();
+  graph = store->loadGraph("hnsw M=16", grown.vectors(), 16);
+  ASSERT_NE(graph, nullptr);
+  grown.setIndex(IndexOptions{}, std::move(graph));
+  EXPECT_EQ(grown.graph()->size(), 6u);
+
+  // A graph file changed behind the map's back (another map's, or damaged) is not used.
+  {
+    std::ofstream append(store->graphPath(), std::ios::binary | std::ios::app);
+    append << "x";
+  }
+  EXPECT_EQ(store->loadGraph("hnsw M=16", grown.vectors(), 16), nullptr);
+}
+
+TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
+  // Format 1 kept each keyframe whole in the earlier file's layout: the bytes a one-keyframe file
+  // of that format holds between its keyframe's offset and the graph's (its record table).
+  KeyframeDatabase database(kDimension);
+  database.add(makeKeyframe(4, 2));
+  const std::string old_file = (folder_ / "one.lcdb").string();
+  ASSERT_EQ(saveDatabase(database, kIdentity, old_file), "");
+  std::ifstream in(old_file, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto u64At = [&](size_t at) {
+    uint64_t value = 0;
+    for (int i = 7; i >= 0; --i) value = (value << 8) | static_cast<uint8_t>(bytes[at + i]);
+    return value;
+  };
+  constexpr size_t kHeader = 28;
+  const uint64_t first = u64At(bytes.size() - 24);
+  const uint64_t graph = u64At(bytes.size() - 16);
+  const std::string record = bytes.substr(kHeader + first, graph - first);
+
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  const std::string setup =
+      "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
+      "CREATE TABLE keyframes (id INTEGER PRIMARY KEY, session INTEGER, stamp REAL, global BLOB, "
+      "record BLOB);"
+      "INSERT INTO meta VALUES ('format_version', '1'), ('descriptor_identity', '" +
+      std::string(kIdentity) + "'), ('global_dimension', '" + std::to_string(kDimension) + "');";
+  ASSERT_EQ(sqlite3_exec(db, setup.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_stmt* insert = nullptr;
+  sqlite3_prepare_v2(db, "INSERT INTO keyframes VALUES (4, 2, 0, x'00', ?)", -1, &insert, nullptr);
+  sqlite3_bind_blob(insert, 1, record.data(), static_cast<int>(record.size()), SQLITE_STATIC);
+  ASSERT_EQ(sqlite3_step(insert), SQLITE_DONE);
+  sqlite3_finalize(insert);
+  sqlite3_close(db);
+
+  EXPECT_NE(refusal(path_).find("lcd_db convert"), std::string::npos) << refusal(path_);
+  const std::string converted = (folder_ / "converted.db").string();
+  EXPECT_EQ(convertMapFile(path_, converted), 1u);
+  auto store = KeyframeStore::open(converted, kIdentity, kDimension);
+  expectSame(*store->get(4), asStored(makeKeyframe(4, 2)));
 }

@@ -170,7 +170,7 @@ int triangulatedKeypoints(LoopDetector* detector) {
   }
   int with_depth = 0;
   for (size_t i = 0; i < detector->database().size(); ++i) {
-    for (const cv::Point3f& point : detector->database().at(i).local_features.points3d) {
+    for (const cv::Point3f& point : detector->database().record(i)->local_features.points3d) {
       with_depth += std::isfinite(point.z) ? 1 : 0;
     }
   }

@@ -96,6 +96,7 @@ enum class CandidateVerdict {
   kOutscored,            ///< Consistent, but another candidate of this query scored higher.
   kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
   kGeometryRejected,     ///< Consistent, but the geometric check refused it (see detail).
+  kUnreadable,           ///< Its record could not be read from the map file (damaged).
 };
 
 const char* toString(CandidateVerdict verdict);
@@ -235,6 +236,7 @@ class LoopDetector {
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
   /// The database holds database/memory_budget_mb: new keyframes are searched, not stored.
+  void readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store);
   bool overMemoryBudget() const;
 
   /// Worker thread: switches between building the map and only searching it.

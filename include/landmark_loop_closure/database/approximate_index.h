@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 
 namespace landmark_loop_closure {
 
@@ -30,39 +31,47 @@ struct IndexOptions {
   std::string validate() const;
 };
 
-/// An HNSW graph over L2-normalised vectors, searched by inner product (cosine). Positions are
-/// insertion order. Not thread-safe: search() sets the graph's search effort, so one thread at a
-/// time (the database's owner).
+/// An HNSW graph (hnswlib) over the rows of a QuantizedVectors, searched by inner product
+/// (cosine). The graph holds row numbers, not copies of the vectors: about 200 bytes per row with
+/// 16 neighbours. Positions are row numbers. Not thread-safe: one thread at a time (the database's
+/// owner); search() sets the graph's search effort.
 class ApproximateIndex {
  public:
-  ApproximateIndex(int dimension, int neighbors, int ef_construction);
+  /// `vectors` must outlive the index; rows are added to the graph by add().
+  ApproximateIndex(const QuantizedVectors* vectors, int neighbors, int ef_construction);
   ~ApproximateIndex();
   ApproximateIndex(const ApproximateIndex&) = delete;
   ApproximateIndex& operator=(const ApproximateIndex&) = delete;
 
-  /// Appends one vector of `dimension` floats; its position is the previous size().
-  void add(const float* vector);
+  /// Links the next row of the vectors (row size()) into the graph.
+  void add();
   size_t size() const;
-  int dimension() const { return dimension_; }
+  int neighbors() const { return neighbors_; }
+  const QuantizedVectors* vectors() const;
 
-  /// Up to `k` (position, inner product) pairs, best first.
-  std::vector<std::pair<size_t, float>> search(const float* query, size_t k, int ef_search) const;
+  /// Up to `k` (row, inner product) pairs, best first. `query`: a row built by
+  /// QuantizedVectors::encode.
+  std::vector<std::pair<size_t, float>> search(const uint8_t* query, size_t k, int ef_search) const;
 
-  /// The graph and its vectors as bytes (faiss's own layout) and back. fromBytes throws
-  /// std::runtime_error when the bytes are not an HNSW index of this dimension and shape.
-  std::vector<uint8_t> toBytes() const;
-  static std::unique_ptr<ApproximateIndex> fromBytes(std::vector<uint8_t> bytes, int dimension,
-                                                     int neighbors);
+  /// Writes the graph to `path` (hnswlib's layout) atomically: into `path`.tmp, then renamed.
+  /// Throws std::runtime_error naming the path.
+  void save(const std::string& path) const;
+  /// Reads a graph written by save() over the first rows of `vectors`. Throws std::runtime_error
+  /// when the file is not such a graph (other shape, more rows than `vectors` holds, a link
+  /// outside them).
+  static std::unique_ptr<ApproximateIndex> load(const std::string& path,
+                                                const QuantizedVectors* vectors, int neighbors);
 
-  /// Heap bytes: the vectors and the links.
+  /// Heap bytes of the links and the graph's bookkeeping (the vectors are counted by their owner).
   size_t bytes() const;
 
  private:
   struct Graph;
-  ApproximateIndex(int dimension, std::unique_ptr<Graph> graph);
+  explicit ApproximateIndex(std::unique_ptr<Graph> graph, int neighbors);
+  void reserve(size_t rows);
 
-  int dimension_;
   std::unique_ptr<Graph> graph_;
+  int neighbors_;
 };
 
 }  // namespace landmark_loop_closure

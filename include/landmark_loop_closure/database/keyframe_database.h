@@ -2,8 +2,12 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
+#include <list>
 #include <memory>
+#include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -15,20 +19,26 @@
 
 namespace landmark_loop_closure {
 
-struct KeyframeRecord {
+/// What search keeps in RAM of every keyframe besides its global descriptor.
+struct KeyframeSummary {
   uint64_t id = 0;
   uint32_t session = 0;  ///< The run that stored it; a loaded database holds earlier ones.
   double stamp = 0.0;    ///< Seconds.
   Pose pose;             ///< In the odometry frame.
   PathLength path;       ///< Odometry path travelled up to this keyframe.
+};
+
+struct KeyframeRecord : KeyframeSummary {
+  /// The global vector is the database's 8-bit copy of the described one once stored.
   ImageDescriptor descriptor;
   LocalFeatures local_features;  ///< For geometric verification; empty when it is off.
-  /// Optional small grey image for debug pictures, JPEG-compressed (about 4 KB instead of 19);
+  /// Optional small grey image for debug pictures, JPEG-compressed (about 3 KB instead of 19);
   /// empty when thumbnails are off. encodeThumbnail / decodeThumbnail.
   std::vector<uint8_t> thumbnail_jpeg;
 };
 
-/// JPEG bytes of an 8-bit grey image (quality 90); empty for an empty image.
+/// JPEG bytes of an 8-bit grey image (quality 60: a debug picture, 3 KB on a camera image);
+/// empty for an empty image.
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey);
 /// The grey image back; empty when `jpeg` is empty or cannot be decoded.
 cv::Mat decodeThumbnail(const std::vector<uint8_t>& jpeg);
@@ -38,8 +48,8 @@ struct DatabaseOptions {
   double exclude_recent_seconds = 10.0;  ///< Nor are keyframes closer in time than this.
   int min_size = 30;                     ///< No search before the database holds this many.
   int top_k = 10;                        ///< Candidates returned per query.
-  /// Database bytes (KeyframeDatabase::bytes) past which keyframes are searched but no longer
-  /// stored, in MB; 0: no limit.
+  /// RAM of the database (KeyframeDatabase::bytes) past which keyframes are searched but no
+  /// longer stored, in MB; 0: no limit.
   double memory_budget_mb = 0.0;
   /// Search structure. Whether a graph is kept and its shape (neighbors, ef_construction) are
   /// fixed when the database is made; at query time type "exact" searches exactly even when a
@@ -72,9 +82,16 @@ struct QueryResult {
   bool approximate = false;           ///< The HNSW graph found the candidates.
 };
 
-/// Keyframes in insertion order with cosine search over their global descriptors: exact, or
-/// through an HNSW graph (IndexOptions). Not thread-safe: one owner (the detector's worker thread)
-/// reads and writes it. Movable, not copyable (the graph is large).
+/// Reads a stored keyframe whole (the map file's record); nullopt when it cannot be read.
+using RecordReader = std::function<std::optional<KeyframeRecord>(uint64_t id)>;
+
+/// Keyframes in insertion order with cosine search over their global descriptors, held in RAM as
+/// 8-bit rows (QuantizedVectors): exact, or through an HNSW graph over those rows (IndexOptions).
+/// The rest of each keyframe (landmarks, keypoints, thumbnail) is held in RAM too, unless
+/// readRecordsFrom() gives a reader (the map file): then only the newest and the most recently
+/// read records stay, and search keeps about 4.5 KB per keyframe whatever the record's size.
+/// Not thread-safe, reads included (records are cached): one owner (the detector's worker) reads
+/// and writes it. Movable, not copyable.
 class KeyframeDatabase {
  public:
   explicit KeyframeDatabase(int global_dimension, IndexOptions index = {});
@@ -85,6 +102,12 @@ class KeyframeDatabase {
   /// Stores a keyframe. Throws std::invalid_argument, storing nothing, when its id is not greater
   /// than the last id or its global descriptor has the wrong length.
   void add(KeyframeRecord keyframe);
+  /// Stores a keyframe known only by its summary and encoded global row (QuantizedVectors), its
+  /// record left to the reader: how a map file is opened. Throws as add() does.
+  void addSummary(const KeyframeSummary& summary, const uint8_t* vector_row, size_t row_bytes);
+  /// From now on records are read by `reader` and RAM keeps at most `cached_records` of them (the
+  /// newest ones and the latest read); the records held so far are dropped.
+  void readRecordsFrom(RecordReader reader, size_t cached_records);
 
   /// `session`: the querying run; only its own newest keyframes count as recent (the last ones
   /// of a loaded earlier run are not). Throws std::invalid_argument for a descriptor of the wrong
@@ -95,36 +118,62 @@ class KeyframeDatabase {
   /// Whether keyframe `index` lies outside a query's exclusion windows, as query() decides.
   bool eligible(size_t index, double stamp, const DatabaseOptions& options,
                 uint32_t session = 0) const;
+  /// Cosine of `global` with keyframe `index`'s descriptor, as query() scores it.
+  double similarity(const std::vector<float>& global, size_t index) const;
 
-  int globalDimension() const { return global_dimension_; }
-  size_t size() const { return keyframes_.size(); }
-  bool empty() const { return keyframes_.empty(); }
-  const KeyframeRecord& at(size_t index) const { return keyframes_.at(index); }
-  /// nullptr when no keyframe has this id.
-  const KeyframeRecord* findById(uint64_t id) const;
-  /// Heap bytes of the stored keyframes (descriptors, thumbnails, records) and the graph; O(1).
+  int globalDimension() const { return vectors_->dimension(); }
+  size_t size() const { return summaries_.size(); }
+  bool empty() const { return summaries_.empty(); }
+  const KeyframeSummary& summary(size_t index) const { return summaries_.at(index); }
+  /// Keyframe `index` whole: from RAM, or read through the reader (disk); nullptr when the reader
+  /// cannot read it (a damaged record).
+  std::shared_ptr<const KeyframeRecord> record(size_t index) const;
+  /// The position of the keyframe with this id.
+  std::optional<size_t> indexOf(uint64_t id) const;
+  /// The keyframe with this id; nullptr when there is none (or its record cannot be read).
+  const KeyframeSummary* findSummary(uint64_t id) const;
+  std::shared_ptr<const KeyframeRecord> findRecord(uint64_t id) const;
+  /// Heap bytes held: summaries, vectors, graph, records in RAM; O(1).
   size_t bytes() const;
+  /// Records read through the reader so far (not found in RAM).
+  size_t recordReads() const { return record_reads_; }
 
   const IndexOptions& indexOptions() const { return index_options_; }
   /// The HNSW graph; nullptr when the index type is exact.
   const ApproximateIndex* graph() const { return graph_.get(); }
-  /// Switches the search structure. `graph`: one built over exactly these keyframes (a loaded
-  /// file's), or nullptr to build it here (slow: about 0.5 ms per 1000-value keyframe). Throws
-  /// std::invalid_argument when `graph` does not hold one vector per keyframe.
+  /// Switches the search structure. `graph`: one built over the first keyframes of this database
+  /// (a saved one; the keyframes after it are linked in here), or nullptr to build it here (slow:
+  /// about 1 ms per keyframe). Throws std::invalid_argument when `graph` holds more keyframes, or
+  /// is not over this database's vectors.
   void setIndex(const IndexOptions& index, std::unique_ptr<ApproximateIndex> graph = nullptr);
+  /// The vectors a graph loaded for this database must be built over (ApproximateIndex::load).
+  const QuantizedVectors* vectors() const { return vectors_.get(); }
 
  private:
+  void addEntry(const KeyframeSummary& summary);
+  void cache(std::shared_ptr<const KeyframeRecord> record) const;
   /// Keyframes at or past this position are the querying session's newest: never candidates.
   size_t searchEnd(const DatabaseOptions& options, uint32_t session) const;
 
-  int global_dimension_;
   IndexOptions index_options_;
-  /// A deque: growing never moves the stored keyframes (a vector would copy them all, since
-  /// cv::Mat's move may throw, stalling the worker for seconds at 100 000 keyframes).
-  std::deque<KeyframeRecord> keyframes_;
-  std::vector<double> stamps_;  ///< keyframes_[i].stamp, contiguous for the exclusion scan.
-  size_t content_bytes_ = 0;    ///< Heap bytes the records point to (descriptors, features).
+  /// A deque: growing never moves the stored summaries (no copy of them all at a doubling).
+  std::deque<KeyframeSummary> summaries_;
+  std::vector<double> stamps_;  ///< summaries_[i].stamp, contiguous for the exclusion scan.
+  std::unique_ptr<QuantizedVectors> vectors_;  ///< Held by pointer: the graph refers to it.
   std::unique_ptr<ApproximateIndex> graph_;
+
+  /// Without a reader: every record, by position.
+  std::deque<std::shared_ptr<const KeyframeRecord>> records_;
+  mutable size_t record_bytes_ = 0;  ///< Heap bytes of the records in RAM.
+  /// With a reader: the newest and latest read records, least recently used first.
+  RecordReader reader_;
+  size_t cached_records_ = 0;
+  mutable std::list<std::shared_ptr<const KeyframeRecord>> cache_order_;
+  mutable std::unordered_map<uint64_t, decltype(cache_order_)::iterator> cache_;
+  mutable size_t record_reads_ = 0;
 };
+
+/// Heap bytes a record points to (descriptor, features, thumbnail).
+size_t recordBytes(const KeyframeRecord& keyframe);
 
 }  // namespace landmark_loop_closure

@@ -14,14 +14,18 @@ namespace landmark_loop_closure {
 /// The map on disk as an SQLite database (WAL journal): every keyframe is committed when it is
 /// added, so a process killed at any moment loses none that add() returned for, and the file
 /// always opens. Inspectable with the sqlite3 tool:
-///   meta(key, value): format_version, descriptor_identity, global_dimension
-///   keyframes(id, session, stamp, global, record): `global` is the float32 global descriptor
-///   (what search keeps in RAM), `record` the whole keyframe in the map file's layout;
-///   graph(identity, keyframes, bytes): the search graph as of the last clean shutdown.
+///   meta(key, value): format_version, descriptor_identity, global_dimension, and graph_identity,
+///     graph_keyframes, graph_checksum (CRC-32C) of the search graph file PATH-graph, written at
+///     a clean shutdown;
+///   keyframes(id, session, stamp, motion, vector): what search keeps in RAM - `motion` the pose
+///     and odometry path (9 little-endian doubles), `vector` the global descriptor as a
+///     QuantizedVectors row;
+///   records(id, record): the rest of the keyframe (keyframe_codec.h's encodeRecord), read for
+///     the candidates of a query.
 /// One process at a time: the file is locked while open. Not thread-safe; one owner.
 class KeyframeStore {
  public:
-  static constexpr int kFormatVersion = 1;
+  static constexpr int kFormatVersion = 2;
 
   /// Opens `path`, creating it when missing. Throws std::runtime_error naming the path and the
   /// reason when it is not a regular file (checked before opening, so a FIFO cannot block), cannot
@@ -36,6 +40,11 @@ class KeyframeStore {
   /// True when `path` starts like the map file of the earlier format (database_file.h), which
   /// `lcd_db convert` turns into a store once.
   static bool isOldMapFile(const std::string& path);
+  /// Reads a map of store format 1 (a float32 `global` column and whole records in the earlier
+  /// file's layout) for `lcd_db convert`: its descriptor identity and dimension, then every
+  /// keyframe in id order. Throws std::runtime_error naming the path.
+  static void readFormat1(const std::string& path, std::string* descriptor_identity,
+                          int* global_dimension, const std::function<void(KeyframeRecord)>& visit);
   /// Renames the closed map `from` over `to`, first removing a write-ahead log left beside `to`
   /// by an earlier file there (SQLite would replay it into the new one). Throws
   /// std::runtime_error naming `to`.
@@ -52,23 +61,25 @@ class KeyframeStore {
   /// The keyframe with this id, read from disk; nullopt when there is none. Throws
   /// std::runtime_error for a damaged record.
   std::optional<KeyframeRecord> get(uint64_t id) const;
-  /// Every keyframe's id, session, stamp and global descriptor in id order, without reading the
-  /// rest: what a search index needs.
-  void forEachGlobal(const std::function<void(uint64_t id, uint32_t session, double stamp,
-                                              std::vector<float> global)>& visit) const;
+  /// Every keyframe's summary and global vector row (QuantizedVectors) in id order, without
+  /// reading the records: what search needs. Throws std::runtime_error for a damaged row.
+  void forEachSummary(const std::function<void(const KeyframeSummary&, const uint8_t* vector_row,
+                                               size_t row_bytes)>& visit) const;
   /// Every keyframe, whole, in id order.
   void forEach(const std::function<void(KeyframeRecord)>& visit) const;
   /// Writes a consistent copy of the map to `target` (SQLite's online backup) and renames it over
-  /// whatever was there: the copy appears whole or not at all.
+  /// whatever was there: the copy appears whole or not at all. The search graph is not copied.
   void copyTo(const std::string& target) const;
-  /// Keeps the search graph of the map's keyframes (ApproximateIndex::toBytes) for the next open:
+  /// Keeps the search graph for the next open, in graphPath() with its checksum in the map:
   /// written at a clean shutdown, since it changes with every keyframe. `graph_identity`:
-  /// IndexOptions::graphIdentity(); `keyframes`: how many keyframes it holds.
-  void saveGraph(const std::string& graph_identity, size_t keyframes,
-                 const std::vector<uint8_t>& bytes);
-  /// The saved graph when it was made with `graph_identity` over exactly the keyframes stored now
-  /// (not after a crash, which leaves an older one); nullopt otherwise.
-  std::optional<std::vector<uint8_t>> loadGraph(const std::string& graph_identity) const;
+  /// IndexOptions::graphIdentity(). Throws std::runtime_error (disk full).
+  void saveGraph(const std::string& graph_identity, const ApproximateIndex& graph);
+  /// The saved graph over `vectors` (the map's, in id order) when it was made with
+  /// `graph_identity` and its file is the one saved; it may hold fewer keyframes than the map
+  /// (after a crash). nullptr otherwise: the graph is then built again.
+  std::unique_ptr<ApproximateIndex> loadGraph(const std::string& graph_identity,
+                                              const QuantizedVectors* vectors, int neighbors) const;
+  std::string graphPath() const;
   size_t size() const;
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
   int globalDimension() const { return global_dimension_; }
@@ -79,6 +90,7 @@ class KeyframeStore {
  private:
   struct Connection;
   KeyframeStore(std::string path, std::unique_ptr<Connection> connection);
+  void insert(const KeyframeRecord& keyframe);
   static std::unique_ptr<KeyframeStore> openChecked(const std::string& path,
                                                     const std::string* descriptor_identity,
                                                     int global_dimension);

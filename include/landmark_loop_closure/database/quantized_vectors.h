@@ -1,0 +1,56 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace landmark_loop_closure {
+
+/// Global descriptors as search keeps them in RAM and the map file keeps them on disk: each vector
+/// as one float scale and one signed byte per value (4 + n bytes instead of 4n), compared by an
+/// integer inner product. Rows are appended and never change. Storage grows in fixed chunks, so
+/// appending never moves the rows already held (a vector's doubling would copy gigabytes at a
+/// million keyframes and stall the worker).
+class QuantizedVectors {
+ public:
+  explicit QuantizedVectors(int dimension);
+
+  int dimension() const { return dimension_; }
+  /// Bytes of one row: the scale, then `dimension` signed values.
+  size_t rowBytes() const { return row_bytes_; }
+
+  /// Writes the row of `vector` (`dimension` floats) into `row` (rowBytes() bytes). The scale is
+  /// the largest magnitude over 127, so each value keeps 8 bits of its vector's own range;
+  /// non-finite values count as 0.
+  static void encode(const float* vector, int dimension, uint8_t* row);
+  static std::vector<uint8_t> encode(const std::vector<float>& vector);
+  /// The floats a row stands for.
+  static std::vector<float> decode(const uint8_t* row, int dimension);
+  /// Inner product of two rows of `dimension` values.
+  static float dot(const uint8_t* a, const uint8_t* b, int dimension);
+
+  /// Appends `vector` (`dimension` floats).
+  void append(const float* vector);
+  /// Appends a row as encode() wrote it. Throws std::invalid_argument for another length.
+  void appendRow(const uint8_t* row, size_t bytes);
+  size_t size() const { return size_; }
+  const uint8_t* row(size_t index) const {
+    return chunks_[index / kChunkRows].get() + (index % kChunkRows) * row_bytes_;
+  }
+  /// Inner product of a row built by encode() with row `index`.
+  float dot(const uint8_t* query, size_t index) const { return dot(query, row(index), dimension_); }
+  /// Heap bytes held.
+  size_t bytes() const;
+
+ private:
+  static constexpr size_t kChunkRows = 1024;
+  uint8_t* nextRow();
+
+  int dimension_;
+  size_t row_bytes_;
+  size_t size_ = 0;
+  std::vector<std::unique_ptr<uint8_t[]>> chunks_;
+};
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,281 @@
+// lcd_bench_map: the node's map at scale, as the node keeps it - every keyframe committed to the
+// map file (KeyframeStore) and added to search (KeyframeDatabase reading records from the file).
+// Keyframes are one described corridor keyframe (the shipped descriptor, ORB keypoints with
+// depths, thumbnail) with synthetic global vectors along a route (each a small step from the
+// last); each query revisits a random stored keyframe. At each checkpoint it prints insert time
+// per keyframe, RAM (the database's bytes and the process's resident set), file bytes per
+// keyframe, query + re-rank time (graph search, then the top_k records read from the file) and
+// the graph's recall of exact search's top_k. Then it saves the graph, closes, reopens the map as
+// the node does (summaries, vectors and the saved graph; records stay on disk) and queries again.
+//   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
+//                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image camera.jpg]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "landmark_loop_closure/database/keyframe_store.h"
+#include "landmark_loop_closure/descriptors/registry.h"
+#include "landmark_loop_closure/geometry/geometric_verification.h"
+#include "landmark_loop_closure/sim/corridor_world.h"
+
+namespace {
+
+using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1) + 0.5))];
+}
+
+double residentMegabytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return 0.0;
+}
+
+void normalise(std::vector<float>* values) {
+  double norm = 0.0;
+  for (const float v : *values) norm += static_cast<double>(v) * v;
+  const double scale = norm > 0.0 ? 1.0 / std::sqrt(norm) : 0.0;
+  for (float& v : *values) v = static_cast<float>(v * scale);
+}
+
+// Global vectors along a route: x <- 0.9 x + 0.45 n (neighbours' cosine ~0.9); a revisit is a
+// stored vector with noise (cosine ~0.9 to it).
+class Route {
+ public:
+  Route(int dimension, unsigned seed) : state_(static_cast<size_t>(dimension)), random_(seed) {
+    for (float& v : state_) v = normal_(random_);
+  }
+  std::vector<float> next() {
+    for (float& v : state_) v = 0.9f * v + 0.45f * normal_(random_);
+    std::vector<float> unit = state_;
+    normalise(&unit);
+    return unit;
+  }
+  std::vector<float> revisit(std::vector<float> place) {
+    const float sigma = std::sqrt(0.2346f / static_cast<float>(place.size()));
+    for (float& v : place) v += sigma * normal_(random_);
+    normalise(&place);
+    return place;
+  }
+  std::mt19937& random() { return random_; }
+
+ private:
+  std::vector<float> state_;
+  std::mt19937 random_;
+  std::normal_distribution<float> normal_;
+};
+
+struct Settings {
+  size_t keyframes = 1000000;
+  std::vector<size_t> checkpoints = {10000, 100000, 1000000};
+  int queries = 300;
+  int recall_queries = 50;
+  fs::path dir = "/tmp/lcd_bench_map";
+  std::string image;  ///< The model keyframe's image; "" = a generated corridor view.
+};
+
+// One keyframe as the node stores it with the shipped settings and a depth camera: `image_path`
+// (a real camera image: more keypoints, a larger thumbnail), or a generated corridor view.
+KeyframeRecord modelKeyframe(const std::string& image_path, std::string* descriptor_name) {
+  std::shared_ptr<const DescriptorExtractor> extractor;
+  try {
+    extractor = makeDescriptorExtractor(DescriptorOptions{});
+  } catch (const std::exception&) {
+    DescriptorOptions landmarks;
+    landmarks.type = "landmarks";  // Without the fetched backbone, as the node falls back.
+    extractor = makeDescriptorExtractor(landmarks);
+  }
+  *descriptor_name =
+      extractor->name() + " (" + std::to_string(extractor->globalDimension()) + " values)";
+  cv::Mat image = image_path.empty() ? cv::Mat() : cv::imread(image_path, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) {
+    const sim::CorridorWorld world;
+    image = world.render(world.poseAt(5.0, 0.0), sim::CameraModel{}, sim::Lighting{}, 1);
+  }
+  cv::Mat working;  // As the node's verification sees it: at most 640 wide.
+  const double shrink = std::min(1.0, 640.0 / image.cols);
+  cv::resize(image, working, cv::Size(), shrink, shrink, cv::INTER_AREA);
+  KeyframeRecord keyframe;
+  keyframe.descriptor = extractor->describe(image);
+  keyframe.local_features = GeometricVerifier(VerificationOptions{}).extract(working);
+  const size_t points = keyframe.local_features.points.size();
+  keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
+  keyframe.local_features.depth_sd.assign(points, 0.05f);
+  cv::Mat thumbnail;
+  cv::resize(image, thumbnail, cv::Size(160, 120));
+  keyframe.thumbnail_jpeg = encodeThumbnail(thumbnail);
+  return keyframe;
+}
+
+void attachReader(KeyframeDatabase* database, const KeyframeStore* store) {
+  database->readRecordsFrom([store](uint64_t id) { return store->get(id); }, 64);
+}
+
+struct QueryFigures {
+  std::vector<double> total_ms;
+  double recall = 0.0;
+};
+
+QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Settings& settings,
+                        const std::vector<std::vector<float>>& places) {
+  QueryFigures figures;
+  DatabaseOptions search;
+  search.index.type = "approximate";
+  DatabaseOptions exact = search;
+  exact.index.type = "exact";
+  std::uniform_int_distribution<size_t> pick(0, places.size() - 1);
+  size_t shared = 0;
+  size_t compared = 0;
+  const double stamp = 1e12;  // After every keyframe: nothing excluded.
+  for (int q = 0; q < settings.queries; ++q) {
+    const std::vector<float> query = route->revisit(places[pick(route->random())]);
+    const auto start = Clock::now();
+    const QueryResult found = database.query(query, stamp, search, 1000);
+    size_t read = 0;
+    for (const Candidate& candidate : found.candidates)
+      read += database.record(candidate.index) != nullptr;
+    figures.total_ms.push_back(msSince(start));
+    if (read != found.candidates.size()) std::cerr << "a record could not be read\n";
+    if (q < settings.recall_queries) {
+      std::set<uint64_t> exact_ids;
+      for (const Candidate& c : database.query(query, stamp, exact, 1000).candidates) {
+        exact_ids.insert(c.id);
+      }
+      for (const Candidate& c : found.candidates) shared += exact_ids.count(c.id);
+      compared += exact_ids.size();
+    }
+  }
+  figures.recall = compared > 0 ? static_cast<double>(shared) / compared : 0.0;
+  return figures;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings settings;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string key = argv[i];
+    const std::string value = argv[i + 1];
+    if (key == "--keyframes") {
+      settings.keyframes = std::stoul(value);
+    } else if (key == "--checkpoints") {
+      settings.checkpoints.clear();
+      std::istringstream list(value);
+      std::string item;
+      while (std::getline(list, item, ',')) settings.checkpoints.push_back(std::stoul(item));
+    } else if (key == "--queries") {
+      settings.queries = std::stoi(value);
+    } else if (key == "--recall-queries") {
+      settings.recall_queries = std::stoi(value);
+    } else if (key == "--image") {
+      settings.image = value;
+    } else if (key == "--dir") {
+      settings.dir = value;
+    } else {
+      std::cerr << "unknown option " << key << "\n";
+      return 2;
+    }
+  }
+  fs::create_directories(settings.dir);
+  const std::string path = (settings.dir / "bench.map").string();
+  for (const char* suffix : {"", "-wal", "-shm", "-graph"}) fs::remove(path + suffix);
+
+  std::string descriptor;
+  const KeyframeRecord model = modelKeyframe(settings.image, &descriptor);
+  const int dimension = static_cast<int>(model.descriptor.global.size());
+  const IndexOptions index;  // The shipped graph settings.
+  const std::string identity = "bench";
+  std::cout << "Map of " << descriptor << " keyframes with " << model.local_features.points.size()
+            << " keypoints and depths, " << model.descriptor.landmark_boxes.size()
+            << " landmarks, a " << model.thumbnail_jpeg.size() << "-byte thumbnail\n";
+
+  std::cout
+      << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
+         "file B/keyframe | query + re-rank ms median / p99 | recall@10 |\n"
+         "|---|---|---|---|---|---|---|\n";
+  Route route(dimension, 7);
+  std::vector<std::vector<float>> places;  // A sample of stored vectors to revisit.
+  auto store = KeyframeStore::open(path, identity, dimension);
+  KeyframeDatabase database(dimension, index);
+  attachReader(&database, store.get());
+  std::vector<double> insert_ms;
+  size_t checkpoint = 0;
+  for (size_t id = 0; id < settings.keyframes; ++id) {
+    KeyframeRecord keyframe = model;
+    keyframe.id = id;
+    keyframe.stamp = static_cast<double>(id);
+    keyframe.descriptor.global = route.next();
+    if (id % 997 == 0) places.push_back(keyframe.descriptor.global);
+    const auto start = Clock::now();
+    store->add(keyframe);
+    database.add(std::move(keyframe));
+    insert_ms.push_back(msSince(start));
+    if (checkpoint < settings.checkpoints.size() && id + 1 == settings.checkpoints[checkpoint]) {
+      const QueryFigures queries = runQueries(database, &route, settings, places);
+      const double file_bytes = static_cast<double>(
+          fs::file_size(path) + (fs::exists(path + "-wal") ? fs::file_size(path + "-wal") : 0));
+      std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f |\n", id + 1,
+                  percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
+                  static_cast<double>(database.bytes()) / (id + 1), residentMegabytes(),
+                  file_bytes / (id + 1), percentile(queries.total_ms, 0.5),
+                  percentile(queries.total_ms, 0.99), queries.recall);
+      std::fflush(stdout);
+      insert_ms.clear();
+      ++checkpoint;
+    }
+  }
+  const auto save_start = Clock::now();
+  store->saveGraph(index.graphIdentity(), *database.graph());
+  const double save_s = msSince(save_start) / 1000.0;
+  database = KeyframeDatabase(dimension, index);
+  store.reset();
+
+  // Reopened as LoopDetector::openMap does.
+  const auto open_start = Clock::now();
+  store = KeyframeStore::open(path, identity, dimension);
+  IndexOptions exact = index;
+  exact.type = "exact";
+  KeyframeDatabase reopened(dimension, exact);
+  store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+    reopened.addSummary(summary, row, bytes);
+  });
+  attachReader(&reopened, store.get());
+  const auto graph_start = Clock::now();
+  std::unique_ptr<ApproximateIndex> graph =
+      store->loadGraph(index.graphIdentity(), reopened.vectors(), index.neighbors);
+  const bool reused = graph != nullptr;
+  reopened.setIndex(index, std::move(graph));
+  const double graph_s = msSince(graph_start) / 1000.0;
+  const double open_s = msSince(open_start) / 1000.0;
+  const QueryFigures queries = runQueries(reopened, &route, settings, places);
+  std::printf(
+      "\nGraph saved in %.2f s (%.0f MB). Reopened %zu keyframes in %.2f s (graph %s in %.2f s); "
+      "RSS %.0f MB; then query + re-rank %.2f / %.2f ms, recall@10 %.3f.\n",
+      save_s, static_cast<double>(fs::file_size(store->graphPath())) / 1e6, reopened.size(), open_s,
+      reused ? "read" : "REBUILT", graph_s, residentMegabytes(), percentile(queries.total_ms, 0.5),
+      percentile(queries.total_ms, 0.99), queries.recall);
+  return 0;
+}
