@@ -28,12 +28,14 @@
 #include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
+#include "synthetic_route.h"
 
 namespace {
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using bench::Route;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -53,40 +55,6 @@ double residentMegabytes() {
   }
   return 0.0;
 }
-
-void normalise(std::vector<float>* values) {
-  double norm = 0.0;
-  for (const float v : *values) norm += static_cast<double>(v) * v;
-  const double scale = norm > 0.0 ? 1.0 / std::sqrt(norm) : 0.0;
-  for (float& v : *values) v = static_cast<float>(v * scale);
-}
-
-// Global vectors along a route: x <- 0.9 x + 0.45 n (neighbours' cosine ~0.9); a revisit is a
-// stored vector with noise (cosine ~0.9 to it).
-class Route {
- public:
-  Route(int dimension, unsigned seed) : state_(static_cast<size_t>(dimension)), random_(seed) {
-    for (float& v : state_) v = normal_(random_);
-  }
-  std::vector<float> next() {
-    for (float& v : state_) v = 0.9f * v + 0.45f * normal_(random_);
-    std::vector<float> unit = state_;
-    normalise(&unit);
-    return unit;
-  }
-  std::vector<float> revisit(std::vector<float> place) {
-    const float sigma = std::sqrt(0.2346f / static_cast<float>(place.size()));
-    for (float& v : place) v += sigma * normal_(random_);
-    normalise(&place);
-    return place;
-  }
-  std::mt19937& random() { return random_; }
-
- private:
-  std::vector<float> state_;
-  std::mt19937 random_;
-  std::normal_distribution<float> normal_;
-};
 
 struct Settings {
   size_t keyframes = 1000000;
