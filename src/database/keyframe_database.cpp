@@ -291,7 +291,7 @@ std::shared_ptr<const KeyframeRecord> KeyframeDatabase::findRecord(uint64_t id) 
 
 size_t KeyframeDatabase::bytes() const {
   return summaries_.size() * sizeof(KeyframeSummary) + stamps_.capacity() * sizeof(double) +
-         records_.size() * sizeof(void*) + vectors_->bytes() + record_bytes_ +
+         records_.size() * sizeof(records_.front()) + vectors_->bytes() + record_bytes_ +
          (graph_ ? graph_->bytes() : 0);
 }
 

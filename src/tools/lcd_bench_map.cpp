@@ -24,11 +24,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bench_workload.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
-#include "synthetic_route.h"
 
 namespace {
 
@@ -79,23 +79,8 @@ KeyframeRecord modelKeyframe(const std::string& image_path, std::string* descrip
   *descriptor_name =
       extractor->name() + " (" + std::to_string(extractor->globalDimension()) + " values)";
   cv::Mat image = image_path.empty() ? cv::Mat() : cv::imread(image_path, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) {
-    const sim::CorridorWorld world;
-    image = world.render(world.poseAt(5.0, 0.0), sim::CameraModel{}, sim::Lighting{}, 1);
-  }
-  cv::Mat working;  // As the node's verification sees it: at most 640 wide.
-  const double shrink = std::min(1.0, 640.0 / image.cols);
-  cv::resize(image, working, cv::Size(), shrink, shrink, cv::INTER_AREA);
-  KeyframeRecord keyframe;
-  keyframe.descriptor = extractor->describe(image);
-  keyframe.local_features = GeometricVerifier(VerificationOptions{}).extract(working);
-  const size_t points = keyframe.local_features.points.size();
-  keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
-  keyframe.local_features.depth_sd.assign(points, 0.05f);
-  cv::Mat thumbnail;
-  cv::resize(image, thumbnail, cv::Size(160, 120));
-  keyframe.thumbnail_jpeg = encodeThumbnail(thumbnail);
-  return keyframe;
+  if (image.empty()) image = bench::corridorView();
+  return bench::describedKeyframe(*extractor, image);
 }
 
 void attachReader(KeyframeDatabase* database, const KeyframeStore* store) {

@@ -25,11 +25,11 @@
 #include <string>
 #include <thread>
 #include <vector>
-#include "synthetic_route.h"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bench_workload.h"
 #include "landmark_loop_closure/database/database_file.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
@@ -60,19 +60,7 @@ std::vector<size_t> parseSizes(const std::string& text) {
 
 // One keyframe as the node stores it with the shipped settings (landmarks descriptor).
 KeyframeRecord realisticKeyframe(const DescriptorExtractor& extractor) {
-  const sim::CorridorWorld world;
-  const cv::Mat image =
-      world.render(world.poseAt(5.0, 0.0), sim::CameraModel{}, sim::Lighting{}, 1);
-  KeyframeRecord keyframe;
-  keyframe.descriptor = extractor.describe(image);
-  keyframe.local_features = GeometricVerifier(VerificationOptions{}).extract(image);
-  const size_t points = keyframe.local_features.points.size();
-  keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
-  keyframe.local_features.depth_sd.assign(points, 0.05f);
-  cv::Mat thumbnail;
-  cv::resize(image, thumbnail, cv::Size(160, 120));
-  keyframe.thumbnail_jpeg = encodeThumbnail(thumbnail);
-  return keyframe;
+  return bench::describedKeyframe(extractor, bench::corridorView());
 }
 
 struct Workload {
@@ -87,7 +75,7 @@ Workload landmarksWorkload() {
   workload.extractor = makeDescriptorExtractor(DescriptorOptions{});
   workload.model = realisticKeyframe(*workload.extractor);
   workload.dimension = static_cast<int>(workload.model.descriptor.global.size());
-  workload.name = "landmarks (shipped)";
+  workload.name = workload.extractor->name() + " (shipped)";
   return workload;
 }
 
