@@ -101,10 +101,12 @@ cat "$OUT/pipeline.md"
 
 echo "== scaling"
 _build/devel/lib/landmark_loop_closure/lcd_bench_scaling 1000,10000,100000 200 > "$OUT/scaling.md"
-printf '\n# lcd_bench_scaling --persistence\n\n' >> "$OUT/scaling.md"
-_build/devel/lib/landmark_loop_closure/lcd_bench_scaling --persistence 1000,10000,100000 \
-  >> "$OUT/scaling.md"
 cat "$OUT/scaling.md"
+
+echo "== map at scale"
+_build/devel/lib/landmark_loop_closure/lcd_bench_map --keyframes 100000 --checkpoints 10000,100000 \
+  --dir "${TMPDIR:-/tmp}/lcd_bench_map" --image "$GP/day_left/Image000.jpg" > "$OUT/map.md"
+cat "$OUT/map.md"
 
 /usr/bin/python3 scripts/plot_results.py "$OUT"/*/
 /usr/bin/python3 bench/make_table.py "$OUT"/nordland "$OUT"/gardens_point_viewpoint \

@@ -5,7 +5,7 @@ set(CORE_TESTS
   test_hog_descriptor
   test_descriptor_registry
   test_keyframe_database
-  test_database_file
+  test_old_map_file
   test_temporal_consistency
   test_loop_detector
   test_sequence_matching

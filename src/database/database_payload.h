@@ -1,7 +1,7 @@
 #pragma once
 
-// Field-level writing and reading of the keyframe database file's payload (database_file.cpp
-// lays the fields out): little-endian integers and floats, counted lists and matrices, gathered
+// Field-level writing and reading of keyframe payloads (the map store's records, the old map
+// file that lcd_db converts): little-endian integers and floats, counted lists and matrices, gathered
 // into large writes and reads with one CRC-32C call per chunk. Private to the core library.
 
 #include <cstdint>

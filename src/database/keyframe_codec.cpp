@@ -1,6 +1,6 @@
 #include "database/keyframe_codec.h"
 
-#include "landmark_loop_closure/database/database_file.h"
+#include "database/old_map_file.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -18,14 +18,6 @@ static_assert(sizeof(cv::Point2f) == 2 * sizeof(float) &&
                   sizeof(cv::Rect2f) == 4 * sizeof(float),
               "points and boxes are stored as their floats");
 
-void writePose(PayloadWriter* out, const Pose& pose) {
-  for (int i = 0; i < 3; ++i) out->f64(pose.position[i]);
-  out->f64(pose.orientation.w());
-  out->f64(pose.orientation.x());
-  out->f64(pose.orientation.y());
-  out->f64(pose.orientation.z());
-}
-
 Pose readPose(PayloadReader* in) {
   Pose pose;
   for (int i = 0; i < 3; ++i) pose.position[i] = in->f64();
@@ -38,38 +30,6 @@ Pose readPose(PayloadReader* in) {
 }
 
 }  // namespace
-
-void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe) {
-  out->u64(keyframe.id);
-  out->u32(keyframe.session);
-  out->f64(keyframe.stamp);
-  writePose(out, keyframe.pose);
-  out->f64(keyframe.path.metres);
-  out->f64(keyframe.path.radians);
-
-  // Points and boxes are plain floats side by side (static_asserts below).
-  const ImageDescriptor& descriptor = keyframe.descriptor;
-  out->count(descriptor.global.size());
-  out->floats(descriptor.global.data(), descriptor.global.size());
-  out->count(descriptor.landmark_boxes.size());
-  out->floats(reinterpret_cast<const float*>(descriptor.landmark_boxes.data()),
-              4 * descriptor.landmark_boxes.size());
-  out->mat(descriptor.landmark_features);
-
-  const LocalFeatures& local = keyframe.local_features;
-  out->count(local.points.size());
-  out->floats(reinterpret_cast<const float*>(local.points.data()), 2 * local.points.size());
-  out->mat(local.descriptors);
-  out->i32(local.image_size.width);
-  out->i32(local.image_size.height);
-  out->count(local.points3d.size());
-  out->floats(reinterpret_cast<const float*>(local.points3d.data()), 3 * local.points3d.size());
-  out->count(local.depth_sd.size());
-  out->floats(local.depth_sd.data(), local.depth_sd.size());
-
-  out->count(keyframe.thumbnail_jpeg.size());
-  out->bytes(keyframe.thumbnail_jpeg.data(), keyframe.thumbnail_jpeg.size());
-}
 
 KeyframeRecord readKeyframe(PayloadReader* in, uint32_t version) {
   KeyframeRecord keyframe;
@@ -156,13 +116,9 @@ cv::Mat toHalf(const cv::Mat& values) {
 
 }  // namespace
 
-std::vector<uint8_t> encodeKeyframe(const KeyframeRecord& keyframe) {
-  return writeToMemory([&](PayloadWriter* out) { writeKeyframe(out, keyframe); });
-}
-
 KeyframeRecord decodeKeyframe(const uint8_t* data, size_t size) {
   PayloadReader reader(data, size);
-  KeyframeRecord keyframe = readKeyframe(&reader, kDatabaseFileVersion);
+  KeyframeRecord keyframe = readKeyframe(&reader, kOldMapFileVersion);
   if (reader.remaining() != 0) throw FormatError("bytes left after the keyframe");
   return keyframe;
 }

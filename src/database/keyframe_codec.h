@@ -1,7 +1,7 @@
 #pragma once
 
-// One keyframe's fields in the payload layout (database_file.h describes it), shared by the map
-// file and the keyframe store. Private to the core library.
+// One keyframe's fields: the map store's compact record and motion, and the old map file's
+// layout (old_map_file.h), read for conversion. Private to the core library.
 
 #include <cstdint>
 #include <vector>
@@ -12,13 +12,11 @@
 namespace landmark_loop_closure {
 namespace database_payload {
 
-void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe);
-/// `version`: the map file's (1 kept raw thumbnails); the store writes the current layout.
+/// A keyframe in the old map file's layout (old_map_file.h); `version`: the file's (1 kept raw
+/// thumbnails). Only read now, by `lcd_db convert`.
 KeyframeRecord readKeyframe(PayloadReader* in, uint32_t version);
-
-/// A keyframe as one byte string and back, in the earlier map file's layout (what `lcd_db
-/// convert` reads); decoding throws FormatError for damaged bytes.
-std::vector<uint8_t> encodeKeyframe(const KeyframeRecord& keyframe);
+/// The same from one byte string (the map store's format 1 kept each keyframe so); throws
+/// FormatError for damaged bytes.
 KeyframeRecord decodeKeyframe(const uint8_t* data, size_t size);
 
 /// The map store's record: what a keyframe holds beyond its summary and global vector (landmark

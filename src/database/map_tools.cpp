@@ -5,7 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "landmark_loop_closure/database/database_file.h"
+#include "database/old_map_file.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 
 namespace landmark_loop_closure {
@@ -83,15 +83,16 @@ size_t convertMapFile(const std::string& old_file, const std::string& out) {
     for (const KeyframeRecord& keyframe : keyframes) writer.add(keyframe);
     return writer.finish();
   }
-  const std::string error = readDatabaseFileIdentity(old_file, &identity, &dimension);
-  if (!error.empty()) throw std::runtime_error(error);
-  IndexOptions exact;
-  exact.type = "exact";  // Only the keyframes are needed, not their search graph.
-  LoadedDatabase loaded = loadDatabase(old_file, identity, dimension, exact);
-  if (!loaded.database) throw std::runtime_error(loaded.error);
-  MapWriter writer(out, identity, dimension);
-  for (size_t i = 0; i < loaded.database->size(); ++i) writer.add(*loaded.database->record(i));
-  return writer.finish();
+  std::unique_ptr<MapWriter> writer;
+  // The partial map is discarded when the file turns out corrupt at its checksum.
+  readOldMapFile(
+      old_file,
+      [&](const OldMapFileHeader& header) {
+        writer =
+            std::make_unique<MapWriter>(out, header.descriptor_identity, header.global_dimension);
+      },
+      [&](KeyframeRecord keyframe) { writer->add(keyframe); });
+  return writer->finish();
 }
 
 size_t exportSession(const std::string& map, uint32_t session, const std::string& out) {

@@ -129,8 +129,13 @@ QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Se
 
 int main(int argc, char** argv) {
   Settings settings;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; i += 2) {
     const std::string key = argv[i];
+    if (key == "--help" || key == "-h" || i + 1 == argc) {
+      std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
+                   "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n";
+      return key == "--help" || key == "-h" ? 0 : 2;
+    }
     const std::string value = argv[i + 1];
     if (key == "--keyframes") {
       settings.keyframes = std::stoul(value);

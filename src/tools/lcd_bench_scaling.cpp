@@ -6,31 +6,24 @@
 // keyframe (cosine ~0.9 to it). Exact search and the HNSW graph at several ef_search values are
 // timed with the landmark re-ranking of the top_k, and the graph's top_k is compared with exact's.
 //   lcd_bench_scaling [sizes=1000,10000,100000] [queries=200] [--descriptor landmarks|hog|both]
-// With --persistence: save and load time (each load in a fresh process, as at a node's start, on
-// one thread and on every core) and file size of the same databases, written to --folder
-// (default /tmp).
-//   lcd_bench_scaling --persistence [sizes=1000,10000,100000] [--folder /tmp]
-#include <malloc.h>
+// The map on disk (insert, reopening, file size) is lcd_bench_map's.
 
 #include <chrono>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <memory>
 #include <random>
 #include <set>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "bench_workload.h"
-#include "landmark_loop_closure/database/database_file.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/hog_descriptor.h"
@@ -181,100 +174,16 @@ int runQueries(const std::vector<size_t>& sizes, int queries, const std::vector<
   return 0;
 }
 
-struct TimedLoad {
-  double seconds = -1.0;  ///< Negative when the load failed.
-  bool graph_read = false;
-};
-
-// `lcd_bench_scaling --time-load PATH DIMENSION KEYFRAMES THREADS`: what a fresh process (a node
-// starting) takes to load the file; prints "seconds graph_read".
-int timeLoad(const std::string& path, int dimension, size_t size, int threads) {
-  const auto start = Clock::now();
-  const LoadedDatabase loaded = loadDatabase(path, "bench", dimension, IndexOptions{}, threads);
-  const double seconds = msSince(start) / 1000.0;
-  if (!loaded.database || loaded.database->size() != size) {
-    std::fprintf(stderr, "%s\n", loaded.error.c_str());
-    return 1;
-  }
-  std::printf("%.3f %d\n", seconds, loaded.graph_rebuilt ? 0 : 1);
-  return 0;
-}
-
-// Runs timeLoad in a new process of this program: a fresh heap, as at a node's start, not one
-// holding memory an earlier load freed (reused without page faults, it looks faster than it is).
-TimedLoad timeLoadInFreshProcess(const std::string& path, int dimension, size_t size, int threads) {
-  const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
-  const std::string command = "'" + self + "' --time-load '" + path + "' " +
-                              std::to_string(dimension) + " " + std::to_string(size) + " " +
-                              std::to_string(threads);
-  TimedLoad result;
-  std::FILE* child = ::popen(command.c_str(), "r");
-  if (!child) return result;
-  int graph_read = 0;
-  if (std::fscanf(child, "%lf %d", &result.seconds, &graph_read) != 2) result.seconds = -1.0;
-  result.graph_read = graph_read == 1;
-  if (::pclose(child) != 0) result.seconds = -1.0;
-  return result;
-}
-
-int runPersistence(const std::vector<size_t>& sizes, const std::string& folder) {
-  const Workload workload = landmarksWorkload();
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::printf(
-      "| keyframes | bytes per keyframe (memory) | file MB | save (s) | load, 1 thread (s) | load, "
-      "%d threads (s) | graph read, not rebuilt |\n|---|---|---|---|---|---|---|\n",
-      cores);
-  for (const size_t size : sizes) {
-    const std::string path = folder + "/lcd_bench_scaling.lcdb";
-    double save_s = 0.0;
-    double bytes_per_keyframe = 0.0;
-    {
-      Route route(workload.dimension, 7);
-      const KeyframeDatabase database = buildDatabase(workload, size, &route, nullptr);
-      const auto start = Clock::now();
-      const std::string error = saveDatabase(database, "bench", path);
-      save_s = msSince(start) / 1000.0;
-      if (!error.empty()) {
-        std::fprintf(stderr, "%s\n", error.c_str());
-        return 1;
-      }
-      bytes_per_keyframe = static_cast<double>(database.bytes()) / size;
-    }
-    ::malloc_trim(0);  // The loading processes get the memory this one no longer needs.
-    const TimedLoad one = timeLoadInFreshProcess(path, workload.dimension, size, 1);
-    const TimedLoad all = timeLoadInFreshProcess(path, workload.dimension, size, cores);
-    if (one.seconds < 0.0 || all.seconds < 0.0) return 1;
-    const double load_s[2] = {one.seconds, all.seconds};
-    const bool graph_read = one.graph_read && all.graph_read;
-    std::printf("| %zu | %.0f | %.0f | %.2f | %.2f | %.2f | %s |\n", size, bytes_per_keyframe,
-                static_cast<double>(std::filesystem::file_size(path)) / 1e6, save_s, load_s[0],
-                load_s[1], graph_read ? "yes" : "no");
-    std::fflush(stdout);
-    std::filesystem::remove(path);
-  }
-  return 0;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool persistence = false;
   std::vector<size_t> sizes = {1000, 10000, 100000};
-  std::string folder = "/tmp";
   std::string descriptor = "both";
   int queries = 200;
   int positional = 0;
-  if (argc == 6 && std::string(argv[1]) == "--time-load") {
-    return timeLoad(argv[2], std::atoi(argv[3]), std::strtoull(argv[4], nullptr, 10),
-                    std::atoi(argv[5]));
-  }
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--persistence") {
-      persistence = true;
-    } else if (arg == "--folder" && i + 1 < argc) {
-      folder = argv[++i];
-    } else if (arg == "--descriptor" && i + 1 < argc) {
+    if (arg == "--descriptor" && i + 1 < argc) {
       descriptor = argv[++i];
     } else if (positional++ == 0) {
       sizes = parseSizes(arg);
@@ -283,7 +192,6 @@ int main(int argc, char** argv) {
     }
   }
   cv::setNumThreads(1);
-  if (persistence) return runPersistence(sizes, folder);
   std::vector<Workload> loads;
   if (descriptor != "hog") loads.push_back(landmarksWorkload());
   if (descriptor != "landmarks") loads.push_back(hogWorkload());

@@ -1,13 +1,34 @@
 // The descriptor registry: one entry per type, found by name and by variant name, and the
 // functions the node and the tools call (types, validation, identity, factory) answer from it.
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
 #include <set>
 #include <stdexcept>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<char> readBytes(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+}
+
+void writeBytes(const fs::path& path, const std::vector<char>& bytes) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+}  // namespace
 
 TEST(DescriptorRegistry, EveryTypeHasAUniqueNameASummaryAndAFactory) {
   std::set<std::string> names;
@@ -93,4 +114,55 @@ TEST(DescriptorRegistry, VariantNamesFindTheLongestTypeAndApplyEachPart) {
   } catch (const std::invalid_argument& error) {
     EXPECT_NE(std::string(error.what()).find("'zz'"), std::string::npos) << error.what();
   }
+}
+
+TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheModel) {
+  DescriptorOptions defaults;
+  defaults.type = "landmarks";
+  const std::string identity = descriptorIdentity(defaults);
+  EXPECT_EQ(identity, descriptorIdentity(defaults));
+  DescriptorOptions fewer = defaults;
+  fewer.max_landmarks = 20;
+  EXPECT_NE(descriptorIdentity(fewer), identity);
+  DescriptorOptions storage = defaults;
+  storage.landmark_storage = "float32";
+  EXPECT_NE(descriptorIdentity(storage), identity);
+  DescriptorOptions hog = defaults;
+  hog.type = "hog";
+  EXPECT_NE(descriptorIdentity(hog), identity);
+
+  // Same settings, a model file one byte different.
+  const fs::path copy = fs::temp_directory_path() / "lcd_identity_model.onnx";
+  std::vector<char> model = readBytes(defaultModelPath());
+  ASSERT_FALSE(model.empty());
+  writeBytes(copy, model);
+  DescriptorOptions copied = defaults;
+  copied.model = copy.string();
+  EXPECT_EQ(descriptorIdentity(copied), identity);
+  model.back() = static_cast<char>(model.back() ^ 1);
+  writeBytes(copy, model);
+  EXPECT_NE(descriptorIdentity(copied), identity);
+
+  // The backbone: its own settings and its network's bytes.
+  DescriptorOptions backbone;
+  backbone.type = "backbone";
+  backbone.backbone.model = copy.string();
+  const std::string backbone_identity = descriptorIdentity(backbone);
+  for (const auto& change : std::vector<std::function<void(DescriptorOptions::Backbone*)>>{
+           [](DescriptorOptions::Backbone* b) { b->layer = "block_5_add"; },
+           [](DescriptorOptions::Backbone* b) { b->grid_cols = 6; },
+           [](DescriptorOptions::Backbone* b) { b->normalisation = "whole"; },
+           [](DescriptorOptions::Backbone* b) { b->input_width = 320; },
+           [](DescriptorOptions::Backbone* b) { b->max_landmarks = 10; },
+           [](DescriptorOptions::Backbone* b) { b->hog_weight = 0.2; },
+           [](DescriptorOptions::Backbone* b) { b->min_network_width = 0; },
+           [](DescriptorOptions::Backbone* b) { b->mean = "0.5 0.5 0.5"; }}) {
+    DescriptorOptions changed = backbone;
+    change(&changed.backbone);
+    EXPECT_NE(descriptorIdentity(changed), backbone_identity) << descriptorIdentity(changed);
+  }
+  model.back() = static_cast<char>(model.back() ^ 1);
+  writeBytes(copy, model);
+  EXPECT_NE(descriptorIdentity(backbone), backbone_identity);
+  fs::remove(copy);
 }

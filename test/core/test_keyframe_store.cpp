@@ -18,9 +18,9 @@
 #include <gtest/gtest.h>
 
 #include "keyframe_fixtures.h"
-#include "landmark_loop_closure/database/database_file.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/map_tools.h"
+#include "old_map_file_writer.h"
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;
@@ -212,10 +212,10 @@ TEST_F(KeyframeStoreTest, AMapOfTheEarlierFormatIsNamedWithItsConversion) {
 }
 
 TEST_F(KeyframeStoreTest, MapsOfTheEarlierFormatConvertOnceWithEveryField) {
-  KeyframeDatabase database(kDimension);
-  for (uint64_t id = 3; id < 13; ++id) database.add(makeKeyframe(id, id < 8 ? 0 : 1));
+  std::vector<KeyframeRecord> keyframes;
+  for (uint64_t id = 3; id < 13; ++id) keyframes.push_back(makeKeyframe(id, id < 8 ? 0 : 1));
   const std::string old_file = (folder_ / "old.lcdb").string();
-  ASSERT_EQ(saveDatabase(database, kIdentity, old_file), "");
+  writeOldMapFile(keyframes, kIdentity, kDimension, old_file);
 
   EXPECT_EQ(convertMapFile(old_file, path_), 10u);
   const MapSummary summary = summariseMap(path_);
@@ -310,10 +310,8 @@ TEST_F(KeyframeStoreTest, ASavedSearchGraphIsGivenBackOnlyForItsSettingsAndItsOw
 TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
   // Format 1 kept each keyframe whole in the earlier file's layout: the bytes a one-keyframe file
   // of that format holds between its keyframe's offset and the graph's (its record table).
-  KeyframeDatabase database(kDimension);
-  database.add(makeKeyframe(4, 2));
   const std::string old_file = (folder_ / "one.lcdb").string();
-  ASSERT_EQ(saveDatabase(database, kIdentity, old_file), "");
+  writeOldMapFile({makeKeyframe(4, 2)}, kIdentity, kDimension, old_file);
   std::ifstream in(old_file, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const auto u64At = [&](size_t at) {

@@ -37,7 +37,7 @@ class KeyframeStore {
   /// Opens an existing map whatever its descriptors (tools that copy or merge maps). Throws as
   /// open() does, and when `path` does not exist.
   static std::unique_ptr<KeyframeStore> openExisting(const std::string& path);
-  /// True when `path` starts like the map file of the earlier format (database_file.h), which
+  /// True when `path` starts like the map file of the earlier format (versions 1-3), which
   /// `lcd_db convert` turns into a store once.
   static bool isOldMapFile(const std::string& path);
   /// Reads a map of store format 1 (a float32 `global` column and whole records in the earlier

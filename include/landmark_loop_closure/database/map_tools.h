@@ -28,7 +28,7 @@ size_t writeMap(const KeyframeDatabase& database, const std::string& descriptor_
 // renamed at the end (the map appears whole or not at all; memory stays flat), and returns the
 // keyframes written. Throws std::runtime_error naming the file and the reason.
 
-/// A map of the earlier single-file format (database_file.h, versions 1-3) or of the store's
+/// A map of the earlier single-file format (versions 1-3) or of the store's
 /// format 1 as a map of the current format.
 size_t convertMapFile(const std::string& old_file, const std::string& out);
 /// One session of a map as a map of its own (ids and session numbers kept).
