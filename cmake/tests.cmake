@@ -31,8 +31,11 @@ foreach(name ${CORE_TESTS})
   target_compile_definitions(${name} PRIVATE
     PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
-# The store test edits a map as a newer version would have written it.
+# The store test edits a map as a newer version would have written it, and reads its record
+# layout; both map tests write the old map file through the private payload writer.
 target_link_libraries(test_keyframe_store SQLite::SQLite3)
+target_include_directories(test_keyframe_store PRIVATE src)
+target_include_directories(test_old_map_file PRIVATE src)
 
 # Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.
 foreach(name test_ground_truth test_evaluation test_baselines_regression test_loop_detector_sim)

@@ -455,7 +455,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kLocalization || overMemoryBudget()) return result;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
-    keyframe.thumbnail_jpeg =
+    keyframe.thumbnail =
         encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
   }
   if (store_) {

@@ -48,15 +48,15 @@ const char* toString(QueryStatus status) {
 }
 
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey) {
-  std::vector<uint8_t> jpeg;
-  if (!grey.empty()) cv::imencode(".jpg", grey, jpeg, {cv::IMWRITE_JPEG_QUALITY, 60});
-  return jpeg;
+  std::vector<uint8_t> bytes;
+  if (!grey.empty()) cv::imencode(".webp", grey, bytes, {cv::IMWRITE_WEBP_QUALITY, 60});
+  return bytes;
 }
 
-cv::Mat decodeThumbnail(const std::vector<uint8_t>& jpeg) {
-  if (jpeg.empty()) return {};
+cv::Mat decodeThumbnail(const std::vector<uint8_t>& bytes) {
+  if (bytes.empty()) return {};
   try {
-    return cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+    return cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
   } catch (const cv::Exception&) {
     return {};
   }
@@ -72,7 +72,7 @@ constexpr size_t kMaxExcludedForGraph = 2000;
 
 size_t recordBytes(const KeyframeRecord& keyframe) {
   return sizeof(KeyframeRecord) + keyframe.descriptor.bytes() + keyframe.local_features.bytes() +
-         keyframe.thumbnail_jpeg.capacity();
+         keyframe.thumbnail.capacity();
 }
 
 KeyframeDatabase::KeyframeDatabase(int global_dimension, IndexOptions index) {

@@ -171,6 +171,10 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   // map that does not open; synchronous NORMAL survives a killed process (a power cut may lose
   // the last commits, never the file).
   connection->execute("PRAGMA locking_mode = EXCLUSIVE", "cannot be locked");
+  // A new map's pages: records spill over whole 2 KB pages with less left empty in the last one
+  // than 4 KB pages leave (25.2 against 25.6 KB per keyframe in lcd_bench_map). No effect on an
+  // existing map.
+  connection->execute("PRAGMA page_size = 2048", "cannot be configured");
   sqlite3_stmt* journal = connection->prepare("PRAGMA journal_mode = WAL");
   const bool wal =
       sqlite3_step(journal) == SQLITE_ROW &&

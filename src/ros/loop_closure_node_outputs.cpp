@@ -143,8 +143,8 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
   // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
   const std::shared_ptr<const KeyframeRecord> query =
       detector_.database().findRecord(result.keyframe_id);
-  const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail_jpeg) : cv::Mat();
-  const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail_jpeg) : cv::Mat();
+  const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail) : cv::Mat();
+  const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail) : cv::Mat();
   std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
   std::vector<std::pair<cv::Point2f, cv::Point2f>> inlier_pairs;
   if (query && match && !query_thumbnail.empty()) {

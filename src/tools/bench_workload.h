@@ -60,8 +60,8 @@ inline cv::Mat corridorView() {
 }
 
 /// `image` as the node stores a keyframe of it with a depth camera: its descriptor, ORB keypoints
-/// found at most 640 pixels wide (as verification sees it), each with a 3D point and a depth
-/// deviation, and the 160x120 thumbnail.
+/// found at most 640 pixels wide (as verification sees it), each with a 3D point on its ray and a
+/// depth deviation, and the 160x120 thumbnail.
 inline KeyframeRecord describedKeyframe(const DescriptorExtractor& extractor,
                                         const cv::Mat& image) {
   cv::Mat working;
@@ -70,12 +70,21 @@ inline KeyframeRecord describedKeyframe(const DescriptorExtractor& extractor,
   KeyframeRecord keyframe;
   keyframe.descriptor = extractor.describe(image);
   keyframe.local_features = GeometricVerifier(VerificationOptions{}).extract(working);
-  const size_t points = keyframe.local_features.points.size();
-  keyframe.local_features.points3d.assign(points, cv::Point3f(0.5f, -0.2f, 4.0f));
-  keyframe.local_features.depth_sd.assign(points, 0.05f);
+  // Every keypoint with a depth (the most a depth camera gives), on its ray through a pinhole
+  // camera of about 60 degrees across.
+  LocalFeatures& local = keyframe.local_features;
+  const float focal = 0.9f * static_cast<float>(working.cols);
+  const cv::Point2f centre(0.5f * static_cast<float>(working.cols),
+                           0.5f * static_cast<float>(working.rows));
+  for (size_t i = 0; i < local.points.size(); ++i) {
+    const float z = 1.0f + static_cast<float>((i * 37) % 100) * 0.1f;
+    const cv::Point2f ray = (local.points[i] - centre) / focal;
+    local.points3d.emplace_back(z * ray.x, z * ray.y, z);
+    local.depth_sd.push_back(0.003f * z * z);
+  }
   cv::Mat thumbnail;
   cv::resize(image, thumbnail, cv::Size(160, 120));
-  keyframe.thumbnail_jpeg = encodeThumbnail(thumbnail);
+  keyframe.thumbnail = encodeThumbnail(thumbnail);
   return keyframe;
 }
 

@@ -168,7 +168,7 @@ int main(int argc, char** argv) {
   const std::string identity = "bench";
   std::cout << "Map of " << descriptor << " keyframes with " << model.local_features.points.size()
             << " keypoints and depths, " << model.descriptor.landmark_boxes.size()
-            << " landmarks, a " << model.thumbnail_jpeg.size() << "-byte thumbnail\n";
+            << " landmarks, a " << model.thumbnail.size() << "-byte thumbnail\n";
 
   std::cout
       << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "

@@ -96,7 +96,7 @@ KeyframeDatabase buildDatabase(const Workload& workload, size_t size, Route* rou
     keyframe.descriptor.landmark_features = model.descriptor.landmark_features.clone();
     keyframe.local_features = model.local_features;
     keyframe.local_features.descriptors = model.local_features.descriptors.clone();
-    keyframe.thumbnail_jpeg = model.thumbnail_jpeg;
+    keyframe.thumbnail = model.thumbnail;
     database.add(std::move(keyframe));
   }
   if (insert_ms) *insert_ms = msSince(start) / static_cast<double>(size);

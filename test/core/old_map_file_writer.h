@@ -45,8 +45,8 @@ inline void writeKeyframe(PayloadWriter* out, const KeyframeRecord& keyframe) {
   out->floats(reinterpret_cast<const float*>(local.points3d.data()), 3 * local.points3d.size());
   out->count(local.depth_sd.size());
   out->floats(local.depth_sd.data(), local.depth_sd.size());
-  out->count(keyframe.thumbnail_jpeg.size());
-  out->bytes(keyframe.thumbnail_jpeg.data(), keyframe.thumbnail_jpeg.size());
+  out->count(keyframe.thumbnail.size());
+  out->bytes(keyframe.thumbnail.data(), keyframe.thumbnail.size());
 }
 
 inline void writeHeader(std::FILE* file, uint64_t payload_bytes, uint32_t crc) {

@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../src/database/keyframe_codec.h"
 #include "keyframe_fixtures.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/map_tools.h"
@@ -345,4 +346,46 @@ TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
   EXPECT_EQ(convertMapFile(path_, converted), 1u);
   auto store = KeyframeStore::open(converted, kIdentity, kDimension);
   expectSame(*store->get(4), asStored(makeKeyframe(4, 2)));
+}
+
+TEST(KeyframeRecordLayout, DepthsOnTheirRaysKeepOneValueOthersTheirCoordinates) {
+  // A depth camera's keyframe: 400 keypoints, 300 with a depth, each point on its keypoint's
+  // ray through a pinhole camera (fx 500, cx 320, fy 480, cy 240).
+  KeyframeRecord camera = makeKeyframe(1, 0);
+  LocalFeatures& local = camera.local_features;
+  cv::RNG random(5);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  local.points.clear();
+  local.points3d.clear();
+  local.depth_sd.clear();
+  for (int i = 0; i < 400; ++i) {
+    const cv::Point2f pixel(static_cast<float>(random.uniform(0, 640 * 16)) / 16.0f,
+                            static_cast<float>(random.uniform(0, 480 * 16)) / 16.0f);
+    const float z = static_cast<float>(random.uniform(0.3, 12.0));
+    local.points.push_back(pixel);
+    local.points3d.push_back(i % 4 == 3 ? cv::Point3f(nan, nan, nan)
+                                        : cv::Point3f(z * (pixel.x - 320.0f) / 500.0f,
+                                                      z * (pixel.y - 240.0f) / 480.0f, z));
+    local.depth_sd.push_back(i % 4 == 3 ? nan : 0.003f * z * z);
+  }
+  local.descriptors = cv::Mat(400, 32, CV_8U, cv::Scalar(7));
+  // The same keypoints with points off their rays (a map edited by hand, another camera model).
+  KeyframeRecord scattered = camera;
+  for (cv::Point3f& point : scattered.local_features.points3d) point.x += 0.37f;
+
+  for (const KeyframeRecord* keyframe : {&camera, &scattered}) {
+    const std::vector<uint8_t> record = database_payload::encodeRecord(*keyframe);
+    KeyframeRecord back;
+    database_payload::decodeRecord(record.data(), record.size(), &back);
+    back.id = keyframe->id;
+    back.session = keyframe->session;
+    back.stamp = keyframe->stamp;
+    back.pose = keyframe->pose;
+    back.path = keyframe->path;
+    back.descriptor.global = in8Bits(keyframe->descriptor.global);
+    expectSame(asStored(*keyframe), back);
+  }
+  const size_t on_rays = database_payload::encodeRecord(camera).size();
+  const size_t off_rays = database_payload::encodeRecord(scattered).size();
+  EXPECT_EQ(off_rays - on_rays, 300u * 2u * sizeof(uint16_t) - 4u * sizeof(float));
 }

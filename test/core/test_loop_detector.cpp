@@ -133,10 +133,10 @@ TEST(LoopDetector, KeepsThumbnailsOnlyWhenAsked) {
   options.keep_thumbnails = false;
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
   feed(&detector, 0, 3);
-  EXPECT_TRUE(detector.database().record(0)->thumbnail_jpeg.empty());
+  EXPECT_TRUE(detector.database().record(0)->thumbnail.empty());
   LoopDetector with_thumbnails(smallOptions(), std::make_shared<PlaceExtractor>());
   feed(&with_thumbnails, 0, 3);
-  EXPECT_EQ(decodeThumbnail(with_thumbnails.database().record(0)->thumbnail_jpeg).size(),
+  EXPECT_EQ(decodeThumbnail(with_thumbnails.database().record(0)->thumbnail).size(),
             cv::Size(160, 120));
 }
 

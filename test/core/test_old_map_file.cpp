@@ -174,7 +174,7 @@ TEST_F(OldMapFileTest, NewerOtherByteOrderForeignAndMissingFilesAreRefusedWithAR
   EXPECT_NE(readFile(folder_.string()).error.find("not a regular file"), std::string::npos);
 }
 
-TEST(OldMapFileVersion1, IsStillReadAndItsThumbnailsBecomeJpeg) {
+TEST(OldMapFileVersion1, IsStillReadAndItsRawThumbnailsAreCompressed) {
   // Written by the version-1 build (two keyframes of six values, 4x3 raw thumbnails).
   const fs::path file = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_old_map_file" /
                         "two_keyframes_v1.lcdb";
@@ -182,7 +182,7 @@ TEST(OldMapFileVersion1, IsStillReadAndItsThumbnailsBecomeJpeg) {
   ASSERT_EQ(read.error, "");
   ASSERT_EQ(read.keyframes.size(), 2u);
   for (const KeyframeRecord& keyframe : read.keyframes) {
-    EXPECT_EQ(decodeThumbnail(keyframe.thumbnail_jpeg).size(), cv::Size(4, 3));
+    EXPECT_EQ(decodeThumbnail(keyframe.thumbnail).size(), cv::Size(4, 3));
   }
 }
 

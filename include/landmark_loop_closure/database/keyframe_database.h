@@ -32,16 +32,17 @@ struct KeyframeRecord : KeyframeSummary {
   /// The global vector is the database's 8-bit copy of the described one once stored.
   ImageDescriptor descriptor;
   LocalFeatures local_features;  ///< For geometric verification; empty when it is off.
-  /// Optional small grey image for debug pictures, JPEG-compressed (about 3 KB instead of 19);
-  /// empty when thumbnails are off. encodeThumbnail / decodeThumbnail.
-  std::vector<uint8_t> thumbnail_jpeg;
+  /// Optional small grey image for debug pictures, compressed (WebP; maps written before kept
+  /// JPEG): about 2 KB instead of 19. Empty when thumbnails are off. encodeThumbnail /
+  /// decodeThumbnail.
+  std::vector<uint8_t> thumbnail;
 };
 
-/// JPEG bytes of an 8-bit grey image (quality 60: a debug picture, 3 KB on a camera image);
-/// empty for an empty image.
+/// WebP bytes of an 8-bit grey image (quality 60: a debug picture, ~2 KB at 160x120 where JPEG
+/// of the same quality takes ~3 KB); empty for an empty image.
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey);
-/// The grey image back; empty when `jpeg` is empty or cannot be decoded.
-cv::Mat decodeThumbnail(const std::vector<uint8_t>& jpeg);
+/// The grey image back (WebP or JPEG); empty when `bytes` is empty or cannot be decoded.
+cv::Mat decodeThumbnail(const std::vector<uint8_t>& bytes);
 
 struct DatabaseOptions {
   int exclude_recent_keyframes = 20;     ///< The most recent N keyframes are never candidates.
