@@ -68,6 +68,12 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                   "start over from it. Smaller steps back are always dropped.")
           .number("time_jump_back_s", &O::time_jump_back_s, above(0),
                   "seconds back that count as a jump rather than an out-of-order frame.")
+          .integer("time_jump_frames", &O::time_jump_frames, atLeast(0),
+                   "this many frames in a row not after the last keyframe are a time jump "
+                   "whatever its size (a keyframe with a wrong stamp, the clock set back): "
+                   "logged, diagnostics ERROR for 30 s, and the next frame starts a new "
+                   "timeline - keeping the map under \"drop\", forgetting it under \"reset\" - "
+                   "instead of every frame being dropped until time passes that stamp. 0 = off.")
           .number("max_stamp_ahead_s", &O::max_stamp_ahead_s, atLeast(0),
                   "frames stamped more than this ahead of the node's clock (wall time, or /clock "
                   "with use_sim_time) are dropped before they can become a keyframe: one such "

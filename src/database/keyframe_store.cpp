@@ -2,6 +2,7 @@
 
 #include "common/crc32c.h"
 #include "database/keyframe_codec.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 
 #include <sqlite3.h>
 #include <sys/stat.h>
@@ -131,6 +132,16 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
 std::unique_ptr<KeyframeStore> KeyframeStore::openExisting(const std::string& path) {
   if (!std::filesystem::exists(path)) throw storeError(path, "does not exist");
   return openChecked(path, nullptr, 0);
+}
+
+KeyframeRecord KeyframeStore::asStored(const KeyframeRecord& keyframe) {
+  KeyframeRecord stored = keyframe;
+  const std::vector<uint8_t> record = database_payload::encodeRecord(keyframe);
+  database_payload::decodeRecord(record.data(), record.size(), &stored);
+  stored.descriptor.global =
+      QuantizedVectors::decode(QuantizedVectors::encode(keyframe.descriptor.global).data(),
+                               static_cast<int>(keyframe.descriptor.global.size()));
+  return stored;
 }
 
 bool KeyframeStore::isOldMapFile(const std::string& path) {

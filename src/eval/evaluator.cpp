@@ -10,6 +10,7 @@
 
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
 
 namespace landmark_loop_closure {
 namespace eval {
@@ -52,12 +53,15 @@ class SimilarityGrid {
 };
 
 // The database images searched as the node searches its keyframes: a KeyframeDatabase (exact
-// search, no exclusion windows) filled with valid images in order, image j as keyframe id j + 1.
+// search, no exclusion windows) filled with valid images in order, image j as keyframe id j + 1,
+// each as a map file keeps it.
 class DatabaseSearch {
  public:
   DatabaseSearch(const DescribedImages& images, const DescriptorExtractor& extractor,
                  const MatchingOptions& options)
-      : images_(images), database_(extractor.globalDimension()) {
+      : images_(images),
+        database_(extractor.globalDimension()),
+        stored_(images.descriptors.size()) {
     search_.exclude_recent_keyframes = 0;
     search_.exclude_recent_seconds = 0.0;
     search_.min_size = 1;
@@ -73,9 +77,14 @@ class DatabaseSearch {
       record.id = added_ + 1;
       record.stamp = static_cast<double>(added_);
       record.descriptor = images_.descriptors[added_];
+      record = KeyframeStore::asStored(record);
+      stored_[added_] = record.descriptor;
       database_.add(std::move(record));
     }
   }
+
+  /// Database image `index` as a map file gives it back for re-ranking (8-bit landmark features).
+  const ImageDescriptor& stored(size_t index) const { return stored_.at(index); }
 
   /// The shortlist of `query`, best global score first, as database image indices and scores.
   std::vector<Candidate> shortlist(const ImageDescriptor& query) const {
@@ -88,6 +97,7 @@ class DatabaseSearch {
  private:
   const DescribedImages& images_;
   KeyframeDatabase database_;
+  std::vector<ImageDescriptor> stored_;
   DatabaseOptions search_;
   size_t added_ = 0;
 };
@@ -124,7 +134,7 @@ QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
   double best_score = -std::numeric_limits<double>::infinity();
   for (const Candidate& candidate : candidates) {
     const double score = extractor.reranks()
-                             ? extractor.similarity(query, database.descriptors[candidate.index])
+                             ? extractor.similarity(query, search.stored(candidate.index))
                              : extractor.globalScore(candidate.global_score);
     if (score > best_score) {
       best_score = score;

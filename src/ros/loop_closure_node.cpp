@@ -111,6 +111,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   runtime_options.queue_size = static_cast<size_t>(options_.worker_queue_size);
   runtime_options.time_jump_back = options_.time_jump_back;
   runtime_options.time_jump_back_s = options_.time_jump_back_s;
+  runtime_options.time_jump_frames = static_cast<size_t>(options_.time_jump_frames);
   runtime_options.max_stamp_ahead_s = options_.max_stamp_ahead_s;
   RuntimeListener listener;
   listener.prepare = [this](const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,

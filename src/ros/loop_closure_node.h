@@ -180,7 +180,8 @@ class LoopClosureNode {
   std::atomic<bool> camera_info_seen_{false};
   std::string camera_info_problem_;   ///< Under stats_mutex_: why camera_info is unusable, or "".
   std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
-  std::mutex stats_mutex_;            // Guards what follows.
+  std::atomic<double> last_time_jump_wall_{-1e9};  ///< When time_jump_frames last restarted time.
+  std::mutex stats_mutex_;                         // Guards what follows.
   size_t database_bytes_ = 0;
   uint64_t drops_seen_ = 0;       // Diagnostics timer only: keyframes dropped at the last look,
   double last_drop_wall_ = -1e9;  // and when that count last grew.

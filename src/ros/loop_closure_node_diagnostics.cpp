@@ -13,7 +13,8 @@ std::string LoopClosureNode::cameraInfoProblem() {
 
 namespace {
 
-constexpr double kDropWarningS = 30.0;  // A drop keeps diagnostics at WARN this long.
+constexpr double kDropWarningS = 30.0;    // A drop keeps diagnostics at WARN this long.
+constexpr double kTimeJumpErrorS = 30.0;  // A time jump keeps diagnostics at ERROR this long.
 
 }  // namespace
 
@@ -35,20 +36,28 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
             << options_.base_frame;
   }
   const std::string unpaired = use_odom ? inputs_.unpaired(now) : "";
+  // The worst level, with every problem named (mergeSummary joins the texts of that level).
+  status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
+  if (now - last_time_jump_wall_ < kTimeJumpErrorS) {
+    status.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::ERROR,
+                         "Time jumped back (%d frames in a row before the last keyframe) %.0f s "
+                         "ago: a new timeline started",
+                         options_.time_jump_frames, now - last_time_jump_wall_);
+  }
   if (waiting.tellp() > 0) {
-    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
-                    options_.input_timeout, waiting.str().c_str());
+    status.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "No input for %.0f s on %s",
+                         options_.input_timeout, waiting.str().c_str());
   } else if (!unpaired.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN, unpaired);
     ROS_WARN_THROTTLE(kWarningPeriod, "%s", unpaired.c_str());
-  } else if (const std::string problem = cameraInfoProblem(); !problem.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "Running; geometric check off: camera_info invalid (" + problem + ")");
-  } else if (now - last_drop_wall_ < kDropWarningS) {
-    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
-                    "Running; the worker dropped keyframes in the last %.0f s", kDropWarningS);
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "Running");
+  }
+  if (const std::string problem = cameraInfoProblem(); !problem.empty()) {
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN,
+                        "geometric check off: camera_info invalid (" + problem + ")");
+  }
+  if (now - last_drop_wall_ < kDropWarningS) {
+    status.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                         "the worker dropped keyframes in the last %.0f s", kDropWarningS);
   }
 
   const InputMonitor::Rates rates = inputs_.takeRates(now);
@@ -68,6 +77,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());
+  status.add("time jumps (new timelines)", runtime_->timeJumps());
   status.add("queued keyframes", runtime_->queued());
   status.add("odometry jumps", odometry_jumps_.load());
   if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());

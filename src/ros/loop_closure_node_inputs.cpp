@@ -99,12 +99,23 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     }
   }
   frame.source = FrameSource{image, frame_id};
+  const double frame_stamp = frame.stamp;
   const RuntimeAdmission admitted = runtime_->admit(std::move(frame));
   if (admitted.timeline_restarted_after_s) {
     ROS_WARN(
         "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
         "keyframe and starting over (time_jump_back: reset)",
         *admitted.timeline_restarted_after_s);
+  }
+  if (admitted.time_jump_after_frames_s) {
+    last_time_jump_wall_ = wallNow();
+    ROS_WARN(
+        "Time jump: %d frames in a row were stamped before the last keyframe (%.2f s after this "
+        "frame's %.3f s); %s",
+        options_.time_jump_frames, *admitted.time_jump_after_frames_s, frame_stamp,
+        admitted.map_forgotten
+            ? "forgetting every keyframe and starting over from this frame (time_jump_back: reset)"
+            : "starting a new timeline from this frame, the map kept (time_jump_back: drop)");
   }
   const FrameAdmission& admission = admitted.admission;
   if (admission.error) {

@@ -35,21 +35,38 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
     result.admission.error = InputError{InputErrorCode::kStampInFuture, message.str()};
     return result;
   }
-  if (restart_timeline_.exchange(false)) detector_->restartAdmission();
+  if (restart_timeline_.exchange(false)) {
+    detector_->restartAdmission();
+    not_increasing_in_a_row_ = 0;
+  }
   const auto admit_frame = [&] {
     return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type);
   };
   result.admission = admit_frame();
-  if (result.admission.error &&
-      result.admission.error->code == InputErrorCode::kStampNotIncreasing &&
-      options_.time_jump_back == TimeJumpPolicy::kReset) {
+  const bool not_increasing =
+      result.admission.error && result.admission.error->code == InputErrorCode::kStampNotIncreasing;
+  not_increasing_in_a_row_ = not_increasing ? not_increasing_in_a_row_ + 1 : 0;
+  if (not_increasing) {
     const double back = detector_->lastKeyframeStamp().value_or(frame.stamp) - frame.stamp;
-    if (back > options_.time_jump_back_s) {
-      // The worker forgets the map when it takes the first keyframe of the new timeline, and
-      // drops keyframes of the old one still queued.
-      ++generation_;
+    const bool jumped_far =
+        options_.time_jump_back == TimeJumpPolicy::kReset && back > options_.time_jump_back_s;
+    const bool stuck =
+        options_.time_jump_frames > 0 && not_increasing_in_a_row_ >= options_.time_jump_frames;
+    if (jumped_far || stuck) {
+      if (options_.time_jump_back == TimeJumpPolicy::kReset) {
+        // The worker forgets the map when it takes the first keyframe of the new timeline, and
+        // drops keyframes of the old one still queued.
+        ++generation_;
+        result.map_forgotten = true;
+      }
+      if (jumped_far) {
+        result.timeline_restarted_after_s = back;
+      } else {
+        result.time_jump_after_frames_s = back;
+        ++time_jumps_;
+      }
+      not_increasing_in_a_row_ = 0;
       detector_->restartAdmission();
-      result.timeline_restarted_after_s = back;
       result.admission = admit_frame();
     }
   }

@@ -230,6 +230,42 @@ TEST(DetectorRuntime, AFrameStampedAheadOfTheClockIsRefusedAndCannotWedgeLaterFr
   EXPECT_EQ(detector->database().size(), 8u);
 }
 
+TEST(DetectorRuntime, AKeyframeWithAWrongStampCannotWedgeLaterFramesForLong) {
+  for (const TimeJumpPolicy policy : {TimeJumpPolicy::kDrop, TimeJumpPolicy::kReset}) {
+    SCOPED_TRACE(policy == TimeJumpPolicy::kDrop ? "drop" : "reset");
+    const std::unique_ptr<LoopDetector> detector = smallDetector();
+    Recorder recorder;
+    RuntimeOptions options;
+    options.time_jump_frames = 5;
+    options.time_jump_back = policy;
+    options.time_jump_back_s = 1e6;  // A day back is not "far": only the run of frames tells.
+    DetectorRuntime runtime(detector.get(), options, recorder.listener());
+    for (int i = 0; i < 5; ++i) EXPECT_TRUE(runtime.admit(frame(i, i * 10, 100.0 + i)).queued);
+    // No clock to check it against (simulated time not started): a day ahead becomes a keyframe.
+    EXPECT_TRUE(runtime.admit(frame(5, 50, 100.0 + 86400.0)).queued);
+    ASSERT_TRUE(recorder.waitDone(6));
+    // Every later frame is "not after the last keyframe": four are dropped, the fifth is a time
+    // jump and starts a new timeline.
+    for (int i = 6; i < 10; ++i) {
+      const RuntimeAdmission refused = runtime.admit(frame(i, i * 10, 100.0 + i));
+      ASSERT_TRUE(refused.admission.error) << i;
+      EXPECT_EQ(refused.admission.error->code, InputErrorCode::kStampNotIncreasing);
+      EXPECT_FALSE(refused.time_jump_after_frames_s);
+    }
+    const RuntimeAdmission jump = runtime.admit(frame(10, 100, 110.0));
+    ASSERT_TRUE(jump.time_jump_after_frames_s);
+    EXPECT_NEAR(*jump.time_jump_after_frames_s, 86400.0 - 10.0, 1e-6);
+    EXPECT_FALSE(jump.timeline_restarted_after_s);
+    EXPECT_EQ(jump.map_forgotten, policy == TimeJumpPolicy::kReset);
+    EXPECT_TRUE(jump.queued);
+    EXPECT_TRUE(runtime.admit(frame(11, 110, 111.0)).queued);
+    ASSERT_TRUE(recorder.waitDone(8));
+    EXPECT_EQ(runtime.timeJumps(), 1u);
+    EXPECT_EQ(detector->database().size(), policy == TimeJumpPolicy::kDrop ? 8u : 2u);
+    EXPECT_EQ(recorder.resets(), policy == TimeJumpPolicy::kDrop ? 0 : 1);
+  }
+}
+
 TEST(DetectorRuntime, RestartingTheTimelineLetsEarlierStampsInAfterAReset) {
   const std::unique_ptr<LoopDetector> detector = smallDetector();
   Recorder recorder;

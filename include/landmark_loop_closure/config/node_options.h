@@ -53,6 +53,8 @@ struct NodeOptions {
   /// are out-of-order frames and always dropped.
   TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
   double time_jump_back_s = 1.0;
+  /// Frames in a row not after the last keyframe that make a time jump (RuntimeOptions); 0: off.
+  int time_jump_frames = 30;
   /// Frames stamped more than this ahead of the node's clock (wall, or /clock with use_sim_time)
   /// are refused; 0 = off.
   double max_stamp_ahead_s = 5.0;

@@ -49,6 +49,10 @@ class KeyframeStore {
   /// by an earlier file there (SQLite would replay it into the new one). Throws
   /// std::runtime_error naming `to`.
   static void replaceFile(const std::string& from, const std::string& to);
+  /// `keyframe` as a map gives it back: its record through the stored layout (landmark features
+  /// in 8 bits, depths in float16 ...) and its global vector in 8 bits. What the evaluator
+  /// compares, so its figures are those of a node with a map file.
+  static KeyframeRecord asStored(const KeyframeRecord& keyframe);
   ~KeyframeStore();
   KeyframeStore(const KeyframeStore&) = delete;
   KeyframeStore& operator=(const KeyframeStore&) = delete;

@@ -32,6 +32,11 @@ struct RuntimeOptions {
   size_t queue_size = 8;  ///< Keyframes waiting for the worker; when full the oldest is dropped.
   TimeJumpPolicy time_jump_back = TimeJumpPolicy::kDrop;
   double time_jump_back_s = 1.0;
+  /// This many frames in a row not after the last keyframe are a time jump, whatever their size
+  /// (that keyframe's stamp was wrong, or the clock went back): the next frame starts a new
+  /// timeline, keeping the map (kDrop) or forgetting it (kReset), instead of every later frame
+  /// being dropped until time passes that stamp. 0: off.
+  size_t time_jump_frames = 30;
   /// A frame stamped more than this ahead of FrameInput::clock is refused before it can become a
   /// keyframe: every later frame would otherwise be "not after the last keyframe" until the
   /// clock caught up. 0: off.
@@ -67,6 +72,11 @@ struct RuntimeAdmission {
   FrameAdmission admission;
   /// The stamps jumped back by this many seconds and the map will be forgotten (kReset).
   std::optional<double> timeline_restarted_after_s;
+  /// RuntimeOptions::time_jump_frames frames in a row were not after the last keyframe (stamped
+  /// this many seconds after this frame): this frame started a new timeline; `map_forgotten`
+  /// under kReset.
+  std::optional<double> time_jump_after_frames_s;
+  bool map_forgotten = false;
   bool queued = false;          ///< A keyframe, handed to the worker.
   bool dropped_oldest = false;  ///< ...which pushed the oldest queued keyframe out.
 };
@@ -128,6 +138,8 @@ class DetectorRuntime {
   void stop();
 
   uint64_t keyframesDropped() const { return dropped_; }
+  /// Time jumps found by time_jump_frames (each started a new timeline).
+  uint64_t timeJumps() const { return time_jumps_; }
   uint64_t staleKeyframesDropped() const { return stale_; }
   size_t queued() const { return queue_.size(); }
   /// Worker time of the last keyframe and the longest so far, in milliseconds.
@@ -145,6 +157,8 @@ class DetectorRuntime {
   std::mutex detector_mutex_;
   std::atomic<uint64_t> generation_{0};  ///< Bumped on each time jump back (kReset).
   std::atomic<bool> restart_timeline_{false};
+  size_t not_increasing_in_a_row_ = 0;  ///< Caller's thread (admit).
+  std::atomic<uint64_t> time_jumps_{0};
   uint64_t worker_generation_ = 0;      ///< Worker: the timeline it is in.
   std::vector<ReleasedKeyframe> held_;  ///< Worker, under detector_mutex_.
   std::atomic<uint64_t> dropped_{0};
