@@ -455,8 +455,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kLocalization || overMemoryBudget()) return result;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
-    keyframe.thumbnail =
-        encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
+    keyframe.thumbnail = encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
   }
   if (store_) {
     try {
@@ -465,7 +464,11 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
       result.store_error = error.what();
     }
   }
-  database_.add(std::move(keyframe));
+  if (result.store_error.empty()) {
+    database_.add(std::move(keyframe));
+  } else {
+    database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
+  }
   result.stored = true;
   return result;
 }

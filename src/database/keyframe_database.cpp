@@ -115,7 +115,11 @@ void KeyframeDatabase::addEntry(const KeyframeSummary& summary) {
   if (graph_) graph_->add();
 }
 
-void KeyframeDatabase::add(KeyframeRecord keyframe) {
+void KeyframeDatabase::add(KeyframeRecord keyframe) { add(std::move(keyframe), false); }
+
+void KeyframeDatabase::addUnstored(KeyframeRecord keyframe) { add(std::move(keyframe), true); }
+
+void KeyframeDatabase::add(KeyframeRecord keyframe, bool unstored) {
   if (!summaries_.empty() && keyframe.id <= summaries_.back().id) {
     throw std::invalid_argument("keyframe id " + std::to_string(keyframe.id) +
                                 " is not greater than the last stored id " +
@@ -132,7 +136,10 @@ void KeyframeDatabase::add(KeyframeRecord keyframe) {
   keyframe.descriptor.global = QuantizedVectors::decode(vectors_->row(size()), globalDimension());
   addEntry(keyframe);
   auto record = std::make_shared<const KeyframeRecord>(std::move(keyframe));
-  if (reader_) {
+  if (reader_ && unstored) {
+    record_bytes_ += recordBytes(*record);
+    unstored_.emplace(record->id, std::move(record));
+  } else if (reader_) {
     cache(std::move(record));
   } else {
     record_bytes_ += recordBytes(*record);
@@ -158,6 +165,7 @@ void KeyframeDatabase::readRecordsFrom(RecordReader reader, size_t cached_record
   records_.clear();
   cache_.clear();
   cache_order_.clear();
+  unstored_.clear();
   record_bytes_ = 0;
 }
 
@@ -181,6 +189,7 @@ void KeyframeDatabase::cache(std::shared_ptr<const KeyframeRecord> record) const
 std::shared_ptr<const KeyframeRecord> KeyframeDatabase::record(size_t index) const {
   const KeyframeSummary& summary = summaries_.at(index);
   if (!reader_) return records_.at(index);
+  if (const auto kept = unstored_.find(summary.id); kept != unstored_.end()) return kept->second;
   const auto found = cache_.find(summary.id);
   if (found != cache_.end()) {
     std::shared_ptr<const KeyframeRecord> record = *found->second;

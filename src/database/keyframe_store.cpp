@@ -89,7 +89,12 @@ struct KeyframeStore::Connection {
       throw storeError(path, "is open in another process (one node per map)");
     }
     if (code == SQLITE_FULL) throw storeError(path, what + ": the disk is full");
-    throw storeError(path, what + ": " + (db != nullptr ? sqlite3_errmsg(db) : "no connection"));
+    std::string reason = db != nullptr ? sqlite3_errmsg(db) : "no connection";
+    // SQLite's "disk I/O error" says little: the system's reason (no space, file too large,
+    // read-only file system...) says what to do.
+    const int system_error = db != nullptr ? sqlite3_system_errno(db) : 0;
+    if (system_error != 0) reason += std::string(" (") + std::strerror(system_error) + ")";
+    throw storeError(path, what + ": " + reason);
   }
 
   void execute(const char* sql, const std::string& what) {
@@ -329,14 +334,18 @@ void KeyframeStore::insert(const KeyframeRecord& keyframe) {
 
 void KeyframeStore::add(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
-  c.execute("BEGIN IMMEDIATE", "keyframe " + std::to_string(keyframe.id) + " not stored");
+  const std::string not_stored = "keyframe " + std::to_string(keyframe.id) + " not stored";
+  c.execute("BEGIN IMMEDIATE", not_stored);
   try {
     insert(keyframe);
+    c.execute("COMMIT", not_stored);
   } catch (...) {
-    sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+    // A failed COMMIT (disk full) leaves the transaction open: closed here, so the next keyframe
+    // is stored once there is room again.
+    if (sqlite3_get_autocommit(c.db) == 0)
+      sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
-  c.execute("COMMIT", "keyframe " + std::to_string(keyframe.id) + " not stored");
   c.last_id = keyframe.id;
   ++c.count;
 }

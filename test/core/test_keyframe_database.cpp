@@ -111,6 +111,19 @@ TEST(KeyframeDatabase, FindsById) {
   EXPECT_GT(database.bytes(), 3 * 2 * sizeof(float));
 }
 
+TEST(KeyframeDatabase, RecordsTheMapFileCouldNotTakeStayInMemory) {
+  KeyframeDatabase database(2);
+  // A map file that has no record at all (as after a full disk): the cache holds two records.
+  database.readRecordsFrom([](uint64_t) { return std::optional<KeyframeRecord>(); }, 2);
+  database.add(keyframe(1, 1.0, 0.0));
+  database.addUnstored(keyframe(2, 2.0, 0.1));
+  for (uint64_t id = 3; id < 10; ++id) database.add(keyframe(id, id, 0.2 * id));
+  EXPECT_EQ(database.record(0), nullptr) << "left the cache: read from the file, not there";
+  ASSERT_NE(database.record(1), nullptr) << "not in the file: kept";
+  EXPECT_EQ(database.record(1)->id, 2u);
+  EXPECT_NE(database.record(8), nullptr) << "the newest, still cached";
+}
+
 TEST(DatabaseOptions, ValidateNamesTheKey) {
   EXPECT_EQ(DatabaseOptions{}.validate(), "");
   DatabaseOptions options;

@@ -3,6 +3,7 @@
 // locked and non-regular files are refused with a reason.
 #include <signal.h>
 #include <sqlite3.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -11,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <string>
 #include <thread>
@@ -140,6 +142,108 @@ TEST_F(KeyframeStoreTest, RefusesAMapOfANewerFormat) {
             SQLITE_OK);
   sqlite3_close(db);
   EXPECT_NE(refusal(path_).find("newer version (format 99"), std::string::npos);
+}
+
+TEST_F(KeyframeStoreTest, AFullDiskRefusesAKeyframeWithTheReasonAndLeavesTheMapWhole) {
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    for (uint64_t id = 1; id <= 3; ++id) store->add(makeKeyframe(id, 0));
+  }
+  // In a child, a file-size limit stands in for the full disk: writes past it fail as they do
+  // when the disk has no room left.
+  const std::string reason_file = (folder_ / "reason.txt").string();
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::signal(SIGXFSZ, SIG_IGN);  // Refused writes fail with EFBIG instead of killing.
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(4);
+    const rlim_t unlimited = limit.rlim_cur;
+    limit.rlim_cur = static_cast<rlim_t>(fs::file_size(path_) + (64 << 10));
+    if (::setrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(4);
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    for (uint64_t id = 4; id < 10000; ++id) {
+      try {
+        store->add(makeKeyframe(id, 0));
+      } catch (const std::runtime_error& error) {
+        std::ofstream(reason_file) << id << "\n" << error.what();
+        // Room again (the disk freed): the same store takes the keyframe.
+        limit.rlim_cur = unlimited;
+        if (::setrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(4);
+        store->add(makeKeyframe(id, 0));
+        ::_exit(0);
+      }
+    }
+    ::_exit(3);  // Never refused.
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 0) << "3: the limit never refused a keyframe; 4: no limit; "
+                                       "else the store refused the keyframe once there was room";
+  std::ifstream reason_in(reason_file);
+  uint64_t refused = 0;
+  reason_in >> refused;
+  const std::string reason((std::istreambuf_iterator<char>(reason_in)),
+                           std::istreambuf_iterator<char>());
+  EXPECT_NE(reason.find(path_), std::string::npos) << reason;
+  EXPECT_NE(reason.find("keyframe " + std::to_string(refused) + " not stored"), std::string::npos)
+      << reason;
+
+  // The map opens with every keyframe committed before the refused one and the one stored once
+  // there was room.
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->size(), refused);
+  for (uint64_t id = 1; id <= refused; ++id) {
+    const std::optional<KeyframeRecord> keyframe = store->get(id);
+    ASSERT_TRUE(keyframe) << id;
+    expectSame(*keyframe, asStored(makeKeyframe(id, 0)));
+  }
+}
+
+TEST_F(KeyframeStoreTest, AReadOnlyFolderIsRefusedWithTheReasonAndItsMapIsLeftAlone) {
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    store->add(makeKeyframe(1, 0));
+  }
+  const auto size_before = fs::file_size(path_);
+  fs::permissions(folder_, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                               fs::perms::group_exec | fs::perms::others_read |
+                               fs::perms::others_exec);
+  fs::permissions(path_, fs::perms::all, fs::perm_options::add);  // The map itself stays writable.
+  // In a child run as an ordinary user when the tests run as root (root writes anywhere).
+  const std::string reasons_file =
+      (fs::temp_directory_path() / "lcd_read_only_reasons.txt").string();
+  const pid_t child = ::fork();
+  if (child == 0) {
+    if (::geteuid() == 0 && ::setuid(65534) != 0) ::_exit(4);
+    std::ofstream reasons(reasons_file);
+    for (const std::string& path : {(folder_ / "new.db").string(), path_}) {
+      try {
+        KeyframeStore::open(path, kIdentity, kDimension);
+        reasons << path << ": opened\n";
+      } catch (const std::runtime_error& error) {
+        reasons << error.what() << "\n";
+      }
+    }
+    reasons.close();  // _exit runs no destructor.
+    ::_exit(0);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  fs::permissions(folder_, fs::perms::owner_all, fs::perm_options::add);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "4: could not become nobody";
+  std::ifstream reasons_in(reasons_file);
+  std::string new_map, existing_map;
+  std::getline(reasons_in, new_map);
+  std::getline(reasons_in, existing_map);
+  fs::remove(reasons_file);
+  EXPECT_NE(new_map.find("new.db: its folder " + folder_.string() + " cannot be written"),
+            std::string::npos)
+      << new_map;
+  EXPECT_EQ(existing_map.rfind("map " + path_ + ": ", 0), 0u) << existing_map;
+  EXPECT_EQ(existing_map.find("opened"), std::string::npos) << existing_map;
+  EXPECT_EQ(fs::file_size(path_), size_before);
+  EXPECT_EQ(KeyframeStore::open(path_, kIdentity, kDimension)->size(), 1u);
 }
 
 TEST_F(KeyframeStoreTest, AWriterKilledMidRunLosesNoCommittedKeyframe) {

@@ -103,6 +103,9 @@ class KeyframeDatabase {
   /// Stores a keyframe. Throws std::invalid_argument, storing nothing, when its id is not greater
   /// than the last id or its global descriptor has the wrong length.
   void add(KeyframeRecord keyframe);
+  /// As add(), for a keyframe the map file could not take (disk full, file gone): with a reader
+  /// its record stays in RAM instead of the cache, so it is still compared, never "unreadable".
+  void addUnstored(KeyframeRecord keyframe);
   /// Stores a keyframe known only by its summary and encoded global row (QuantizedVectors), its
   /// record left to the reader: how a map file is opened. Throws as add() does.
   void addSummary(const KeyframeSummary& summary, const uint8_t* vector_row, size_t row_bytes);
@@ -157,6 +160,8 @@ class KeyframeDatabase {
   size_t searchEnd(const DatabaseOptions& options, uint32_t session) const;
 
   IndexOptions index_options_;
+  void add(KeyframeRecord keyframe, bool unstored);
+
   /// A deque: growing never moves the stored summaries (no copy of them all at a doubling).
   std::deque<KeyframeSummary> summaries_;
   std::vector<double> stamps_;  ///< summaries_[i].stamp, contiguous for the exclusion scan.
@@ -171,6 +176,8 @@ class KeyframeDatabase {
   size_t cached_records_ = 0;
   mutable std::list<std::shared_ptr<const KeyframeRecord>> cache_order_;
   mutable std::unordered_map<uint64_t, decltype(cache_order_)::iterator> cache_;
+  /// With a reader: records the map file could not take (addUnstored), by id.
+  std::unordered_map<uint64_t, std::shared_ptr<const KeyframeRecord>> unstored_;
   mutable size_t record_reads_ = 0;
 };
 
