@@ -40,6 +40,8 @@ const char* toString(InputErrorCode code) {
       return "unsupported_image_type";
     case InputErrorCode::kNonFiniteStamp:
       return "non_finite_stamp";
+    case InputErrorCode::kUnsetStamp:
+      return "unset_stamp";
     case InputErrorCode::kStampInFuture:
       return "stamp_in_future";
     case InputErrorCode::kStampNotIncreasing:

@@ -24,7 +24,7 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   using O = AcceptanceOptions;
   static const auto table =
       ParameterTable<O>("acceptance/", "precision first.")
-          .number("min_score", &O::min_score, between(-1, 1),
+          .number("min_score", &O::min_score, between(0, 1),
                   "final similarity a candidate needs; its scale depends on descriptor/type. "
                   "backbone: correct matches score 0.52-0.62 (10th percentile-median) on Gardens "
                   "Point across day/night, wrong ones up to 0.60; the generated corridor scores "

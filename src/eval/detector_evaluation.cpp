@@ -182,7 +182,7 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   double lowest = options.acceptance.min_score;
   for (const PublishedLoop& loop : evaluation.configured.loops)
     lowest = std::min(lowest, loop.score);
-  lowest = std::max(-1.0, lowest - 0.3);
+  lowest = std::max(0.0, lowest - 0.3);  // acceptance/min_score is in [0, 1].
   std::vector<double> grid;
   const int steps = std::max(2, evaluation_options.sweep_steps);
   for (int i = 0; i < steps; ++i) {

@@ -26,6 +26,11 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image) {
                       "image encoding '" + image.encoding +
                           "' is not supported (use mono8, mono16, bgr8, rgb8, bgra8 or rgba8)"};
   }
+  if (image.header.stamp.isZero()) {
+    return InputError{InputErrorCode::kUnsetStamp,
+                      "image stamp is 0: the camera driver left header.stamp unset, so the frame "
+                      "cannot be placed in time"};
+  }
   if (image.width == 0 || image.height == 0) {
     std::ostringstream message;
     message << "image is empty (" << image.width << "x" << image.height << ")";

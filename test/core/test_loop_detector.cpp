@@ -321,8 +321,9 @@ TEST(LoopDetector, AcceptanceOptionsAreValidated) {
   LoopDetectorOptions options;
   options.acceptance.consistent_distance_m = -1.0;
   options.acceptance.match_window_m = std::numeric_limits<double>::quiet_NaN();
+  options.acceptance.min_score = -0.5;  // Would accept every candidate.
   const std::string problems = options.validate();
-  for (const char* key : {"consistent_distance_m", "match_window_m"}) {
+  for (const char* key : {"consistent_distance_m", "match_window_m", "min_score"}) {
     EXPECT_NE(problems.find(key), std::string::npos) << key << "\n" << problems;
   }
 }

@@ -24,6 +24,12 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   std::set<ros::Time> after_bad_input;
   ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
+  // First of all, a frame whose driver never set its stamp: refused, it cannot be placed in time.
+  ASSERT_TRUE(sequence.next(&frame));
+  harness.publish(0.0, frame.odom, frame.image);
+  bad_stamps.insert(ros::Time());
+  ros::spinOnce();
+  rate.sleep();
   while (ros::ok() && sequence.next(&frame)) {
     if (frame.index >= kClockSetBackAt) frame.stamp -= kClockSetBack;
     if (frame.index >= kClockSetBackAt && frame.index < kClockSetBackAt + 29) {
@@ -66,6 +72,7 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   EXPECT_TRUE(harness.summarySaid("Time jumped back (30 frames in a row"));
   EXPECT_NE(harness.diagnostic("rejected: unsupported_image_type"), "");
   EXPECT_NE(harness.diagnostic("rejected: non_finite_pose"), "");
+  EXPECT_NE(harness.diagnostic("rejected: unset_stamp"), "");
   EXPECT_NE(harness.diagnostic("rejected: no_texture"), "");
   EXPECT_EQ(harness.diagnostic("camera_info"), "usable");
 

@@ -21,6 +21,7 @@ namespace {
 sensor_msgs::Image makeImage(const std::string& encoding, uint32_t width, uint32_t height,
                              uint32_t pixel_bytes) {
   sensor_msgs::Image image;
+  image.header.stamp = ros::Time(1.0);
   image.encoding = encoding;
   image.width = width;
   image.height = height;
@@ -102,6 +103,15 @@ TEST(RosConversions, TruncatedOrEmptyBuffersAreRefused) {
   image.step = 64;  // Too short for 3 bytes per pixel.
   EXPECT_TRUE(checkImageMessage(image));
   EXPECT_TRUE(checkImageMessage(makeImage(sensor_msgs::image_encodings::MONO8, 0, 0, 1)));
+}
+
+TEST(RosConversions, AnImageWithStampZeroIsRefused) {
+  sensor_msgs::Image image = makeImage(sensor_msgs::image_encodings::MONO8, 64, 48, 1);
+  image.header.stamp = ros::Time();
+  const auto error = checkImageMessage(image);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kUnsetStamp);
+  EXPECT_NE(error->message.find("stamp is 0"), std::string::npos) << error->message;
 }
 
 TEST(RosConversions, LoopMessageCarriesEveryField) {

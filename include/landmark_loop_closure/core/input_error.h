@@ -18,6 +18,7 @@ enum class InputErrorCode {
   kImageSizeChanged,
   kUnsupportedImageType,
   kNonFiniteStamp,
+  kUnsetStamp,  ///< Stamp 0: a driver that never set header.stamp; no time order is possible.
   kStampNotIncreasing,
   kStampInFuture,  ///< Ahead of the receiving clock: it would wedge every later frame.
   kNonFinitePose,
