@@ -7,14 +7,18 @@
 // keyframe, query + re-rank time (graph search, then the top_k records read from the file) and
 // the graph's recall of exact search's top_k. Then it saves the graph, closes, reopens the map as
 // the node does (summaries, vectors and the saved graph; records stay on disk) and queries again.
+// With --reopen it builds nothing: it reopens the map an earlier run left in --dir and measures
+// query + re-rank and recall at each --ef value (ef_search; default the shipped one).
 //   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
 //                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image camera.jpg]
+//                 [--reopen] [--ef 256,512]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -26,6 +30,7 @@
 
 #include "bench_workload.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
@@ -63,6 +68,8 @@ struct Settings {
   int recall_queries = 50;
   fs::path dir = "/tmp/lcd_bench_map";
   std::string image;  ///< The model keyframe's image; "" = a generated corridor view.
+  bool reopen_only = false;
+  std::vector<int> ef_search = {IndexOptions().ef_search};
 };
 
 // One keyframe as the node stores it with the shipped settings and a depth camera: `image_path`
@@ -93,10 +100,12 @@ struct QueryFigures {
 };
 
 QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Settings& settings,
-                        const std::vector<std::vector<float>>& places) {
+                        const std::vector<std::vector<float>>& places,
+                        int ef_search = IndexOptions().ef_search) {
   QueryFigures figures;
   DatabaseOptions search;
   search.index.type = "approximate";
+  search.index.ef_search = ef_search;
   DatabaseOptions exact = search;
   exact.index.type = "exact";
   std::uniform_int_distribution<size_t> pick(0, places.size() - 1);
@@ -125,15 +134,73 @@ QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Se
   return figures;
 }
 
+// Builds the map at `path` keyframe by keyframe as the node does, printing each checkpoint, then
+// saves the graph beside it.
+void buildMap(const Settings& settings, const std::string& path, const std::string& identity,
+              const IndexOptions& index, std::optional<Route>* route,
+              std::vector<std::vector<float>>* places) {
+  std::string descriptor;
+  const KeyframeRecord model = modelKeyframe(settings.image, &descriptor);
+  const int dimension = static_cast<int>(model.descriptor.global.size());
+  std::cout << "Map of " << descriptor << " keyframes with " << model.local_features.points.size()
+            << " keypoints and depths, " << model.descriptor.landmark_boxes.size()
+            << " landmarks, a " << model.thumbnail.size() << "-byte thumbnail\n";
+
+  std::cout
+      << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
+         "file B/keyframe | query + re-rank ms median / p99 | recall@10 |\n"
+         "|---|---|---|---|---|---|---|\n";
+  route->emplace(dimension, 7);
+  auto store = KeyframeStore::open(path, identity, dimension);
+  KeyframeDatabase database(dimension, index);
+  attachReader(&database, store.get());
+  std::vector<double> insert_ms;
+  size_t checkpoint = 0;
+  for (size_t id = 0; id < settings.keyframes; ++id) {
+    KeyframeRecord keyframe = model;
+    keyframe.id = id;
+    keyframe.stamp = static_cast<double>(id);
+    keyframe.descriptor.global = (*route)->next();
+    if (id % 997 == 0) places->push_back(keyframe.descriptor.global);
+    const auto start = Clock::now();
+    store->add(keyframe);
+    database.add(std::move(keyframe));
+    insert_ms.push_back(msSince(start));
+    if (checkpoint < settings.checkpoints.size() && id + 1 == settings.checkpoints[checkpoint]) {
+      const QueryFigures queries = runQueries(database, &**route, settings, *places);
+      const double file_bytes = static_cast<double>(
+          fs::file_size(path) + (fs::exists(path + "-wal") ? fs::file_size(path + "-wal") : 0));
+      std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f |\n", id + 1,
+                  percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
+                  static_cast<double>(database.bytes()) / (id + 1), residentMegabytes(),
+                  file_bytes / (id + 1), percentile(queries.total_ms, 0.5),
+                  percentile(queries.total_ms, 0.99), queries.recall);
+      std::fflush(stdout);
+      insert_ms.clear();
+      ++checkpoint;
+    }
+  }
+  const auto save_start = Clock::now();
+  store->saveGraph(index.graphIdentity(), *database.graph());
+  std::printf("\nGraph saved in %.2f s (%.0f MB).\n", msSince(save_start) / 1000.0,
+              static_cast<double>(fs::file_size(store->graphPath())) / 1e6);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   Settings settings;
   for (int i = 1; i < argc; i += 2) {
     const std::string key = argv[i];
+    if (key == "--reopen") {
+      settings.reopen_only = true;
+      --i;  // No value.
+      continue;
+    }
     if (key == "--help" || key == "-h" || i + 1 == argc) {
       std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
-                   "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n";
+                   "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n"
+                   "              [--reopen] [--ef N,N,...]\n";
       return key == "--help" || key == "-h" ? 0 : 2;
     }
     const std::string value = argv[i + 1];
@@ -152,6 +219,11 @@ int main(int argc, char** argv) {
       settings.image = value;
     } else if (key == "--dir") {
       settings.dir = value;
+    } else if (key == "--ef") {
+      settings.ef_search.clear();
+      std::istringstream list(value);
+      std::string item;
+      while (std::getline(list, item, ',')) settings.ef_search.push_back(std::stoi(item));
     } else {
       std::cerr << "unknown option " << key << "\n";
       return 2;
@@ -159,61 +231,22 @@ int main(int argc, char** argv) {
   }
   fs::create_directories(settings.dir);
   const std::string path = (settings.dir / "bench.map").string();
-  for (const char* suffix : {"", "-wal", "-shm", "-graph"}) fs::remove(path + suffix);
-
-  std::string descriptor;
-  const KeyframeRecord model = modelKeyframe(settings.image, &descriptor);
-  const int dimension = static_cast<int>(model.descriptor.global.size());
   const IndexOptions index;  // The shipped graph settings.
   const std::string identity = "bench";
-  std::cout << "Map of " << descriptor << " keyframes with " << model.local_features.points.size()
-            << " keypoints and depths, " << model.descriptor.landmark_boxes.size()
-            << " landmarks, a " << model.thumbnail.size() << "-byte thumbnail\n";
-
-  std::cout
-      << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
-         "file B/keyframe | query + re-rank ms median / p99 | recall@10 |\n"
-         "|---|---|---|---|---|---|---|\n";
-  Route route(dimension, 7);
+  std::optional<Route> route;
   std::vector<std::vector<float>> places;  // A sample of stored vectors to revisit.
-  auto store = KeyframeStore::open(path, identity, dimension);
-  KeyframeDatabase database(dimension, index);
-  attachReader(&database, store.get());
-  std::vector<double> insert_ms;
-  size_t checkpoint = 0;
-  for (size_t id = 0; id < settings.keyframes; ++id) {
-    KeyframeRecord keyframe = model;
-    keyframe.id = id;
-    keyframe.stamp = static_cast<double>(id);
-    keyframe.descriptor.global = route.next();
-    if (id % 997 == 0) places.push_back(keyframe.descriptor.global);
-    const auto start = Clock::now();
-    store->add(keyframe);
-    database.add(std::move(keyframe));
-    insert_ms.push_back(msSince(start));
-    if (checkpoint < settings.checkpoints.size() && id + 1 == settings.checkpoints[checkpoint]) {
-      const QueryFigures queries = runQueries(database, &route, settings, places);
-      const double file_bytes = static_cast<double>(
-          fs::file_size(path) + (fs::exists(path + "-wal") ? fs::file_size(path + "-wal") : 0));
-      std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f |\n", id + 1,
-                  percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
-                  static_cast<double>(database.bytes()) / (id + 1), residentMegabytes(),
-                  file_bytes / (id + 1), percentile(queries.total_ms, 0.5),
-                  percentile(queries.total_ms, 0.99), queries.recall);
-      std::fflush(stdout);
-      insert_ms.clear();
-      ++checkpoint;
-    }
+  if (!settings.reopen_only) {
+    for (const char* suffix : {"", "-wal", "-shm", "-graph"}) fs::remove(path + suffix);
+    buildMap(settings, path, identity, index, &route, &places);
+  } else if (!fs::exists(path)) {
+    std::cerr << path << " does not exist: run without --reopen first\n";
+    return 1;
   }
-  const auto save_start = Clock::now();
-  store->saveGraph(index.graphIdentity(), *database.graph());
-  const double save_s = msSince(save_start) / 1000.0;
-  database = KeyframeDatabase(dimension, index);
-  store.reset();
 
   // Reopened as LoopDetector::openMap does.
   const auto open_start = Clock::now();
-  store = KeyframeStore::open(path, identity, dimension);
+  const int dimension = KeyframeStore::openExisting(path)->globalDimension();  // Closed again.
+  auto store = KeyframeStore::open(path, identity, dimension);
   IndexOptions exact = index;
   exact.type = "exact";
   KeyframeDatabase reopened(dimension, exact);
@@ -228,12 +261,20 @@ int main(int argc, char** argv) {
   reopened.setIndex(index, std::move(graph));
   const double graph_s = msSince(graph_start) / 1000.0;
   const double open_s = msSince(open_start) / 1000.0;
-  const QueryFigures queries = runQueries(reopened, &route, settings, places);
-  std::printf(
-      "\nGraph saved in %.2f s (%.0f MB). Reopened %zu keyframes in %.2f s (graph %s in %.2f s); "
-      "RSS %.0f MB; then query + re-rank %.2f / %.2f ms, recall@10 %.3f.\n",
-      save_s, static_cast<double>(fs::file_size(store->graphPath())) / 1e6, reopened.size(), open_s,
-      reused ? "read" : "REBUILT", graph_s, residentMegabytes(), percentile(queries.total_ms, 0.5),
-      percentile(queries.total_ms, 0.99), queries.recall);
+  std::printf("\nReopened %zu keyframes in %.2f s (graph %s in %.2f s); RSS %.0f MB.\n",
+              reopened.size(), open_s, reused ? "read" : "REBUILT", graph_s, residentMegabytes());
+  if (!route) {
+    route.emplace(dimension, 7);
+    for (size_t row = 0; row < reopened.size(); row += 997) {
+      places.push_back(QuantizedVectors::decode(reopened.vectors()->row(row), dimension));
+    }
+  }
+  std::printf("\n| ef_search | query + re-rank ms median / p99 | recall@10 |\n|---|---|---|\n");
+  for (const int ef : settings.ef_search) {
+    const QueryFigures queries = runQueries(reopened, &*route, settings, places, ef);
+    std::printf("| %d | %.2f / %.2f | %.3f |\n", ef, percentile(queries.total_ms, 0.5),
+                percentile(queries.total_ms, 0.99), queries.recall);
+    std::fflush(stdout);
+  }
   return 0;
 }
