@@ -43,7 +43,12 @@ std::vector<float> QuantizedVectors::decode(const uint8_t* row, int dimension) {
   return vector;
 }
 
-float QuantizedVectors::dot(const uint8_t* a, const uint8_t* b, int dimension) {
+// Search time is mostly this product (hnswlib calls it for every visited row). An AVX2 copy is
+// chosen at load time where the CPU has it, and the loop is vectorised at -O2 too (GCC's cheap
+// cost model at -O2 leaves it scalar in the cloned copies): 0.25 against 0.40 us for 4320 values
+// on this machine, same integer sums.
+__attribute__((target_clones("avx2", "default"), optimize("vect-cost-model=dynamic"))) float
+QuantizedVectors::dot(const uint8_t* a, const uint8_t* b, int dimension) {
   float scale_a = 0.0f;
   float scale_b = 0.0f;
   std::memcpy(&scale_a, a, sizeof(float));

@@ -11,7 +11,7 @@
 // query + re-rank and recall at each --ef value (ef_search; default the shipped one).
 //   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
 //                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image camera.jpg]
-//                 [--reopen] [--ef 256,512]
+//                 [--reopen] [--ef 256,512] [--ef-construction 64] [--neighbors 16]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -69,6 +69,7 @@ struct Settings {
   fs::path dir = "/tmp/lcd_bench_map";
   std::string image;  ///< The model keyframe's image; "" = a generated corridor view.
   bool reopen_only = false;
+  IndexOptions index;  ///< The shipped graph settings unless --ef-construction / --neighbors.
   std::vector<int> ef_search = {IndexOptions().ef_search};
 };
 
@@ -200,7 +201,8 @@ int main(int argc, char** argv) {
     if (key == "--help" || key == "-h" || i + 1 == argc) {
       std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
                    "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n"
-                   "              [--reopen] [--ef N,N,...]\n";
+                   "              [--reopen] [--ef N,N,...] [--ef-construction N]\n"
+                   "              [--neighbors N]\n";
       return key == "--help" || key == "-h" ? 0 : 2;
     }
     const std::string value = argv[i + 1];
@@ -219,6 +221,10 @@ int main(int argc, char** argv) {
       settings.image = value;
     } else if (key == "--dir") {
       settings.dir = value;
+    } else if (key == "--ef-construction") {
+      settings.index.ef_construction = std::stoi(value);
+    } else if (key == "--neighbors") {
+      settings.index.neighbors = std::stoi(value);
     } else if (key == "--ef") {
       settings.ef_search.clear();
       std::istringstream list(value);
@@ -231,7 +237,7 @@ int main(int argc, char** argv) {
   }
   fs::create_directories(settings.dir);
   const std::string path = (settings.dir / "bench.map").string();
-  const IndexOptions index;  // The shipped graph settings.
+  const IndexOptions& index = settings.index;
   const std::string identity = "bench";
   std::optional<Route> route;
   std::vector<std::vector<float>> places;  // A sample of stored vectors to revisit.
