@@ -14,7 +14,7 @@ PACKAGES=(
   ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev
-  python3-onnx python3-numpy
+  python3-onnx python3-numpy python3-matplotlib
 )
 # npm fetches the pretrained backbone; a Node.js that brings its own npm is enough.
 if ! command -v npm > /dev/null; then PACKAGES+=(nodejs npm); fi
@@ -31,10 +31,17 @@ if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
 
-echo "install_deps: installing ${#missing[@]} packages: ${missing[*]}"
+LOG=_install.log
+echo "install_deps: installing ${#missing[@]} packages (apt's output goes to $LOG): ${missing[*]}"
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends -o DPkg::Lock::Timeout=900 "${missing[@]}"
+if ! { $SUDO apt-get update -qq &&
+  $SUDO apt-get install -y -qq --no-install-recommends -o DPkg::Lock::Timeout=900 "${missing[@]}"; } \
+  > "$LOG" 2>&1; then
+  tail -n 30 "$LOG" >&2
+  echo "install_deps: apt-get failed; its whole output is in $LOG" >&2
+  exit 1
+fi
+echo "install_deps: installed"
 scripts/fetch_backbone.sh

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Pictures of lcd_evaluate results: PR curves of every configuration on one plot, each
 similarity matrix beside the ground truth, and the trajectory with the loops accepted at 100 %
 precision (when the run had poses).

@@ -24,7 +24,7 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
           "how global descriptors are searched: 8 bits per value (a scale per "
           "keyframe), exactly or through an HNSW graph (bench/README.md, \"Map at "
           "scale\"). The graph is saved beside the map file (PATH-graph) at shutdown; "
-          "changing neighbors or ef_construction rebuilds it at start (~1 ms per "
+          "changing neighbors or ef_construction rebuilds it at start (~2 ms per "
           "keyframe).")
           .word("type", &O::type, {"exact", "approximate", "auto"},
                 "\"exact\": compare every keyframe; \"approximate\": an HNSW graph (hnswlib) gives "
@@ -35,7 +35,9 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
           .integer("neighbors", &O::neighbors, between(4, 128),
                    "HNSW links per keyframe (M): recall and memory grow with it.")
           .integer("ef_construction", &O::ef_construction, atLeast(4),
-                   "HNSW insertion effort: graph quality against insert time; >= neighbors.")
+                   "HNSW insertion effort: graph quality against insert time; >= neighbors. "
+                   "128: recall@10 1.000 at 100 000 keyframes (64: 0.99), insert 2.3 ms "
+                   "median (64: 0.85 ms) on the worker thread (lcd_bench_map).")
           .integer("ef_search", &O::ef_search, atLeast(1),
                    "HNSW search effort: shortlist recall against query time.");
   return table;

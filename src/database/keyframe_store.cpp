@@ -1,7 +1,7 @@
 #include "landmark_loop_closure/database/keyframe_store.h"
 
-#include "common/crc32c.h"
 #include "database/keyframe_codec.h"
+#include "database/store_connection.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
 #include <sqlite3.h>
@@ -19,13 +19,6 @@
 namespace landmark_loop_closure {
 
 namespace {
-
-using database_payload::decode;
-using database_payload::encode;
-
-std::runtime_error storeError(const std::string& path, const std::string& reason) {
-  return std::runtime_error("map " + path + ": " + reason);
-}
 
 /// Refuses what is not a regular file before SQLite opens it: opening a FIFO blocks until a
 /// writer comes, a device or directory is never a map.
@@ -47,86 +40,7 @@ void checkPath(const std::string& path) {
   }
 }
 
-std::string graphPathOf(const std::string& path) { return path + "-graph"; }
-
-// CRC-32C of a whole file, read in 1 MB pieces; nullopt when it cannot be read.
-std::optional<uint32_t> fileChecksum(const std::string& path) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) return std::nullopt;
-  std::vector<uint8_t> buffer(1 << 20);
-  uint32_t crc = 0;
-  size_t got = 0;
-  while ((got = std::fread(buffer.data(), 1, buffer.size(), file)) > 0) {
-    crc = crc32c(crc, buffer.data(), got);
-  }
-  const bool failed = std::ferror(file) != 0;
-  std::fclose(file);
-  if (failed) return std::nullopt;
-  return crc;
-}
-
 }  // namespace
-
-struct KeyframeStore::Connection {
-  sqlite3* db = nullptr;
-  sqlite3_stmt* insert = nullptr;
-  sqlite3_stmt* insert_record = nullptr;
-  sqlite3_stmt* select = nullptr;
-  std::string path;
-  size_t count = 0;
-  std::optional<uint64_t> last_id;
-
-  ~Connection() {
-    sqlite3_finalize(insert);
-    sqlite3_finalize(insert_record);
-    sqlite3_finalize(select);
-    if (db != nullptr) sqlite3_close(db);  // The last connection checkpoints the WAL.
-  }
-
-  [[noreturn]] void fail(const std::string& what) const {
-    const int code = db != nullptr ? sqlite3_errcode(db) : SQLITE_ERROR;
-    if (code == SQLITE_BUSY || code == SQLITE_LOCKED) {
-      throw storeError(path, "is open in another process (one node per map)");
-    }
-    if (code == SQLITE_FULL) throw storeError(path, what + ": the disk is full");
-    std::string reason = db != nullptr ? sqlite3_errmsg(db) : "no connection";
-    // SQLite's "disk I/O error" says little: the system's reason (no space, file too large,
-    // read-only file system...) says what to do.
-    const int system_error = db != nullptr ? sqlite3_system_errno(db) : 0;
-    if (system_error != 0) reason += std::string(" (") + std::strerror(system_error) + ")";
-    throw storeError(path, what + ": " + reason);
-  }
-
-  void execute(const char* sql, const std::string& what) {
-    if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) fail(what);
-  }
-
-  sqlite3_stmt* prepare(const char* sql) {
-    sqlite3_stmt* statement = nullptr;
-    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) fail("cannot read it");
-    return statement;
-  }
-
-  std::optional<std::string> meta(const std::string& key) {
-    sqlite3_stmt* statement = prepare("SELECT value FROM meta WHERE key = ?");
-    sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
-    std::optional<std::string> value;
-    if (sqlite3_step(statement) == SQLITE_ROW) {
-      value = reinterpret_cast<const char*>(sqlite3_column_text(statement, 0));
-    }
-    sqlite3_finalize(statement);
-    return value;
-  }
-
-  void setMeta(const std::string& key, const std::string& value) {
-    sqlite3_stmt* statement = prepare("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)");
-    sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(statement, 2, value.c_str(), -1, SQLITE_TRANSIENT);
-    const int status = sqlite3_step(statement);
-    sqlite3_finalize(statement);
-    if (status != SQLITE_DONE) fail("cannot write its settings");
-  }
-};
 
 std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
                                                    const std::string& descriptor_identity,
@@ -460,7 +374,7 @@ void KeyframeStore::readFormat1(const std::string& path, std::string* descriptor
 
 void KeyframeStore::replaceFile(const std::string& from, const std::string& to) {
   std::error_code error;
-  for (const char* journal : {"-wal", "-shm", "-journal", "-graph"}) {
+  for (const char* journal : {"-wal", "-shm", "-journal", "-graph", "-vectors"}) {
     std::filesystem::remove(to + journal, error);
   }
   std::filesystem::rename(from, to, error);
@@ -481,75 +395,6 @@ std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
   sqlite3_reset(c.select);
   if (status != SQLITE_ROW && status != SQLITE_DONE) c.fail("cannot read keyframe");
   return keyframe;
-}
-
-void KeyframeStore::forEachSummary(
-    const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
-        visit) const {
-  Connection& c = *connection_;
-  sqlite3_stmt* statement =
-      c.prepare("SELECT id, session, stamp, motion, vector FROM keyframes ORDER BY id");
-  const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  int status;
-  while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
-    KeyframeSummary summary;
-    summary.id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
-    summary.session = static_cast<uint32_t>(sqlite3_column_int64(statement, 1));
-    summary.stamp = sqlite3_column_double(statement, 2);
-    const auto* vector = static_cast<const uint8_t*>(sqlite3_column_blob(statement, 4));
-    try {
-      database_payload::decodeMotion(static_cast<const uint8_t*>(sqlite3_column_blob(statement, 3)),
-                                     static_cast<size_t>(sqlite3_column_bytes(statement, 3)),
-                                     &summary);
-      if (static_cast<size_t>(sqlite3_column_bytes(statement, 4)) != row_bytes) {
-        throw database_payload::FormatError("its global vector has another length");
-      }
-    } catch (const std::exception& error) {
-      sqlite3_finalize(statement);
-      throw storeError(path_,
-                       "keyframe " + std::to_string(summary.id) + " is damaged: " + error.what());
-    }
-    visit(summary, vector, row_bytes);
-  }
-  sqlite3_finalize(statement);
-  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
-}
-
-std::string KeyframeStore::graphPath() const { return graphPathOf(path_); }
-
-void KeyframeStore::saveGraph(const std::string& graph_identity, const ApproximateIndex& graph) {
-  const std::string file = graphPath();
-  graph.save(file);
-  const std::optional<uint32_t> checksum = fileChecksum(file);
-  if (!checksum) throw storeError(path_, "the search graph " + file + " cannot be read back");
-  Connection& c = *connection_;
-  c.execute("BEGIN IMMEDIATE", "the search graph not recorded");
-  try {
-    c.setMeta("graph_identity", graph_identity);
-    c.setMeta("graph_keyframes", std::to_string(graph.size()));
-    c.setMeta("graph_checksum", std::to_string(*checksum));
-  } catch (...) {
-    sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  c.execute("COMMIT", "the search graph not recorded");
-}
-
-std::unique_ptr<ApproximateIndex> KeyframeStore::loadGraph(const std::string& graph_identity,
-                                                           const QuantizedVectors* vectors,
-                                                           int neighbors) const {
-  Connection& c = *connection_;
-  if (c.meta("graph_identity").value_or("") != graph_identity) return nullptr;
-  const std::string file = graphPath();
-  const std::optional<uint32_t> checksum = fileChecksum(file);
-  if (!checksum || c.meta("graph_checksum").value_or("") != std::to_string(*checksum)) {
-    return nullptr;  // Written by another map at this path, or damaged: built again.
-  }
-  try {
-    return ApproximateIndex::load(file, vectors, neighbors);
-  } catch (const std::runtime_error&) {
-    return nullptr;
-  }
 }
 
 size_t KeyframeStore::size() const { return connection_->count; }

@@ -95,9 +95,13 @@ void attachReader(KeyframeDatabase* database, const KeyframeStore* store) {
   database->readRecordsFrom([store](uint64_t id) { return store->get(id); }, 64);
 }
 
+// Every this many keyframes one is kept as a place to revisit (keyframe id = row = index * this).
+constexpr size_t kPlaceEvery = 997;
+
 struct QueryFigures {
   std::vector<double> total_ms;
   double recall = 0.0;
+  double revisit_found = 0.0;  ///< Share of queries whose revisited keyframe is in the top_k.
 };
 
 QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Settings& settings,
@@ -112,14 +116,18 @@ QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Se
   std::uniform_int_distribution<size_t> pick(0, places.size() - 1);
   size_t shared = 0;
   size_t compared = 0;
+  size_t revisits_found = 0;
   const double stamp = 1e12;  // After every keyframe: nothing excluded.
   for (int q = 0; q < settings.queries; ++q) {
-    const std::vector<float> query = route->revisit(places[pick(route->random())]);
+    const size_t place = pick(route->random());
+    const std::vector<float> query = route->revisit(places[place]);
     const auto start = Clock::now();
     const QueryResult found = database.query(query, stamp, search, 1000);
     size_t read = 0;
-    for (const Candidate& candidate : found.candidates)
+    for (const Candidate& candidate : found.candidates) {
       read += database.record(candidate.index) != nullptr;
+      revisits_found += candidate.id == place * kPlaceEvery;
+    }
     figures.total_ms.push_back(msSince(start));
     if (read != found.candidates.size()) std::cerr << "a record could not be read\n";
     if (q < settings.recall_queries) {
@@ -132,6 +140,7 @@ QueryFigures runQueries(const KeyframeDatabase& database, Route* route, const Se
     }
   }
   figures.recall = compared > 0 ? static_cast<double>(shared) / compared : 0.0;
+  figures.revisit_found = static_cast<double>(revisits_found) / std::max(1, settings.queries);
   return figures;
 }
 
@@ -149,8 +158,8 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
 
   std::cout
       << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
-         "file B/keyframe | query + re-rank ms median / p99 | recall@10 |\n"
-         "|---|---|---|---|---|---|---|\n";
+         "file B/keyframe | query + re-rank ms median / p99 | recall@10 | revisit in top-10 "
+         "|\n|---|---|---|---|---|---|---|---|\n";
   route->emplace(dimension, 7);
   auto store = KeyframeStore::open(path, identity, dimension);
   KeyframeDatabase database(dimension, index);
@@ -162,7 +171,7 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
     keyframe.id = id;
     keyframe.stamp = static_cast<double>(id);
     keyframe.descriptor.global = (*route)->next();
-    if (id % 997 == 0) places->push_back(keyframe.descriptor.global);
+    if (id % kPlaceEvery == 0) places->push_back(keyframe.descriptor.global);
     const auto start = Clock::now();
     store->add(keyframe);
     database.add(std::move(keyframe));
@@ -171,11 +180,11 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
       const QueryFigures queries = runQueries(database, &**route, settings, *places);
       const double file_bytes = static_cast<double>(
           fs::file_size(path) + (fs::exists(path + "-wal") ? fs::file_size(path + "-wal") : 0));
-      std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f |\n", id + 1,
-                  percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
+      std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f | %.3f |\n",
+                  id + 1, percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
                   static_cast<double>(database.bytes()) / (id + 1), residentMegabytes(),
                   file_bytes / (id + 1), percentile(queries.total_ms, 0.5),
-                  percentile(queries.total_ms, 0.99), queries.recall);
+                  percentile(queries.total_ms, 0.99), queries.recall, queries.revisit_found);
       std::fflush(stdout);
       insert_ms.clear();
       ++checkpoint;
@@ -242,7 +251,7 @@ int main(int argc, char** argv) {
   std::optional<Route> route;
   std::vector<std::vector<float>> places;  // A sample of stored vectors to revisit.
   if (!settings.reopen_only) {
-    for (const char* suffix : {"", "-wal", "-shm", "-graph"}) fs::remove(path + suffix);
+    for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors"}) fs::remove(path + suffix);
     buildMap(settings, path, identity, index, &route, &places);
   } else if (!fs::exists(path)) {
     std::cerr << path << " does not exist: run without --reopen first\n";
@@ -271,15 +280,17 @@ int main(int argc, char** argv) {
               reopened.size(), open_s, reused ? "read" : "REBUILT", graph_s, residentMegabytes());
   if (!route) {
     route.emplace(dimension, 7);
-    for (size_t row = 0; row < reopened.size(); row += 997) {
+    for (size_t row = 0; row < reopened.size(); row += kPlaceEvery) {
       places.push_back(QuantizedVectors::decode(reopened.vectors()->row(row), dimension));
     }
   }
-  std::printf("\n| ef_search | query + re-rank ms median / p99 | recall@10 |\n|---|---|---|\n");
+  std::printf(
+      "\n| ef_search | query + re-rank ms median / p99 | recall@10 | revisit in top-10 |\n"
+      "|---|---|---|---|\n");
   for (const int ef : settings.ef_search) {
     const QueryFigures queries = runQueries(reopened, &*route, settings, places, ef);
-    std::printf("| %d | %.2f / %.2f | %.3f |\n", ef, percentile(queries.total_ms, 0.5),
-                percentile(queries.total_ms, 0.99), queries.recall);
+    std::printf("| %d | %.2f / %.2f | %.3f | %.3f |\n", ef, percentile(queries.total_ms, 0.5),
+                percentile(queries.total_ms, 0.99), queries.recall, queries.revisit_found);
     std::fflush(stdout);
   }
   return 0;

@@ -414,6 +414,62 @@ TEST_F(KeyframeStoreTest, ASavedSearchGraphIsGivenBackOnlyForItsSettingsAndItsOw
   EXPECT_EQ(store->loadGraph("hnsw M=16", grown.vectors(), 16), nullptr);
 }
 
+TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCrashesAddTheRest) {
+  std::vector<std::vector<uint8_t>> expected;
+  const auto rowsOf = [](const KeyframeStore& store) {
+    std::vector<std::vector<uint8_t>> rows;
+    std::vector<uint64_t> ids;
+    store.forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+      rows.emplace_back(row, row + bytes);
+      ids.push_back(summary.id);
+    });
+    return std::make_pair(rows, ids);
+  };
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    IndexOptions graph;
+    graph.type = "approximate";
+    KeyframeDatabase database(kDimension, graph);
+    for (uint64_t id = 1; id <= 6; ++id) {
+      store->add(makeKeyframe(id, 0));
+      database.add(makeKeyframe(id, 0));
+    }
+    expected = rowsOf(*store).first;  // From the database rows: nothing saved yet.
+    store->saveGraph("hnsw M=8", *database.graph());
+    EXPECT_TRUE(fs::exists(store->vectorsPath()));
+    // Then two more before a crash: not in the saved rows.
+    for (uint64_t id = 7; id <= 8; ++id) {
+      store->add(makeKeyframe(id, 1));
+      expected.push_back(QuantizedVectors::encode(makeKeyframe(id, 1).descriptor.global));
+    }
+  }
+  // Keyframe 3's row in the map is spoilt behind the store's back: read from the saved rows, it
+  // does not matter.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "UPDATE keyframes SET vector = x'00' WHERE id = 3", nullptr, nullptr,
+                         nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  auto [rows, ids] = rowsOf(*store);
+  EXPECT_EQ(ids, (std::vector<uint64_t>{1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_EQ(rows, expected);
+  // A damaged rows file is not used: the map's rows are read, and keyframe 3's is refused.
+  {
+    std::fstream damage(store->vectorsPath(), std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(30);
+    damage.put('\x55');
+  }
+  try {
+    rowsOf(*store);
+    ADD_FAILURE() << "the damaged rows file was used";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("keyframe 3 is damaged"), std::string::npos)
+        << error.what();
+  }
+}
+
 TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
   // Format 1 kept each keyframe whole in the earlier file's layout: the bytes a one-keyframe file
   // of that format holds between its keyframe's offset and the graph's (its record table).

@@ -20,7 +20,7 @@ struct IndexOptions {
   std::string type = "auto";
   int approximate_from = 20000;
   int neighbors = 16;        ///< HNSW links per node (M): memory and recall grow with it.
-  int ef_construction = 64;  ///< HNSW candidate list while inserting: graph quality.
+  int ef_construction = 128;  ///< HNSW candidate list while inserting: graph quality.
   int ef_search = 256;       ///< HNSW candidate list while searching: recall against time.
 
   bool buildsGraph() const { return type != "exact"; }

@@ -15,8 +15,9 @@ namespace landmark_loop_closure {
 /// added, so a process killed at any moment loses none that add() returned for, and the file
 /// always opens. Inspectable with the sqlite3 tool:
 ///   meta(key, value): format_version, descriptor_identity, global_dimension, and graph_identity,
-///     graph_keyframes, graph_checksum (CRC-32C) of the search graph file PATH-graph, written at
-///     a clean shutdown;
+///     graph_keyframes, graph_checksum (CRC-32C) of the search graph file PATH-graph, and
+///     vectors_rows, vectors_checksum, vectors_last_id of the search rows file PATH-vectors
+///     (vector_file.h), both written at a clean shutdown;
 ///   keyframes(id, session, stamp, motion, vector): what search keeps in RAM - `motion` the pose
 ///     and odometry path (9 little-endian doubles), `vector` the global descriptor as a
 ///     QuantizedVectors row;
@@ -84,6 +85,8 @@ class KeyframeStore {
   std::unique_ptr<ApproximateIndex> loadGraph(const std::string& graph_identity,
                                               const QuantizedVectors* vectors, int neighbors) const;
   std::string graphPath() const;
+  /// The search rows saved with the graph (PATH-vectors), read by forEachSummary.
+  std::string vectorsPath() const;
   size_t size() const;
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
   int globalDimension() const { return global_dimension_; }

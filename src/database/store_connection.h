@@ -1,0 +1,82 @@
+#pragma once
+
+// The SQLite connection behind a KeyframeStore, shared by its two source files (keyframe_store.cpp:
+// opening, writing and reading keyframes; keyframe_store_search.cpp: what search reads at open
+// and the files saved beside the map). Private to the core library.
+
+#include <sqlite3.h>
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "landmark_loop_closure/database/keyframe_store.h"
+
+namespace landmark_loop_closure {
+
+inline std::runtime_error storeError(const std::string& path, const std::string& reason) {
+  return std::runtime_error("map " + path + ": " + reason);
+}
+
+struct KeyframeStore::Connection {
+  sqlite3* db = nullptr;
+  sqlite3_stmt* insert = nullptr;
+  sqlite3_stmt* insert_record = nullptr;
+  sqlite3_stmt* select = nullptr;
+  std::string path;
+  size_t count = 0;
+  std::optional<uint64_t> last_id;
+
+  ~Connection() {
+    sqlite3_finalize(insert);
+    sqlite3_finalize(insert_record);
+    sqlite3_finalize(select);
+    if (db != nullptr) sqlite3_close(db);  // The last connection checkpoints the WAL.
+  }
+
+  [[noreturn]] void fail(const std::string& what) const {
+    const int code = db != nullptr ? sqlite3_errcode(db) : SQLITE_ERROR;
+    if (code == SQLITE_BUSY || code == SQLITE_LOCKED) {
+      throw storeError(path, "is open in another process (one node per map)");
+    }
+    if (code == SQLITE_FULL) throw storeError(path, what + ": the disk is full");
+    std::string reason = db != nullptr ? sqlite3_errmsg(db) : "no connection";
+    // SQLite's "disk I/O error" says little: the system's reason (no space, file too large,
+    // read-only file system...) says what to do.
+    const int system_error = db != nullptr ? sqlite3_system_errno(db) : 0;
+    if (system_error != 0) reason += std::string(" (") + std::strerror(system_error) + ")";
+    throw storeError(path, what + ": " + reason);
+  }
+
+  void execute(const char* sql, const std::string& what) {
+    if (sqlite3_exec(db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) fail(what);
+  }
+
+  sqlite3_stmt* prepare(const char* sql) {
+    sqlite3_stmt* statement = nullptr;
+    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) fail("cannot read it");
+    return statement;
+  }
+
+  std::optional<std::string> meta(const std::string& key) {
+    sqlite3_stmt* statement = prepare("SELECT value FROM meta WHERE key = ?");
+    sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
+    std::optional<std::string> value;
+    if (sqlite3_step(statement) == SQLITE_ROW) {
+      value = reinterpret_cast<const char*>(sqlite3_column_text(statement, 0));
+    }
+    sqlite3_finalize(statement);
+    return value;
+  }
+
+  void setMeta(const std::string& key, const std::string& value) {
+    sqlite3_stmt* statement = prepare("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)");
+    sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(statement, 2, value.c_str(), -1, SQLITE_TRANSIENT);
+    const int status = sqlite3_step(statement);
+    sqlite3_finalize(statement);
+    if (status != SQLITE_DONE) fail("cannot write its settings");
+  }
+};
+
+}  // namespace landmark_loop_closure
