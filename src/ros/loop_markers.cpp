@@ -64,9 +64,11 @@ void LoopMarkers::addLoop(const AcceptedLoop& loop) {
   }
   loop_ends_.push_back(toPoint(loop.query_pose));
   loop_ends_.push_back(toPoint(loop.match_pose));
+  // Green whatever the score (an accepted loop is a right one as far as the node can tell); the
+  // score from the threshold to 1 only brightens it.
   const float t = static_cast<float>(
       std::clamp((loop.score - min_score_) / std::max(1e-6, 1.0 - min_score_), 0.0, 1.0));
-  const std_msgs::ColorRGBA c = colour(1.0f - t, t, 0.1f, 1.0f);
+  const std_msgs::ColorRGBA c = colour(0.1f, 0.55f + 0.45f * t, 0.15f, 1.0f);
   loop_colours_.push_back(c);
   loop_colours_.push_back(c);
 }
@@ -82,33 +84,56 @@ void LoopMarkers::addRejected(const Pose& query, const Pose& match) {
 
 visualization_msgs::MarkerArray LoopMarkers::toMsg(const ros::Time& stamp) const {
   visualization_msgs::MarkerArray array;
+  // rviz marks a display as failed for a list marker without points: an empty namespace is
+  // deleted instead (which also clears what it drew before a reset).
+  const auto add = [&](visualization_msgs::Marker marker) {
+    if (marker.points.empty()) {
+      marker.action = visualization_msgs::Marker::DELETE;
+      marker.colors.clear();
+    }
+    array.markers.push_back(std::move(marker));
+  };
   visualization_msgs::Marker keyframes =
       makeMarker(frame_id_, stamp, "keyframes", visualization_msgs::Marker::SPHERE_LIST, 0.15);
   keyframes.points = keyframes_;
   keyframes.color = colour(0.2f, 0.5f, 1.0f, 0.9f);
-  array.markers.push_back(keyframes);
+  add(keyframes);
 
   visualization_msgs::Marker loops =
       makeMarker(frame_id_, stamp, "loops", visualization_msgs::Marker::LINE_LIST, 0.06);
   loops.points = loop_ends_;
   loops.colors = loop_colours_;
-  loops.color = colour(0.0f, 1.0f, 0.0f, 1.0f);
-  array.markers.push_back(loops);
+  loops.color = colour(0.1f, 0.8f, 0.15f, 1.0f);
+  add(loops);
 
-  // Loops published without the geometric check (no camera_info): thin and orange.
+  // Loops published without the geometric check (no usable camera_info): thin and orange.
   visualization_msgs::Marker unverified = makeMarker(frame_id_, stamp, "unverified_loops",
                                                      visualization_msgs::Marker::LINE_LIST, 0.025);
   unverified.points = unverified_ends_;
   unverified.color = colour(1.0f, 0.55f, 0.0f, 1.0f);
-  array.markers.push_back(unverified);
+  add(unverified);
 
   if (show_rejected_) {
     visualization_msgs::Marker rejected =
         makeMarker(frame_id_, stamp, "rejected", visualization_msgs::Marker::LINE_LIST, 0.02);
     rejected.points = rejected_ends_;
     rejected.color = colour(0.6f, 0.6f, 0.6f, 0.5f);
-    array.markers.push_back(rejected);
+    add(rejected);
   }
+
+  visualization_msgs::Marker legend =
+      makeMarker(frame_id_, stamp, "legend", visualization_msgs::Marker::TEXT_VIEW_FACING, 0.4);
+  if (keyframes_.empty()) {
+    legend.action = visualization_msgs::Marker::DELETE;
+  } else {
+    legend.pose.position = keyframes_.front();
+    legend.pose.position.z += 1.5;
+    legend.color = colour(1.0f, 1.0f, 1.0f, 1.0f);
+    legend.text = show_rejected_ ? "blue: keyframes  green: verified loop  orange: unverified  "
+                                   "grey: rejected candidate"
+                                 : "blue: keyframes  green: verified loop  orange: unverified";
+  }
+  array.markers.push_back(legend);
   return array;
 }
 

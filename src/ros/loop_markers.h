@@ -9,8 +9,10 @@
 
 namespace landmark_loop_closure {
 
-/// What rviz shows: keyframe positions, accepted loops coloured by score (red at the threshold,
-/// green at 1), and optionally rejected candidates in grey.
+/// What rviz shows: keyframe positions (blue), verified loops green (brighter and wider the
+/// higher their score), loops published without the geometric check orange, optionally rejected
+/// candidates grey, and a legend saying so above the first keyframe. Every marker is one rviz
+/// accepts: a namespace with nothing to draw is sent as DELETE, never as an empty point list.
 class LoopMarkers {
  public:
   LoopMarkers(std::string frame_id, double min_score, bool show_rejected);

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -245,6 +246,92 @@ TEST(RosConversions, AMetricPoseReportsItsOwnInliersAndError) {
   EXPECT_EQ(message.inliers, 35u);
   EXPECT_DOUBLE_EQ(message.reprojection_error, 0.9);
   EXPECT_DOUBLE_EQ(message.relative_pose.pose.position.z, 0.45);
+}
+
+namespace {
+
+// What rviz's marker display refuses or shows as an error (rviz/default_plugin/markers): a list
+// marker without points, a line list with an odd count, colours that do not match the points,
+// a zero scale, an unnormalised orientation, non-finite points, a text marker without text.
+std::string rvizProblem(const visualization_msgs::Marker& marker) {
+  using visualization_msgs::Marker;
+  if (marker.action == Marker::DELETE || marker.action == Marker::DELETEALL) return "";
+  if (marker.header.frame_id.empty()) return "no frame_id";
+  const auto& q = marker.pose.orientation;
+  if (std::abs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 1e-3) {
+    return "orientation not normalised";
+  }
+  if (marker.color.a <= 0.0f && marker.colors.empty()) return "invisible (alpha 0)";
+  const bool list = marker.type == Marker::LINE_LIST || marker.type == Marker::LINE_STRIP ||
+                    marker.type == Marker::SPHERE_LIST || marker.type == Marker::POINTS;
+  if (list) {
+    if (marker.points.empty()) return "Points should not be empty";
+    if (marker.type == Marker::LINE_LIST && marker.points.size() % 2 != 0) return "odd line list";
+    if (!marker.colors.empty() && marker.colors.size() != marker.points.size()) {
+      return "colours and points differ in number";
+    }
+    for (const auto& p : marker.points) {
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return "point NaN";
+    }
+    if (marker.scale.x <= 0.0) return "scale.x 0";
+  }
+  if (marker.type == Marker::SPHERE_LIST && (marker.scale.y <= 0.0 || marker.scale.z <= 0.0)) {
+    return "sphere scale 0";
+  }
+  if (marker.type == Marker::TEXT_VIEW_FACING && (marker.text.empty() || marker.scale.z <= 0.0)) {
+    return "text marker without text or height";
+  }
+  return "";
+}
+
+void expectRvizAcceptsAll(const visualization_msgs::MarkerArray& array, const std::string& when) {
+  for (const visualization_msgs::Marker& marker : array.markers) {
+    EXPECT_EQ(rvizProblem(marker), "") << when << ": namespace " << marker.ns;
+  }
+}
+
+}  // namespace
+
+TEST(LoopMarkers, EveryMarkerTheNodePublishesIsOneRvizAccepts) {
+  for (const bool show_rejected : {false, true}) {
+    LoopMarkers markers("odom", 0.25, show_rejected);
+    expectRvizAcceptsAll(markers.toMsg(ros::Time(1.0)), "nothing yet");
+    markers.addKeyframe(planarPose(0.0, 0.0, 0.0));
+    markers.addKeyframe(planarPose(1.0, 0.0, 0.0));
+    expectRvizAcceptsAll(markers.toMsg(ros::Time(2.0)), "keyframes only");
+    AcceptedLoop verified;
+    verified.score = 0.3;
+    verified.query_pose = planarPose(1.0, 0.0, 0.0);
+    VerificationResult check;
+    check.verdict = VerificationVerdict::kAccepted;
+    verified.verification = check;
+    markers.addLoop(verified);
+    expectRvizAcceptsAll(markers.toMsg(ros::Time(3.0)), "a verified loop");
+    AcceptedLoop unverified;
+    unverified.score = 0.9;
+    markers.addLoop(unverified);
+    markers.addRejected(planarPose(1.0, 0.0, 0.0), planarPose(0.0, 0.0, 0.0));
+    const visualization_msgs::MarkerArray all = markers.toMsg(ros::Time(4.0));
+    expectRvizAcceptsAll(all, "every kind");
+    // Verified loops are green at any score, unverified orange, rejected grey; a legend says so.
+    std::map<std::string, visualization_msgs::Marker> by_namespace;
+    for (const visualization_msgs::Marker& marker : all.markers) by_namespace[marker.ns] = marker;
+    const auto& loop_colour = by_namespace["loops"].colors.at(0);
+    EXPECT_GT(loop_colour.g, 2.0f * std::max(loop_colour.r, loop_colour.b)) << "green";
+    const auto& orange = by_namespace["unverified_loops"].color;
+    EXPECT_GT(orange.r, orange.g);
+    EXPECT_GT(orange.g, orange.b);
+    if (show_rejected) {
+      EXPECT_EQ(by_namespace["rejected"].color.r, by_namespace["rejected"].color.g);
+    }
+    EXPECT_NE(by_namespace["legend"].text.find("green: verified"), std::string::npos);
+    markers.clear();
+    const visualization_msgs::MarkerArray cleared = markers.toMsg(ros::Time(5.0));
+    expectRvizAcceptsAll(cleared, "after a reset");
+    for (const visualization_msgs::Marker& marker : cleared.markers) {
+      EXPECT_EQ(marker.action, visualization_msgs::Marker::DELETE) << marker.ns;
+    }
+  }
 }
 
 TEST(LoopMarkers, VerifiedAndUnverifiedLoopsAreDrawnApart) {
