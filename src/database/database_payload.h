@@ -1,8 +1,9 @@
 #pragma once
 
 // Field-level writing and reading of keyframe payloads (the map store's records, the old map
-// file that lcd_db converts): little-endian integers and floats, counted lists and matrices, gathered
-// into large writes and reads with one CRC-32C call per chunk. Private to the core library.
+// file that lcd_db converts): little-endian integers and floats, counted lists and matrices,
+// gathered into large writes and reads with one CRC-32C call per chunk. Private to the core
+// library.
 
 #include <cstdint>
 #include <cstdio>

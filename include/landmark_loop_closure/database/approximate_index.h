@@ -19,9 +19,9 @@ struct IndexOptions {
   /// holds approximate_from keyframes (exact below, where it is fast enough).
   std::string type = "auto";
   int approximate_from = 20000;
-  int neighbors = 16;        ///< HNSW links per node (M): memory and recall grow with it.
+  int neighbors = 16;         ///< HNSW links per node (M): memory and recall grow with it.
   int ef_construction = 128;  ///< HNSW candidate list while inserting: graph quality.
-  int ef_search = 256;       ///< HNSW candidate list while searching: recall against time.
+  int ef_search = 256;        ///< HNSW candidate list while searching: recall against time.
 
   bool buildsGraph() const { return type != "exact"; }
   /// Settings a saved graph must match to be reused (ef_search may differ).
