@@ -14,7 +14,7 @@ namespace landmark_loop_closure {
 
 /// How the database searches its global descriptors.
 struct IndexOptions {
-  /// "exact": every stored descriptor is compared; "approximate": an HNSW graph (faiss) finds the
+  /// "exact": every stored descriptor is compared; "approximate": an HNSW graph (hnswlib) finds the
   /// shortlist; "auto": the graph is kept up to date from the start and used once the database
   /// holds approximate_from keyframes (exact below, where it is fast enough).
   std::string type = "auto";
