@@ -1,34 +1,19 @@
 // The descriptor registry: one entry per type, found by name and by variant name, and the
 // functions the node and the tools call (types, validation, identity, factory) answer from it.
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iterator>
 #include <set>
 #include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "file_bytes.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 using namespace landmark_loop_closure;
 namespace fs = std::filesystem;
-
-namespace {
-
-std::vector<char> readBytes(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
-void writeBytes(const fs::path& path, const std::vector<char>& bytes) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-}  // namespace
 
 TEST(DescriptorRegistry, EveryTypeHasAUniqueNameASummaryAndAFactory) {
   std::set<std::string> names;

@@ -14,6 +14,7 @@
 
 #include "../../src/common/crc32c.h"
 #include "../../src/database/old_map_file.h"
+#include "file_bytes.h"
 #include "keyframe_fixtures.h"
 #include "old_map_file_writer.h"
 
@@ -47,16 +48,6 @@ ReadFile readFile(const std::string& path) {
     read.error = error.what();
   }
   return read;
-}
-
-std::vector<char> readBytes(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-}
-
-void writeBytes(const fs::path& path, const std::vector<char>& bytes) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
 class OldMapFileTest : public ::testing::Test {
