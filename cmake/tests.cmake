@@ -13,6 +13,7 @@ set(CORE_TESTS
   test_detector_runtime
   test_input_monitor
   test_keyframe_store
+  test_saved_search_rows
   test_match_image
   test_landmarks
   test_convnet_descriptor
@@ -34,6 +35,7 @@ endforeach()
 # The store test edits a map as a newer version would have written it, and reads its record
 # layout; both map tests write the old map file through the private payload writer.
 target_link_libraries(test_keyframe_store SQLite::SQLite3)
+target_link_libraries(test_saved_search_rows SQLite::SQLite3)
 target_include_directories(test_keyframe_store PRIVATE src)
 target_include_directories(test_old_map_file PRIVATE src)
 

@@ -225,11 +225,11 @@ std::string LoopDetector::openMap(const std::string& path) {
   try {
     store = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
     // Only what search needs is read; records come from the file for each query's candidates.
-    store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
-      last_session = std::max(last_session, summary.session);
-      last_id = std::max(last_id, summary.id);
-      loaded.addSummary(summary, row, bytes);
-    });
+    store->loadSearch(&loaded);
+    for (size_t index = 0; index < loaded.size(); ++index) {
+      last_session = std::max(last_session, loaded.summary(index).session);
+    }
+    if (!loaded.empty()) last_id = loaded.summary(loaded.size() - 1).id;
     readRecordsFromStore(&loaded, store.get());
     std::unique_ptr<ApproximateIndex> graph;
     if (index.buildsGraph()) {
@@ -275,7 +275,7 @@ void LoopDetector::readRecordsFromStore(KeyframeDatabase* database, const Keyfra
 std::string LoopDetector::saveMapGraph() {
   if (!store_ || database_.graph() == nullptr) return "";
   try {
-    store_->saveGraph(database_.indexOptions().graphIdentity(), *database_.graph());
+    store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
   } catch (const std::exception& error) {
     return error.what();
   }

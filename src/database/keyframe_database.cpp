@@ -159,6 +159,26 @@ void KeyframeDatabase::addSummary(const KeyframeSummary& summary, const uint8_t*
   if (!reader_) records_.push_back(nullptr);
 }
 
+void KeyframeDatabase::addSaved(std::shared_ptr<const void> owner, const uint8_t* rows,
+                                size_t count,
+                                const std::function<KeyframeSummary(size_t)>& summary_of) {
+  if (!empty()) throw std::invalid_argument("saved rows go into an empty database only");
+  std::vector<KeyframeSummary> summaries;
+  summaries.reserve(count);
+  for (size_t row = 0; row < count; ++row) {
+    summaries.push_back(summary_of(row));
+    if (row > 0 && summaries[row].id <= summaries[row - 1].id) {
+      throw std::invalid_argument("saved keyframe id " + std::to_string(summaries[row].id) +
+                                  " is not greater than the one before it");
+    }
+  }
+  vectors_->adopt(std::move(owner), rows, count);
+  for (const KeyframeSummary& summary : summaries) {
+    addEntry(summary);
+    if (!reader_) records_.push_back(nullptr);
+  }
+}
+
 void KeyframeDatabase::readRecordsFrom(RecordReader reader, size_t cached_records) {
   reader_ = std::move(reader);
   cached_records_ = std::max<size_t>(cached_records, 1);

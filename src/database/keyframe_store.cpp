@@ -159,14 +159,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   }
   connection->execute("COMMIT", "cannot be written");
 
-  sqlite3_stmt* summary = connection->prepare("SELECT COUNT(*), MAX(id) FROM keyframes");
-  if (sqlite3_step(summary) == SQLITE_ROW) {
-    connection->count = static_cast<size_t>(sqlite3_column_int64(summary, 0));
-    if (sqlite3_column_type(summary, 1) != SQLITE_NULL) {
-      connection->last_id = static_cast<uint64_t>(sqlite3_column_int64(summary, 1));
-    }
-  }
-  sqlite3_finalize(summary);
+  connection->countKeyframes();
   connection->insert = connection->prepare(
       "INSERT INTO keyframes (id, session, stamp, motion, vector) VALUES (?, ?, ?, ?, ?)");
   connection->insert_record = connection->prepare("INSERT INTO records (id, record) VALUES (?, ?)");

@@ -1,6 +1,6 @@
-// What search reads from a map: every keyframe's summary and 8-bit row at open (from the rows
-// saved beside the map when they are this map's), and the search graph and rows saved at a clean
-// shutdown.
+// What search reads from a map: every keyframe's summary and 8-bit row at open (the rows saved
+// beside the map mapped in place when they are this map's), and the search graph and rows saved at
+// a clean shutdown.
 #include "landmark_loop_closure/database/keyframe_store.h"
 
 #include <cstdio>
@@ -33,106 +33,139 @@ std::optional<uint32_t> fileChecksum(const std::string& path) {
   return crc;
 }
 
-std::optional<uint64_t> metaNumber(const std::optional<std::string>& text) {
-  if (!text) return std::nullopt;
+}  // namespace
+
+std::shared_ptr<const vector_file::Mapped> KeyframeStore::savedRows() const {
+  Connection& c = *connection_;
+  vector_file::Seal seal;
+  seal.rows = c.metaNumber("vectors_rows").value_or(0);
+  seal.rows_checksum = static_cast<uint32_t>(c.metaNumber("vectors_checksum").value_or(0));
+  seal.summaries_checksum =
+      static_cast<uint32_t>(c.metaNumber("vectors_summaries_checksum").value_or(0));
+  const std::optional<uint64_t> last_id = c.metaNumber("vectors_last_id");
+  if (!last_id || seal.rows == 0 || seal.rows > c.count) return nullptr;
+  auto saved = vector_file::Mapped::open(vectorsPath(), seal, global_dimension_);
   try {
-    return std::stoull(*text);
+    if (saved && saved->summary(saved->rows() - 1).id == *last_id) return saved;
   } catch (const std::exception&) {
-    return std::nullopt;
   }
+  return nullptr;  // Another map's, damaged, or left half-written by a crash: not used.
 }
 
-}  // namespace
+void KeyframeStore::readSummaries(
+    const std::function<void(const std::shared_ptr<const vector_file::Mapped>&)>& saved_rows,
+    const std::function<void(const KeyframeSummary&, const uint8_t*, size_t)>& visit) const {
+  Connection& c = *connection_;
+  const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
+  // The rows saved beside the map at the last clean shutdown, when they are this map's: mapped;
+  // the keyframes committed after them (a crash) come from their database rows.
+  const std::shared_ptr<const vector_file::Mapped> saved = savedRows();
+  std::optional<uint64_t> last_saved;
+  if (saved) {
+    try {
+      saved_rows(saved);
+    } catch (const database_payload::FormatError& error) {
+      throw storeError(path_, std::string("the saved search rows are damaged: ") + error.what());
+    }
+    last_saved = saved->summary(saved->rows() - 1).id;
+  }
+  sqlite3_stmt* rest = c.prepare(
+      "SELECT id, session, stamp, motion, vector FROM keyframes WHERE id > ? ORDER BY id");
+  sqlite3_bind_int64(rest, 1, last_saved ? static_cast<sqlite3_int64>(*last_saved) : -1);
+  int status;
+  while ((status = sqlite3_step(rest)) == SQLITE_ROW) {
+    KeyframeSummary summary;
+    summary.id = static_cast<uint64_t>(sqlite3_column_int64(rest, 0));
+    summary.session = static_cast<uint32_t>(sqlite3_column_int64(rest, 1));
+    summary.stamp = sqlite3_column_double(rest, 2);
+    const auto* vector = static_cast<const uint8_t*>(sqlite3_column_blob(rest, 4));
+    try {
+      database_payload::decodeMotion(static_cast<const uint8_t*>(sqlite3_column_blob(rest, 3)),
+                                     static_cast<size_t>(sqlite3_column_bytes(rest, 3)), &summary);
+      if (vector == nullptr || static_cast<size_t>(sqlite3_column_bytes(rest, 4)) != row_bytes) {
+        throw database_payload::FormatError("its global vector cannot be read");
+      }
+    } catch (const std::exception& error) {
+      sqlite3_finalize(rest);
+      throw storeError(path_,
+                       "keyframe " + std::to_string(summary.id) + " is damaged: " + error.what());
+    }
+    visit(summary, vector, row_bytes);
+  }
+  sqlite3_finalize(rest);
+  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
+}
 
 void KeyframeStore::forEachSummary(
     const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
         visit) const {
-  Connection& c = *connection_;
   const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  // The rows saved beside the map at the last clean shutdown, when they are this map's: read from
-  // there in one pass; the keyframes committed after them (a crash) from their database rows.
-  std::optional<vector_file::Reader> saved;
-  uint64_t saved_rows = 0;
-  const std::optional<uint64_t> rows = metaNumber(c.meta("vectors_rows"));
-  const std::optional<uint64_t> checksum = metaNumber(c.meta("vectors_checksum"));
-  const std::optional<uint64_t> last_id = metaNumber(c.meta("vectors_last_id"));
-  if (rows && checksum && last_id && *rows > 0 && *rows <= c.count) {
-    saved.emplace(vectorsPath(), static_cast<uint32_t>(*checksum), global_dimension_);
-    sqlite3_stmt* at = c.prepare("SELECT id FROM keyframes ORDER BY id LIMIT 1 OFFSET ?");
-    sqlite3_bind_int64(at, 1, static_cast<sqlite3_int64>(*rows - 1));
-    const bool same_keyframes = sqlite3_step(at) == SQLITE_ROW &&
-                                static_cast<uint64_t>(sqlite3_column_int64(at, 0)) == *last_id;
-    sqlite3_finalize(at);
-    if (saved->valid() && saved->rows() == *rows && same_keyframes) saved_rows = *rows;
-  }
-
-  const auto scan = [&](sqlite3_stmt* statement, bool from_file) {
-    int status;
-    while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
-      KeyframeSummary summary;
-      summary.id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
-      summary.session = static_cast<uint32_t>(sqlite3_column_int64(statement, 1));
-      summary.stamp = sqlite3_column_double(statement, 2);
-      const uint8_t* vector = from_file
-                                  ? saved->next()
-                                  : static_cast<const uint8_t*>(sqlite3_column_blob(statement, 4));
-      try {
-        database_payload::decodeMotion(
-            static_cast<const uint8_t*>(sqlite3_column_blob(statement, 3)),
-            static_cast<size_t>(sqlite3_column_bytes(statement, 3)), &summary);
-        if (vector == nullptr ||
-            (!from_file && static_cast<size_t>(sqlite3_column_bytes(statement, 4)) != row_bytes)) {
-          throw database_payload::FormatError("its global vector cannot be read");
+  readSummaries(
+      [&](const std::shared_ptr<const vector_file::Mapped>& saved) {
+        for (size_t row = 0; row < saved->rows(); ++row) {
+          visit(saved->summary(row), saved->firstRow() + row * row_bytes, row_bytes);
         }
-      } catch (const std::exception& error) {
-        sqlite3_finalize(statement);
-        throw storeError(path_,
-                         "keyframe " + std::to_string(summary.id) + " is damaged: " + error.what());
-      }
-      visit(summary, vector, row_bytes);
-    }
-    sqlite3_finalize(statement);
-    if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
-  };
-  if (saved_rows > 0) {
-    sqlite3_stmt* head =
-        c.prepare("SELECT id, session, stamp, motion FROM keyframes ORDER BY id LIMIT ?");
-    sqlite3_bind_int64(head, 1, static_cast<sqlite3_int64>(saved_rows));
-    scan(head, true);
-  }
-  sqlite3_stmt* rest = c.prepare(
-      "SELECT id, session, stamp, motion, vector FROM keyframes WHERE id > ? ORDER BY id");
-  sqlite3_bind_int64(rest, 1, saved_rows > 0 ? static_cast<sqlite3_int64>(*last_id) : -1);
-  scan(rest, false);
+      },
+      visit);
+}
+
+void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
+  readSummaries(
+      [&](const std::shared_ptr<const vector_file::Mapped>& saved) {
+        database->addSaved(saved, saved->firstRow(), saved->rows(),
+                           [&saved](size_t row) { return saved->summary(row); });
+      },
+      [&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+        database->addSummary(summary, row, bytes);
+      });
 }
 
 std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
 
 std::string KeyframeStore::graphPath() const { return path_ + "-graph"; }
 
-void KeyframeStore::saveGraph(const std::string& graph_identity, const ApproximateIndex& graph) {
+void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeDatabase& database) {
+  const ApproximateIndex* graph = database.graph();
+  if (graph == nullptr) return;
+  Connection& c = *connection_;
+  // Rows and graph are valid only over the map's own keyframes in order; a keyframe the map could
+  // not take (a full disk) would shift them. Not saved then: the next open builds them again.
+  const size_t rows = graph->size();
+  if (rows != c.count || rows != database.size() ||
+      (rows > 0 && database.summary(rows - 1).id != c.last_id)) {
+    throw storeError(path_,
+                     "the search graph is not saved: the map lacks keyframes that search "
+                     "holds (the disk was full); it is built again at the next open");
+  }
   const std::string file = graphPath();
-  graph.save(file);
+  graph->save(file);
   const std::optional<uint32_t> checksum = fileChecksum(file);
   if (!checksum) throw storeError(path_, "the search graph " + file + " cannot be read back");
-  Connection& c = *connection_;
-  std::optional<uint64_t> last_id;
-  if (graph.size() > 0) {
-    sqlite3_stmt* at = c.prepare("SELECT id FROM keyframes ORDER BY id LIMIT 1 OFFSET ?");
-    sqlite3_bind_int64(at, 1, static_cast<sqlite3_int64>(graph.size() - 1));
-    if (sqlite3_step(at) == SQLITE_ROW) last_id = sqlite3_column_int64(at, 0);
-    sqlite3_finalize(at);
+
+  // The rows saved last time are kept and the new ones appended; while the file changes, the map
+  // says there are none, so a crash in between leaves a file that is not used, never a wrong one.
+  vector_file::Seal earlier;
+  earlier.rows = c.metaNumber("vectors_rows").value_or(0);
+  earlier.rows_checksum = static_cast<uint32_t>(c.metaNumber("vectors_checksum").value_or(0));
+  earlier.summaries_checksum =
+      static_cast<uint32_t>(c.metaNumber("vectors_summaries_checksum").value_or(0));
+  if (earlier.rows > 0) c.setMeta("vectors_rows", "0");
+  vector_file::Seal seal;
+  if (rows > 0) {
+    seal = vector_file::write(
+        vectorsPath(), *database.vectors(), rows,
+        [&database](size_t row) -> const KeyframeSummary& { return database.summary(row); },
+        earlier.rows > 0 ? &earlier : nullptr);
   }
-  uint32_t vectors_checksum = 0;
-  if (last_id) vectors_checksum = vector_file::write(vectorsPath(), *graph.vectors(), graph.size());
   c.execute("BEGIN IMMEDIATE", "the search graph not recorded");
   try {
     c.setMeta("graph_identity", graph_identity);
-    c.setMeta("graph_keyframes", std::to_string(graph.size()));
+    c.setMeta("graph_keyframes", std::to_string(rows));
     c.setMeta("graph_checksum", std::to_string(*checksum));
-    c.setMeta("vectors_rows", last_id ? std::to_string(graph.size()) : "0");
-    c.setMeta("vectors_checksum", std::to_string(vectors_checksum));
-    c.setMeta("vectors_last_id", last_id ? std::to_string(*last_id) : "0");
+    c.setMeta("vectors_rows", std::to_string(seal.rows));
+    c.setMeta("vectors_checksum", std::to_string(seal.rows_checksum));
+    c.setMeta("vectors_summaries_checksum", std::to_string(seal.summaries_checksum));
+    c.setMeta("vectors_last_id", rows > 0 ? std::to_string(database.summary(rows - 1).id) : "0");
   } catch (...) {
     sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;

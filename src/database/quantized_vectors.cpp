@@ -66,11 +66,27 @@ QuantizedVectors::dot(const uint8_t* a, const uint8_t* b, int dimension) {
 uint8_t* QuantizedVectors::nextRow() {
   if (size_ == chunks_.size() * kChunkRows) {
     // Not value-initialised: every row is written before it is read.
-    chunks_.emplace_back(new uint8_t[kChunkRows * row_bytes_]);
+    owned_.emplace_back(new uint8_t[kChunkRows * row_bytes_]);
+    chunks_.push_back(owned_.back().get());
   }
-  uint8_t* row = chunks_.back().get() + (size_ % kChunkRows) * row_bytes_;
+  // The last chunk is always owned: adopt() copies a partial last chunk.
+  uint8_t* row = owned_.back().get() + (size_ % kChunkRows) * row_bytes_;
   ++size_;
   return row;
+}
+
+void QuantizedVectors::adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count) {
+  if (size_ != 0) throw std::logic_error("rows can be adopted only by empty vectors");
+  const size_t whole_chunks = count / kChunkRows;
+  for (size_t chunk = 0; chunk < whole_chunks; ++chunk) {
+    chunks_.push_back(rows + chunk * kChunkRows * row_bytes_);
+  }
+  size_ = whole_chunks * kChunkRows;
+  adopted_rows_ = size_;
+  adopted_owner_ = std::move(owner);
+  for (size_t row = size_; row < count; ++row) {
+    std::memcpy(nextRow(), rows + row * row_bytes_, row_bytes_);
+  }
 }
 
 void QuantizedVectors::append(const float* vector) { encode(vector, dimension_, nextRow()); }
@@ -84,7 +100,8 @@ void QuantizedVectors::appendRow(const uint8_t* row, size_t bytes) {
 }
 
 size_t QuantizedVectors::bytes() const {
-  return chunks_.size() * kChunkRows * row_bytes_ + chunks_.capacity() * sizeof(void*);
+  return (adopted_rows_ + owned_.size() * kChunkRows) * row_bytes_ +
+         (chunks_.capacity() + owned_.capacity()) * sizeof(void*);
 }
 
 }  // namespace landmark_loop_closure

@@ -69,6 +69,43 @@ struct KeyframeStore::Connection {
     return value;
   }
 
+  /// The number the map's meta holds under `key`; nullopt when missing or not a number.
+  std::optional<uint64_t> metaNumber(const std::string& key) {
+    const std::optional<std::string> text = meta(key);
+    if (!text) return std::nullopt;
+    try {
+      return std::stoull(*text);
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+  }
+
+  /// Sets count and last_id. Keyframes are only ever appended, so the saved search rows' seal
+  /// (vectors_rows keyframes up to vectors_last_id) stays true: only the keyframes after it are
+  /// counted, which spares reading every row of a large map (seconds at 1 000 000).
+  void countKeyframes() {
+    const std::optional<uint64_t> sealed_rows = metaNumber("vectors_rows");
+    const std::optional<uint64_t> sealed_last = metaNumber("vectors_last_id");
+    bool sealed = false;
+    if (sealed_rows && sealed_last && *sealed_rows > 0) {
+      sqlite3_stmt* at = prepare("SELECT 1 FROM keyframes WHERE id = ?");
+      sqlite3_bind_int64(at, 1, static_cast<sqlite3_int64>(*sealed_last));
+      sealed = sqlite3_step(at) == SQLITE_ROW;
+      sqlite3_finalize(at);
+    }
+    sqlite3_stmt* counted = prepare("SELECT COUNT(*) FROM keyframes WHERE id > ?");
+    sqlite3_bind_int64(counted, 1, sealed ? static_cast<sqlite3_int64>(*sealed_last) : -1);
+    if (sqlite3_step(counted) == SQLITE_ROW) {
+      count = static_cast<size_t>(sqlite3_column_int64(counted, 0)) + (sealed ? *sealed_rows : 0);
+    }
+    sqlite3_finalize(counted);
+    sqlite3_stmt* last = prepare("SELECT MAX(id) FROM keyframes");
+    if (sqlite3_step(last) == SQLITE_ROW && sqlite3_column_type(last, 0) != SQLITE_NULL) {
+      last_id = static_cast<uint64_t>(sqlite3_column_int64(last, 0));
+    }
+    sqlite3_finalize(last);
+  }
+
   void setMeta(const std::string& key, const std::string& value) {
     sqlite3_stmt* statement = prepare("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)");
     sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);

@@ -72,6 +72,7 @@ struct Settings {
   bool reopen_only = false;
   IndexOptions index;  ///< The shipped graph settings unless --ef-construction / --neighbors.
   std::vector<int> ef_search = {IndexOptions().ef_search};
+  bench::RouteShape route = bench::RouteShape::kMeasured;
 };
 
 // One keyframe as the node stores it with the shipped settings and a depth camera: `image_path`
@@ -161,7 +162,7 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
       << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
          "file B/keyframe | query + re-rank ms median / p99 | recall@10 | revisit in top-10 "
          "|\n|---|---|---|---|---|---|---|---|\n";
-  route->emplace(dimension, 7);
+  route->emplace(dimension, 7, settings.route);
   auto store = KeyframeStore::open(path, identity, dimension);
   KeyframeDatabase database(dimension, index);
   attachReader(&database, store.get());
@@ -192,7 +193,7 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
     }
   }
   const auto save_start = Clock::now();
-  store->saveGraph(index.graphIdentity(), *database.graph());
+  store->saveGraph(index.graphIdentity(), database);
   std::printf("\nGraph saved in %.2f s (%.0f MB).\n", msSince(save_start) / 1000.0,
               static_cast<double>(fs::file_size(store->graphPath())) / 1e6);
 }
@@ -235,6 +236,13 @@ int main(int argc, char** argv) {
       settings.index.ef_construction = std::stoi(value);
     } else if (key == "--neighbors") {
       settings.index.neighbors = std::stoi(value);
+    } else if (key == "--route") {
+      if (value != "measured" && value != "isotropic") {
+        std::cerr << "--route is measured or isotropic\n";
+        return 2;
+      }
+      settings.route =
+          value == "measured" ? bench::RouteShape::kMeasured : bench::RouteShape::kIsotropic;
     } else if (key == "--ef") {
       settings.ef_search.clear();
       std::istringstream list(value);
@@ -266,9 +274,7 @@ int main(int argc, char** argv) {
   IndexOptions exact = index;
   exact.type = "exact";
   KeyframeDatabase reopened(dimension, exact);
-  store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
-    reopened.addSummary(summary, row, bytes);
-  });
+  store->loadSearch(&reopened);
   attachReader(&reopened, store.get());
   const auto graph_start = Clock::now();
   std::unique_ptr<ApproximateIndex> graph =
@@ -280,7 +286,7 @@ int main(int argc, char** argv) {
   std::printf("\nReopened %zu keyframes in %.2f s (graph %s in %.2f s); RSS %.0f MB.\n",
               reopened.size(), open_s, reused ? "read" : "REBUILT", graph_s, residentMegabytes());
   if (!route) {
-    route.emplace(dimension, 7);
+    route.emplace(dimension, 7, settings.route);
     for (size_t row = 0; row < reopened.size(); row += kPlaceEvery) {
       places.push_back(QuantizedVectors::decode(reopened.vectors()->row(row), dimension));
     }
@@ -296,7 +302,7 @@ int main(int argc, char** argv) {
   }
   // Closed as a node shuts down: the graph and rows saved for the next open.
   const auto save_start = Clock::now();
-  store->saveGraph(index.graphIdentity(), *reopened.graph());
+  store->saveGraph(index.graphIdentity(), reopened);
   std::printf("\nGraph and search rows saved in %.2f s.\n", msSince(save_start) / 1000.0);
   return 0;
 }

@@ -109,6 +109,11 @@ class KeyframeDatabase {
   /// Stores a keyframe known only by its summary and encoded global row (QuantizedVectors), its
   /// record left to the reader: how a map file is opened. Throws as add() does.
   void addSummary(const KeyframeSummary& summary, const uint8_t* vector_row, size_t row_bytes);
+  /// Stores `count` keyframes of a map at once, into an empty database: their rows (`count` rows
+  /// one after the other, as QuantizedVectors encodes them) used in place, kept readable by
+  /// `owner` (the mapped file), their summaries `summary_of(0..count-1)`. Throws as add() does.
+  void addSaved(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count,
+                const std::function<KeyframeSummary(size_t)>& summary_of);
   /// From now on records are read by `reader` and RAM keeps at most `cached_records` of them (the
   /// newest ones and the latest read); the records held so far are dropped.
   void readRecordsFrom(RecordReader reader, size_t cached_records);

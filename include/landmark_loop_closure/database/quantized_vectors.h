@@ -34,13 +34,17 @@ class QuantizedVectors {
   void append(const float* vector);
   /// Appends a row as encode() wrote it. Throws std::invalid_argument for another length.
   void appendRow(const uint8_t* row, size_t bytes);
+  /// Takes `count` rows (one after the other, as encode() writes them) into empty vectors without
+  /// copying them: `owner` (a mapped file) keeps `rows` readable for as long as they are used.
+  /// Rows appended later go after them. Throws std::logic_error when rows are held already.
+  void adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count);
   size_t size() const { return size_; }
   const uint8_t* row(size_t index) const {
-    return chunks_[index / kChunkRows].get() + (index % kChunkRows) * row_bytes_;
+    return chunks_[index / kChunkRows] + (index % kChunkRows) * row_bytes_;
   }
   /// Inner product of a row built by encode() with row `index`.
   float dot(const uint8_t* query, size_t index) const { return dot(query, row(index), dimension_); }
-  /// Heap bytes held.
+  /// Bytes held: the heap's and the adopted rows (memory once read, if the kernel's to reclaim).
   size_t bytes() const;
 
  private:
@@ -50,7 +54,10 @@ class QuantizedVectors {
   int dimension_;
   size_t row_bytes_;
   size_t size_ = 0;
-  std::vector<std::unique_ptr<uint8_t[]>> chunks_;
+  std::vector<const uint8_t*> chunks_;  ///< kChunkRows rows each: adopted ones, then owned_.
+  std::vector<std::unique_ptr<uint8_t[]>> owned_;
+  std::shared_ptr<const void> adopted_owner_;
+  size_t adopted_rows_ = 0;
 };
 
 }  // namespace landmark_loop_closure

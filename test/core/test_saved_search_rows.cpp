@@ -1,0 +1,296 @@
+// What a map keeps beside it for search: the graph and the 8-bit rows saved at a clean shutdown.
+// Both are used only when they are this map's own; rows are mapped in place rather than copied,
+// later saves append only the new rows, and a crash in the middle of a save leaves files that are
+// not used rather than wrong ones.
+#include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "keyframe_fixtures.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
+
+using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kDimension = 6;
+const std::string kIdentity = "type=test dimension=6";
+
+class KeyframeStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = fs::temp_directory_path() /
+              ("saved_search_" + std::to_string(::getpid()) + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_);
+    path_ = (folder_ / "map.db").string();
+  }
+  void TearDown() override { fs::remove_all(folder_); }
+
+  void execute(const std::string& sql) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sql;
+    sqlite3_close(db);
+  }
+
+  fs::path folder_;
+  std::string path_;
+};
+
+std::string bytesOf(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+ino_t inodeOf(const std::string& path) {
+  struct stat status {};
+  ::stat(path.c_str(), &status);
+  return status.st_ino;
+}
+
+IndexOptions graphOptions() {
+  IndexOptions graph;
+  graph.type = "approximate";
+  graph.neighbors = 8;
+  return graph;
+}
+
+}  // namespace
+
+TEST(QuantizedVectorsAdopt, RowsTakenInPlaceReadAndGrowAsCopiedOnes) {
+  constexpr size_t kRows = 2500;  // Two whole chunks of 1024 rows, then part of a third.
+  QuantizedVectors copied(kDimension);
+  std::vector<uint8_t> block;
+  for (size_t i = 0; i < kRows; ++i) {
+    const std::vector<float> vector = makeKeyframe(i, 0).descriptor.global;
+    const std::vector<uint8_t> row = QuantizedVectors::encode(vector);
+    block.insert(block.end(), row.begin(), row.end());
+    copied.append(vector.data());
+  }
+  auto owner = std::make_shared<std::vector<uint8_t>>(block);
+  QuantizedVectors adopted(kDimension);
+  adopted.adopt(owner, owner->data(), kRows);
+  for (size_t i = kRows; i < kRows + 600; ++i) {
+    const std::vector<float> vector = makeKeyframe(i, 0).descriptor.global;
+    copied.append(vector.data());
+    adopted.append(vector.data());
+  }
+  ASSERT_EQ(adopted.size(), copied.size());
+  for (size_t i = 0; i < adopted.size(); ++i) {
+    ASSERT_EQ(0, std::memcmp(adopted.row(i), copied.row(i), copied.rowBytes())) << i;
+  }
+  EXPECT_EQ(adopted.row(0), owner->data()) << "whole chunks are used where they lie";
+  EXPECT_EQ(adopted.row(2047), owner->data() + 2047 * adopted.rowBytes());
+  EXPECT_NE(adopted.row(2048), owner->data() + 2048 * adopted.rowBytes())
+      << "the part-filled last chunk is copied, so rows can be appended after it";
+  EXPECT_GE(adopted.bytes(), adopted.size() * adopted.rowBytes());
+  EXPECT_THROW(adopted.adopt(owner, owner->data(), 1), std::logic_error);
+}
+
+TEST_F(KeyframeStoreTest, ASavedSearchGraphIsGivenBackOnlyForItsSettingsAndItsOwnFile) {
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  for (uint64_t id = 0; id < 5; ++id) store->add(makeKeyframe(id, 0));
+  const auto openDatabase = [&] {
+    KeyframeDatabase database(kDimension, IndexOptions{});
+    store->forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+      database.addSummary(summary, row, bytes);
+    });
+    return database;
+  };
+  const KeyframeDatabase database = openDatabase();
+  ASSERT_NE(database.graph(), nullptr);
+  store->saveGraph("hnsw M=16", database);
+
+  KeyframeDatabase reopened = openDatabase();
+  auto graph = store->loadGraph("hnsw M=16", reopened.vectors(), 16);
+  ASSERT_NE(graph, nullptr);
+  EXPECT_EQ(graph->size(), 5u);
+  EXPECT_EQ(store->loadGraph("hnsw M=32", reopened.vectors(), 16), nullptr) << "other settings";
+
+  // After a crash the map holds keyframes the graph does not: it is given back and the
+  // database links the rest in.
+  store->add(makeKeyframe(5, 0));
+  KeyframeDatabase grown = openDatabase();
+  graph = store->loadGraph("hnsw M=16", grown.vectors(), 16);
+  ASSERT_NE(graph, nullptr);
+  grown.setIndex(IndexOptions{}, std::move(graph));
+  EXPECT_EQ(grown.graph()->size(), 6u);
+
+  // A graph file changed behind the map's back (another map's, or damaged) is not used.
+  {
+    std::ofstream append(store->graphPath(), std::ios::binary | std::ios::app);
+    append << "x";
+  }
+  EXPECT_EQ(store->loadGraph("hnsw M=16", grown.vectors(), 16), nullptr);
+}
+
+TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCrashesAddTheRest) {
+  std::vector<std::vector<uint8_t>> expected;
+  const auto rowsOf = [](const KeyframeStore& store) {
+    std::vector<std::vector<uint8_t>> rows;
+    std::vector<uint64_t> ids;
+    store.forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
+      rows.emplace_back(row, row + bytes);
+      ids.push_back(summary.id);
+    });
+    return std::make_pair(rows, ids);
+  };
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    IndexOptions graph;
+    graph.type = "approximate";
+    KeyframeDatabase database(kDimension, graph);
+    for (uint64_t id = 1; id <= 6; ++id) {
+      store->add(makeKeyframe(id, 0));
+      database.add(makeKeyframe(id, 0));
+    }
+    expected = rowsOf(*store).first;  // From the database rows: nothing saved yet.
+    store->saveGraph("hnsw M=8", database);
+    EXPECT_TRUE(fs::exists(store->vectorsPath()));
+    // Then two more before a crash: not in the saved rows.
+    for (uint64_t id = 7; id <= 8; ++id) {
+      store->add(makeKeyframe(id, 1));
+      expected.push_back(QuantizedVectors::encode(makeKeyframe(id, 1).descriptor.global));
+    }
+  }
+  // Keyframe 3's row in the map is spoilt behind the store's back: read from the saved rows, it
+  // does not matter.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "UPDATE keyframes SET vector = x'00' WHERE id = 3", nullptr, nullptr,
+                         nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  auto [rows, ids] = rowsOf(*store);
+  EXPECT_EQ(ids, (std::vector<uint64_t>{1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_EQ(rows, expected);
+  // A damaged rows file is not used: the map's rows are read, and keyframe 3's is refused.
+  {
+    std::fstream damage(store->vectorsPath(), std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(30);
+    damage.put('\x55');
+  }
+  try {
+    rowsOf(*store);
+    ADD_FAILURE() << "the damaged rows file was used";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("keyframe 3 is damaged"), std::string::npos)
+        << error.what();
+  }
+}
+
+TEST_F(KeyframeStoreTest, ALaterSaveAppendsOnlyTheNewRowsAndOpeningMapsThem) {
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  KeyframeDatabase database(kDimension, graphOptions());
+  for (uint64_t id = 1; id <= 5; ++id) {
+    store->add(makeKeyframe(id, 0));
+    database.add(makeKeyframe(id, 0));
+  }
+  store->saveGraph("hnsw M=8", database);
+  const std::string first = bytesOf(store->vectorsPath());
+  const ino_t inode = inodeOf(store->vectorsPath());
+  for (uint64_t id = 6; id <= 9; ++id) {
+    store->add(makeKeyframe(id, 1));
+    database.add(makeKeyframe(id, 1));
+  }
+  store->saveGraph("hnsw M=8", database);
+  const std::string second = bytesOf(store->vectorsPath());
+  EXPECT_EQ(inodeOf(store->vectorsPath()), inode) << "appended to, not written anew";
+  const size_t rows_part = 16 + 5 * (sizeof(float) + kDimension);
+  ASSERT_GT(second.size(), first.size());
+  EXPECT_EQ(second.substr(0, rows_part), first.substr(0, rows_part))
+      << "the rows saved before are left as they were";
+  store.reset();
+
+  // Keyframe 3's row in the map is spoilt: opened from the saved rows it does not matter, and the
+  // summaries come from there too.
+  execute("UPDATE keyframes SET vector = x'00' WHERE id = 3");
+  store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->size(), 9u);
+  KeyframeDatabase reopened(kDimension);
+  store->loadSearch(&reopened);
+  ASSERT_EQ(reopened.size(), 9u);
+  for (size_t i = 0; i < 9; ++i) {
+    const KeyframeRecord expected = makeKeyframe(i + 1, i < 5 ? 0 : 1);
+    EXPECT_EQ(reopened.summary(i).id, expected.id);
+    EXPECT_EQ(reopened.summary(i).session, expected.session);
+    EXPECT_EQ(reopened.summary(i).stamp, expected.stamp);
+    EXPECT_TRUE(reopened.summary(i).pose.position.isApprox(expected.pose.position));
+    EXPECT_EQ(reopened.summary(i).path.metres, expected.path.metres);
+    EXPECT_EQ(QuantizedVectors::decode(reopened.vectors()->row(i), kDimension),
+              QuantizedVectors::decode(database.vectors()->row(i), kDimension));
+  }
+}
+
+TEST_F(KeyframeStoreTest, ASaveCutShortLeavesRowsThatAreNotUsedAndTheCountRight) {
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    for (uint64_t id = 1; id <= 5; ++id) {
+      store->add(makeKeyframe(id, 0));
+      database.add(makeKeyframe(id, 0));
+    }
+    store->saveGraph("hnsw M=8", database);
+    // Then three more and a crash: the map counts them after the saved ones.
+    for (uint64_t id = 6; id <= 8; ++id) store->add(makeKeyframe(id, 1));
+  }
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    EXPECT_EQ(store->size(), 8u);
+    store->add(makeKeyframe(9, 2));
+    EXPECT_THROW(store->add(makeKeyframe(8, 2)), std::runtime_error);
+  }
+  // A save that was appending when the process died: the map says no rows are saved, and the file
+  // holds more than it said before. The map's rows are read (keyframe 3's is spoilt to show it).
+  execute("UPDATE meta SET value = '0' WHERE key = 'vectors_rows'");
+  execute("UPDATE keyframes SET vector = x'00' WHERE id = 3");
+  {
+    std::ofstream append(path_ + "-vectors", std::ios::binary | std::ios::app);
+    append << std::string(40, 'x');
+  }
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->size(), 9u);
+  KeyframeDatabase reopened(kDimension);
+  try {
+    store->loadSearch(&reopened);
+    ADD_FAILURE() << "the half-written rows file was used";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("keyframe 3 is damaged"), std::string::npos)
+        << error.what();
+  }
+}
+
+TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  KeyframeDatabase database(kDimension, graphOptions());
+  for (uint64_t id = 1; id <= 5; ++id) {
+    store->add(makeKeyframe(id, 0));
+    database.add(makeKeyframe(id, 0));
+  }
+  store->saveGraph("hnsw M=8", database);
+  const std::string saved = bytesOf(store->vectorsPath());
+  database.addUnstored(makeKeyframe(6, 0));  // The disk was full when it came.
+  try {
+    store->saveGraph("hnsw M=8", database);
+    ADD_FAILURE() << "rows that do not line up with the map's keyframes were saved";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("not saved"), std::string::npos) << error.what();
+  }
+  EXPECT_EQ(bytesOf(store->vectorsPath()), saved);
+  KeyframeDatabase reopened(kDimension);
+  store->loadSearch(&reopened);
+  EXPECT_EQ(reopened.size(), 5u);
+}
