@@ -9,10 +9,14 @@
 // the node does (summaries, vectors and the saved graph; records stay on disk) and queries again.
 // With --reopen it builds nothing: it reopens the map an earlier run left in --dir and measures
 // query + re-rank and recall at each --ef value (ef_search; default the shipped one). Both modes
-// end by saving the graph and search rows as a node's shutdown does.
+// end by saving the graph and search rows as a node's shutdown does. --route picks the synthetic
+// vectors: "measured" (default; spread like the shipped descriptor's of real images) or
+// "isotropic" (the worst case for a graph); --measure-route DIR,DIR prints how real images'
+// vectors spread next to both routes, and stops.
 //   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
 //                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image camera.jpg]
 //                 [--reopen] [--ef 256,512] [--ef-construction 64] [--neighbors 16]
+//                 [--route measured|isotropic] [--measure-route DIR,DIR]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -35,6 +39,7 @@
 #include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
+#include "route_measurement.h"
 
 namespace {
 
@@ -213,7 +218,8 @@ int main(int argc, char** argv) {
       std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
                    "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n"
                    "              [--reopen] [--ef N,N,...] [--ef-construction N]\n"
-                   "              [--neighbors N]\n";
+                   "              [--neighbors N] [--route measured|isotropic]\n"
+                   "              [--measure-route DIR,DIR,...]\n";
       return key == "--help" || key == "-h" ? 0 : 2;
     }
     const std::string value = argv[i + 1];
@@ -243,6 +249,12 @@ int main(int argc, char** argv) {
       }
       settings.route =
           value == "measured" ? bench::RouteShape::kMeasured : bench::RouteShape::kIsotropic;
+    } else if (key == "--measure-route") {
+      std::vector<std::string> folders;
+      std::istringstream list(value);
+      std::string item;
+      while (std::getline(list, item, ',')) folders.push_back(item);
+      return bench::measureRoutes(*makeDescriptorExtractor(DescriptorOptions{}), folders);
     } else if (key == "--ef") {
       settings.ef_search.clear();
       std::istringstream list(value);
