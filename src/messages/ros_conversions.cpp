@@ -102,12 +102,13 @@ cv::Mat toBgr(const sensor_msgs::Image& image) {
   return bgr;
 }
 
-cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error) {
+cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error, std::string* kind) {
   int type = -1;
   if (image.encoding == enc::TYPE_16UC1 || image.encoding == enc::MONO16) type = CV_16UC1;
   if (image.encoding == enc::TYPE_32FC1) type = CV_32FC1;
   if (type < 0) {
     *error = "depth encoding '" + image.encoding + "' is not 16UC1, mono16 or 32FC1";
+    if (kind != nullptr) *kind = "depth_encoding";
     return {};
   }
   const size_t row_bytes = static_cast<size_t>(image.width) * CV_ELEM_SIZE(type);
@@ -117,6 +118,7 @@ cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error) {
     *error = "depth image " + std::to_string(image.width) + "x" + std::to_string(image.height) +
              " with step " + std::to_string(image.step) + " does not fit its " +
              std::to_string(image.data.size()) + "-byte buffer";
+    if (kind != nullptr) *kind = "depth_size";
     return {};
   }
   const cv::Mat view(static_cast<int>(image.height), static_cast<int>(image.width), type,

@@ -34,8 +34,9 @@ cv::Mat toGrey(const sensor_msgs::Image& image);
 cv::Mat toBgr(const sensor_msgs::Image& image);
 
 /// A copy of a depth image (16UC1 or mono16: CV_16UC1 in the driver's unit; 32FC1: CV_32FC1
-/// metres); an empty Mat and `error` set for other encodings or a malformed buffer.
-cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error);
+/// metres); an empty Mat and `error` set for other encodings or a malformed buffer, with `kind`
+/// (when given) "depth_encoding" or "depth_size".
+cv::Mat toDepth(const sensor_msgs::Image& image, std::string* error, std::string* kind = nullptr);
 
 Pose fromRos(const geometry_msgs::Pose& pose);
 geometry_msgs::Pose toRos(const Pose& pose);

@@ -24,6 +24,7 @@
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
 #include "landmark_loop_closure/config/node_options.h"
+#include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 #include "landmark_loop_closure/runtime/input_monitor.h"
@@ -142,6 +143,7 @@ class LoopClosureNode {
   image_transport::Subscriber depth_subscriber_;
   InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.
   StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{30};  // Callbacks fill, worker reads.
+  KindThrottle depth_warnings_{kWarningPeriod};  ///< The depth decoder's reasons, one silence each.
   std::string camera_mount_frame_;  // Worker thread only: the frame the tf mount was found for.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

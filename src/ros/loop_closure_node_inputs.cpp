@@ -188,11 +188,13 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
     return {};
   }
   std::string error;
+  std::string kind;
   const sensor_msgs::Image& depth_image = **nearest;
-  cv::Mat depth = toDepth(depth_image, &error);
+  cv::Mat depth = toDepth(depth_image, &error, &kind);
   if (!error.empty()) {
-    ROS_WARN_THROTTLE(kWarningPeriod, "Depth image at %.3f not used: %s",
-                      depth_image.header.stamp.toSec(), error.c_str());
+    if (depth_warnings_.allow(kind, ros::WallTime::now().toSec())) {
+      ROS_WARN("Depth image at %.3f not used: %s", depth_image.header.stamp.toSec(), error.c_str());
+    }
     return {};
   }
   if (!hasUsableDepth(depth)) {

@@ -81,3 +81,13 @@ TEST(InputErrorCode, EveryCodeHasAName) {
     EXPECT_STRNE(toString(static_cast<InputErrorCode>(code)), "unknown");
   }
 }
+
+TEST(KindThrottle, EachKindHasItsOwnSilence) {
+  KindThrottle throttle(10.0);
+  EXPECT_TRUE(throttle.allow("encoding", 100.0));
+  EXPECT_FALSE(throttle.allow("encoding", 101.0));
+  EXPECT_TRUE(throttle.allow("size", 102.0)) << "a second kind is not hidden by the first";
+  EXPECT_FALSE(throttle.allow("size", 111.0));
+  EXPECT_TRUE(throttle.allow("encoding", 110.0));
+  EXPECT_TRUE(throttle.allow("size", 112.5));
+}

@@ -190,12 +190,15 @@ TEST(RosConversions, DepthImagesOf16And32BitsAreCopied) {
 
 TEST(RosConversions, UnusableDepthImagesSayWhy) {
   std::string error;
-  EXPECT_TRUE(toDepth(makeImage("mono8", 4, 3, 1), &error).empty());
+  std::string kind;
+  EXPECT_TRUE(toDepth(makeImage("mono8", 4, 3, 1), &error, &kind).empty());
   EXPECT_NE(error.find("'mono8'"), std::string::npos) << error;
+  EXPECT_EQ(kind, "depth_encoding");  // Each kind is throttled apart in the node's log.
   sensor_msgs::Image truncated = makeImage("32FC1", 4, 3, 4);
   truncated.data.resize(20);
-  EXPECT_TRUE(toDepth(truncated, &error).empty());
+  EXPECT_TRUE(toDepth(truncated, &error, &kind).empty());
   EXPECT_NE(error.find("20-byte buffer"), std::string::npos) << error;
+  EXPECT_EQ(kind, "depth_size");
   EXPECT_TRUE(toDepth(makeImage("16UC1", 0, 0, 2), &error).empty());
   // Found by scripts/fuzz.sh: rows that do not start on a sample made OpenCV throw.
   sensor_msgs::Image odd_step = makeImage("16UC1", 4, 3, 2);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 
@@ -58,5 +59,25 @@ std::optional<InputError> checkPose(const Pose& pose, const InputLimits& limits)
 
 /// Pose with its quaternion normalised; call only on a pose that passed checkPose.
 Pose normalisedPose(const Pose& pose);
+
+/// Which warnings to log: each kind at most once per period. ROS_WARN_THROTTLE throttles per line
+/// of code, so where one line reports several kinds of problem, a second kind would stay hidden
+/// behind the first's silence; this keeps one silence per kind.
+class KindThrottle {
+ public:
+  explicit KindThrottle(double period_s) : period_s_(period_s) {}
+  /// Whether a warning of `kind` may be logged at `now_s` (seconds, any steady clock); counts it
+  /// as logged when so.
+  bool allow(const std::string& kind, double now_s) {
+    const auto last = last_s_.find(kind);
+    if (last != last_s_.end() && now_s - last->second < period_s_) return false;
+    last_s_[kind] = now_s;
+    return true;
+  }
+
+ private:
+  double period_s_;
+  std::map<std::string, double> last_s_;
+};
 
 }  // namespace landmark_loop_closure
