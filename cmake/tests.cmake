@@ -73,3 +73,8 @@ add_test(NAME include_layers
 # The package installed into a temporary prefix launches from there and finds its models.
 add_test(NAME tool_install_and_launch
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/install_and_launch.sh ${CMAKE_BINARY_DIR})
+
+# The README's demo command (scripts/demo.sh) runs as written: one line per loop, summary last.
+add_test(NAME tool_demo_script
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/demo_script.sh ${CMAKE_CURRENT_SOURCE_DIR})
+set_tests_properties(tool_demo_script PROPERTIES TIMEOUT 900)

@@ -1,34 +1,84 @@
 #!/usr/bin/env bash
 # One command from a fresh Debian 12 machine: installs what is missing, builds, generates the
 # demo bag (a camera driven twice around a textured corridor, drifting odometry, ground truth)
-# and plays it into the detector headless, printing each loop found as TRUE or FALSE.
-#   scripts/demo.sh [--rviz] [--laps N] [--rate R]
+# and plays it into the detector, printing one line per loop (TRUE or FALSE against ground truth)
+# and a summary at the end. The detector's own log goes to _demo/roslaunch.log.
+#   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--no-setup]
+# --rviz keeps rviz open after the bag, to look at the map, until it is closed or Ctrl-C.
+# --no-setup skips installing and building (what the demo's test does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RVIZ=false
 LAPS=2
 RATE=2.0
+SETUP=true
 while [ $# -gt 0 ]; do
   case "$1" in
     --rviz) RVIZ=true ;;
     --laps) LAPS="$2"; shift ;;
     --rate) RATE="$2"; shift ;;
-    *) echo "usage: scripts/demo.sh [--rviz] [--laps N] [--rate R]" >&2; exit 2 ;;
+    --no-setup) SETUP=false ;;
+    *) echo "usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--no-setup]" >&2; exit 2 ;;
   esac
   shift
 done
 
-scripts/install_deps.sh
-if [ "$RVIZ" = true ] && ! command -v rviz > /dev/null; then
-  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd=sudo
-  $sudo_cmd apt-get install -y -qq --no-install-recommends rviz
+phase() { echo; echo "==== $* ===="; }
+
+if [ "$SETUP" = true ]; then
+  phase "1/4 Installing what is missing"
+  scripts/install_deps.sh
+  if [ "$RVIZ" = true ] && ! command -v rviz > /dev/null; then
+    sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd=sudo
+    echo "installing rviz (apt's output goes to _install.log)"
+    $sudo_cmd apt-get install -y -qq --no-install-recommends rviz >> _install.log 2>&1
+  fi
+  phase "2/4 Building (about 8 minutes on 2 cores the first time)"
+  scripts/build.sh
 fi
-scripts/build.sh
 
 source scripts/ros_env.sh
 mkdir -p _demo
 BAG=_demo/corridor_${LAPS}laps.bag
 if [ ! -f "$BAG" ]; then
+  phase "3/4 Generating the demo bag ($LAPS laps)"
   _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" "$LAPS"
 fi
-roslaunch --screen landmark_loop_closure demo.launch bag:="$(pwd)/$BAG" rviz:="$RVIZ" rate:="$RATE"
+
+phase "4/4 Playing the bag into the detector"
+LOG=_demo/roslaunch.log
+launch_pid=""
+report_pid=""
+finish() {
+  trap - EXIT INT TERM
+  [ -n "$report_pid" ] && kill -INT "$report_pid" 2> /dev/null && wait "$report_pid" || true
+  [ -n "$launch_pid" ] && kill -INT "$launch_pid" 2> /dev/null && wait "$launch_pid" || true
+}
+trap finish EXIT INT TERM
+# The detector (and rviz) under roslaunch, its output in the log; the report and the bag from here,
+# so the console shows the loops and the summary only.
+roslaunch landmark_loop_closure demo.launch rviz:="$RVIZ" > "$LOG" 2>&1 &
+launch_pid=$!
+for _ in $(seq 1 120); do
+  if rosservice list 2> /dev/null | grep -q "^/loop_closure/reset"; then break; fi
+  if ! kill -0 "$launch_pid" 2> /dev/null; then
+    tail -n 20 "$LOG" >&2
+    echo "demo: the detector did not start; its log is $LOG" >&2
+    exit 1
+  fi
+  sleep 0.5
+done
+rosrun landmark_loop_closure demo_report &
+report_pid=$!
+sleep 1  # The report subscribes before the first message.
+rosbag play --clock --quiet --rate="$RATE" "$BAG" > /dev/null
+sleep 3  # The detector's worker finishes the last keyframes.
+if [ "$RVIZ" = true ]; then
+  echo "The bag has ended. rviz stays open with the final map: close it or press Ctrl-C to end."
+fi
+kill -INT "$report_pid" && wait "$report_pid" || true
+report_pid=""
+if [ "$RVIZ" = true ]; then
+  wait "$launch_pid" || true  # Closing rviz ends the launch (rviz is required there).
+  launch_pid=""
+fi
