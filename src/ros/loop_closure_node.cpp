@@ -73,7 +73,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
   markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   image_transport::ImageTransport private_transport(private_node_);
-  match_image_publisher_ = private_transport.advertise("match_image", 1);
+  // Latched: the latest loop stays on view, also for a viewer that starts later.
+  match_image_publisher_ = private_transport.advertise("match_image", 1, true);
 
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);

@@ -158,7 +158,8 @@ class LoopClosureNode {
   ros::Publisher candidates_publisher_;
   ros::Publisher markers_publisher_;
   image_transport::Publisher match_image_publisher_;
-  LoopMarkers markers_;                                      // Worker thread only.
+  bool loop_shown_ = false;  ///< The match view holds the latest loop; worker thread only.
+  LoopMarkers markers_;      // Worker thread only.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
 
   // Database services.

@@ -2,6 +2,7 @@
 // the match image, and the bookkeeping of keyframes online training held.
 #include "loop_closure_node.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include <cv_bridge/cv_bridge.h>
@@ -123,52 +124,73 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
   if (markers_publisher_.getNumSubscribers() > 0) {
     markers_publisher_.publish(markers_.toMsg(job.stamp));
   }
-  if (match_image_publisher_.getNumSubscribers() > 0) publishMatchImage(job, result, grey);
+  publishMatchImage(job, result, grey);
 }
 
 void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                                         const cv::Mat& grey) {
-  if (result.candidates.empty()) return;
+  // Once a loop has been shown it is held (the topic is latched) until the next one: candidates
+  // only fill the view before the first loop.
+  if (!result.loop && (loop_shown_ || match_image_publisher_.getNumSubscribers() == 0)) return;
+  if (!result.loop && result.candidates.empty()) return;
   const CandidateReport& best = result.candidates.front();
-  const std::shared_ptr<const KeyframeRecord> match =
-      detector_.database().findRecord(best.match_id);
-  std::ostringstream caption;
-  caption.precision(3);
-  caption << "keyframe " << result.keyframe_id << " vs " << best.match_id << "  score "
-          << std::fixed << best.score << "  " << toString(best.verdict);
-  if (!best.detail.empty()) caption << ": " << best.detail;
-  if (result.loop && result.loop->verification) {
-    caption << "  " << result.loop->verification->inliers << " inliers";
+  const uint64_t match_id = result.loop ? result.loop->match_id : best.match_id;
+  MatchView view;
+  std::ostringstream headline;
+  std::ostringstream details;
+  details.precision(3);
+  details << std::fixed;
+  if (result.loop) {
+    const AcceptedLoop& loop = *result.loop;
+    view.verdict = MatchView::Verdict::kAccepted;
+    headline << "LOOP  keyframe " << loop.query_id << " -> " << loop.match_id;
+    details << "score " << loop.score;
+    if (loop.verification) {
+      details << "   " << loop.verification->inliers << " inliers";
+    } else {
+      details << "   unverified";
+    }
+    if (loop.metric_pose && loop.metric_pose->found) details << "   metric pose";
+  } else {
+    view.verdict = best.verdict == CandidateVerdict::kAwaitingConsistency
+                       ? MatchView::Verdict::kCandidate
+                       : MatchView::Verdict::kRejected;
+    headline << (view.verdict == MatchView::Verdict::kCandidate ? "CANDIDATE" : "REJECTED")
+             << "  keyframe " << result.keyframe_id << " -> " << best.match_id;
+    details << "score " << best.score << "   " << toString(best.verdict);
+    if (!best.detail.empty()) details << ": " << best.detail;
   }
-  // The stored query keyframe: its thumbnail shares the landmark boxes' 160x120 frame.
+  view.headline = headline.str();
+  view.details = details.str();
+  // The stored keyframes: their thumbnails share the landmark boxes' 160x120 frame.
   const std::shared_ptr<const KeyframeRecord> query =
       detector_.database().findRecord(result.keyframe_id);
-  const cv::Mat query_thumbnail = query ? decodeThumbnail(query->thumbnail) : cv::Mat();
-  const cv::Mat match_thumbnail = match ? decodeThumbnail(match->thumbnail) : cv::Mat();
-  std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
-  std::vector<std::pair<cv::Point2f, cv::Point2f>> inlier_pairs;
-  if (query && match && !query_thumbnail.empty()) {
-    for (const LandmarkMatch& pair :
-         matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features)) {
-      landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
-                                  match->descriptor.landmark_boxes[pair.b]);
+  const std::shared_ptr<const KeyframeRecord> match = detector_.database().findRecord(match_id);
+  view.query = query ? decodeThumbnail(query->thumbnail) : cv::Mat();
+  view.match = match ? decodeThumbnail(match->thumbnail) : cv::Mat();
+  if (query && match && !view.query.empty()) {
+    std::vector<LandmarkMatch> pairs =
+        matchLandmarks(query->descriptor.landmark_features, match->descriptor.landmark_features);
+    std::sort(pairs.begin(), pairs.end(),
+              [](const LandmarkMatch& a, const LandmarkMatch& b) { return a.cosine > b.cosine; });
+    for (const LandmarkMatch& pair : pairs) {
+      view.landmark_pairs.emplace_back(query->descriptor.landmark_boxes[pair.a],
+                                       match->descriptor.landmark_boxes[pair.b]);
     }
-    if (result.loop && result.loop->match_id == match->id && result.loop->verification &&
-        query->local_features.image_size.width > 0) {
+    if (result.loop && result.loop->verification && query->local_features.image_size.width > 0) {
       const float scale =
-          static_cast<float>(query_thumbnail.cols) / query->local_features.image_size.width;
+          static_cast<float>(view.query.cols) / query->local_features.image_size.width;
       for (const auto& [q, m] : result.loop->verification->inlier_pairs) {
-        inlier_pairs.emplace_back(q * scale, m * scale);
+        view.inliers.emplace_back(q * scale, m * scale);
       }
     }
   }
-  const cv::Mat& query_picture = query_thumbnail.empty() ? grey : query_thumbnail;
-  const cv::Mat picture = renderMatchImage(query_picture, match_thumbnail, caption.str(),
-                                           best.verdict == CandidateVerdict::kAccepted, 240,
-                                           landmark_pairs, inlier_pairs);
+  if (view.query.empty()) view.query = grey;
   std_msgs::Header header;
   header.stamp = job.stamp;
-  match_image_publisher_.publish(cv_bridge::CvImage(header, "bgr8", picture).toImageMsg());
+  match_image_publisher_.publish(
+      cv_bridge::CvImage(header, "bgr8", renderMatchImage(view)).toImageMsg());
+  loop_shown_ = loop_shown_ || result.loop.has_value();
 }
 
 }  // namespace landmark_loop_closure

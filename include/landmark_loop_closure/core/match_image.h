@@ -8,15 +8,30 @@
 
 namespace landmark_loop_closure {
 
-/// Query (left) and match (right) side by side, both scaled to `height`, with a caption line
-/// under them (ids and score). Grey inputs are shown in colour so the caption can be coloured.
-/// `matched_boxes`: pairs of landmark boxes (query box, match box), each in its own image's
-/// pixels; every pair is drawn in a colour of its own, as in the landmark paper's figure.
-/// `matched_points`: geometric inliers (query point, match point), each in its own image's
-/// pixels, drawn as green dots joined by a line.
-cv::Mat renderMatchImage(
-    const cv::Mat& query, const cv::Mat& match, const std::string& caption, bool accepted,
-    int height = 240, const std::vector<std::pair<cv::Rect2f, cv::Rect2f>>& matched_boxes = {},
-    const std::vector<std::pair<cv::Point2f, cv::Point2f>>& matched_points = {});
+/// What the match view shows: a keyframe (left) and the keyframe it matched (right).
+struct MatchView {
+  enum class Verdict {
+    kAccepted,   ///< A published loop: the verdict band is green.
+    kCandidate,  ///< Not (yet) a loop, e.g. awaiting consistency: orange.
+    kRejected    ///< Refused (outscored, odometry, geometry): grey.
+  };
+  cv::Mat query;  ///< Grey or colour; empty: a dark placeholder.
+  cv::Mat match;
+  Verdict verdict = Verdict::kCandidate;
+  std::string headline;  ///< The verdict and ids, in large letters on the verdict's colour.
+  std::string details;   ///< Score, inliers, reason: one smaller line under it.
+  /// Matched landmark boxes (query box, match box), each in its own image's pixels, strongest
+  /// first; only the first kMaxLandmarkPairs are drawn, each pair in a colour of its own.
+  std::vector<std::pair<cv::Rect2f, cv::Rect2f>> landmark_pairs;
+  /// Geometric inliers (query point, match point) in each image's pixels: green dots joined.
+  std::vector<std::pair<cv::Point2f, cv::Point2f>> inliers;
+
+  static constexpr size_t kMaxLandmarkPairs = 5;
+};
+
+/// The view as one picture: a band with the headline (white on the verdict's colour) and the
+/// details line on top, then both images side by side at `height` pixels. Sized to be read in
+/// rviz's image panel at its default size.
+cv::Mat renderMatchImage(const MatchView& view, int height = 240);
 
 }  // namespace landmark_loop_closure
