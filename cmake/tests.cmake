@@ -78,3 +78,18 @@ add_test(NAME tool_install_and_launch
 add_test(NAME tool_demo_script
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/demo_script.sh ${CMAKE_CURRENT_SOURCE_DIR})
 set_tests_properties(tool_demo_script PROPERTIES TIMEOUT 900)
+
+# The demo in the real rviz under Xvfb: no display in error from start to end, loops green, an
+# accepted loop in the match view. Its last screenshot is the README's picture (docs/rviz_demo.png).
+find_package(X11)
+if(X11_FOUND)
+  add_executable(rviz_screenshot test/tools/rviz_screenshot.cpp)
+  target_include_directories(rviz_screenshot SYSTEM PRIVATE ${X11_INCLUDE_DIR})
+  target_link_libraries(rviz_screenshot ${X11_LIBRARIES} ${OpenCV_LIBS})
+  add_test(NAME tool_rviz_screenshot
+    COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/rviz_screenshot.sh ${CMAKE_CURRENT_SOURCE_DIR}
+      $<TARGET_FILE:rviz_screenshot> ${CMAKE_CURRENT_BINARY_DIR}/rviz_demo.png)
+  set_tests_properties(tool_rviz_screenshot PROPERTIES TIMEOUT 600)
+else()
+  message(FATAL_ERROR "libx11-dev is missing: scripts/install_deps.sh installs it")
+endif()

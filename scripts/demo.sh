@@ -28,11 +28,6 @@ phase() { echo; echo "==== $* ===="; }
 if [ "$SETUP" = true ]; then
   phase "1/4 Installing what is missing"
   scripts/install_deps.sh
-  if [ "$RVIZ" = true ] && ! command -v rviz > /dev/null; then
-    sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd=sudo
-    echo "installing rviz (apt's output goes to _install.log)"
-    $sudo_cmd apt-get install -y -qq --no-install-recommends rviz >> _install.log 2>&1
-  fi
   phase "2/4 Building (about 8 minutes on 2 cores the first time)"
   scripts/build.sh
 fi

@@ -15,6 +15,7 @@ PACKAGES=(
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev
   python3-onnx python3-numpy python3-matplotlib
+  rviz xvfb libx11-dev
 )
 # npm fetches the pretrained backbone; a Node.js that brings its own npm is enough.
 if ! command -v npm > /dev/null; then PACKAGES+=(nodejs npm); fi

@@ -122,11 +122,16 @@ visualization_msgs::MarkerArray LoopMarkers::toMsg(const ros::Time& stamp) const
   }
 
   visualization_msgs::Marker legend =
-      makeMarker(frame_id_, stamp, "legend", visualization_msgs::Marker::TEXT_VIEW_FACING, 0.4);
+      makeMarker(frame_id_, stamp, "legend", visualization_msgs::Marker::TEXT_VIEW_FACING, 0.6);
   if (keyframes_.empty()) {
     legend.action = visualization_msgs::Marker::DELETE;
   } else {
-    legend.pose.position = keyframes_.front();
+    // Above the middle of the map, where rviz's view is centred, so the line stays in view.
+    for (const geometry_msgs::Point& keyframe : keyframes_) {
+      legend.pose.position.x += keyframe.x / static_cast<double>(keyframes_.size());
+      legend.pose.position.y += keyframe.y / static_cast<double>(keyframes_.size());
+      legend.pose.position.z = std::max(legend.pose.position.z, keyframe.z);
+    }
     legend.pose.position.z += 1.5;
     legend.color = colour(1.0f, 1.0f, 1.0f, 1.0f);
     legend.text = show_rejected_ ? "blue: keyframes  green: verified loop  orange: unverified  "

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# The demo in the real rviz with the shipped config, on a virtual screen (Xvfb): screenshots while
+# the bag plays and after it must show no display in error, and the last one green loops and an
+# accepted loop in the match view, with no warning left. The last screenshot is left in OUT (the
+# README's picture is one).
+#   rviz_screenshot.sh SOURCE_DIR SCREENSHOT_TOOL OUT.png
+set -euo pipefail
+SOURCE=$1
+TOOL=$2
+OUT=$3
+cd "$SOURCE"
+for program in Xvfb rviz; do
+  command -v "$program" > /dev/null || { echo "FAIL: $program is not installed (scripts/install_deps.sh)" >&2; exit 1; }
+done
+export PATH="/usr/bin:$PATH"
+# A master of its own, so a roscore a developer runs is left alone.
+export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:11741
+set +u
+source _build/devel/setup.bash
+set -u
+mkdir -p _demo
+BAG=_demo/corridor_2laps.bag
+[ -f "$BAG" ] || _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" 2 > /dev/null
+work=$(mktemp -d)
+display=":$((90 + $$ % 9))"
+xvfb_pid=""
+launch_pid=""
+cleanup() {
+  [ -n "$launch_pid" ] && kill -INT "$launch_pid" 2> /dev/null && wait "$launch_pid" || true
+  [ -n "$xvfb_pid" ] && kill "$xvfb_pid" 2> /dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+Xvfb "$display" -screen 0 1400x900x24 -nolisten tcp > "$work/xvfb.log" 2>&1 &
+xvfb_pid=$!
+export DISPLAY=$display
+sleep 2
+roslaunch -p 11741 landmark_loop_closure demo.launch rviz:=true > "$work/launch.log" 2>&1 &
+launch_pid=$!
+for _ in $(seq 1 120); do
+  rosservice list 2> /dev/null | grep -q "^/loop_closure/reset" && break
+  kill -0 "$launch_pid" 2> /dev/null || { cat "$work/launch.log"; echo "FAIL: the demo did not start" >&2; exit 1; }
+  sleep 0.5
+done
+sleep 5  # rviz up and subscribed.
+"$TOOL" "$work/start.png"
+rosbag play --clock --quiet --rate=4 "$BAG" > /dev/null &
+play_pid=$!
+sleep 12
+"$TOOL" "$work/middle.png"
+wait "$play_pid"
+sleep 4  # The last keyframes, and rviz draws them.
+"$TOOL" "$OUT" --final
