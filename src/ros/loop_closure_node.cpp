@@ -158,11 +158,14 @@ LoopClosureNode::~LoopClosureNode() {
   runtime_->stop();
   runtime_->withDetector([](LoopDetector& detector) {
     if (detector.mapPath().empty()) return false;
+    const ros::WallTime start = ros::WallTime::now();
     const std::string error = detector.saveMapGraph();
+    const double seconds = (ros::WallTime::now() - start).toSec();
     if (!error.empty()) ROS_WARN("%s", error.c_str());
-    ROS_INFO("Map %s: %zu keyframes, each committed when it was stored%s",
+    ROS_INFO("Map %s: %zu keyframes, each committed when it was stored%s%.2f s",
              detector.mapPath().c_str(), detector.database().size(),
-             error.empty() ? ", and the search graph" : "");
+             error.empty() ? "; search graph and rows saved in " : "; search files not saved, ",
+             seconds);
     return false;
   });
 }
