@@ -93,3 +93,7 @@ if(X11_FOUND)
 else()
   message(FATAL_ERROR "libx11-dev is missing: scripts/install_deps.sh installs it")
 endif()
+
+# The README's tool commands run as written (evaluations as dry runs; README "Evaluate").
+add_test(NAME tool_readme_commands
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/readme_commands.sh ${CMAKE_CURRENT_SOURCE_DIR})

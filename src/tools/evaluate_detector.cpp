@@ -191,6 +191,10 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
   std::printf("detector: %s\n  config %s\n  %s\n", dataset.c_str(),
               config.empty() ? "built-in defaults (= config/default.yaml)" : config.c_str(),
               source.description.c_str());
+  if (arguments.has("--dry-run")) {
+    std::printf("  dry run: arguments, config and data read; nothing evaluated\n");
+    return 0;
+  }
   if (!source.has_odometry) options.odometry_gate.enabled = false;
   if (!source.has_intrinsics && options.verification.enabled) {
     options.verification.enabled = false;

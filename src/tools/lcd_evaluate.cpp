@@ -100,6 +100,8 @@ OPTIONS:
   --output DIR         where results go (default lcd_results)
   --name TEXT          dataset name written into the results
   --matrix-size N      largest side of the similarity pictures (default 1000)
+  --dry-run            read the arguments, the config, the images' list and the ground truth,
+                       say what would be evaluated, and stop (a test runs the README's commands so)
 )";
 
 Arguments parse(int argc, char** argv) {
@@ -111,7 +113,7 @@ Arguments parse(int argc, char** argv) {
       std::exit(0);
     }
     if (key == "--as-sequence" || key == "--detector" || key == "--no-ground-truth" ||
-        key == "--train-on-eval") {  // Flags without a value.
+        key == "--train-on-eval" || key == "--dry-run") {  // Flags without a value.
       arguments.values[key] = "true";
       continue;
     }
@@ -296,6 +298,14 @@ int run(const Arguments& arguments) {
                            " database images (wrong file, or --limit?)");
   }
   if (!no_truth) requirePositives(truth, run.ground_truth);
+  if (arguments.has("--dry-run") && !arguments.has("--detector")) {
+    for (const std::string& name : names) descriptorVariant(name, arguments);
+    std::printf("dry run: %zu database and %zu query images of %s, ground truth %s, descriptors %s;"
+                " nothing evaluated\n",
+                run.database_images, run.query_images, run.dataset.c_str(),
+                run.ground_truth.c_str(), arguments.get("--descriptors", "the defaults").c_str());
+    return 0;
+  }
   if (arguments.has("--detector")) {
     std::vector<Pose> poses;
     std::vector<double> stamps;
