@@ -300,10 +300,11 @@ int run(const Arguments& arguments) {
   if (!no_truth) requirePositives(truth, run.ground_truth);
   if (arguments.has("--dry-run") && !arguments.has("--detector")) {
     for (const std::string& name : names) descriptorVariant(name, arguments);
-    std::printf("dry run: %zu database and %zu query images of %s, ground truth %s, descriptors %s;"
-                " nothing evaluated\n",
-                run.database_images, run.query_images, run.dataset.c_str(),
-                run.ground_truth.c_str(), arguments.get("--descriptors", "the defaults").c_str());
+    std::printf(
+        "dry run: %zu database and %zu query images of %s, ground truth %s, descriptors %s;"
+        " nothing evaluated\n",
+        run.database_images, run.query_images, run.dataset.c_str(), run.ground_truth.c_str(),
+        arguments.get("--descriptors", "the defaults").c_str());
     return 0;
   }
   if (arguments.has("--detector")) {
