@@ -22,7 +22,6 @@ mkdir -p _demo
 BAG=_demo/corridor_2laps.bag
 [ -f "$BAG" ] || _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" 2 > /dev/null
 work=$(mktemp -d)
-display=":$((90 + $$ % 9))"
 xvfb_pid=""
 launch_pid=""
 cleanup() {
@@ -31,10 +30,12 @@ cleanup() {
   rm -rf "$work"
 }
 trap cleanup EXIT
-Xvfb "$display" -screen 0 1400x900x24 -nolisten tcp > "$work/xvfb.log" 2>&1 &
+# Xvfb picks a free display and writes its number to fd 3.
+Xvfb -displayfd 3 -screen 0 1400x900x24 -nolisten tcp 3> "$work/display" > "$work/xvfb.log" 2>&1 &
 xvfb_pid=$!
-export DISPLAY=$display
-sleep 2
+for _ in $(seq 1 50); do [ -s "$work/display" ] && break; sleep 0.2; done
+[ -s "$work/display" ] || { cat "$work/xvfb.log"; echo "FAIL: Xvfb did not start" >&2; exit 1; }
+export DISPLAY=":$(head -n 1 "$work/display")"
 roslaunch -p 11741 landmark_loop_closure demo.launch rviz:=true > "$work/launch.log" 2>&1 &
 launch_pid=$!
 for _ in $(seq 1 120); do
