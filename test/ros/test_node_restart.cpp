@@ -2,11 +2,12 @@
 // (its map committed keyframe by keyframe) and started again for the second lap with its odometry
 // restarted at the origin. The second run loads the first run's keyframes as session 0 and finds
 // loops into them. Also: a node killed mid-run keeps every keyframe it published (each is
-// committed first); a corrupt map or a missing or corrupt model stops the node at start, saying
-// which file.
+// committed first); a full disk refuses keyframes to the map but not to search, and the node runs
+// on; a corrupt map or a missing or corrupt model stops the node at start, saying which file.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -347,6 +348,67 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   ros::param::set("/loop_closure/database_path", std::string());
   std::filesystem::remove(path);
   std::filesystem::remove(save.request.path);
+}
+
+TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {
+  const std::string path = (std::filesystem::temp_directory_path() / "lcd_node_full.db").string();
+  const std::string log = (std::filesystem::temp_directory_path() / "lcd_node_full.log").string();
+  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors"}) {
+    std::filesystem::remove(path + suffix);
+  }
+  ros::param::set("/loop_closure/database_path", path);
+
+  // The disk fills after ~1 MB of map: a file-size limit the node inherits, with SIGXFSZ ignored
+  // so that writes past it fail as they do on a full disk (ENOSPC) instead of killing the node.
+  rlimit previous{};
+  getrlimit(RLIMIT_FSIZE, &previous);
+  rlimit limited = previous;
+  limited.rlim_cur = 1 << 20;
+  signal(SIGXFSZ, SIG_IGN);
+  setrlimit(RLIMIT_FSIZE, &limited);
+  test_support::NodeHarness harness;
+  const pid_t node = startNode(log);
+  setrlimit(RLIMIT_FSIZE, &previous);
+  ASSERT_GT(node, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.start_stamp = 1700000000.0;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  ros::WallRate rate(test_support::kPublishRateHz);
+  SequenceFrame frame;
+  size_t published_before_full = 0;
+  while (ros::ok() && sequence.next(&frame) && frame.index < 400) {
+    harness.publish(frame.stamp, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+    if (frame.index == 50) published_before_full = harness.keyframes().size();
+  }
+  const ros::WallTime drain = ros::WallTime::now() + ros::WallDuration(2.0);
+  while (ros::WallTime::now() < drain) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  EXPECT_EQ(waitpid(node, nullptr, WNOHANG), 0) << "the node died when the disk filled";
+  const size_t published = harness.keyframes().size();
+  EXPECT_TRUE(stopNode(node)) << "the node did not stop on SIGINT";
+  const std::string output = readFile(log);
+  EXPECT_NE(output.find("is kept in memory only"), std::string::npos)
+      << "the disk never filled, or the node did not say so:\n"
+      << output;
+
+  // Keyframes kept coming after the disk filled, and the map holds those committed before.
+  const auto map = KeyframeStore::openExisting(path);
+  std::printf("disk full: %zu keyframes published, %zu in the map\n", published, map->size());
+  EXPECT_GT(published, published_before_full + 20);
+  EXPECT_GT(map->size(), 5u);
+  EXPECT_LT(map->size(), published);
+  map->forEach([](const KeyframeRecord&) {});  // Every committed keyframe reads back whole.
+  ros::param::set("/loop_closure/database_path", std::string());
+  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors"}) {
+    std::filesystem::remove(path + suffix);
+  }
+  std::filesystem::remove(log);
 }
 
 int main(int argc, char** argv) {
