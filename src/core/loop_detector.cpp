@@ -242,6 +242,7 @@ std::string LoopDetector::openMap(const std::string& path) {
     return error.what();
   }
   map_graph_reused_ = graph_reused;
+  map_leftovers_removed_ = store->leftoversRemoved();
   database_ = std::move(loaded);
   store_ = std::move(store);
   session_ = database_.empty() ? 0 : last_session + 1;

@@ -45,7 +45,18 @@ void checkPath(const std::string& path) {
 std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
                                                    const std::string& descriptor_identity,
                                                    int global_dimension) {
-  return openChecked(path, &descriptor_identity, global_dimension);
+  auto store = openChecked(path, &descriptor_identity, global_dimension);
+  // A save killed midway (the search files at shutdown, a copy onto this path) leaves its
+  // temporary file; this process holds the map now, so they are nobody's.
+  for (const std::string& leftover :
+       {store->graphPath() + ".tmp", store->vectorsPath() + ".tmp", path + ".partial"}) {
+    std::error_code error;
+    if (std::filesystem::is_regular_file(leftover, error) &&
+        std::filesystem::remove(leftover, error)) {
+      store->leftovers_removed_.push_back(leftover);
+    }
+  }
+  return store;
 }
 
 std::unique_ptr<KeyframeStore> KeyframeStore::openExisting(const std::string& path) {

@@ -93,6 +93,9 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
     if (!error.empty()) throw std::runtime_error(error);
     database_status_ = options_.database_path;
     session_ = detector_.session();
+    for (const std::string& leftover : detector_.mapLeftoversRemoved()) {
+      ROS_INFO("Removed %s, left by a save that was interrupted", leftover.c_str());
+    }
     noteMapSize(detector_);
     if (!detector_.extractor()) {
       ROS_INFO("Map %s is opened once online training has made the descriptor",

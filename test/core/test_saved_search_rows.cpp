@@ -294,3 +294,19 @@ TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
   store->loadSearch(&reopened);
   EXPECT_EQ(reopened.size(), 5u);
 }
+
+TEST_F(KeyframeStoreTest, OpeningRemovesWhatAnInterruptedSaveLeftAndSaysSo) {
+  KeyframeStore::open(path_, kIdentity, kDimension)->add(makeKeyframe(1, 0));
+  for (const std::string& leftover : {path_ + "-graph.tmp", path_ + "-vectors.tmp"}) {
+    std::ofstream(leftover) << "half a file";
+  }
+  // Tools that only read a map leave them alone.
+  KeyframeStore::openExisting(path_);
+  EXPECT_TRUE(fs::exists(path_ + "-graph.tmp"));
+  const auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->leftoversRemoved(),
+            (std::vector<std::string>{path_ + "-graph.tmp", path_ + "-vectors.tmp"}));
+  EXPECT_FALSE(fs::exists(path_ + "-graph.tmp"));
+  EXPECT_FALSE(fs::exists(path_ + "-vectors.tmp"));
+  EXPECT_EQ(store->size(), 1u);
+}

@@ -215,6 +215,8 @@ class LoopDetector {
   std::string saveMapGraph();
   /// Whether the last openMap() found the map's saved search graph (else it was built).
   bool mapGraphReused() const { return map_graph_reused_; }
+  /// Temporary files of an interrupted save that opening the map removed.
+  const std::vector<std::string>& mapLeftoversRemoved() const { return map_leftovers_removed_; }
   /// Worker thread: the open map's file, or "" when keyframes live in memory only.
   std::string mapPath() const { return store_ ? store_->path() : ""; }
   /// Worker thread: writes a copy of the keyframes to `path` as a map (atomically: the copy
@@ -296,6 +298,7 @@ class LoopDetector {
   std::unique_ptr<KeyframeStore> store_;  ///< The map on disk; null: memory only.
   std::string pending_map_path_;          ///< Opened once online training has made the descriptor.
   bool map_graph_reused_ = false;
+  std::vector<std::string> map_leftovers_removed_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

@@ -39,6 +39,8 @@ class KeyframeStore {
   static std::unique_ptr<KeyframeStore> open(const std::string& path,
                                              const std::string& descriptor_identity,
                                              int global_dimension);
+  /// What open() removed beside the map: temporary files of a save that was killed midway.
+  const std::vector<std::string>& leftoversRemoved() const { return leftovers_removed_; }
   /// Opens an existing map whatever its descriptors (tools that copy or merge maps). Throws as
   /// open() does, and when `path` does not exist.
   static std::unique_ptr<KeyframeStore> openExisting(const std::string& path);
@@ -124,6 +126,7 @@ class KeyframeStore {
   std::string descriptor_identity_;
   int global_dimension_ = 0;
   std::unique_ptr<Connection> connection_;
+  std::vector<std::string> leftovers_removed_;
 };
 
 }  // namespace landmark_loop_closure
