@@ -1,11 +1,15 @@
 #pragma once
 
-// Keyframes with every field set, and a field-by-field comparison, for the map file and store
-// tests.
+// Keyframes with every field set, a field-by-field comparison, and a fresh folder per test for the
+// map file and store tests.
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -107,5 +111,23 @@ inline void expectSame(const KeyframeRecord& a, const KeyframeRecord& b) {
   }
   EXPECT_EQ(a.thumbnail, b.thumbnail);
 }
+
+/// A folder of its own for each test (named after it, removed after it) with a map path in it.
+class MapFolderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const ::testing::TestInfo* test = ::testing::UnitTest::GetInstance()->current_test_info();
+    folder_ =
+        std::filesystem::temp_directory_path() / (std::string(test->test_suite_name()) + "_" +
+                                                  std::to_string(::getpid()) + "_" + test->name());
+    std::filesystem::remove_all(folder_);
+    std::filesystem::create_directories(folder_);
+    path_ = (folder_ / "map.db").string();
+  }
+  void TearDown() override { std::filesystem::remove_all(folder_); }
+
+  std::filesystem::path folder_;
+  std::string path_;
+};
 
 }  // namespace landmark_loop_closure

@@ -33,18 +33,8 @@ namespace {
 constexpr int kDimension = 6;
 const std::string kIdentity = "type=test dimension=6";
 
-class KeyframeStoreTest : public ::testing::Test {
+class KeyframeStoreTest : public MapFolderTest {
  protected:
-  void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("keyframe_store_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-    path_ = (folder_ / "map.db").string();
-  }
-  void TearDown() override { fs::remove_all(folder_); }
-
   std::string refusal(const std::string& path, const std::string& identity = kIdentity,
                       int dimension = kDimension) {
     try {
@@ -54,9 +44,6 @@ class KeyframeStoreTest : public ::testing::Test {
     }
     return "";
   }
-
-  fs::path folder_;
-  std::string path_;
 };
 
 }  // namespace

@@ -26,17 +26,16 @@ namespace {
 constexpr int kDimension = 6;
 const std::string kIdentity = "type=test dimension=6";
 
-class KeyframeStoreTest : public ::testing::Test {
+class KeyframeStoreTest : public MapFolderTest {
  protected:
-  void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("saved_search_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-    path_ = (folder_ / "map.db").string();
+  // Keyframes first..last of `session` committed to the map and added to search, as a node does.
+  static void addBoth(KeyframeStore* store, KeyframeDatabase* database, uint64_t first,
+                      uint64_t last, uint32_t session) {
+    for (uint64_t id = first; id <= last; ++id) {
+      store->add(makeKeyframe(id, session));
+      database->add(makeKeyframe(id, session));
+    }
   }
-  void TearDown() override { fs::remove_all(folder_); }
 
   void execute(const std::string& sql) {
     sqlite3* db = nullptr;
@@ -44,9 +43,6 @@ class KeyframeStoreTest : public ::testing::Test {
     EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sql;
     sqlite3_close(db);
   }
-
-  fs::path folder_;
-  std::string path_;
 };
 
 std::string bytesOf(const std::string& path) {
@@ -152,10 +148,7 @@ TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCr
     IndexOptions graph;
     graph.type = "approximate";
     KeyframeDatabase database(kDimension, graph);
-    for (uint64_t id = 1; id <= 6; ++id) {
-      store->add(makeKeyframe(id, 0));
-      database.add(makeKeyframe(id, 0));
-    }
+    addBoth(store.get(), &database, 1, 6, 0);
     expected = rowsOf(*store).first;  // From the database rows: nothing saved yet.
     store->saveGraph("hnsw M=8", database);
     EXPECT_TRUE(fs::exists(store->vectorsPath()));
@@ -195,17 +188,11 @@ TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCr
 TEST_F(KeyframeStoreTest, ALaterSaveAppendsOnlyTheNewRowsAndOpeningMapsThem) {
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   KeyframeDatabase database(kDimension, graphOptions());
-  for (uint64_t id = 1; id <= 5; ++id) {
-    store->add(makeKeyframe(id, 0));
-    database.add(makeKeyframe(id, 0));
-  }
+  addBoth(store.get(), &database, 1, 5, 0);
   store->saveGraph("hnsw M=8", database);
   const std::string first = bytesOf(store->vectorsPath());
   const ino_t inode = inodeOf(store->vectorsPath());
-  for (uint64_t id = 6; id <= 9; ++id) {
-    store->add(makeKeyframe(id, 1));
-    database.add(makeKeyframe(id, 1));
-  }
+  addBoth(store.get(), &database, 6, 9, 1);
   store->saveGraph("hnsw M=8", database);
   const std::string second = bytesOf(store->vectorsPath());
   EXPECT_EQ(inodeOf(store->vectorsPath()), inode) << "appended to, not written anew";
@@ -239,10 +226,7 @@ TEST_F(KeyframeStoreTest, ASaveCutShortLeavesRowsThatAreNotUsedAndTheCountRight)
   {
     auto store = KeyframeStore::open(path_, kIdentity, kDimension);
     KeyframeDatabase database(kDimension, graphOptions());
-    for (uint64_t id = 1; id <= 5; ++id) {
-      store->add(makeKeyframe(id, 0));
-      database.add(makeKeyframe(id, 0));
-    }
+    addBoth(store.get(), &database, 1, 5, 0);
     store->saveGraph("hnsw M=8", database);
     // Then three more and a crash: the map counts them after the saved ones.
     for (uint64_t id = 6; id <= 8; ++id) store->add(makeKeyframe(id, 1));
@@ -276,10 +260,7 @@ TEST_F(KeyframeStoreTest, ASaveCutShortLeavesRowsThatAreNotUsedAndTheCountRight)
 TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   KeyframeDatabase database(kDimension, graphOptions());
-  for (uint64_t id = 1; id <= 5; ++id) {
-    store->add(makeKeyframe(id, 0));
-    database.add(makeKeyframe(id, 0));
-  }
+  addBoth(store.get(), &database, 1, 5, 0);
   store->saveGraph("hnsw M=8", database);
   const std::string saved = bytesOf(store->vectorsPath());
   database.addUnstored(makeKeyframe(6, 0));  // The disk was full when it came.

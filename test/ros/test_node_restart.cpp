@@ -84,6 +84,15 @@ std::string readFile(const std::string& path) {
   return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
 }
 
+// Handles what arrives for `seconds` (messages still on their way).
+void spinFor(double seconds) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+}
+
 // SIGINT, as roslaunch stops a node; true when it exits within `timeout` seconds.
 bool stopNode(pid_t pid, double timeout = 30.0) {
   kill(pid, SIGINT);
@@ -312,11 +321,7 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   kill(-first, SIGKILL);
   waitpid(first, nullptr, 0);
   // A keyframe is published after it is committed: every one received must be in the map.
-  const ros::WallTime drain = ros::WallTime::now() + ros::WallDuration(1.0);
-  while (ros::WallTime::now() < drain) {
-    ros::spinOnce();
-    ros::WallDuration(0.01).sleep();
-  }
+  spinFor(1.0);
   const std::map<uint64_t, ros::Time> published = harness.keyframes();
   ASSERT_GT(published.size(), 50u);
 
@@ -384,11 +389,7 @@ TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {
     rate.sleep();
     if (frame.index == 50) published_before_full = harness.keyframes().size();
   }
-  const ros::WallTime drain = ros::WallTime::now() + ros::WallDuration(2.0);
-  while (ros::WallTime::now() < drain) {
-    ros::spinOnce();
-    ros::WallDuration(0.01).sleep();
-  }
+  spinFor(2.0);
   EXPECT_EQ(waitpid(node, nullptr, WNOHANG), 0) << "the node died when the disk filled";
   const size_t published = harness.keyframes().size();
   EXPECT_TRUE(stopNode(node)) << "the node did not stop on SIGINT";
