@@ -19,7 +19,11 @@
 namespace landmark_loop_closure {
 
 /// The same keyframe for the same id: its random parts are seeded by it.
-inline KeyframeRecord makeKeyframe(uint64_t id, uint32_t session, int dimension = 6) {
+/// The global dimension and descriptor identity of the test maps.
+constexpr int kDimension = 6;
+inline const std::string kIdentity = "type=test dimension=6";
+
+inline KeyframeRecord makeKeyframe(uint64_t id, uint32_t session, int dimension = kDimension) {
   cv::RNG random(id * 7919 + 1);
   KeyframeRecord keyframe;
   keyframe.id = id;

@@ -30,9 +30,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kDimension = 6;
-const std::string kIdentity = "type=test dimension=6";
-
 class KeyframeStoreTest : public MapFolderTest {
  protected:
   std::string refusal(const std::string& path, const std::string& identity = kIdentity,

@@ -23,9 +23,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kDimension = 6;
-const std::string kIdentity = "type=test dimension=6";
-
 std::vector<KeyframeRecord> makeKeyframes(int count) {
   std::vector<KeyframeRecord> keyframes;
   for (int i = 0; i < count; ++i) keyframes.push_back(makeKeyframe(10 + 3 * i, i < 2 ? 0 : 1));

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -22,9 +23,6 @@ using namespace landmark_loop_closure;
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr int kDimension = 6;
-const std::string kIdentity = "type=test dimension=6";
 
 class KeyframeStoreTest : public MapFolderTest {
  protected:
@@ -54,6 +52,16 @@ ino_t inodeOf(const std::string& path) {
   struct stat status {};
   ::stat(path.c_str(), &status);
   return status.st_ino;
+}
+
+// What `action` threw as std::runtime_error; "" when it did not throw.
+std::string failureOf(const std::function<void()>& action) {
+  try {
+    action();
+  } catch (const std::runtime_error& error) {
+    return error.what();
+  }
+  return "";
 }
 
 IndexOptions graphOptions() {
@@ -176,13 +184,9 @@ TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCr
     damage.seekp(30);
     damage.put('\x55');
   }
-  try {
-    rowsOf(*store);
-    ADD_FAILURE() << "the damaged rows file was used";
-  } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("keyframe 3 is damaged"), std::string::npos)
-        << error.what();
-  }
+  const std::string refused = failureOf([&] { rowsOf(*store); });
+  EXPECT_NE(refused.find("keyframe 3 is damaged"), std::string::npos)
+      << "the damaged rows file was used: " << refused;
 }
 
 TEST_F(KeyframeStoreTest, ALaterSaveAppendsOnlyTheNewRowsAndOpeningMapsThem) {
@@ -248,13 +252,9 @@ TEST_F(KeyframeStoreTest, ASaveCutShortLeavesRowsThatAreNotUsedAndTheCountRight)
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   EXPECT_EQ(store->size(), 9u);
   KeyframeDatabase reopened(kDimension);
-  try {
-    store->loadSearch(&reopened);
-    ADD_FAILURE() << "the half-written rows file was used";
-  } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("keyframe 3 is damaged"), std::string::npos)
-        << error.what();
-  }
+  const std::string refused = failureOf([&] { store->loadSearch(&reopened); });
+  EXPECT_NE(refused.find("keyframe 3 is damaged"), std::string::npos)
+      << "the half-written rows file was used: " << refused;
 }
 
 TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
@@ -264,12 +264,9 @@ TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
   store->saveGraph("hnsw M=8", database);
   const std::string saved = bytesOf(store->vectorsPath());
   database.addUnstored(makeKeyframe(6, 0));  // The disk was full when it came.
-  try {
-    store->saveGraph("hnsw M=8", database);
-    ADD_FAILURE() << "rows that do not line up with the map's keyframes were saved";
-  } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("not saved"), std::string::npos) << error.what();
-  }
+  const std::string refused = failureOf([&] { store->saveGraph("hnsw M=8", database); });
+  EXPECT_NE(refused.find("not saved"), std::string::npos)
+      << "rows that do not line up with the map's keyframes were saved: " << refused;
   EXPECT_EQ(bytesOf(store->vectorsPath()), saved);
   KeyframeDatabase reopened(kDimension);
   store->loadSearch(&reopened);

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <map>
 #include <string>
@@ -82,6 +83,23 @@ int exitStatus(pid_t pid, double timeout = 30.0) {
 std::string readFile(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+}
+
+// Publishes the corridor's first `frames` frames at the harness's rate, calling `after` on each.
+void publishCorridor(test_support::NodeHarness* harness, size_t frames,
+                     const std::function<void(const SequenceFrame&)>& after = {}) {
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.start_stamp = 1700000000.0;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  ros::WallRate rate(test_support::kPublishRateHz);
+  SequenceFrame frame;
+  while (ros::ok() && sequence.next(&frame) && frame.index < frames) {
+    harness->publish(frame.stamp, frame.odom, frame.image);
+    ros::spinOnce();
+    rate.sleep();
+    if (after) after(frame);
+  }
 }
 
 // Handles what arrives for `seconds` (messages still on their way).
@@ -306,18 +324,8 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   const pid_t first = startNode();
   ASSERT_GT(first, 0);
   ASSERT_TRUE(harness.waitForNode()) << "the first run did not subscribe";
-  const CorridorWorld world;
-  SequenceOptions options;
-  options.start_stamp = 1700000000.0;
-  SequenceGenerator sequence(world, CameraModel{}, options);
-  ros::WallRate rate(test_support::kPublishRateHz);
-  SequenceFrame frame;
   // Killed mid-run, frames still arriving and keyframes in the worker's hands.
-  while (ros::ok() && sequence.next(&frame) && frame.index < 300) {
-    harness.publish(frame.stamp, frame.odom, frame.image);
-    ros::spinOnce();
-    rate.sleep();
-  }
+  publishCorridor(&harness, 300);
   kill(-first, SIGKILL);
   waitpid(first, nullptr, 0);
   // A keyframe is published after it is committed: every one received must be in the map.
@@ -376,19 +384,10 @@ TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {
   setrlimit(RLIMIT_FSIZE, &previous);
   ASSERT_GT(node, 0);
   ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
-  const CorridorWorld world;
-  SequenceOptions options;
-  options.start_stamp = 1700000000.0;
-  SequenceGenerator sequence(world, CameraModel{}, options);
-  ros::WallRate rate(test_support::kPublishRateHz);
-  SequenceFrame frame;
   size_t published_before_full = 0;
-  while (ros::ok() && sequence.next(&frame) && frame.index < 400) {
-    harness.publish(frame.stamp, frame.odom, frame.image);
-    ros::spinOnce();
-    rate.sleep();
+  publishCorridor(&harness, 400, [&](const SequenceFrame& frame) {
     if (frame.index == 50) published_before_full = harness.keyframes().size();
-  }
+  });
   spinFor(2.0);
   EXPECT_EQ(waitpid(node, nullptr, WNOHANG), 0) << "the node died when the disk filled";
   const size_t published = harness.keyframes().size();
