@@ -3,7 +3,8 @@
 # 30 Hz, about 12 minutes) through the running node with the demo settings and reports the node's
 # resident memory over time against what its database holds, frames played against frames
 # admitted, keyframes dropped by the worker, and the loops found against ground truth
-# (demo_report's summary).
+# (demo_report's summary). The node stores its keyframes in a map file (_soak/map.db, started
+# empty), so resident memory shows what search keeps, not the keyframes.
 #   scripts/soak.sh [--frames N]       results in _soak/ (bag, rss.csv, diagnostics, report)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,29 +40,44 @@ FRAMES_IN_BAG=$(rosbag info -y -k topics "$BAG" | python3 -c "
 import sys, yaml
 print(next(t['messages'] for t in yaml.safe_load(sys.stdin) if t['topic'] == '/camera/image_raw'))")
 
-roslaunch --screen landmark_loop_closure demo.launch bag:="$(pwd)/$BAG" rate:=1.0 \
+MAP="$(pwd)/_soak/map.db"
+rm -f "$MAP" "$MAP"-*
+{ cat config/demo.yaml; echo "database_path: \"$MAP\""; } > _soak/soak.yaml
+launch_pid=""
+report_pid=""
+echo_pid=""
+finish() {
+  trap - EXIT INT TERM
+  for pid in "$echo_pid" "$report_pid" "$launch_pid"; do
+    [ -n "$pid" ] && kill -INT "$pid" 2> /dev/null && wait "$pid" 2> /dev/null || true
+  done
+}
+trap finish EXIT INT TERM
+roslaunch --screen landmark_loop_closure demo.launch config:="$(pwd)/_soak/soak.yaml" \
   > _soak/launch.log 2>&1 &
-LAUNCH=$!
-trap 'kill -INT $LAUNCH 2>/dev/null || true' EXIT
+launch_pid=$!
+until rosservice list 2> /dev/null | grep -q "^/loop_closure/reset"; do
+  kill -0 "$launch_pid" 2> /dev/null || { echo "soak: the node did not start, see _soak/launch.log" >&2; exit 1; }
+  sleep 0.5
+done
+NODE=$(pgrep -f "__name:=loop_closure" | head -1)
+rosrun landmark_loop_closure demo_report > _soak/report.log 2>&1 &
+report_pid=$!
+PYTHONUNBUFFERED=1 rostopic echo -p /diagnostics > _soak/diagnostics.txt &
+echo_pid=$!
+sleep 1  # The report subscribes before the first message.
 echo "seconds,rss_kb" > _soak/rss.csv
 START=$(date +%s)
-PLAYER="rosbag/play --clock"  # pgrep patterns are extended regular expressions
-until pgrep -f "__name:=loop_closure" > /dev/null && pgrep -f "$PLAYER" > /dev/null; do
-  kill -0 $LAUNCH 2>/dev/null || { echo "soak: roslaunch ended early, see _soak/launch.log" >&2; exit 1; }
-  sleep 1
-done
-PYTHONUNBUFFERED=1 rostopic echo -p /diagnostics > _soak/diagnostics.txt &
-ECHO=$!
-while kill -0 $LAUNCH 2>/dev/null && pgrep -f "$PLAYER" > /dev/null; do
-  PID=$(pgrep -f "__name:=loop_closure" | head -1)
-  [ -n "$PID" ] && echo "$(( $(date +%s) - START )),$(ps -o rss= -p "$PID" | tr -d ' ')" >> _soak/rss.csv
+rosbag play --clock --quiet --rate=1.0 "$BAG" > /dev/null &
+PLAYER=$!
+while kill -0 "$PLAYER" 2> /dev/null; do
+  echo "$(( $(date +%s) - START )),$(ps -o rss= -p "$NODE" | tr -d ' ')" >> _soak/rss.csv
   sleep 5
 done
-sleep 5
-kill $ECHO 2>/dev/null || true
-kill -INT $LAUNCH 2>/dev/null || true
-wait $LAUNCH 2>/dev/null || true
-trap - EXIT
+sleep 5  # The worker finishes the last keyframes; the last diagnostics arrive.
+finish
+MAP_BYTES=$(cat "$MAP" "$MAP"-* 2> /dev/null | wc -c)
+echo "map on disk after shutdown: $MAP_BYTES bytes ($MAP and the files beside it)"
 
 python3 - "$FRAMES_IN_BAG" "$LAPS" "$RATE" <<'PY'
 import csv, sys
@@ -97,4 +113,4 @@ else:
     print("no diagnostics recorded (see _soak/diagnostics.txt)")
 PY
 echo "demo_report summary:"
-sed -n '/==== demo summary ====/,/metric pose error/p' _soak/launch.log | tail -12 || true
+sed -n '/==== demo summary ====/,$p' _soak/report.log

@@ -31,7 +31,8 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
       ParameterTable<O>("", "")
           .section("The map on disk")
           .text("database_path", &O::database_path,
-                "the map: an SQLite file (created when missing) whose keyframes are loaded at "
+                "the map: an SQLite file (created when missing) and its rows file PATH-vectors "
+                "beside it (keep the two together), whose keyframes are loaded at "
                 "start as earlier sessions; every keyframe is committed to it when it is stored, "
                 "so a crash loses at most the keyframes still queued. \"\" = memory only. A "
                 "leading ~ and $VARIABLES are expanded, here and in the model paths. "

@@ -243,6 +243,7 @@ std::string LoopDetector::openMap(const std::string& path) {
   }
   map_graph_reused_ = graph_reused;
   map_leftovers_removed_ = store->leftoversRemoved();
+  map_repairs_ = store->repairs();
   database_ = std::move(loaded);
   store_ = std::move(store);
   session_ = database_.empty() ? 0 : last_session + 1;
@@ -274,7 +275,7 @@ void LoopDetector::readRecordsFromStore(KeyframeDatabase* database, const Keyfra
 }
 
 std::string LoopDetector::saveMapGraph() {
-  if (!store_ || database_.graph() == nullptr) return "";
+  if (!store_) return "";
   try {
     store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
   } catch (const std::exception& error) {
@@ -304,8 +305,11 @@ std::string LoopDetector::reset() {
                                               std::chrono::system_clock::now().time_since_epoch())
                                               .count());
   std::error_code error;
-  std::filesystem::rename(path, kept, error);
+  // The rows file belongs to the kept map; the graph goes with it too.
+  std::filesystem::rename(path + "-vectors", kept + "-vectors", error);
+  if (!error) std::filesystem::rename(path, kept, error);
   if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
+  std::filesystem::rename(path + "-graph", kept + "-graph", error);
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
     readRecordsFromStore(&database_, store_.get());

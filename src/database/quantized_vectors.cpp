@@ -9,7 +9,9 @@
 namespace landmark_loop_closure {
 
 QuantizedVectors::QuantizedVectors(int dimension)
-    : dimension_(dimension), row_bytes_(sizeof(float) + static_cast<size_t>(dimension)) {
+    : dimension_(dimension),
+      row_bytes_(sizeof(float) + static_cast<size_t>(dimension)),
+      row_stride_(row_bytes_) {
   if (dimension <= 0) throw std::invalid_argument("vector dimension must be > 0");
 }
 
@@ -66,26 +68,34 @@ QuantizedVectors::dot(const uint8_t* a, const uint8_t* b, int dimension) {
 uint8_t* QuantizedVectors::nextRow() {
   if (size_ == chunks_.size() * kChunkRows) {
     // Not value-initialised: every row is written before it is read.
-    owned_.emplace_back(new uint8_t[kChunkRows * row_bytes_]);
+    owned_.emplace_back(new uint8_t[kChunkRows * row_stride_]);
     chunks_.push_back(owned_.back().get());
   }
   // The last chunk is always owned: adopt() copies a partial last chunk.
-  uint8_t* row = owned_.back().get() + (size_ % kChunkRows) * row_bytes_;
+  uint8_t* row = owned_.back().get() + (size_ % kChunkRows) * row_stride_;
   ++size_;
   return row;
 }
 
-void QuantizedVectors::adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count) {
+void QuantizedVectors::adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count,
+                             size_t stride) {
   if (size_ != 0) throw std::logic_error("rows can be adopted only by empty vectors");
+  if (stride == 0) stride = row_bytes_;
+  if (stride < row_bytes_) {
+    throw std::invalid_argument("rows " + std::to_string(stride) + " bytes apart, shorter than " +
+                                std::to_string(row_bytes_));
+  }
+  // Owned rows take the same stride, so row() stays one multiplication (search's inner loop).
+  row_stride_ = stride;
   const size_t whole_chunks = count / kChunkRows;
   for (size_t chunk = 0; chunk < whole_chunks; ++chunk) {
-    chunks_.push_back(rows + chunk * kChunkRows * row_bytes_);
+    chunks_.push_back(rows + chunk * kChunkRows * row_stride_);
   }
   size_ = whole_chunks * kChunkRows;
   adopted_rows_ = size_;
   adopted_owner_ = std::move(owner);
   for (size_t row = size_; row < count; ++row) {
-    std::memcpy(nextRow(), rows + row * row_bytes_, row_bytes_);
+    std::memcpy(nextRow(), rows + row * row_stride_, row_bytes_);
   }
 }
 
@@ -100,7 +110,7 @@ void QuantizedVectors::appendRow(const uint8_t* row, size_t bytes) {
 }
 
 size_t QuantizedVectors::bytes() const {
-  return (adopted_rows_ + owned_.size() * kChunkRows) * row_bytes_ +
+  return (adopted_rows_ + owned_.size() * kChunkRows) * row_stride_ +
          (chunks_.capacity() + owned_.capacity()) * sizeof(void*);
 }
 

@@ -1,68 +1,96 @@
 #pragma once
 
-// What search needs of a map's keyframes, saved beside it as one flat file, PATH-vectors: a
-// 16-byte header ("LLCVEC2\n", u32 dimension, u32 summary bytes), the 8-bit rows
-// (QuantizedVectors, id order), then each row's summary (id, session, stamp, pose and path).
-// Opening a map maps the file and uses the rows in place instead of reading every keyframe's
-// database row (7 s at 1 000 000 keyframes against ~1 s). Written at a clean shutdown with the
-// graph: the rows are appended to the ones saved before, the summaries written again after them.
-// Its row count and CRC-32Cs are kept in the map, so a file from another map, a damaged one or
-// one a crash left half-updated is never used. Private to the core library.
+// The map's search rows, PATH-vectors beside the map: a 16-byte header ("LLCVEC3\n", u32
+// dimension, u32 summary bytes), then one entry per keyframe in id order: its 8-bit global row
+// (QuantizedVectors) and its summary (id, session, stamp, pose and path). The only copy of the
+// rows: each entry is written before its keyframe's transaction commits, so every committed
+// keyframe has one (a killed process keeps what it wrote; an entry past the map's keyframes is
+// one whose commit never came, and is written over). Opening a map maps the file and search uses
+// the rows in place (~1 s at 1 000 000 keyframes). The map keeps each entry's CRC-32C and, at a
+// clean shutdown, the CRC-32C of all entries so far (the seal), so the sealed part is checked in
+// one pass and a damaged or foreign file is never used. Private to the core library.
 
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
-#include "landmark_loop_closure/database/quantized_vectors.h"
 
 namespace landmark_loop_closure {
 namespace vector_file {
 
-/// Bytes of one keyframe's summary in the file: id, session, stamp, then the pose and path as
+/// Bytes of one keyframe's summary in an entry: id, session, stamp, then the pose and path as
 /// the map's `motion` column holds them.
 constexpr size_t kSummaryBytes = 8 + 4 + 8 + 72;
+constexpr size_t kHeaderBytes = 16;
 
-/// What the map keeps about its saved rows file.
-struct Seal {
-  uint64_t rows = 0;
-  uint32_t rows_checksum = 0;       ///< CRC-32C of the header and the rows.
-  uint32_t summaries_checksum = 0;  ///< CRC-32C of the summaries.
+/// Bytes of one entry: the row (scale and `dimension` values), then the summary.
+size_t entryBytes(int dimension);
+/// The file's first bytes for rows of `dimension` values.
+std::vector<uint8_t> header(int dimension);
+/// One entry: `row` (QuantizedVectors::encode) followed by `summary`.
+std::vector<uint8_t> entry(const std::vector<uint8_t>& row, const KeyframeSummary& summary);
+KeyframeSummary decodeSummary(const uint8_t* summary);
+
+/// The file open for writing entries, held by the map's store.
+class Writer {
+ public:
+  /// Opens `path`, creating it with its header when missing. Throws std::runtime_error naming
+  /// the file when it cannot be opened or created, is not a regular file or has another header.
+  Writer(const std::string& path, int dimension);
+  ~Writer();
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  /// Writes `entry` as entry number `position`. Throws std::runtime_error (disk full).
+  void write(size_t position, const uint8_t* entry);
+  /// Entry `position` as the file holds it; empty when the file is shorter.
+  std::vector<uint8_t> read(size_t position) const;
+  /// Entries the file has room for (whole ones).
+  uint64_t entriesOnDisk() const;
+  /// Flushes what was written to the disk. Throws std::runtime_error.
+  void sync();
+  /// Cuts the file after `entries` entries. Throws std::runtime_error.
+  void truncate(uint64_t entries);
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  size_t entry_bytes_;
 };
 
-/// Writes the first `rows` rows of `vectors` and their summaries (`summary_of(row)`) to `path`.
-/// When `earlier` seals the file at `path` as holding the first earlier.rows of these rows, only
-/// the rows after them are appended (the summaries are written again whole); otherwise the file
-/// is written anew through `path`.tmp. Throws std::runtime_error naming the file (disk full).
-Seal write(const std::string& path, const QuantizedVectors& vectors, size_t rows,
-           const std::function<const KeyframeSummary&(size_t)>& summary_of,
-           const Seal* earlier = nullptr);
-
-/// A file written by write(), mapped read-only and checked against its seal.
+/// The first entries of a file, mapped read-only (a file grown later keeps this view).
 class Mapped {
  public:
-  /// nullptr when `path` is missing, not a regular file, or not what `seal` and `dimension` say
-  /// (another map's, damaged, half-updated).
-  static std::shared_ptr<const Mapped> open(const std::string& path, const Seal& seal,
-                                            int dimension);
+  /// The first `entries` entries of `path`; nullptr when it is missing, not a regular file,
+  /// shorter, or has another header.
+  static std::shared_ptr<const Mapped> open(const std::string& path, int dimension,
+                                            uint64_t entries);
   ~Mapped();
   Mapped(const Mapped&) = delete;
   Mapped& operator=(const Mapped&) = delete;
 
-  uint64_t rows() const { return rows_; }
-  /// The rows, one after the other (rows() x (4 + dimension) bytes).
-  const uint8_t* firstRow() const { return base_ + header_bytes_; }
-  /// Row `index`'s summary. Throws database_payload::FormatError for a damaged one.
+  uint64_t entries() const { return entries_; }
+  size_t entryBytes() const { return entry_bytes_; }
+  const uint8_t* entry(size_t index) const { return base_ + kHeaderBytes + index * entry_bytes_; }
+  /// Entry `index`'s row; rows follow each other entryBytes() apart.
+  const uint8_t* row(size_t index) const { return entry(index); }
+  /// Entry `index`'s summary. Throws database_payload::FormatError for a damaged one.
   KeyframeSummary summary(size_t index) const;
+  /// CRC-32C of the header and entries [0, `count`), read front to back.
+  uint32_t checksum(uint64_t count) const;
+  /// Tells the kernel search reads rows here and there from now on.
+  void readAtRandom() const;
 
  private:
   Mapped() = default;
   const uint8_t* base_ = nullptr;
   size_t length_ = 0;
-  size_t header_bytes_ = 0;
+  size_t entry_bytes_ = 0;
   size_t row_bytes_ = 0;
-  uint64_t rows_ = 0;
+  uint64_t entries_ = 0;
 };
 
 }  // namespace vector_file

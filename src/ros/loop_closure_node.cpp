@@ -96,6 +96,9 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
     for (const std::string& leftover : detector_.mapLeftoversRemoved()) {
       ROS_INFO("Removed %s, left by a save that was interrupted", leftover.c_str());
     }
+    for (const std::string& repair : detector_.mapRepairs()) {
+      ROS_WARN("Map %s: %s", options_.database_path.c_str(), repair.c_str());
+    }
     noteMapSize(detector_);
     if (!detector_.extractor()) {
       ROS_INFO("Map %s is opened once online training has made the descriptor",

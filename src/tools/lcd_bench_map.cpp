@@ -165,7 +165,8 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
 
   std::cout
       << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
-         "file B/keyframe | query + re-rank ms median / p99 | recall@10 | revisit in top-10 "
+         "map B/keyframe (file, log, rows) | query + re-rank ms median / p99 | recall@10 | "
+         "revisit in top-10 "
          "|\n|---|---|---|---|---|---|---|---|\n";
   route->emplace(dimension, 7, settings.route);
   auto store = KeyframeStore::open(path, identity, dimension);
@@ -185,8 +186,10 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
     insert_ms.push_back(msSince(start));
     if (checkpoint < settings.checkpoints.size() && id + 1 == settings.checkpoints[checkpoint]) {
       const QueryFigures queries = runQueries(database, &**route, settings, *places);
-      const double file_bytes = static_cast<double>(
-          fs::file_size(path) + (fs::exists(path + "-wal") ? fs::file_size(path + "-wal") : 0));
+      double file_bytes = 0;
+      for (const char* part : {"", "-wal", "-vectors"}) {
+        if (fs::exists(path + part)) file_bytes += static_cast<double>(fs::file_size(path + part));
+      }
       std::printf("| %zu | %.2f / %.2f | %.0f | %.0f | %.0f | %.2f / %.2f | %.3f | %.3f |\n",
                   id + 1, percentile(insert_ms, 0.5), percentile(insert_ms, 0.99),
                   static_cast<double>(database.bytes()) / (id + 1), residentMegabytes(),

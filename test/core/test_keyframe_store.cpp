@@ -23,6 +23,7 @@
 #include "keyframe_fixtures.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/map_tools.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 #include "old_map_file_writer.h"
 
 using namespace landmark_loop_closure;
@@ -399,6 +400,51 @@ TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
   EXPECT_EQ(convertMapFile(path_, converted), 1u);
   auto store = KeyframeStore::open(converted, kIdentity, kDimension);
   expectSame(*store->get(4), asStored(makeKeyframe(4, 2)));
+}
+
+TEST_F(KeyframeStoreTest, AMapOfTheStoresSecondFormatIsRefusedAndConvertsOnce) {
+  // Format 2 kept each keyframe's 8-bit global row in the database, beside its summary.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  const std::string setup =
+      "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
+      "CREATE TABLE keyframes (id INTEGER PRIMARY KEY, session INTEGER NOT NULL, stamp REAL NOT "
+      "NULL, motion BLOB NOT NULL, vector BLOB NOT NULL);"
+      "CREATE TABLE records (id INTEGER PRIMARY KEY, record BLOB NOT NULL);"
+      "INSERT INTO meta VALUES ('format_version', '2'), ('descriptor_identity', '" +
+      std::string(kIdentity) + "'), ('global_dimension', '" + std::to_string(kDimension) + "');";
+  ASSERT_EQ(sqlite3_exec(db, setup.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  for (uint64_t id = 2; id <= 4; ++id) {
+    const KeyframeRecord keyframe = makeKeyframe(id, id < 4 ? 0 : 1);
+    const std::vector<uint8_t> motion = database_payload::encodeMotion(keyframe);
+    const std::vector<uint8_t> vector = QuantizedVectors::encode(keyframe.descriptor.global);
+    const std::vector<uint8_t> record = database_payload::encodeRecord(keyframe);
+    sqlite3_stmt* insert = nullptr;
+    sqlite3_prepare_v2(db, "INSERT INTO keyframes VALUES (?, ?, ?, ?, ?)", -1, &insert, nullptr);
+    sqlite3_bind_int64(insert, 1, static_cast<sqlite3_int64>(id));
+    sqlite3_bind_int64(insert, 2, keyframe.session);
+    sqlite3_bind_double(insert, 3, keyframe.stamp);
+    sqlite3_bind_blob(insert, 4, motion.data(), static_cast<int>(motion.size()), SQLITE_STATIC);
+    sqlite3_bind_blob(insert, 5, vector.data(), static_cast<int>(vector.size()), SQLITE_STATIC);
+    ASSERT_EQ(sqlite3_step(insert), SQLITE_DONE);
+    sqlite3_finalize(insert);
+    sqlite3_prepare_v2(db, "INSERT INTO records VALUES (?, ?)", -1, &insert, nullptr);
+    sqlite3_bind_int64(insert, 1, static_cast<sqlite3_int64>(id));
+    sqlite3_bind_blob(insert, 2, record.data(), static_cast<int>(record.size()), SQLITE_STATIC);
+    ASSERT_EQ(sqlite3_step(insert), SQLITE_DONE);
+    sqlite3_finalize(insert);
+  }
+  sqlite3_close(db);
+
+  EXPECT_NE(refusal(path_).find("lcd_db convert"), std::string::npos) << refusal(path_);
+  const std::string converted = (folder_ / "converted.db").string();
+  EXPECT_EQ(convertMapFile(path_, converted), 3u);
+  EXPECT_TRUE(fs::exists(converted + "-vectors"));
+  EXPECT_FALSE(fs::exists(converted + ".partial-vectors"));
+  auto store = KeyframeStore::open(converted, kIdentity, kDimension);
+  for (uint64_t id = 2; id <= 4; ++id) {
+    expectSame(*store->get(id), asStored(makeKeyframe(id, id < 4 ? 0 : 1)));
+  }
 }
 
 TEST(KeyframeRecordLayout, DepthsOnTheirRaysKeepOneValueOthersTheirCoordinates) {

@@ -1,7 +1,8 @@
-// What a map keeps beside it for search: the graph and the 8-bit rows saved at a clean shutdown.
-// Both are used only when they are this map's own; rows are mapped in place rather than copied,
-// later saves append only the new rows, and a crash in the middle of a save leaves files that are
-// not used rather than wrong ones.
+// What a map keeps beside it for search: its rows file (the only copy of each keyframe's 8-bit
+// row, written as keyframes are committed) and the graph saved at a clean shutdown. Both are used
+// only when they are this map's own; rows are mapped in place rather than copied; a rows file
+// that is damaged, missing or another map's is refused by name; rows a power cut lost are
+// repaired away.
 #include <sqlite3.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -140,77 +141,41 @@ TEST_F(KeyframeStoreTest, ASavedSearchGraphIsGivenBackOnlyForItsSettingsAndItsOw
   EXPECT_EQ(store->loadGraph("hnsw M=16", grown.vectors(), 16), nullptr);
 }
 
-TEST_F(KeyframeStoreTest, SavedSearchRowsAreReadBackOnlyWhenTheyAreThisMapsAndCrashesAddTheRest) {
-  std::vector<std::vector<uint8_t>> expected;
-  const auto rowsOf = [](const KeyframeStore& store) {
-    std::vector<std::vector<uint8_t>> rows;
-    std::vector<uint64_t> ids;
-    store.forEachSummary([&](const KeyframeSummary& summary, const uint8_t* row, size_t bytes) {
-      rows.emplace_back(row, row + bytes);
-      ids.push_back(summary.id);
-    });
-    return std::make_pair(rows, ids);
-  };
+TEST_F(KeyframeStoreTest, EveryCommittedKeyframeHasItsRowInTheRowsFileAndOpeningMapsThem) {
+  const size_t entry_bytes = sizeof(float) + kDimension + 92;
+  KeyframeDatabase database(kDimension, graphOptions());
+  ino_t inode = 0;
+  std::string sealed_part;
   {
     auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    IndexOptions graph;
-    graph.type = "approximate";
-    KeyframeDatabase database(kDimension, graph);
-    addBoth(store.get(), &database, 1, 6, 0);
-    expected = rowsOf(*store).first;  // From the database rows: nothing saved yet.
+    addBoth(store.get(), &database, 1, 5, 0);
+    inode = inodeOf(store->vectorsPath());
     store->saveGraph("hnsw M=8", database);
-    EXPECT_TRUE(fs::exists(store->vectorsPath()));
-    // Then two more before a crash: not in the saved rows.
-    for (uint64_t id = 7; id <= 8; ++id) {
-      store->add(makeKeyframe(id, 1));
-      expected.push_back(QuantizedVectors::encode(makeKeyframe(id, 1).descriptor.global));
-    }
+    sealed_part = bytesOf(store->vectorsPath());
+    EXPECT_EQ(sealed_part.size(), 16 + 5 * entry_bytes);
+    // Then four more and a crash (no clean shutdown): their rows are in the file all the same.
+    addBoth(store.get(), &database, 6, 9, 1);
   }
-  // Keyframe 3's row in the map is spoilt behind the store's back: read from the saved rows, it
-  // does not matter.
+  const std::string file = bytesOf(path_ + "-vectors");
+  EXPECT_EQ(inodeOf(path_ + "-vectors"), inode) << "appended to, never written anew";
+  ASSERT_EQ(file.size(), 16 + 9 * entry_bytes);
+  EXPECT_EQ(file.substr(0, sealed_part.size()), sealed_part);
+  // The database keeps no second copy of a row: which entry is the keyframe's, and its checksum.
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(db, "UPDATE keyframes SET vector = x'00' WHERE id = 3", nullptr, nullptr,
-                         nullptr),
+  sqlite3_stmt* row = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT * FROM keyframes WHERE id = 9", -1, &row, nullptr),
             SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(row), SQLITE_ROW);
+  EXPECT_EQ(sqlite3_column_count(row), 6);
+  EXPECT_EQ(std::string(sqlite3_column_name(row, 4)), "search_row");
+  EXPECT_EQ(sqlite3_column_int64(row, 4), 8);
+  sqlite3_finalize(row);
   sqlite3_close(db);
-  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-  auto [rows, ids] = rowsOf(*store);
-  EXPECT_EQ(ids, (std::vector<uint64_t>{1, 2, 3, 4, 5, 6, 7, 8}));
-  EXPECT_EQ(rows, expected);
-  // A damaged rows file is not used: the map's rows are read, and keyframe 3's is refused.
-  {
-    std::fstream damage(store->vectorsPath(), std::ios::in | std::ios::out | std::ios::binary);
-    damage.seekp(30);
-    damage.put('\x55');
-  }
-  const std::string refused = failureOf([&] { rowsOf(*store); });
-  EXPECT_NE(refused.find("keyframe 3 is damaged"), std::string::npos)
-      << "the damaged rows file was used: " << refused;
-}
 
-TEST_F(KeyframeStoreTest, ALaterSaveAppendsOnlyTheNewRowsAndOpeningMapsThem) {
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-  KeyframeDatabase database(kDimension, graphOptions());
-  addBoth(store.get(), &database, 1, 5, 0);
-  store->saveGraph("hnsw M=8", database);
-  const std::string first = bytesOf(store->vectorsPath());
-  const ino_t inode = inodeOf(store->vectorsPath());
-  addBoth(store.get(), &database, 6, 9, 1);
-  store->saveGraph("hnsw M=8", database);
-  const std::string second = bytesOf(store->vectorsPath());
-  EXPECT_EQ(inodeOf(store->vectorsPath()), inode) << "appended to, not written anew";
-  const size_t rows_part = 16 + 5 * (sizeof(float) + kDimension);
-  ASSERT_GT(second.size(), first.size());
-  EXPECT_EQ(second.substr(0, rows_part), first.substr(0, rows_part))
-      << "the rows saved before are left as they were";
-  store.reset();
-
-  // Keyframe 3's row in the map is spoilt: opened from the saved rows it does not matter, and the
-  // summaries come from there too.
-  execute("UPDATE keyframes SET vector = x'00' WHERE id = 3");
-  store = KeyframeStore::open(path_, kIdentity, kDimension);
   EXPECT_EQ(store->size(), 9u);
+  EXPECT_TRUE(store->repairs().empty());
   KeyframeDatabase reopened(kDimension);
   store->loadSearch(&reopened);
   ASSERT_EQ(reopened.size(), 9u);
@@ -224,37 +189,91 @@ TEST_F(KeyframeStoreTest, ALaterSaveAppendsOnlyTheNewRowsAndOpeningMapsThem) {
     EXPECT_EQ(QuantizedVectors::decode(reopened.vectors()->row(i), kDimension),
               QuantizedVectors::decode(database.vectors()->row(i), kDimension));
   }
+  // A keyframe read whole takes its global vector from the rows file.
+  const std::optional<KeyframeRecord> seventh = store->get(7);
+  ASSERT_TRUE(seventh);
+  EXPECT_EQ(seventh->descriptor.global,
+            QuantizedVectors::decode(database.vectors()->row(6), kDimension));
+  // And search grows past the mapped rows.
+  store->add(makeKeyframe(10, 2));
+  reopened.add(makeKeyframe(10, 2));
+  EXPECT_EQ(reopened.size(), 10u);
 }
 
-TEST_F(KeyframeStoreTest, ASaveCutShortLeavesRowsThatAreNotUsedAndTheCountRight) {
+TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) {
   {
     auto store = KeyframeStore::open(path_, kIdentity, kDimension);
     KeyframeDatabase database(kDimension, graphOptions());
     addBoth(store.get(), &database, 1, 5, 0);
     store->saveGraph("hnsw M=8", database);
-    // Then three more and a crash: the map counts them after the saved ones.
+  }
+  const std::string rows = path_ + "-vectors";
+  const std::string good = bytesOf(rows);
+  {
+    std::fstream damage(rows, std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(30);
+    damage.put('\x55');
+  }
+  std::string refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
+  EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
+  // Another map's rows file (one keyframe fewer) is refused the same way.
+  {
+    const std::string other = (folder_ / "other.db").string();
+    auto store = KeyframeStore::open(other, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 4, 0);
+    store->saveGraph("hnsw M=8", database);
+    store.reset();
+    fs::copy_file(other + "-vectors", rows, fs::copy_options::overwrite_existing);
+  }
+  refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
+  EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
+  fs::remove(rows);
+  refused = failureOf([&] { KeyframeStore::openExisting(path_); });
+  EXPECT_NE(refused.find(rows + " are missing"), std::string::npos) << refused;
+  // Put back, the map opens whole.
+  std::ofstream(rows, std::ios::binary) << good;
+  EXPECT_EQ(KeyframeStore::open(path_, kIdentity, kDimension)->size(), 5u);
+}
+
+TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIsCut) {
+  const size_t entry_bytes = sizeof(float) + kDimension + 92;
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 0);
+    store->saveGraph("hnsw M=8", database);
     for (uint64_t id = 6; id <= 8; ++id) store->add(makeKeyframe(id, 1));
+  }
+  // A keyframe whose commit never came left its entry past the map's keyframes.
+  {
+    std::ofstream append(path_ + "-vectors", std::ios::binary | std::ios::app);
+    append << std::string(entry_bytes, 'x');
   }
   {
     auto store = KeyframeStore::open(path_, kIdentity, kDimension);
     EXPECT_EQ(store->size(), 8u);
-    store->add(makeKeyframe(9, 2));
-    EXPECT_THROW(store->add(makeKeyframe(8, 2)), std::runtime_error);
+    EXPECT_TRUE(store->repairs().empty());
+    EXPECT_EQ(fs::file_size(path_ + "-vectors"), 16 + 8 * entry_bytes) << "the extra entry is cut";
   }
-  // A save that was appending when the process died: the map says no rows are saved, and the file
-  // holds more than it said before. The map's rows are read (keyframe 3's is spoilt to show it).
-  execute("UPDATE meta SET value = '0' WHERE key = 'vectors_rows'");
-  execute("UPDATE keyframes SET vector = x'00' WHERE id = 3");
+  // A power cut took the file's last pages but the database kept keyframes 7 and 8: they cannot
+  // be searched, so they leave the map, which says so and takes new keyframes after keyframe 6.
+  fs::resize_file(path_ + "-vectors", 16 + 6 * entry_bytes + 100);
   {
-    std::ofstream append(path_ + "-vectors", std::ios::binary | std::ios::app);
-    append << std::string(40, 'x');
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    EXPECT_EQ(store->size(), 6u);
+    ASSERT_EQ(store->repairs().size(), 1u);
+    EXPECT_NE(store->repairs()[0].find("2 keyframes from id 7"), std::string::npos)
+        << store->repairs()[0];
+    EXPECT_FALSE(store->get(7));
+    store->add(makeKeyframe(7, 2));
   }
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-  EXPECT_EQ(store->size(), 9u);
+  EXPECT_EQ(store->size(), 7u);
+  EXPECT_TRUE(store->repairs().empty());
   KeyframeDatabase reopened(kDimension);
-  const std::string refused = failureOf([&] { store->loadSearch(&reopened); });
-  EXPECT_NE(refused.find("keyframe 3 is damaged"), std::string::npos)
-      << "the half-written rows file was used: " << refused;
+  store->loadSearch(&reopened);
+  EXPECT_EQ(reopened.summary(6).session, 2u);
 }
 
 TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {

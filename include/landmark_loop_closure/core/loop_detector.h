@@ -217,6 +217,8 @@ class LoopDetector {
   bool mapGraphReused() const { return map_graph_reused_; }
   /// Temporary files of an interrupted save that opening the map removed.
   const std::vector<std::string>& mapLeftoversRemoved() const { return map_leftovers_removed_; }
+  /// What opening the map repaired (keyframes a power cut left without their search rows).
+  const std::vector<std::string>& mapRepairs() const { return map_repairs_; }
   /// Worker thread: the open map's file, or "" when keyframes live in memory only.
   std::string mapPath() const { return store_ ? store_->path() : ""; }
   /// Worker thread: writes a copy of the keyframes to `path` as a map (atomically: the copy
@@ -299,6 +301,7 @@ class LoopDetector {
   std::string pending_map_path_;          ///< Opened once online training has made the descriptor.
   bool map_graph_reused_ = false;
   std::vector<std::string> map_leftovers_removed_;
+  std::vector<std::string> map_repairs_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

@@ -112,8 +112,9 @@ class KeyframeDatabase {
   /// Stores `count` keyframes of a map at once, into an empty database: their rows (`count` rows
   /// one after the other, as QuantizedVectors encodes them) used in place, kept readable by
   /// `owner` (the mapped file), their summaries `summary_of(0..count-1)`. Throws as add() does.
+  /// `stride`: bytes from one row to the next (0: rows back to back).
   void addSaved(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count,
-                const std::function<KeyframeSummary(size_t)>& summary_of);
+                const std::function<KeyframeSummary(size_t)>& summary_of, size_t stride = 0);
   /// From now on records are read by `reader` and RAM keeps at most `cached_records` of them (the
   /// newest ones and the latest read); the records held so far are dropped.
   void readRecordsFrom(RecordReader reader, size_t cached_records);

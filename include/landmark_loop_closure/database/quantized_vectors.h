@@ -34,13 +34,15 @@ class QuantizedVectors {
   void append(const float* vector);
   /// Appends a row as encode() wrote it. Throws std::invalid_argument for another length.
   void appendRow(const uint8_t* row, size_t bytes);
-  /// Takes `count` rows (one after the other, as encode() writes them) into empty vectors without
-  /// copying them: `owner` (a mapped file) keeps `rows` readable for as long as they are used.
-  /// Rows appended later go after them. Throws std::logic_error when rows are held already.
-  void adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count);
+  /// Takes `count` rows (as encode() writes them, `stride` bytes apart: rowBytes() or more) into
+  /// empty vectors without copying them: `owner` (a mapped file) keeps `rows` readable for as long
+  /// as they are used. Rows appended later go after them, `stride` apart too. Throws
+  /// std::logic_error when rows are held already, std::invalid_argument for a short stride.
+  void adopt(std::shared_ptr<const void> owner, const uint8_t* rows, size_t count,
+             size_t stride = 0);
   size_t size() const { return size_; }
   const uint8_t* row(size_t index) const {
-    return chunks_[index / kChunkRows] + (index % kChunkRows) * row_bytes_;
+    return chunks_[index / kChunkRows] + (index % kChunkRows) * row_stride_;
   }
   /// Inner product of a row built by encode() with row `index`.
   float dot(const uint8_t* query, size_t index) const { return dot(query, row(index), dimension_); }
@@ -53,6 +55,7 @@ class QuantizedVectors {
 
   int dimension_;
   size_t row_bytes_;
+  size_t row_stride_;  ///< Bytes from one row to the next: rowBytes(), or an adopted file's.
   size_t size_ = 0;
   std::vector<const uint8_t*> chunks_;  ///< kChunkRows rows each: adopted ones, then owned_.
   std::vector<std::unique_ptr<uint8_t[]>> owned_;
