@@ -1,20 +1,20 @@
 // lcd_bench_map: the node's map at scale, as the node keeps it - every keyframe committed to the
 // map file (KeyframeStore) and added to search (KeyframeDatabase reading records from the file).
-// Keyframes are one described corridor keyframe (the shipped descriptor, ORB keypoints with
-// depths, thumbnail) with synthetic global vectors along a route (each a small step from the
-// last); each query revisits a random stored keyframe. At each checkpoint it prints insert time
-// per keyframe, RAM (the database's bytes and the process's resident set), file bytes per
-// keyframe, query + re-rank time (graph search, then the top_k records read from the file) and
-// the graph's recall of exact search's top_k. Then it saves the graph, closes, reopens the map as
-// the node does (summaries, vectors and the saved graph; records stay on disk) and queries again.
-// With --reopen it builds nothing: it reopens the map an earlier run left in --dir and measures
-// query + re-rank and recall at each --ef value (ef_search; default the shipped one). Both modes
-// end by saving the graph and search rows as a node's shutdown does. --route picks the synthetic
-// vectors: "measured" (default; spread like the shipped descriptor's of real images) or
-// "isotropic" (the worst case for a graph); --measure-route DIR,DIR prints how real images'
-// vectors spread next to both routes, and stops.
+// Keyframes are described keyframes of the --image list used in turn, or a corridor view (the
+// shipped descriptor, ORB keypoints with depths, thumbnail), with synthetic global vectors along
+// a route (each a small step from the last); each query revisits a random stored keyframe. At each
+// checkpoint it prints insert time per keyframe, RAM (the database's bytes and the process's
+// resident set), file bytes per keyframe, query + re-rank time (graph search, then the top_k
+// records read from the file) and the graph's recall of exact search's top_k. Then it saves the
+// graph, closes, reopens the map as the node does (summaries, vectors and the saved graph; records
+// stay on disk) and queries again. With --reopen it builds nothing: it reopens the map an earlier
+// run left in --dir and measures query + re-rank and recall at each --ef value (ef_search; default
+// the shipped one). Both modes end by saving the graph and search rows as a node's shutdown does.
+// --route picks the synthetic vectors: "measured" (default; spread like the shipped descriptor's of
+// real images) or "isotropic" (the worst case for a graph); --measure-route DIR,DIR prints how real
+// images' vectors spread next to both routes, and stops.
 //   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
-//                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image camera.jpg]
+//                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image a.jpg,b.jpg]
 //                 [--reopen] [--ef 256,512] [--ef-construction 64] [--neighbors 16]
 //                 [--route measured|isotropic] [--measure-route DIR,DIR]
 #include <algorithm>
@@ -73,16 +73,21 @@ struct Settings {
   int queries = 300;
   int recall_queries = 50;
   fs::path dir = "/tmp/lcd_bench_map";
-  std::string image;  ///< The model keyframe's image; "" = a generated corridor view.
+  /// The model keyframes' images, comma-separated, used in turn (records of real size vary, and
+  /// SQLite's pages fit one repeated size better or worse than the average); "" = a generated
+  /// corridor view.
+  std::string image;
   bool reopen_only = false;
   IndexOptions index;  ///< The shipped graph settings unless --ef-construction / --neighbors.
   std::vector<int> ef_search = {IndexOptions().ef_search};
   bench::RouteShape route = bench::RouteShape::kMeasured;
 };
 
-// One keyframe as the node stores it with the shipped settings and a depth camera: `image_path`
-// (a real camera image: more keypoints, a larger thumbnail), or a generated corridor view.
-KeyframeRecord modelKeyframe(const std::string& image_path, std::string* descriptor_name) {
+// Keyframes as the node stores them with the shipped settings and a depth camera, one per image of
+// the comma-separated `image_paths` (real camera images: more keypoints, larger thumbnails), or one
+// generated corridor view.
+std::vector<KeyframeRecord> modelKeyframes(const std::string& image_paths,
+                                           std::string* descriptor_name) {
   std::shared_ptr<const DescriptorExtractor> extractor;
   try {
     extractor = makeDescriptorExtractor(DescriptorOptions{});
@@ -93,9 +98,16 @@ KeyframeRecord modelKeyframe(const std::string& image_path, std::string* descrip
   }
   *descriptor_name =
       extractor->name() + " (" + std::to_string(extractor->globalDimension()) + " values)";
-  cv::Mat image = image_path.empty() ? cv::Mat() : cv::imread(image_path, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) image = bench::corridorView();
-  return bench::describedKeyframe(*extractor, image);
+  std::vector<KeyframeRecord> models;
+  std::stringstream paths(image_paths);
+  std::string path;
+  while (std::getline(paths, path, ',')) {
+    const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (image.empty()) throw std::runtime_error("cannot read the image " + path);
+    models.push_back(bench::describedKeyframe(*extractor, image));
+  }
+  if (models.empty()) models.push_back(bench::describedKeyframe(*extractor, bench::corridorView()));
+  return models;
 }
 
 void attachReader(KeyframeDatabase* database, const KeyframeStore* store) {
@@ -157,11 +169,15 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
               const IndexOptions& index, std::optional<Route>* route,
               std::vector<std::vector<float>>* places) {
   std::string descriptor;
-  const KeyframeRecord model = modelKeyframe(settings.image, &descriptor);
-  const int dimension = static_cast<int>(model.descriptor.global.size());
-  std::cout << "Map of " << descriptor << " keyframes with " << model.local_features.points.size()
-            << " keypoints and depths, " << model.descriptor.landmark_boxes.size()
-            << " landmarks, a " << model.thumbnail.size() << "-byte thumbnail\n";
+  const std::vector<KeyframeRecord> models = modelKeyframes(settings.image, &descriptor);
+  const int dimension = static_cast<int>(models.front().descriptor.global.size());
+  std::cout << "Map of " << descriptor << " keyframes, in turn from " << models.size()
+            << " model keyframes:\n";
+  for (const KeyframeRecord& model : models) {
+    std::cout << "  " << model.local_features.points.size() << " keypoints and depths, "
+              << model.descriptor.landmark_boxes.size() << " landmarks, a "
+              << model.thumbnail.size() << "-byte thumbnail\n";
+  }
 
   std::cout
       << "\n| keyframes | insert ms median / p99 | database RAM B/keyframe | process RSS MB | "
@@ -175,7 +191,7 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
   std::vector<double> insert_ms;
   size_t checkpoint = 0;
   for (size_t id = 0; id < settings.keyframes; ++id) {
-    KeyframeRecord keyframe = model;
+    KeyframeRecord keyframe = models[id % models.size()];
     keyframe.id = id;
     keyframe.stamp = static_cast<double>(id);
     keyframe.descriptor.global = (*route)->next();
@@ -219,7 +235,7 @@ int main(int argc, char** argv) {
     }
     if (key == "--help" || key == "-h" || i + 1 == argc) {
       std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
-                   "              [--recall-queries N] [--dir FOLDER] [--image camera.jpg]\n"
+                   "              [--recall-queries N] [--dir FOLDER] [--image a.jpg,b.jpg]\n"
                    "              [--reopen] [--ef N,N,...] [--ef-construction N]\n"
                    "              [--neighbors N] [--route measured|isotropic]\n"
                    "              [--measure-route DIR,DIR,...]\n";
