@@ -102,6 +102,9 @@ void KeyframeStore::openRows() {
   }
   sqlite3_finalize(later);
   if (!first_lost && status != SQLITE_DONE) c.fail("cannot read the keyframes");
+  // Not one row matching is no power cut's doing (another map's file, or an emptied one): refused,
+  // the keyframes left as they are.
+  if (first_lost && checked == 0) throw damaged("no keyframe's row matches");
   if (first_lost) {
     // Rows are written before their keyframe commits, so only a power cut (the rows file's last
     // pages lost, the database's kept) gets here: those keyframes cannot be searched.

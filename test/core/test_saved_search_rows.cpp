@@ -271,6 +271,19 @@ TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIs
   auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   EXPECT_EQ(store->size(), 7u);
   EXPECT_TRUE(store->repairs().empty());
+  store.reset();
+  // A map never shut down cleanly whose rows file was emptied: refused, nothing removed.
+  const std::string unsealed = (folder_ / "unsealed.db").string();
+  { KeyframeStore::open(unsealed, kIdentity, kDimension)->add(makeKeyframe(1, 0)); }
+  fs::resize_file(unsealed + "-vectors", 16);
+  const std::string refused =
+      failureOf([&] { KeyframeStore::open(unsealed, kIdentity, kDimension); });
+  EXPECT_NE(refused.find("no keyframe's row matches"), std::string::npos) << refused;
+  fs::resize_file(unsealed + "-vectors", 0);
+  EXPECT_NE(
+      failureOf([&] { KeyframeStore::open(unsealed, kIdentity, kDimension); }).find("damaged"),
+      std::string::npos);
+  store = KeyframeStore::open(path_, kIdentity, kDimension);
   KeyframeDatabase reopened(kDimension);
   store->loadSearch(&reopened);
   EXPECT_EQ(reopened.summary(6).session, 2u);
