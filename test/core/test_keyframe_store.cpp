@@ -44,6 +44,23 @@ class KeyframeStoreTest : public MapFolderTest {
   }
 };
 
+// A map of an earlier store format at `path`: its `tables` (SQL) and the settings of `version`;
+// nullptr when SQLite refuses.
+sqlite3* earlierFormatMap(const std::string& path, const std::string& version,
+                          const std::string& tables) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open(path.c_str(), &db) != SQLITE_OK) return nullptr;
+  const std::string setup = "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);" +
+                            tables + "INSERT INTO meta VALUES ('format_version', '" + version +
+                            "'), ('descriptor_identity', '" + std::string(kIdentity) +
+                            "'), ('global_dimension', '" + std::to_string(kDimension) + "');";
+  if (sqlite3_exec(db, setup.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) {
+    sqlite3_close(db);
+    return nullptr;
+  }
+  return db;
+}
+
 }  // namespace
 
 TEST_F(KeyframeStoreTest, EveryFieldSurvivesAReopen) {
@@ -379,15 +396,10 @@ TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
   const uint64_t graph = u64At(bytes.size() - 16);
   const std::string record = bytes.substr(kHeader + first, graph - first);
 
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
-  const std::string setup =
-      "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
-      "CREATE TABLE keyframes (id INTEGER PRIMARY KEY, session INTEGER, stamp REAL, global BLOB, "
-      "record BLOB);"
-      "INSERT INTO meta VALUES ('format_version', '1'), ('descriptor_identity', '" +
-      std::string(kIdentity) + "'), ('global_dimension', '" + std::to_string(kDimension) + "');";
-  ASSERT_EQ(sqlite3_exec(db, setup.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3* db = earlierFormatMap(path_, "1",
+                                 "CREATE TABLE keyframes (id INTEGER PRIMARY KEY, session INTEGER, "
+                                 "stamp REAL, global BLOB, record BLOB);");
+  ASSERT_NE(db, nullptr);
   sqlite3_stmt* insert = nullptr;
   sqlite3_prepare_v2(db, "INSERT INTO keyframes VALUES (4, 2, 0, x'00', ?)", -1, &insert, nullptr);
   sqlite3_bind_blob(insert, 1, record.data(), static_cast<int>(record.size()), SQLITE_STATIC);
@@ -404,16 +416,12 @@ TEST_F(KeyframeStoreTest, AMapOfTheStoresFirstFormatIsRefusedAndConvertsOnce) {
 
 TEST_F(KeyframeStoreTest, AMapOfTheStoresSecondFormatIsRefusedAndConvertsOnce) {
   // Format 2 kept each keyframe's 8-bit global row in the database, beside its summary.
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
-  const std::string setup =
-      "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);"
+  sqlite3* db = earlierFormatMap(
+      path_, "2",
       "CREATE TABLE keyframes (id INTEGER PRIMARY KEY, session INTEGER NOT NULL, stamp REAL NOT "
       "NULL, motion BLOB NOT NULL, vector BLOB NOT NULL);"
-      "CREATE TABLE records (id INTEGER PRIMARY KEY, record BLOB NOT NULL);"
-      "INSERT INTO meta VALUES ('format_version', '2'), ('descriptor_identity', '" +
-      std::string(kIdentity) + "'), ('global_dimension', '" + std::to_string(kDimension) + "');";
-  ASSERT_EQ(sqlite3_exec(db, setup.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+      "CREATE TABLE records (id INTEGER PRIMARY KEY, record BLOB NOT NULL);");
+  ASSERT_NE(db, nullptr);
   for (uint64_t id = 2; id <= 4; ++id) {
     const KeyframeRecord keyframe = makeKeyframe(id, id < 4 ? 0 : 1);
     const std::vector<uint8_t> motion = database_payload::encodeMotion(keyframe);
