@@ -45,10 +45,7 @@ bool readAt(int fd, uint8_t* bytes, size_t size, off_t offset) {
   return ::pread(fd, bytes, size, offset) == static_cast<ssize_t>(size);
 }
 
-}  // namespace
-
-size_t entryBytes(int dimension) { return rowBytes(dimension) + kSummaryBytes; }
-
+// The file's first bytes for rows of `dimension` values.
 std::vector<uint8_t> header(int dimension) {
   std::vector<uint8_t> bytes(kHeaderBytes);
   std::memcpy(bytes.data(), kMagic, 8);
@@ -56,6 +53,20 @@ std::vector<uint8_t> header(int dimension) {
   database_payload::encode(static_cast<uint32_t>(kSummaryBytes), bytes.data() + 12);
   return bytes;
 }
+
+KeyframeSummary decodeSummary(const uint8_t* at) {
+  KeyframeSummary summary;
+  summary.id = database_payload::decode<uint64_t>(at);
+  summary.session = database_payload::decode<uint32_t>(at + 8);
+  const uint64_t stamp_bits = database_payload::decode<uint64_t>(at + 12);
+  std::memcpy(&summary.stamp, &stamp_bits, sizeof(stamp_bits));
+  database_payload::decodeMotion(at + 20, kSummaryBytes - 20, &summary);
+  return summary;
+}
+
+}  // namespace
+
+size_t entryBytes(int dimension) { return rowBytes(dimension) + kSummaryBytes; }
 
 std::vector<uint8_t> entry(const std::vector<uint8_t>& row, const KeyframeSummary& summary) {
   std::vector<uint8_t> bytes(row.size() + kSummaryBytes);
@@ -69,16 +80,6 @@ std::vector<uint8_t> entry(const std::vector<uint8_t>& row, const KeyframeSummar
   const std::vector<uint8_t> motion = database_payload::encodeMotion(summary);
   std::memcpy(out + 20, motion.data(), motion.size());
   return bytes;
-}
-
-KeyframeSummary decodeSummary(const uint8_t* at) {
-  KeyframeSummary summary;
-  summary.id = database_payload::decode<uint64_t>(at);
-  summary.session = database_payload::decode<uint32_t>(at + 8);
-  const uint64_t stamp_bits = database_payload::decode<uint64_t>(at + 12);
-  std::memcpy(&summary.stamp, &stamp_bits, sizeof(stamp_bits));
-  database_payload::decodeMotion(at + 20, kSummaryBytes - 20, &summary);
-  return summary;
 }
 
 Writer::Writer(const std::string& path, int dimension)

@@ -27,11 +27,8 @@ constexpr size_t kHeaderBytes = 16;
 
 /// Bytes of one entry: the row (scale and `dimension` values), then the summary.
 size_t entryBytes(int dimension);
-/// The file's first bytes for rows of `dimension` values.
-std::vector<uint8_t> header(int dimension);
 /// One entry: `row` (QuantizedVectors::encode) followed by `summary`.
 std::vector<uint8_t> entry(const std::vector<uint8_t>& row, const KeyframeSummary& summary);
-KeyframeSummary decodeSummary(const uint8_t* summary);
 
 /// The file open for writing entries, held by the map's store.
 class Writer {
