@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -34,6 +35,16 @@ std::optional<uint32_t> fileChecksum(const std::string& path) {
   return crc;
 }
 
+// The first `entries` entries of a map's rows file, mapped; throws naming the map when they
+// cannot be.
+std::shared_ptr<const vector_file::Mapped> mapRows(const std::string& map_path,
+                                                   const std::string& rows_path, int dimension,
+                                                   uint64_t entries) {
+  auto mapped = vector_file::Mapped::open(rows_path, dimension, entries);
+  if (!mapped) throw storeError(map_path, "its search rows " + rows_path + " cannot be read");
+  return mapped;
+}
+
 }  // namespace
 
 void KeyframeStore::openRows() {
@@ -53,9 +64,7 @@ void KeyframeStore::openRows() {
     throw storeError(path_, open_error.what());
   }
   const uint64_t on_disk = rows_->entriesOnDisk();
-  const auto mapped =
-      vector_file::Mapped::open(file, global_dimension_, std::min<uint64_t>(c.count, on_disk));
-  if (!mapped) throw storeError(path_, "its search rows " + file + " cannot be read");
+  const auto mapped = mapRows(path_, file, global_dimension_, std::min<uint64_t>(c.count, on_disk));
   const auto damaged = [&](const std::string& what) {
     return storeError(path_,
                       "its search rows " + file + " are damaged or another map's (" + what + ")");
@@ -137,8 +146,7 @@ void KeyframeStore::forEachSummary(
     const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
         visit) const {
   const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  const auto mapped = vector_file::Mapped::open(vectorsPath(), global_dimension_, size());
-  if (!mapped) throw storeError(path_, "its search rows " + vectorsPath() + " cannot be read");
+  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, size());
   for (size_t index = 0; index < mapped->entries(); ++index) {
     KeyframeSummary summary;
     try {
@@ -153,8 +161,7 @@ void KeyframeStore::forEachSummary(
 
 void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
   if (size() == 0) return;
-  const auto mapped = vector_file::Mapped::open(vectorsPath(), global_dimension_, size());
-  if (!mapped) throw storeError(path_, "its search rows " + vectorsPath() + " cannot be read");
+  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, size());
   mapped->readAtRandom();  // Checked at open; search reads rows here and there.
   try {
     database->addSaved(
