@@ -83,19 +83,23 @@ struct Settings {
   bench::RouteShape route = bench::RouteShape::kMeasured;
 };
 
+// The shipped descriptor, or the one the node falls back to without the fetched backbone.
+std::shared_ptr<const DescriptorExtractor> shippedExtractor() {
+  try {
+    return makeDescriptorExtractor(DescriptorOptions{});
+  } catch (const std::exception&) {
+    DescriptorOptions landmarks;
+    landmarks.type = "landmarks";
+    return makeDescriptorExtractor(landmarks);
+  }
+}
+
 // Keyframes as the node stores them with the shipped settings and a depth camera, one per image of
 // the comma-separated `image_paths` (real camera images: more keypoints, larger thumbnails), or one
 // generated corridor view.
 std::vector<KeyframeRecord> modelKeyframes(const std::string& image_paths,
                                            std::string* descriptor_name) {
-  std::shared_ptr<const DescriptorExtractor> extractor;
-  try {
-    extractor = makeDescriptorExtractor(DescriptorOptions{});
-  } catch (const std::exception&) {
-    DescriptorOptions landmarks;
-    landmarks.type = "landmarks";  // Without the fetched backbone, as the node falls back.
-    extractor = makeDescriptorExtractor(landmarks);
-  }
+  const std::shared_ptr<const DescriptorExtractor> extractor = shippedExtractor();
   *descriptor_name =
       extractor->name() + " (" + std::to_string(extractor->globalDimension()) + " values)";
   std::vector<KeyframeRecord> models;
@@ -298,9 +302,9 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  // Reopened as LoopDetector::openMap does.
+  // Reopened as LoopDetector::openMap does: the dimension is the descriptor's, the map opened once.
+  const int dimension = shippedExtractor()->globalDimension();
   const auto open_start = Clock::now();
-  const int dimension = KeyframeStore::openExisting(path)->globalDimension();  // Closed again.
   auto store = KeyframeStore::open(path, identity, dimension);
   IndexOptions exact = index;
   exact.type = "exact";
