@@ -87,7 +87,7 @@ rows = [(int(r["seconds"]), int(r["rss_kb"]) * 1024)
 print(f"frames in the bag: {frames} at {rate} Hz ({laps} laps), RSS samples: {len(rows)}")
 # Each diagnostics row holds key,value pairs; keep the node's counters.
 KEYS = ("frames admitted", "keyframes", "database bytes", "keyframes dropped (worker busy)",
-        "keyframes not stored (memory budget)", "loops published",
+        "keyframes past the memory budget", "loops published",
         "max keyframe processing (ms)")
 status = []
 for line in open("_soak/diagnostics.txt"):

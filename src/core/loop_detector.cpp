@@ -457,10 +457,24 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_pose = keyframe.pose;
   }
 
-  if (mode_ == DetectorMode::kLocalization || overMemoryBudget()) return result;
+  if (mode_ == DetectorMode::kLocalization) return result;
+  const bool over_budget = overMemoryBudget();
+  if (over_budget && !store_) return result;
   keyframe.descriptor = std::move(descriptor);
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
+  }
+  if (over_budget) {
+    // The budget bounds search's RAM, not the map: the keyframe goes to disk only.
+    try {
+      store_->add(keyframe);
+    } catch (const std::exception& error) {
+      result.store_error = error.what();
+      return result;
+    }
+    result.stored = true;
+    result.searched_from_next_start = true;
+    return result;
   }
   if (store_) {
     try {

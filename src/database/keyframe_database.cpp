@@ -24,9 +24,11 @@ const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
           .number("memory_budget_mb", &O::memory_budget_mb, atLeast(0),
                   "0: no limit. RAM of the keyframes (diagnostics \"database bytes\"): with a "
                   "map file (database_path) search keeps ~4.7 KB per keyframe shipped and reads "
-                  "the rest from the file; without one every keyframe stays in RAM (~40 KB). Past "
-                  "the budget keyframes are still searched for loops but no longer stored; a "
-                  "warning says so.")
+                  "the rest from the file; without one every keyframe stays in RAM (~40 KB). It "
+                  "bounds search, not the map: past it keyframes are still searched for loops "
+                  "and written to the map file, searched from the map's next start (which "
+                  "searches it all); without a map file they are no longer stored. A warning "
+                  "says so.")
           .group(&O::index, IndexOptions::parameters());
   return table;
 }

@@ -172,6 +172,17 @@ void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
   }
 }
 
+std::optional<uint64_t> KeyframeStore::searchRowOf(uint64_t id) const {
+  sqlite3_stmt* statement = connection_->prepare("SELECT search_row FROM keyframes WHERE id = ?");
+  sqlite3_bind_int64(statement, 1, static_cast<sqlite3_int64>(id));
+  std::optional<uint64_t> row;
+  if (sqlite3_step(statement) == SQLITE_ROW) {
+    row = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));
+  }
+  sqlite3_finalize(statement);
+  return row;
+}
+
 std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
 
 std::string KeyframeStore::graphPath() const { return path_ + "-graph"; }
@@ -185,11 +196,12 @@ void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeD
     throw storeError(path_, error.what());
   }
   const ApproximateIndex* graph = database.graph();
-  // The graph is valid only over the map's own keyframes in order; a keyframe the map could not
-  // take (a full disk) would shift it. Not saved then: the next open builds it again.
+  // The graph is valid over the map's first keyframes in order (those past the memory budget
+  // follow them; the next open links them in); a keyframe the map could not take (a full disk)
+  // would shift it. Not saved then: the next open builds it again.
   const size_t rows = database.size();
-  const bool graph_fits = graph != nullptr && graph->size() == rows && rows == c.count &&
-                          (rows == 0 || database.summary(rows - 1).id == c.last_id);
+  const bool graph_fits = graph != nullptr && graph->size() == rows && rows <= c.count &&
+                          (rows == 0 || searchRowOf(database.summary(rows - 1).id) == rows - 1);
   std::optional<uint32_t> graph_checksum;
   if (graph_fits) {
     const std::string file = graphPath();

@@ -72,7 +72,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("frames admitted", frames_admitted_.load());
   status.add("keyframes", map_keyframes_.load());
   status.add("database bytes", database_bytes_);
-  status.add("keyframes not stored (memory budget)", keyframes_over_budget_.load());
+  status.add("keyframes past the memory budget", keyframes_over_budget_.load());
   status.add("map", database_status_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());

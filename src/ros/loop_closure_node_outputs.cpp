@@ -46,18 +46,26 @@ void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeRe
 void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
                                      const PreparedKeyframe& prepared) {
   const NodeKeyframe keyframe = nodeKeyframe(job);
-  if (!result.stored && detector_.mode() == DetectorMode::kMapping) {
+  const bool mapping = detector_.mode() == DetectorMode::kMapping;
+  // Not stored and no store error: past the budget without a map file.
+  const bool over_budget =
+      result.searched_from_next_start || (!result.stored && result.store_error.empty());
+  if (mapping && over_budget) {
     ++keyframes_over_budget_;
     ROS_WARN_THROTTLE(kWarningPeriod,
-                      "Database memory budget of %.0f MB reached (%zu keyframes): keyframes are "
-                      "searched for loops but no longer stored",
-                      options_.detector.database.memory_budget_mb, detector_.database().size());
+                      "Database memory budget of %.0f MB reached (%zu keyframes searched): new "
+                      "keyframes are searched for loops and %s",
+                      options_.detector.database.memory_budget_mb, detector_.database().size(),
+                      result.searched_from_next_start
+                          ? "written to the map, searched from its next start"
+                          : "no longer stored (without a map file, database_path, all is in RAM)");
   }
   keyframe_stamps_[job.id] = keyframe.stamp;
   publishResults(keyframe, result, prepared.grey);
   if (!result.store_error.empty()) {
-    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu is kept in memory only: %s",
-                       static_cast<unsigned long>(job.id), result.store_error.c_str());
+    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu is %s: %s", static_cast<unsigned long>(job.id),
+                       result.stored ? "kept in memory only" : "lost (past the memory budget)",
+                       result.store_error.c_str());
   }
   noteMapSize(detector_);
 }

@@ -153,7 +153,7 @@ TEST(LoopDetector, ABlackKeyframeIsRefusedAndNothingStoredChanges) {
   EXPECT_TRUE(feed(&detector, 13, 13).keyframe->stored);  // And carries on.
 }
 
-TEST(LoopDetector, PastTheMemoryBudgetKeyframesAreSearchedButNotStored) {
+TEST(LoopDetector, PastTheMemoryBudgetWithoutAMapFileKeyframesAreSearchedButNotStored) {
   LoopDetector probe(smallOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 40; ++i) feed(&probe, i, i);
   LoopDetectorOptions options = smallOptions();
@@ -455,5 +455,52 @@ TEST(LoopDetector, AMapKeepsItsSearchGraphAndLinksInWhatACrashLeftOut) {
   EXPECT_TRUE(detector.mapGraphReused());
   ASSERT_NE(detector.database().graph(), nullptr);
   EXPECT_EQ(detector.database().graph()->size(), 13u);
+  removeMap(path);
+}
+
+TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearchesItAll) {
+  const std::string probe_path = temporaryPath("budget_probe.db");
+  const std::string path = temporaryPath("budget_map.db");
+  removeMap(probe_path);
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.database.index.type = "approximate";
+  uint64_t last_written = 0;
+  {
+    LoopDetector probe(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(probe.openMap(probe_path), "");
+    for (int i = 0; i < 40; ++i) feed(&probe, i, i);
+    options.database.memory_budget_mb = static_cast<double>(probe.database().bytes()) / 1e6;
+  }
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 40; ++i) {
+      const KeyframeResult stored = *feed(&detector, i, i).keyframe;
+      EXPECT_TRUE(stored.stored && !stored.searched_from_next_start) << i;
+    }
+    ASSERT_TRUE(detector.overMemoryBudget());
+    // Revisits still close loops; the keyframes go to the map, not to search.
+    FrameResult last;
+    for (int i = 40; i < 45; ++i) {
+      last = feed(&detector, i, i - 30);
+      EXPECT_TRUE(last.keyframe->stored && last.keyframe->searched_from_next_start) << i;
+      EXPECT_TRUE(last.keyframe->store_error.empty()) << last.keyframe->store_error;
+    }
+    last_written = last.keyframe->keyframe_id;
+    ASSERT_TRUE(last.keyframe->loop);
+    EXPECT_EQ(last.keyframe->loop->match_id, 14u);
+    EXPECT_EQ(detector.database().size(), 40u);
+    EXPECT_EQ(detector.saveMapGraph(), "") << "the graph over the searched keyframes is saved";
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 45u);
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.database().size(), 45u);
+  EXPECT_EQ(detector.database().summary(44).id, last_written);
+  EXPECT_TRUE(detector.mapGraphReused());
+  ASSERT_NE(detector.database().graph(), nullptr);
+  EXPECT_EQ(detector.database().graph()->size(), 45u) << "the five linked in";
+  removeMap(probe_path);
   removeMap(path);
 }

@@ -147,8 +147,11 @@ struct StageTimes {
 struct KeyframeResult {
   std::optional<InputError> error;  ///< Set: the keyframe was refused and not stored.
   uint64_t keyframe_id = 0;
-  /// Added to the database: false when refused, localising, or the memory budget is spent.
+  /// Kept: false when refused, localising, or past the memory budget without a map file.
   bool stored = false;
+  /// Past database/memory_budget_mb with a map file: written to the map, not searched in this run
+  /// (the next start searches the whole map).
+  bool searched_from_next_start = false;
   QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
@@ -158,7 +161,8 @@ struct KeyframeResult {
   /// failed) and the result of the last held keyframe, stored with all the others.
   int held_for_training = 0;
   std::string training_summary;
-  /// Stored in memory but not committed to the map on disk (disk full, file gone): why.
+  /// Not committed to the map on disk (disk full, file gone): why. The keyframe is kept in
+  /// memory (`stored`) unless search is past its memory budget.
   std::string store_error;
 };
 
@@ -239,7 +243,8 @@ class LoopDetector {
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
-  /// The database holds database/memory_budget_mb: new keyframes are searched, not stored.
+  /// Search holds database/memory_budget_mb: new keyframes are searched for loops and written to
+  /// the map file, if one is open, but not added to search.
   void readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store);
   bool overMemoryBudget() const;
 

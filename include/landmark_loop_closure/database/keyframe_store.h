@@ -96,12 +96,13 @@ class KeyframeStore {
   /// the next open checks it in one pass), and keeps `database`'s search graph for the next open
   /// in graphPath() with its checksum in the map (it changes with every keyframe). `database` is
   /// this map's search (loaded from it and grown with it); `graph_identity`:
-  /// IndexOptions::graphIdentity(). Throws std::runtime_error (disk full; search holds keyframes
-  /// the map could not take: no graph is saved then).
+  /// IndexOptions::graphIdentity(); it may hold the map's first keyframes only (the rest written
+  /// past the memory budget). Throws std::runtime_error (disk full; search holds keyframes the map
+  /// could not take: no graph is saved then).
   void saveGraph(const std::string& graph_identity, const KeyframeDatabase& database);
   /// The saved graph over `vectors` (the map's, in id order) when it was made with
   /// `graph_identity` and its file is the one saved; it may hold fewer keyframes than the map
-  /// (after a crash). nullptr otherwise: the graph is then built again.
+  /// (after a crash, or past the memory budget). nullptr otherwise: the graph is then built again.
   std::unique_ptr<ApproximateIndex> loadGraph(const std::string& graph_identity,
                                               const QuantizedVectors* vectors, int neighbors) const;
   std::string graphPath() const;
@@ -127,6 +128,8 @@ class KeyframeStore {
   /// later ones against their keyframes' checksums. Throws std::runtime_error when it is missing
   /// or damaged; removes the last keyframes when a power cut lost their rows (repairs()).
   void openRows();
+  /// Which entry of the rows file keyframe `id`'s is; nullopt when the map lacks it.
+  std::optional<uint64_t> searchRowOf(uint64_t id) const;
   static std::unique_ptr<KeyframeStore> openChecked(const std::string& path,
                                                     const std::string* descriptor_identity,
                                                     int global_dimension);
