@@ -112,6 +112,13 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
           "every keyframe committed as it is stored",
           options_.database_path.c_str(), detector_.database().size(), load_s, graph,
           detector_.session());
+      if (detector_.overMemoryBudget()) {
+        ROS_WARN(
+            "Map %s: its search takes %.0f MB, past database/memory_budget_mb (%.0f MB): "
+            "new keyframes are written to the map and searched from its next start",
+            options_.database_path.c_str(), static_cast<double>(detector_.database().bytes()) / 1e6,
+            options_.detector.database.memory_budget_mb);
+      }
     }
   }
   RuntimeOptions runtime_options;
