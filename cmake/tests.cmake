@@ -33,10 +33,12 @@ foreach(name ${CORE_TESTS})
     PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
 # The store test edits a map as a newer version would have written it, and reads its record
-# layout; both map tests write the old map file through the private payload writer.
+# layout; both map tests write the old map file through the private payload writer; the rows
+# test checks the rows file's own checksum.
 target_link_libraries(test_keyframe_store SQLite::SQLite3)
 target_link_libraries(test_saved_search_rows SQLite::SQLite3)
 target_include_directories(test_keyframe_store PRIVATE src)
+target_include_directories(test_saved_search_rows PRIVATE src)
 target_include_directories(test_old_map_file PRIVATE src)
 
 # Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
+#include <thread>
 
 #include "common/crc32c.h"
 #include "database/database_payload.h"
@@ -21,6 +22,8 @@ namespace {
 
 constexpr char kMagic[8] = {'L', 'L', 'C', 'V', 'E', 'C', '3', '\n'};
 constexpr size_t kPieceBytes = 8 << 20;
+// Files this large are checked in two streams.
+constexpr size_t kTwoStreamsFrom = size_t{256} << 20;
 
 std::runtime_error fileError(const std::string& path, const std::string& what) {
   return std::runtime_error("search rows " + path + ": " + what);
@@ -182,11 +185,22 @@ KeyframeSummary Mapped::summary(size_t index) const {
 
 uint32_t Mapped::checksum(uint64_t count) const {
   const size_t size = kHeaderBytes + std::min(count, entries_) * entry_bytes_;
-  uint32_t crc = 0;
-  for (size_t done = 0; done < size; done += kPieceBytes) {
-    crc = crc32c(crc, base_ + done, std::min(kPieceBytes, size - done));
-  }
-  return crc;
+  const auto checksumOf = [this](size_t from, size_t to) {
+    uint32_t crc = 0;
+    for (size_t done = from; done < to; done += kPieceBytes) {
+      crc = crc32c(crc, base_ + done, std::min(kPieceBytes, to - done));
+    }
+    return crc;
+  };
+  if (size < kTwoStreamsFrom) return checksumOf(0, size);
+  // From a cold disk one sequential stream reads ~1.1 GB/s here and two ~2 GB/s: the second half
+  // is read by a helper thread (waiting on the disk, hardly any CPU) and the CRCs combined.
+  const size_t half = size / 2;
+  uint32_t second = 0;
+  std::thread helper([&] { second = checksumOf(half, size); });
+  const uint32_t first = checksumOf(0, half);
+  helper.join();
+  return crc32cCombine(first, second, size - half);
 }
 
 void Mapped::readAtRandom() const { ::madvise(const_cast<uint8_t*>(base_), length_, MADV_RANDOM); }

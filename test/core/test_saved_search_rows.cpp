@@ -16,6 +16,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/crc32c.h"
+#include "database/vector_file.h"
 #include "keyframe_fixtures.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
@@ -319,4 +321,42 @@ TEST_F(KeyframeStoreTest, OpeningRemovesWhatAnInterruptedSaveLeftAndSaysSo) {
   EXPECT_FALSE(fs::exists(path_ + "-graph.tmp"));
   EXPECT_FALSE(fs::exists(path_ + "-vectors.tmp"));
   EXPECT_EQ(store->size(), 1u);
+}
+
+TEST_F(KeyframeStoreTest, ALargeRowsFileIsCheckedInTwoStreamsToTheSameChecksum) {
+  // Past 256 MB the check reads the file's halves at once; the result must be one pass's CRC.
+  const int dimension = 4320;
+  const size_t entry_bytes = vector_file::entryBytes(dimension);
+  const uint64_t entries = (uint64_t{300} << 20) / entry_bytes;
+  const std::string file = (folder_ / "large-vectors").string();
+  std::vector<uint8_t> entry(entry_bytes);
+  {
+    vector_file::Writer writer(file, dimension);
+    for (const uint64_t position : {uint64_t{0}, entries / 2 - 1, entries / 2, entries - 1}) {
+      for (size_t i = 0; i < entry_bytes; ++i) entry[i] = static_cast<uint8_t>(position + i * 7);
+      writer.write(position, entry.data());  // The rest is a hole: zeros, nothing on disk.
+    }
+  }
+  const auto onePass = [&](const vector_file::Mapped& mapped) {
+    return crc32c(0, mapped.entry(0) - vector_file::kHeaderBytes,
+                  vector_file::kHeaderBytes + entries * entry_bytes);
+  };
+  uint32_t before = 0;
+  {
+    const auto mapped = vector_file::Mapped::open(file, dimension, entries);
+    ASSERT_NE(mapped, nullptr);
+    before = mapped->checksum(entries);
+    EXPECT_EQ(before, onePass(*mapped));
+  }
+  {
+    vector_file::Writer writer(file, dimension);
+    entry.assign(entry_bytes, 1);
+    writer.write(entries - 2, entry.data());  // A change in the second half.
+  }
+  const auto mapped = vector_file::Mapped::open(file, dimension, entries);
+  ASSERT_NE(mapped, nullptr);
+  EXPECT_NE(mapped->checksum(entries), before);
+  EXPECT_EQ(mapped->checksum(entries), onePass(*mapped));
+  EXPECT_EQ(mapped->checksum(3), crc32c(0, mapped->entry(0) - vector_file::kHeaderBytes,
+                                        vector_file::kHeaderBytes + 3 * entry_bytes));
 }
