@@ -85,7 +85,7 @@ class KeyframeStore {
   void forEachSummary(const std::function<void(const KeyframeSummary&, const uint8_t* vector_row,
                                                size_t row_bytes)>& visit) const;
   /// Fills an empty `database` with every keyframe's summary and row, the rows file mapped and
-  /// its rows used in place instead of copied (a second at 1 000 000 keyframes).
+  /// its rows used in place instead of copied (0.8 s at 1 000 000 keyframes, rows cached).
   void loadSearch(KeyframeDatabase* database) const;
   /// Every keyframe, whole, in id order.
   void forEach(const std::function<void(KeyframeRecord)>& visit) const;
