@@ -243,9 +243,10 @@ class LoopDetector {
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
+  /// Makes `database` read the records of search's candidates from `store`, keeping the newest.
+  void readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store);
   /// Search holds database/memory_budget_mb: new keyframes are searched for loops and written to
   /// the map file, if one is open, but not added to search.
-  void readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store);
   bool overMemoryBudget() const;
 
   /// Worker thread: switches between building the map and only searching it.
