@@ -206,19 +206,28 @@ bool insertRow(sqlite3_stmt* statement) {
   return status == SQLITE_DONE;
 }
 
-// A keyframe of the earlier store format 2, its global row in the `vector` column.
-KeyframeRecord readFormat2Row(sqlite3_stmt* row, int first_column, uint64_t id) {
+// A keyframe's id, session, stamp, pose and path from a `keyframes` row whose session, stamp and
+// motion columns start at `first_column` (both store formats).
+KeyframeRecord readSummaryColumns(sqlite3_stmt* row, int first_column, uint64_t id) {
   KeyframeRecord keyframe;
   keyframe.id = id;
   keyframe.session = static_cast<uint32_t>(sqlite3_column_int64(row, first_column));
   keyframe.stamp = sqlite3_column_double(row, first_column + 1);
+  database_payload::decodeMotion(
+      static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + 2)),
+      static_cast<size_t>(sqlite3_column_bytes(row, first_column + 2)), &keyframe);
+  return keyframe;
+}
+
+// A keyframe of the earlier store format 2, its global row in the `vector` column.
+KeyframeRecord readFormat2Row(sqlite3_stmt* row, int first_column, uint64_t id) {
+  KeyframeRecord keyframe = readSummaryColumns(row, first_column, id);
   const auto blob = [&](int column) {
     return static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + column));
   };
   const auto bytes = [&](int column) {
     return static_cast<size_t>(sqlite3_column_bytes(row, first_column + column));
   };
-  database_payload::decodeMotion(blob(2), bytes(2), &keyframe);
   const int dimension = static_cast<int>(bytes(3)) - static_cast<int>(sizeof(float));
   if (dimension <= 0) throw database_payload::FormatError("its global vector is empty");
   keyframe.descriptor.global = QuantizedVectors::decode(blob(3), dimension);
@@ -229,13 +238,7 @@ KeyframeRecord readFormat2Row(sqlite3_stmt* row, int first_column, uint64_t id) 
 }  // namespace
 
 KeyframeRecord KeyframeStore::readRow(sqlite3_stmt* row, int first_column, uint64_t id) const {
-  KeyframeRecord keyframe;
-  keyframe.id = id;
-  keyframe.session = static_cast<uint32_t>(sqlite3_column_int64(row, first_column));
-  keyframe.stamp = sqlite3_column_double(row, first_column + 1);
-  database_payload::decodeMotion(
-      static_cast<const uint8_t*>(sqlite3_column_blob(row, first_column + 2)),
-      static_cast<size_t>(sqlite3_column_bytes(row, first_column + 2)), &keyframe);
+  KeyframeRecord keyframe = readSummaryColumns(row, first_column, id);
   const auto position = static_cast<size_t>(sqlite3_column_int64(row, first_column + 3));
   const auto checksum = static_cast<uint32_t>(sqlite3_column_int64(row, first_column + 4));
   const std::vector<uint8_t> entry = rows_->read(position);
