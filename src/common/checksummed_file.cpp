@@ -3,7 +3,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 
 #include "common/crc32c.h"
 
@@ -37,10 +36,14 @@ std::string finishChecksummedFile(const std::string& path, LittleEndianWriter* w
 
 std::string readChecksummedFile(const std::string& path, const char (&magic)[8], uint32_t version,
                                 const std::string& kind, std::vector<uint8_t>* body) {
-  std::ifstream file(path, std::ios::binary);
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
   if (!file) return "cannot be opened";
-  const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(file),
-                                   std::istreambuf_iterator<char>()};
+  // Read in one call: the map's saved summaries are ~92 MB at 1 000 000 keyframes.
+  const std::streamoff size = file.tellg();
+  if (size < 0) return "cannot be read";
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  file.seekg(0);
+  if (!file.read(reinterpret_cast<char*>(bytes.data()), size)) return "cannot be read";
   if (bytes.size() < kHeaderBytes + 4 || std::memcmp(bytes.data(), magic, sizeof(magic)) != 0) {
     return "not a " + kind + " file";
   }

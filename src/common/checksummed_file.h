@@ -1,6 +1,7 @@
 #pragma once
 
-// The layout of the package's small model files (whitening, broad autoencoder): 8-byte magic,
+// The layout of the package's model files (whitening, broad autoencoder) and of a map's saved
+// summaries: 8-byte magic,
 // byte-order mark, version, the body, then the CRC-32C of everything before it; written to a
 // temporary file and renamed, so a crash never leaves half a file under the real name.
 

@@ -238,12 +238,15 @@ std::string LoopDetector::openMap(const std::string& path) {
     }
     graph_reused = graph != nullptr;
     loaded.setIndex(index, std::move(graph));
+    // Reading the whole rows file would hold search back for seconds: it is checked meanwhile.
+    store->startSealedRowsCheck();
   } catch (const std::exception& error) {
     return error.what();
   }
   map_graph_reused_ = graph_reused;
   map_leftovers_removed_ = store->leftoversRemoved();
   map_repairs_ = store->repairs();
+  map_damage_.clear();
   database_ = std::move(loaded);
   store_ = std::move(store);
   session_ = database_.empty() ? 0 : last_session + 1;
@@ -289,8 +292,23 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
   return openMap(path);
 }
 
+std::string LoopDetector::mapRowsCheck() const {
+  if (!store_) return "";
+  switch (store_->sealedRowsCheck()) {
+    case KeyframeStore::RowsCheck::kPassed:
+      return "checked";
+    case KeyframeStore::RowsCheck::kFailed:
+      return "damaged";
+    case KeyframeStore::RowsCheck::kPending:
+    case KeyframeStore::RowsCheck::kRunning:
+      break;
+  }
+  return "being checked";
+}
+
 std::string LoopDetector::reset() {
   if (training_) training_->clear();
+  map_damage_.clear();
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   consistency_.reset();
@@ -310,6 +328,7 @@ std::string LoopDetector::reset() {
   if (!error) std::filesystem::rename(path, kept, error);
   if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
   std::filesystem::rename(path + "-graph", kept + "-graph", error);
+  std::filesystem::rename(path + "-summaries", kept + "-summaries", error);
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
     readRecordsFromStore(&database_, store_.get());
@@ -417,7 +436,14 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
       replayed = true;
     }
   }
-  if (!replayed) {
+  if (store_ && map_damage_.empty() &&
+      store_->sealedRowsCheck() == KeyframeStore::RowsCheck::kFailed) {
+    map_damage_ = store_->sealedRowsProblem();
+    result.map_damage = map_damage_;
+  }
+  if (!map_damage_.empty()) {
+    query.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
+  } else if (!replayed) {
     query = database_.query(descriptor.global, stamp, search, session_);
     if (query_cache_) query_cache_->emplace(keyframe_id, query);
   }

@@ -45,6 +45,8 @@ const char* toString(QueryStatus status) {
       return "database_too_small";
     case QueryStatus::kAllExcluded:
       return "all_excluded";
+    case QueryStatus::kMapDamaged:
+      return "map_damaged";
   }
   return "unknown";
 }

@@ -50,8 +50,9 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
   auto store = openChecked(path, &descriptor_identity, global_dimension);
   // A save killed midway (the search files at shutdown, a copy onto this path) leaves its
   // temporary file; this process holds the map now, so they are nobody's.
-  for (const std::string& leftover : {store->graphPath() + ".tmp", store->vectorsPath() + ".tmp",
-                                      path + ".partial", path + ".partial-vectors"}) {
+  for (const std::string& leftover :
+       {store->graphPath() + ".tmp", store->summariesPath() + ".tmp", store->vectorsPath() + ".tmp",
+        path + ".partial", path + ".partial-vectors"}) {
     std::error_code error;
     if (std::filesystem::is_regular_file(leftover, error) &&
         std::filesystem::remove(leftover, error)) {
@@ -63,7 +64,9 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
 
 std::unique_ptr<KeyframeStore> KeyframeStore::openExisting(const std::string& path) {
   if (!std::filesystem::exists(path)) throw storeError(path, "does not exist");
-  return openChecked(path, nullptr, 0);
+  auto store = openChecked(path, nullptr, 0);
+  store->checkSealedRows();
+  return store;
 }
 
 KeyframeRecord KeyframeStore::asStored(const KeyframeRecord& keyframe) {

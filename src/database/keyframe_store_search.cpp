@@ -8,9 +8,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <vector>
 
+#include "common/checksummed_file.h"
 #include "common/crc32c.h"
+#include "common/little_endian.h"
 #include "database/keyframe_codec.h"
 #include "database/store_connection.h"
 #include "database/vector_file.h"
@@ -18,6 +22,9 @@
 namespace landmark_loop_closure {
 
 namespace {
+
+constexpr char kSummariesMagic[8] = {'L', 'L', 'C', 'S', 'U', 'M', 'S', '\n'};
+constexpr uint32_t kSummariesVersion = 1;
 
 // CRC-32C of a whole file, read in 1 MB pieces; nullopt when it cannot be read.
 std::optional<uint32_t> fileChecksum(const std::string& path) {
@@ -69,19 +76,29 @@ void KeyframeStore::openRows() {
     return storeError(path_,
                       "its search rows " + file + " are damaged or another map's (" + what + ")");
   };
-  // The entries sealed at the last clean shutdown: one checksum over them.
+  // The entries sealed at the last clean shutdown: here only that they are there and end with the
+  // right keyframe; their checksum is checked by checkSealedRows() or on a thread of its own.
   const uint64_t sealed = c.metaNumber("vectors_rows").value_or(0);
   uint64_t checked = 0;
   uint32_t crc = mapped->checksum(0);  // The header's.
   std::optional<uint64_t> last_checked_id;
   if (sealed > 0) {
     const std::optional<uint64_t> sealed_last = c.metaNumber("vectors_last_id");
+    const std::optional<uint64_t> sealed_checksum = c.metaNumber("vectors_checksum");
     if (sealed > mapped->entries() || !sealed_last) throw damaged("shorter than its seal");
-    crc = mapped->checksum(sealed);
-    if (crc != c.metaNumber("vectors_checksum").value_or(0) ||
-        mapped->summary(sealed - 1).id != *sealed_last) {
-      throw damaged("checksum");
+    bool last_matches = false;
+    try {
+      last_matches = sealed_checksum && mapped->summary(sealed - 1).id == *sealed_last;
+    } catch (const std::exception&) {
     }
+    if (!last_matches)
+      throw damaged("its last sealed entry is not keyframe " + std::to_string(*sealed_last) + "'s");
+    crc = static_cast<uint32_t>(*sealed_checksum);
+    seal_check_ = std::make_unique<SealCheck>();
+    seal_check_->rows = mapped;
+    seal_check_->entries = sealed;
+    seal_check_->expected = crc;
+    seal_check_->damaged = damaged("checksum").what();
     checked = sealed;
     last_checked_id = sealed_last;
   }
@@ -142,6 +159,34 @@ void KeyframeStore::openRows() {
   entries_checksum_ = crc;
 }
 
+void KeyframeStore::checkSealedRows() {
+  if (sealedRowsCheck() == RowsCheck::kPending) seal_check_->run();
+  if (awaitSealedRowsCheck() == RowsCheck::kFailed) throw std::runtime_error(seal_check_->damaged);
+}
+
+void KeyframeStore::startSealedRowsCheck() {
+  if (sealedRowsCheck() != RowsCheck::kPending) return;
+  seal_check_->state = RowsCheck::kRunning;
+  try {
+    seal_check_->thread = std::thread([check = seal_check_.get()] { check->run(); });
+  } catch (const std::system_error&) {
+    seal_check_->run();  // No thread to be had: checked now.
+  }
+}
+
+KeyframeStore::RowsCheck KeyframeStore::sealedRowsCheck() const {
+  return seal_check_ ? seal_check_->state.load() : RowsCheck::kPassed;
+}
+
+KeyframeStore::RowsCheck KeyframeStore::awaitSealedRowsCheck() {
+  if (seal_check_ && seal_check_->thread.joinable()) seal_check_->thread.join();
+  return sealedRowsCheck();
+}
+
+std::string KeyframeStore::sealedRowsProblem() const {
+  return sealedRowsCheck() == RowsCheck::kFailed ? seal_check_->damaged : "";
+}
+
 void KeyframeStore::forEachSummary(
     const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
         visit) const {
@@ -162,11 +207,20 @@ void KeyframeStore::forEachSummary(
 void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
   if (size() == 0) return;
   const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, size());
-  mapped->readAtRandom();  // Checked at open; search reads rows here and there.
+  // Summaries from the rows file would read all of it (each sits beside its 4 KB row): those
+  // saved at the last clean shutdown are read instead, the others front to back.
+  const std::vector<uint8_t> saved = savedSummaries(*mapped);
+  const size_t saved_count = saved.size() / vector_file::kSummaryBytes;
   try {
     database->addSaved(
         mapped, mapped->row(0), mapped->entries(),
-        [&mapped](size_t row) { return mapped->summary(row); }, mapped->entryBytes());
+        [&](size_t row) {
+          return row < saved_count
+                     ? vector_file::decodeSummary(saved.data() + row * vector_file::kSummaryBytes)
+                     : mapped->summary(row);
+        },
+        mapped->entryBytes());
+    mapped->readAtRandom();  // Search reads rows here and there.
   } catch (const std::exception& error) {
     throw storeError(path_, std::string("its search rows are damaged: ") + error.what());
   }
@@ -187,6 +241,50 @@ std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
 
 std::string KeyframeStore::graphPath() const { return path_ + "-graph"; }
 
+std::string KeyframeStore::summariesPath() const { return path_ + "-summaries"; }
+
+std::optional<uint32_t> KeyframeStore::saveSummaries(const KeyframeDatabase& database, size_t count,
+                                                     std::string* error) const {
+  LittleEndianWriter writer;
+  beginChecksummedFile(&writer, kSummariesMagic, kSummariesVersion);
+  writer.u64(count);
+  std::vector<uint8_t> encoded(vector_file::kSummaryBytes);
+  uint32_t crc = 0;
+  for (size_t i = 0; i < count; ++i) {
+    vector_file::encodeSummary(database.summary(i), encoded.data());
+    writer.bytes(encoded.data(), encoded.size());
+    crc = crc32c(crc, encoded.data(), encoded.size());
+  }
+  *error = finishChecksummedFile(summariesPath(), &writer);
+  if (!error->empty()) return std::nullopt;
+  return crc;
+}
+
+std::vector<uint8_t> KeyframeStore::savedSummaries(const vector_file::Mapped& rows) const {
+  Connection& c = *connection_;
+  const std::optional<uint64_t> count = c.metaNumber("summaries_keyframes");
+  const std::optional<uint64_t> checksum = c.metaNumber("summaries_checksum");
+  if (!count || *count == 0 || *count > rows.entries() || !checksum) return {};
+  std::vector<uint8_t> body;
+  if (!readChecksummedFile(summariesPath(), kSummariesMagic, kSummariesVersion, "summaries", &body)
+           .empty() ||
+      body.size() != 8 + *count * vector_file::kSummaryBytes) {
+    return {};  // Missing, damaged, or a newer version's: the rows file is read instead.
+  }
+  body.erase(body.begin(), body.begin() + 8);
+  // Written with this map's seal, and its last keyframe is the rows file's at that place.
+  try {
+    const size_t last = (*count - 1) * vector_file::kSummaryBytes;
+    if (crc32c(0, body.data(), body.size()) != *checksum ||
+        vector_file::decodeSummary(body.data() + last).id != rows.summary(*count - 1).id) {
+      return {};
+    }
+  } catch (const std::exception&) {
+    return {};
+  }
+  return body;
+}
+
 void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeDatabase& database) {
   Connection& c = *connection_;
   // The rows reach the disk before the seal that vouches for them.
@@ -200,8 +298,12 @@ void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeD
   // follow them; the next open links them in); a keyframe the map could not take (a full disk)
   // would shift it. Not saved then: the next open builds it again.
   const size_t rows = database.size();
-  const bool graph_fits = graph != nullptr && graph->size() == rows && rows <= c.count &&
-                          (rows == 0 || searchRowOf(database.summary(rows - 1).id) == rows - 1);
+  const bool search_fits =
+      rows <= c.count && (rows == 0 || searchRowOf(database.summary(rows - 1).id) == rows - 1);
+  const bool graph_fits = graph != nullptr && graph->size() == rows && search_fits;
+  std::optional<uint32_t> summaries_checksum;
+  std::string summaries_error;  // Not saved: the next open reads the rows file instead.
+  if (search_fits && rows > 0) summaries_checksum = saveSummaries(database, rows, &summaries_error);
   std::optional<uint32_t> graph_checksum;
   if (graph_fits) {
     const std::string file = graphPath();
@@ -215,6 +317,10 @@ void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeD
     c.setMeta("vectors_rows", std::to_string(c.count));
     c.setMeta("vectors_checksum", std::to_string(entries_checksum_));
     c.setMeta("vectors_last_id", c.last_id ? std::to_string(*c.last_id) : "0");
+    if (summaries_checksum) {
+      c.setMeta("summaries_keyframes", std::to_string(rows));
+      c.setMeta("summaries_checksum", std::to_string(*summaries_checksum));
+    }
     if (graph_checksum) {
       c.setMeta("graph_identity", graph_identity);
       c.setMeta("graph_keyframes", std::to_string(rows));
@@ -225,6 +331,10 @@ void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeD
     throw;
   }
   c.execute("COMMIT", "the search rows not sealed");
+  if (!summaries_error.empty()) {
+    throw storeError(path_, "the summaries for a fast open are not saved (" + summaries_error +
+                                "); the next open reads them from the search rows");
+  }
   if (graph != nullptr && !graph_fits) {
     throw storeError(path_,
                      "the search graph is not saved: the map lacks keyframes that search "

@@ -6,10 +6,14 @@
 
 #include <sqlite3.h>
 
+#include <atomic>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
+#include "database/vector_file.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 
 namespace landmark_loop_closure {
@@ -113,6 +117,29 @@ struct KeyframeStore::Connection {
     const int status = sqlite3_step(statement);
     sqlite3_finalize(statement);
     if (status != SQLITE_DONE) fail("cannot write its settings");
+  }
+};
+
+/// The check of the rows sealed at the last clean shutdown: their checksum against the seal's.
+struct KeyframeStore::SealCheck {
+  std::shared_ptr<const vector_file::Mapped> rows;
+  uint64_t entries = 0;
+  uint32_t expected = 0;
+  std::string damaged;  ///< The message when they do not match (written before `state`).
+  std::atomic<RowsCheck> state{RowsCheck::kPending};
+  std::atomic<bool> stop{false};
+  std::thread thread;
+
+  /// Reads the rows and sets `state`; nothing when stopped first.
+  void run() {
+    const std::optional<uint32_t> crc = rows->checksum(entries, stop);
+    if (!crc) return;
+    state = *crc == expected ? RowsCheck::kPassed : RowsCheck::kFailed;
+  }
+
+  ~SealCheck() {
+    stop = true;
+    if (thread.joinable()) thread.join();
   }
 };
 

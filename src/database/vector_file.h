@@ -11,8 +11,10 @@
 // the sealed part is checked in one pass and a damaged or foreign file is never used. Private to
 // the core library.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,6 +27,12 @@ namespace vector_file {
 /// the map's `motion` column holds them.
 constexpr size_t kSummaryBytes = 8 + 4 + 8 + 72;
 constexpr size_t kHeaderBytes = 16;
+
+/// A summary as entries (and the summaries file saved at a clean shutdown) hold it:
+/// kSummaryBytes at `out`.
+void encodeSummary(const KeyframeSummary& summary, uint8_t* out);
+/// Throws database_payload::FormatError for a damaged one.
+KeyframeSummary decodeSummary(const uint8_t* at);
 
 /// Bytes of one entry: the row (scale and `dimension` values), then the summary.
 size_t entryBytes(int dimension);
@@ -79,11 +87,14 @@ class Mapped {
   KeyframeSummary summary(size_t index) const;
   /// CRC-32C of the header and entries [0, `count`), read front to back.
   uint32_t checksum(uint64_t count) const;
+  /// The same, given up (nullopt) soon after `stop` becomes true.
+  std::optional<uint32_t> checksum(uint64_t count, const std::atomic<bool>& stop) const;
   /// Tells the kernel search reads rows here and there from now on.
   void readAtRandom() const;
 
  private:
   Mapped() = default;
+  std::optional<uint32_t> checksumUnless(uint64_t count, const std::atomic<bool>* stop) const;
   const uint8_t* base_ = nullptr;
   size_t length_ = 0;
   size_t entry_bytes_ = 0;

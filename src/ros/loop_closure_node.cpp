@@ -108,10 +108,10 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                           : detector_.mapGraphReused()            ? "read"
                                                                   : "built";
       ROS_INFO(
-          "Map %s: %zu keyframes loaded in %.2f s (search graph %s); this run is session %u, "
-          "every keyframe committed as it is stored",
+          "Map %s: %zu keyframes loaded in %.2f s (search graph %s, search rows %s); this run "
+          "is session %u, every keyframe committed as it is stored",
           options_.database_path.c_str(), detector_.database().size(), load_s, graph,
-          detector_.session());
+          detector_.mapRowsCheck().c_str(), detector_.session());
       if (detector_.overMemoryBudget()) {
         ROS_WARN(
             "Map %s: its search takes %.0f MB, past database/memory_budget_mb (%.0f MB): "

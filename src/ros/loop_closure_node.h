@@ -190,6 +190,8 @@ class LoopClosureNode {
   double last_drop_wall_ = -1e9;  // and when that count last grew.
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
+  std::string map_rows_check_;                   ///< LoopDetector::mapRowsCheck().
+  std::string map_damage_;                       ///< LoopDetector::mapDamage().
 
   // The worker, its queue and the detector lock; started last, stopped first.
   std::unique_ptr<DetectorRuntime> runtime_;

@@ -62,6 +62,10 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
 
   const InputMonitor::Rates rates = inputs_.takeRates(now);
   std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!map_damage_.empty()) {
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                        "no loops searched: " + map_damage_);
+  }
   status.add("image topic", image_topic_);
   if (use_odom) status.add("odometry topic", odom_topic_);
   status.addf("image rate (Hz)", "%.1f", rates.image_hz);
@@ -74,6 +78,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("database bytes", database_bytes_);
   status.add("keyframes past the memory budget", keyframes_over_budget_.load());
   status.add("map", database_status_);
+  if (!map_rows_check_.empty()) status.add("map search rows", map_rows_check_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());

@@ -27,6 +27,8 @@ void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
   map_keyframes_ = detector.database().size();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   database_bytes_ = detector.database().bytes();
+  map_rows_check_ = detector.mapRowsCheck();
+  map_damage_ = detector.mapDamage();
 }
 
 void LoopClosureNode::onTimelineReset() {
@@ -59,6 +61,12 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
                       result.searched_from_next_start
                           ? "written to the map, searched from its next start"
                           : "no longer stored (without a map file, database_path, all is in RAM)");
+  }
+  if (!result.map_damage.empty()) {
+    ROS_ERROR(
+        "%s: no loops are searched from now on (keyframes are still committed to the map); "
+        "restart with a sound map",
+        result.map_damage.c_str());
   }
   keyframe_stamps_[job.id] = keyframe.stamp;
   publishResults(keyframe, result, prepared.grey);

@@ -9,13 +9,16 @@
 // graph, closes, reopens the map as the node does (summaries, vectors and the saved graph; records
 // stay on disk) and queries again. With --reopen it builds nothing: it reopens the map an earlier
 // run left in --dir and measures query + re-rank and recall at each --ef value (ef_search; default
-// the shipped one). Both modes end by saving the graph and search rows as a node's shutdown does.
+// the shipped one). Reopening times the first queries (--first-queries) while the sealed search
+// rows are checked on their own thread, as the node starts, and when that check ends. Both modes
+// end by saving the graph and search rows as a node's shutdown does.
 // --route picks the synthetic vectors: "measured" (default; spread like the shipped descriptor's of
 // real images) or "isotropic" (the worst case for a graph); --measure-route DIR,DIR prints how real
 // images' vectors spread next to both routes, and stops.
 //   lcd_bench_map [--keyframes 1000000] [--checkpoints 10000,100000,1000000] [--queries 300]
 //                 [--recall-queries 50] [--dir /tmp/lcd_bench_map] [--image a.jpg,b.jpg]
-//                 [--reopen] [--ef 256,512] [--ef-construction 64] [--neighbors 16]
+//                 [--reopen] [--ef 256,512] [--first-queries 20] [--ef-construction 64]
+//                 [--neighbors 16]
 //                 [--route measured|isotropic] [--measure-route DIR,DIR]
 #include <algorithm>
 #include <chrono>
@@ -80,6 +83,7 @@ struct Settings {
   bool reopen_only = false;
   IndexOptions index;  ///< The shipped graph settings unless --ef-construction / --neighbors.
   std::vector<int> ef_search = {IndexOptions().ef_search};
+  int first_queries = 20;  ///< Timed one by one straight after reopening.
   bench::RouteShape route = bench::RouteShape::kMeasured;
 };
 
@@ -278,6 +282,8 @@ int main(int argc, char** argv) {
       std::string item;
       while (std::getline(list, item, ',')) folders.push_back(item);
       return bench::measureRoutes(*makeDescriptorExtractor(DescriptorOptions{}), folders);
+    } else if (key == "--first-queries") {
+      settings.first_queries = std::stoi(value);
     } else if (key == "--ef") {
       settings.ef_search.clear();
       std::istringstream list(value);
@@ -316,12 +322,37 @@ int main(int argc, char** argv) {
       store->loadGraph(index.graphIdentity(), reopened.vectors(), index.neighbors);
   const bool reused = graph != nullptr;
   reopened.setIndex(index, std::move(graph));
+  store->startSealedRowsCheck();
   const double graph_s = msSince(graph_start) / 1000.0;
   const double open_s = msSince(open_start) / 1000.0;
   std::printf("\nReopened %zu keyframes in %.2f s (graph %s in %.2f s); RSS %.0f MB.\n",
               reopened.size(), open_s, reused ? "read" : "REBUILT", graph_s, residentMegabytes());
-  if (!route) {
-    route.emplace(dimension, 7, settings.route);
+  if (!route) route.emplace(dimension, 7, settings.route);
+  // Straight after opening, rows and records not yet read (all on disk after a cold start) and the
+  // sealed rows' check reading the rows file: what the node's first keyframes meet.
+  if (!reopened.empty() && settings.first_queries > 0) {
+    std::vector<double> first_ms;
+    std::uniform_int_distribution<size_t> pick(0, reopened.size() - 1);
+    DatabaseOptions search;
+    search.index.type = "approximate";
+    for (int q = 0; q < settings.first_queries; ++q) {
+      const auto start = Clock::now();
+      const std::vector<float> query = route->revisit(
+          QuantizedVectors::decode(reopened.vectors()->row(pick(route->random())), dimension));
+      for (const Candidate& candidate : reopened.query(query, 1e12, search, 1000).candidates) {
+        if (!reopened.record(candidate.index)) std::cerr << "a record could not be read\n";
+      }
+      first_ms.push_back(msSince(start));
+    }
+    std::printf("First %d queries + re-rank after opening: %.0f ms median, %.0f ms max.\n",
+                settings.first_queries, percentile(first_ms, 0.5), percentile(first_ms, 1.0));
+  }
+  const KeyframeStore::RowsCheck check = store->awaitSealedRowsCheck();
+  std::printf("Sealed search rows %s %.2f s after opening began.\n",
+              check == KeyframeStore::RowsCheck::kPassed ? "checked" : "FOUND DAMAGED",
+              msSince(open_start) / 1000.0);
+  std::fflush(stdout);
+  if (places.empty()) {
     for (size_t row = 0; row < reopened.size(); row += kPlaceEvery) {
       places.push_back(QuantizedVectors::decode(reopened.vectors()->row(row), dimension));
     }

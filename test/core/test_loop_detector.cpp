@@ -1,8 +1,11 @@
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -336,7 +339,9 @@ std::string temporaryPath(const std::string& name) {
 
 /// A map file and the write-ahead log SQLite may leave beside it.
 void removeMap(const std::string& path) {
-  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+  for (const char* suffix : {"", "-wal", "-shm", "-vectors", "-graph", "-summaries"}) {
+    std::filesystem::remove(path + suffix);
+  }
 }
 
 }  // namespace
@@ -503,4 +508,56 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
   EXPECT_EQ(detector.database().graph()->size(), 45u) << "the five linked in";
   removeMap(probe_path);
   removeMap(path);
+}
+
+TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndKeepsCommittingKeyframes) {
+  const std::string path = temporaryPath("damaged_rows_map.db");
+  removeMap(path);
+  const LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 20; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  const auto flipFirstRowByte = [](const std::string& map) {
+    std::fstream rows(map + "-vectors", std::ios::in | std::ios::out | std::ios::binary);
+    rows.seekg(30);
+    const char byte = static_cast<char>(rows.get());
+    rows.seekp(30);
+    rows.put(static_cast<char>(byte ^ 0x5a));
+  };
+  flipFirstRowByte(path);
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "") << "search starts while the rows are checked";
+  EXPECT_EQ(detector.database().size(), 20u);
+  for (int wait = 0; wait < 1000 && detector.mapRowsCheck() == "being checked"; ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(detector.mapRowsCheck(), "damaged");
+  // Revisits of places 5..9: nothing searched, no loop, said once; every keyframe still stored.
+  for (int i = 20; i < 25; ++i) {
+    const KeyframeResult result = *feed(&detector, i, i - 15).keyframe;
+    EXPECT_EQ(result.query_status, QueryStatus::kMapDamaged) << i;
+    EXPECT_FALSE(result.loop) << i;
+    EXPECT_TRUE(result.candidates.empty()) << i;
+    EXPECT_TRUE(result.stored && result.store_error.empty()) << i;
+    if (i == 20) {
+      EXPECT_NE(result.map_damage.find("-vectors are damaged"), std::string::npos)
+          << result.map_damage;
+    } else {
+      EXPECT_EQ(result.map_damage, "") << i;
+    }
+  }
+  EXPECT_NE(detector.mapDamage(), "");
+  const std::string note = detector.reset();  // A fresh map: searched again.
+  EXPECT_EQ(detector.mapDamage(), "");
+  EXPECT_EQ(detector.mapRowsCheck(), "checked");
+  // The damaged map, kept aside by the reset, lost nothing: its byte put back, it holds all 25.
+  ASSERT_NE(note.find("kept as " + path), std::string::npos) << note;
+  const std::string kept = note.substr(note.find(path));
+  flipFirstRowByte(kept);
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 25u);
+  removeMap(path);
+  removeMap(kept);
 }

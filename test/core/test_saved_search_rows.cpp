@@ -1,8 +1,8 @@
 // What a map keeps beside it for search: its rows file (the only copy of each keyframe's 8-bit
-// row, written as keyframes are committed) and the graph saved at a clean shutdown. Both are used
-// only when they are this map's own; rows are mapped in place rather than copied; a rows file
-// that is damaged, missing or another map's is refused by name; rows a power cut lost are
-// repaired away.
+// row, written as keyframes are committed), and the graph and summaries saved at a clean shutdown.
+// Each is used only when it is this map's own; rows are mapped in place rather than copied; a rows
+// file that is damaged, missing or another map's is refused by name (its sealed part by a check
+// that may run while search does); rows a power cut lost are repaired away.
 #include <sqlite3.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -216,9 +216,35 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
     damage.seekp(30);
     damage.put('\x55');
   }
-  std::string refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
+  // Opening looks at the sealed part's end only; the check finds the damage, in the tools at
+  // open, in a node on its own thread while search runs.
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    EXPECT_EQ(store->sealedRowsCheck(), KeyframeStore::RowsCheck::kPending);
+    store->startSealedRowsCheck();
+    EXPECT_EQ(store->awaitSealedRowsCheck(), KeyframeStore::RowsCheck::kFailed);
+    EXPECT_NE(store->sealedRowsProblem().find(rows + " are damaged"), std::string::npos)
+        << store->sealedRowsProblem();
+    EXPECT_EQ(store->size(), 5u) << "nothing is removed for it";
+  }
+  std::string refused = failureOf([&] { KeyframeStore::openExisting(path_); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
-  // Another map's rows file (one keyframe fewer) is refused the same way.
+  refused =
+      failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkSealedRows(); });
+  EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
+  // Another map's rows file with the same keyframe ids: its content differs.
+  {
+    const std::string twin = (folder_ / "twin.db").string();
+    auto store = KeyframeStore::open(twin, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 3);
+    store->saveGraph("hnsw M=8", database);
+    store.reset();
+    fs::copy_file(twin + "-vectors", rows, fs::copy_options::overwrite_existing);
+  }
+  refused = failureOf([&] { KeyframeStore::openExisting(path_); });
+  EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
+  // Another map's rows file (one keyframe fewer) is refused at open.
   {
     const std::string other = (folder_ / "other.db").string();
     auto store = KeyframeStore::open(other, kIdentity, kDimension);
@@ -235,7 +261,66 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
   EXPECT_NE(refused.find(rows + " are missing"), std::string::npos) << refused;
   // Put back, the map opens whole.
   std::ofstream(rows, std::ios::binary) << good;
-  EXPECT_EQ(KeyframeStore::open(path_, kIdentity, kDimension)->size(), 5u);
+  const auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->size(), 5u);
+  store->startSealedRowsCheck();
+  EXPECT_EQ(store->awaitSealedRowsCheck(), KeyframeStore::RowsCheck::kPassed);
+  EXPECT_EQ(store->sealedRowsProblem(), "");
+}
+
+TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadTheRows) {
+  const size_t entry_bytes = sizeof(float) + kDimension + 92;
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 0);
+    store->saveGraph("hnsw M=8", database);
+  }
+  ASSERT_EQ(fs::file_size(path_ + "-summaries"), 16 + 8 + 5 * 92 + 4);
+  const std::string rows = path_ + "-vectors";
+  const std::string good_rows = bytesOf(rows);
+  const auto sessionsLoaded = [&] {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase reopened(kDimension);
+    store->loadSearch(&reopened);
+    std::vector<uint32_t> sessions;
+    for (size_t i = 0; i < reopened.size(); ++i) sessions.push_back(reopened.summary(i).session);
+    return sessions;
+  };
+  const std::vector<uint32_t> right(5, 0);
+  // Keyframe 2's session changed in the rows file: search still gets the saved one, so the rows
+  // were not read for it (and their check finds the change).
+  {
+    std::fstream damage(rows, std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(16 + entry_bytes + sizeof(float) + kDimension + 8);
+    damage.put('\x07');
+  }
+  EXPECT_EQ(sessionsLoaded(), right);
+  EXPECT_NE(failureOf([&] { KeyframeStore::openExisting(path_); }).find("damaged"),
+            std::string::npos);
+  std::ofstream(rows, std::ios::binary) << good_rows;
+  // Damaged, or another map's: the rows file is read instead.
+  const std::string saved = bytesOf(path_ + "-summaries");
+  {
+    std::fstream damage(path_ + "-summaries", std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(16 + 8 + 92 + 8);  // Keyframe 2's session.
+    damage.put('\x07');
+  }
+  EXPECT_EQ(sessionsLoaded(), right);
+  {
+    const std::string twin = (folder_ / "twin.db").string();
+    auto store = KeyframeStore::open(twin, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 3);
+    store->saveGraph("hnsw M=8", database);
+    store.reset();
+    fs::copy_file(twin + "-summaries", path_ + "-summaries", fs::copy_options::overwrite_existing);
+  }
+  EXPECT_EQ(sessionsLoaded(), right);
+  std::ofstream(path_ + "-summaries", std::ios::binary) << saved;
+  EXPECT_EQ(sessionsLoaded(), right);
+  fs::remove(path_ + "-summaries");
+  EXPECT_EQ(sessionsLoaded(), right);
 }
 
 TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIsCut) {

@@ -366,7 +366,7 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
 TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {
   const std::string path = (std::filesystem::temp_directory_path() / "lcd_node_full.db").string();
   const std::string log = (std::filesystem::temp_directory_path() / "lcd_node_full.log").string();
-  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors"}) {
+  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors", "-summaries"}) {
     std::filesystem::remove(path + suffix);
   }
   ros::param::set("/loop_closure/database_path", path);
@@ -405,7 +405,7 @@ TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {
   EXPECT_LT(map->size(), published);
   map->forEach([](const KeyframeRecord&) {});  // Every committed keyframe reads back whole.
   ros::param::set("/loop_closure/database_path", std::string());
-  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors"}) {
+  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors", "-summaries"}) {
     std::filesystem::remove(path + suffix);
   }
   std::filesystem::remove(log);

@@ -164,6 +164,8 @@ struct KeyframeResult {
   /// Not committed to the map on disk (disk full, file gone): why. The keyframe is kept in
   /// memory (`stored`) unless search is past its memory budget.
   std::string store_error;
+  /// On the first keyframe after the map's search rows failed their check (mapDamage()).
+  std::string map_damage;
 };
 
 struct FrameResult {
@@ -217,6 +219,13 @@ class LoopDetector {
   /// Worker thread: keeps the search graph in the open map for the next start (it changes with
   /// every keyframe, so it is written at shutdown, not as keyframes come). Returns "" or why.
   std::string saveMapGraph();
+  /// Worker thread: why search stopped, "" while it runs. openMap() starts search at once and
+  /// checks the rows sealed at the map's last clean shutdown on a thread of its own (seconds for
+  /// a large map); when they turn out damaged or another map's, nothing is searched from then on
+  /// (query_status kMapDamaged: no loop is published), while keyframes are still committed.
+  const std::string& mapDamage() const { return map_damage_; }
+  /// Worker thread: "checked", "being checked" or "damaged" ("" without a map file).
+  std::string mapRowsCheck() const;
   /// Whether the last openMap() found the map's saved search graph (else it was built).
   bool mapGraphReused() const { return map_graph_reused_; }
   /// Temporary files of an interrupted save that opening the map removed.
@@ -308,6 +317,7 @@ class LoopDetector {
   bool map_graph_reused_ = false;
   std::vector<std::string> map_leftovers_removed_;
   std::vector<std::string> map_repairs_;
+  std::string map_damage_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

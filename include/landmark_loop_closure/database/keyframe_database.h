@@ -66,6 +66,7 @@ enum class QueryStatus {
   kSearched,
   kDatabaseTooSmall,  ///< Fewer than min_size keyframes stored.
   kAllExcluded,       ///< Every stored keyframe lies inside the exclusion window.
+  kMapDamaged,        ///< The map's search rows failed their check: nothing is searched.
 };
 
 const char* toString(QueryStatus status);

@@ -14,27 +14,46 @@ struct sqlite3_stmt;
 namespace landmark_loop_closure {
 
 namespace vector_file {
+class Mapped;
 class Writer;
-}
+}  // namespace vector_file
 
 /// The map on disk: an SQLite database (WAL journal) and its search rows file PATH-vectors beside
 /// it (vector_file.h; the two are one map: copy, move and delete them together). Every keyframe
 /// is committed when it is added, its search row written just before, so a process killed at
-/// any moment loses none that add() returned for, and the map always opens. The database is
+/// any moment loses none that add() returned for, and the map always opens. A clean shutdown
+/// also keeps, for a fast next open, the search graph (PATH-graph) and the searched keyframes'
+/// summaries in one piece (PATH-summaries, 92 bytes each): both are used only while the map says
+/// they are its own, and opening without them reads the rows file instead. The database is
 /// inspectable with the sqlite3 tool:
 ///   meta(key, value): format_version, descriptor_identity, global_dimension; graph_identity,
-///     graph_keyframes, graph_checksum (CRC-32C) of the search graph file PATH-graph; and the
-///     rows file's seal vectors_rows, vectors_checksum, vectors_last_id (its first vectors_rows
-///     entries and their CRC-32C), both written at a clean shutdown;
+///     graph_keyframes, graph_checksum (CRC-32C) of PATH-graph; summaries_keyframes,
+///     summaries_checksum of PATH-summaries; and the rows file's seal vectors_rows,
+///     vectors_checksum, vectors_last_id (its first vectors_rows entries and their CRC-32C), all
+///     written at a clean shutdown;
 ///   keyframes(id, session, stamp, motion, search_row, row_checksum): the summary - `motion` the
 ///     pose and odometry path (9 little-endian doubles) - and which entry of PATH-vectors holds
 ///     the keyframe's global descriptor (a QuantizedVectors row), with that entry's CRC-32C;
 ///   records(id, record): the rest of the keyframe (keyframe_codec.h's encodeRecord), read for
 ///     the candidates of a query.
 /// One process at a time: the file is locked while open. Not thread-safe; one owner.
+///
+/// Opening checks each row written since the last clean shutdown against its keyframe, and of
+/// the sealed rows only that the file holds them and that the last is the right keyframe's. Their
+/// checksum (the whole rows file: 4.4 GB at 1 000 000 keyframes) is checked by
+/// checkSealedRows(), which openExisting() runs, or by startSealedRowsCheck() while search
+/// already runs on them.
 class KeyframeStore {
  public:
   static constexpr int kFormatVersion = 3;
+
+  /// Where the check of the rows sealed at the last clean shutdown stands.
+  enum class RowsCheck {
+    kPassed,   ///< Checked, or nothing was sealed (every row was checked at open).
+    kPending,  ///< Not started.
+    kRunning,  ///< On its thread.
+    kFailed,   ///< Damaged or another map's: sealedRowsProblem() says so.
+  };
 
   /// Opens `path`, creating it when missing. Throws std::runtime_error naming the path and the
   /// reason when it is not a regular file (checked before opening, so a FIFO cannot block), cannot
@@ -48,8 +67,8 @@ class KeyframeStore {
   /// What opening repaired, one line each: keyframes a power cut left without their search row
   /// (the last ones) are removed from the map.
   const std::vector<std::string>& repairs() const { return repairs_; }
-  /// Opens an existing map whatever its descriptors (tools that copy or merge maps). Throws as
-  /// open() does, and when `path` does not exist.
+  /// Opens an existing map whatever its descriptors (tools that copy or merge maps), its sealed
+  /// rows checked. Throws as open() and checkSealedRows() do, and when `path` does not exist.
   static std::unique_ptr<KeyframeStore> openExisting(const std::string& path);
   /// True when `path` starts like the map file of the earlier format (versions 1-3), which
   /// `lcd_db convert` turns into a store once.
@@ -72,6 +91,17 @@ class KeyframeStore {
   KeyframeStore(const KeyframeStore&) = delete;
   KeyframeStore& operator=(const KeyframeStore&) = delete;
 
+  /// Checks the sealed rows now, unless already done. Throws std::runtime_error naming the rows
+  /// file when they are damaged or another map's.
+  void checkSealedRows();
+  /// Checks them on a thread of its own (reading the file, little CPU); the destructor stops it.
+  void startSealedRowsCheck();
+  RowsCheck sealedRowsCheck() const;
+  /// Waits for a check started by startSealedRowsCheck(); its outcome.
+  RowsCheck awaitSealedRowsCheck();
+  /// Why the check failed; "" unless kFailed.
+  std::string sealedRowsProblem() const;
+
   /// Writes and commits one keyframe. Throws std::runtime_error (disk full, id not greater than
   /// the last) with the store unchanged.
   void add(const KeyframeRecord& keyframe);
@@ -85,7 +115,8 @@ class KeyframeStore {
   void forEachSummary(const std::function<void(const KeyframeSummary&, const uint8_t* vector_row,
                                                size_t row_bytes)>& visit) const;
   /// Fills an empty `database` with every keyframe's summary and row, the rows file mapped and
-  /// its rows used in place instead of copied (0.8 s at 1 000 000 keyframes, rows cached).
+  /// its rows used in place instead of copied; the summaries read from PATH-summaries when it is
+  /// the map's, so the rows are not read at all here.
   void loadSearch(KeyframeDatabase* database) const;
   /// Every keyframe, whole, in id order.
   void forEach(const std::function<void(KeyframeRecord)>& visit) const;
@@ -93,9 +124,9 @@ class KeyframeStore {
   /// and renames them over whatever was there. The search graph is not copied.
   void copyTo(const std::string& target) const;
   /// At a clean shutdown: flushes the rows file and seals it (its checksum so far in the map, so
-  /// the next open checks it in one pass), and keeps `database`'s search graph for the next open
-  /// in graphPath() with its checksum in the map (it changes with every keyframe). `database` is
-  /// this map's search (loaded from it and grown with it); `graph_identity`:
+  /// the next open checks it in one pass), and keeps `database`'s search graph and summaries for
+  /// the next open in graphPath() and summariesPath() with their checksums in the map. `database`
+  /// is this map's search (loaded from it and grown with it); `graph_identity`:
   /// IndexOptions::graphIdentity(); it may hold the map's first keyframes only (the rest written
   /// past the memory budget). Throws std::runtime_error (disk full; search holds keyframes the map
   /// could not take: no graph is saved then).
@@ -106,6 +137,7 @@ class KeyframeStore {
   std::unique_ptr<ApproximateIndex> loadGraph(const std::string& graph_identity,
                                               const QuantizedVectors* vectors, int neighbors) const;
   std::string graphPath() const;
+  std::string summariesPath() const;
   /// The search rows file (PATH-vectors).
   std::string vectorsPath() const;
   size_t size() const;
@@ -130,6 +162,13 @@ class KeyframeStore {
   void openRows();
   /// Which entry of the rows file keyframe `id`'s is; nullopt when the map lacks it.
   std::optional<uint64_t> searchRowOf(uint64_t id) const;
+  /// Writes the first `count` summaries of `database` to summariesPath(); their checksum, or
+  /// nullopt and why in `error`.
+  std::optional<uint32_t> saveSummaries(const KeyframeDatabase& database, size_t count,
+                                        std::string* error) const;
+  /// The summaries saved at the last clean shutdown when they are this map's (92 bytes each, the
+  /// rows file's encoding); empty otherwise.
+  std::vector<uint8_t> savedSummaries(const vector_file::Mapped& rows) const;
   static std::unique_ptr<KeyframeStore> openChecked(const std::string& path,
                                                     const std::string* descriptor_identity,
                                                     int global_dimension);
@@ -139,6 +178,8 @@ class KeyframeStore {
   int global_dimension_ = 0;
   std::unique_ptr<Connection> connection_;
   std::unique_ptr<vector_file::Writer> rows_;
+  struct SealCheck;
+  std::unique_ptr<SealCheck> seal_check_;  ///< Null when nothing was sealed.
   uint32_t entries_checksum_ = 0;  ///< CRC-32C of the rows file's header and entries so far.
   std::vector<std::string> leftovers_removed_;
   std::vector<std::string> repairs_;
