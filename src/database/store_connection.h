@@ -125,7 +125,7 @@ struct KeyframeStore::SealCheck {
   std::shared_ptr<const vector_file::Mapped> rows;
   uint64_t entries = 0;
   uint32_t expected = 0;
-  std::string damaged;  ///< The message when they do not match (written before `state`).
+  std::string damaged;  ///< The message should they not match (set before the check starts).
   std::atomic<RowsCheck> state{RowsCheck::kPending};
   std::atomic<bool> stop{false};
   std::thread thread;
