@@ -8,6 +8,7 @@ set(CORE_TESTS
   test_old_map_file
   test_temporal_consistency
   test_loop_detector
+  test_loop_detector_map
   test_sequence_matching
   test_bounded_queue
   test_detector_runtime

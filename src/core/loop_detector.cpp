@@ -3,13 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
 #include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
-#include "landmark_loop_closure/database/map_tools.h"
 
 namespace landmark_loop_closure {
 
@@ -188,156 +186,6 @@ KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
   return result;
 }
 
-std::string LoopDetector::saveDatabase(const std::string& path) const {
-  if (training_) {
-    return "nothing to save yet: the broad autoencoder is still training (" +
-           std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
-           " keyframes held)";
-  }
-  std::error_code same_error;
-  if (store_ && std::filesystem::equivalent(path, store_->path(), same_error)) return "";
-  try {
-    if (store_) {
-      store_->copyTo(path);
-    } else {
-      writeMap(database_, descriptor_identity_, path);
-    }
-  } catch (const std::exception& error) {
-    return error.what();
-  }
-  return "";
-}
-
-std::string LoopDetector::openMap(const std::string& path) {
-  if (training_) {
-    // The map's descriptor identity is known once training has made the descriptor.
-    pending_map_path_ = path;
-    return "";
-  }
-  std::unique_ptr<KeyframeStore> store;
-  const IndexOptions index = database_.indexOptions();
-  IndexOptions exact = index;
-  exact.type = "exact";  // The graph is read, or built once, after every keyframe is in.
-  KeyframeDatabase loaded(database_.globalDimension(), exact);
-  bool graph_reused = false;
-  uint32_t last_session = 0;
-  uint64_t last_id = 0;
-  try {
-    store = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    // Only what search needs is read; records come from the file for each query's candidates.
-    store->loadSearch(&loaded);
-    for (size_t index = 0; index < loaded.size(); ++index) {
-      last_session = std::max(last_session, loaded.summary(index).session);
-    }
-    if (!loaded.empty()) last_id = loaded.summary(loaded.size() - 1).id;
-    readRecordsFromStore(&loaded, store.get());
-    std::unique_ptr<ApproximateIndex> graph;
-    if (index.buildsGraph()) {
-      // A graph saved before a crash lacks the last keyframes; setIndex links them in.
-      graph = store->loadGraph(index.graphIdentity(), loaded.vectors(), index.neighbors);
-    }
-    graph_reused = graph != nullptr;
-    loaded.setIndex(index, std::move(graph));
-    // Reading the whole rows file would hold search back for seconds: it is checked meanwhile.
-    store->startSealedRowsCheck();
-  } catch (const std::exception& error) {
-    return error.what();
-  }
-  map_graph_reused_ = graph_reused;
-  map_leftovers_removed_ = store->leftoversRemoved();
-  map_repairs_ = store->repairs();
-  map_damage_.clear();
-  database_ = std::move(loaded);
-  store_ = std::move(store);
-  session_ = database_.empty() ? 0 : last_session + 1;
-  uint64_t next = next_keyframe_id_.load();
-  while (!database_.empty() && next <= last_id &&
-         !next_keyframe_id_.compare_exchange_weak(next, last_id + 1)) {
-  }
-  consistency_.reset();
-  sequence_.reset();
-  last_keyframe_.reset();
-  return "";
-}
-
-void LoopDetector::readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store) {
-  // The newest keyframes (triangulation, the consistency chain) and a few queries' candidates.
-  const size_t cached =
-      static_cast<size_t>(4 * options_.database.top_k + options_.triangulation_keyframes +
-                          options_.acceptance.sequence.length) +
-      16;
-  database->readRecordsFrom(
-      [store](uint64_t id) -> std::optional<KeyframeRecord> {
-        try {
-          return store->get(id);
-        } catch (const std::exception&) {
-          return std::nullopt;  // A damaged record: its candidate is reported unreadable.
-        }
-      },
-      cached);
-}
-
-std::string LoopDetector::saveMapGraph() {
-  if (!store_) return "";
-  try {
-    store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
-  } catch (const std::exception& error) {
-    return error.what();
-  }
-  return "";
-}
-
-std::string LoopDetector::loadDatabase(const std::string& path) {
-  if (!std::filesystem::exists(path)) return "map " + path + ": does not exist";
-  return openMap(path);
-}
-
-std::string LoopDetector::mapRowsCheck() const {
-  if (!store_) return "";
-  switch (store_->sealedRowsCheck()) {
-    case KeyframeStore::RowsCheck::kPassed:
-      return "checked";
-    case KeyframeStore::RowsCheck::kFailed:
-      return "damaged";
-    case KeyframeStore::RowsCheck::kPending:
-    case KeyframeStore::RowsCheck::kRunning:
-      break;
-  }
-  return "being checked";
-}
-
-std::string LoopDetector::reset() {
-  if (training_) training_->clear();
-  map_damage_.clear();
-  database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
-  session_ = 0;
-  consistency_.reset();
-  sequence_.reset();
-  last_keyframe_.reset();
-  if (!store_ || store_->size() == 0) return "";
-  // The forgotten keyframes stay on disk: a reset never shortens a saved map.
-  const std::string path = store_->path();
-  store_.reset();
-  const std::string kept = path + ".reset-" +
-                           std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
-                                              std::chrono::system_clock::now().time_since_epoch())
-                                              .count());
-  std::error_code error;
-  // The rows file belongs to the kept map; the graph goes with it too.
-  std::filesystem::rename(path + "-vectors", kept + "-vectors", error);
-  if (!error) std::filesystem::rename(path, kept, error);
-  if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
-  std::filesystem::rename(path + "-graph", kept + "-graph", error);
-  std::filesystem::rename(path + "-summaries", kept + "-summaries", error);
-  try {
-    store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    readRecordsFromStore(&database_, store_.get());
-  } catch (const std::exception& open_error) {
-    return std::string(open_error.what()) + "; keyframes are kept in memory only";
-  }
-  return "the earlier map is kept as " + kept;
-}
-
 void LoopDetector::restartAdmission() {
   selector_ = KeyframeSelector(options_.keyframe);
   image_size_.reset();
@@ -499,7 +347,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
       return result;
     }
     result.stored = true;
-    result.searched_from_next_start = true;
+    result.written_not_searched = true;
     return result;
   }
   if (store_) {
@@ -516,11 +364,6 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   }
   result.stored = true;
   return result;
-}
-
-bool LoopDetector::overMemoryBudget() const {
-  const double budget = options_.database.memory_budget_mb;
-  return budget > 0.0 && static_cast<double>(database_.bytes()) >= budget * 1e6;
 }
 
 void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,

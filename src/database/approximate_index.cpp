@@ -244,6 +244,18 @@ std::unique_ptr<ApproximateIndex> ApproximateIndex::load(const std::string& path
   return std::unique_ptr<ApproximateIndex>(new ApproximateIndex(std::move(graph), neighbors));
 }
 
+size_t ApproximateIndex::bytesPerRow(int neighbors) {
+  const auto m = static_cast<size_t>(std::max(2, neighbors));
+  const size_t links = sizeof(hnswlib::linklistsizeint);
+  const size_t base = 2 * m * sizeof(hnswlib::tableint) + links + sizeof(Row) +
+                      sizeof(hnswlib::labeltype) + sizeof(std::mutex) + sizeof(int) +
+                      sizeof(void*) + sizeof(hnswlib::vl_type);
+  const size_t label = sizeof(std::pair<const size_t, hnswlib::tableint>) + 3 * sizeof(void*);
+  // A row reaches level l with probability m^-l: 1 / (m - 1) upper levels expected.
+  const size_t upper = (m * sizeof(hnswlib::tableint) + links) / (m - 1);
+  return base + label + upper;
+}
+
 size_t ApproximateIndex::bytes() const {
   const Hnsw& hnsw = *graph_->hnsw;
   const size_t per_capacity = hnsw.size_data_per_element_ + sizeof(std::mutex) + sizeof(int) +

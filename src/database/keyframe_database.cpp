@@ -26,9 +26,10 @@ const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
                   "map file (database_path) search keeps ~4.7 KB per keyframe shipped and reads "
                   "the rest from the file; without one every keyframe stays in RAM (~40 KB). It "
                   "bounds search, not the map: past it keyframes are still searched for loops "
-                  "and written to the map file, searched from the map's next start (which "
-                  "searches it all); without a map file they are no longer stored. A warning "
-                  "says so.")
+                  "and written to the map file, not searched; a start searches the map's first "
+                  "keyframes that fit it (or all its saved search graph covers, when more: "
+                  "delete PATH-graph to build one within it) and leaves the rest on disk. "
+                  "Without a map file they are no longer stored. A warning says so.")
           .group(&O::index, IndexOptions::parameters());
   return table;
 }
@@ -323,6 +324,13 @@ const KeyframeSummary* KeyframeDatabase::findSummary(uint64_t id) const {
 std::shared_ptr<const KeyframeRecord> KeyframeDatabase::findRecord(uint64_t id) const {
   const std::optional<size_t> index = indexOf(id);
   return index ? record(*index) : nullptr;
+}
+
+size_t KeyframeDatabase::bytesPerKeyframe(size_t row_stride) const {
+  return sizeof(KeyframeSummary) + sizeof(double) +
+         (row_stride > 0 ? row_stride : vectors_->rowBytes()) +
+         (index_options_.buildsGraph() ? ApproximateIndex::bytesPerRow(index_options_.neighbors)
+                                       : 0);
 }
 
 size_t KeyframeDatabase::bytes() const {

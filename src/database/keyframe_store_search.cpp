@@ -204,13 +204,35 @@ void KeyframeStore::forEachSummary(
   }
 }
 
-void KeyframeStore::loadSearch(KeyframeDatabase* database) const {
-  if (size() == 0) return;
-  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, size());
+size_t KeyframeStore::rowStride() const { return vector_file::entryBytes(global_dimension_); }
+
+std::optional<KeyframeSummary> KeyframeStore::lastSummary() const {
+  if (size() == 0) return std::nullopt;
+  return entrySummary(size() - 1);
+}
+
+KeyframeSummary KeyframeStore::entrySummary(size_t position) const {
+  const std::vector<uint8_t> entry = rows_->read(position);
+  const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
+  try {
+    if (entry.size() < row_bytes + vector_file::kSummaryBytes) {
+      throw std::runtime_error("it is shorter than the map");
+    }
+    return vector_file::decodeSummary(entry.data() + row_bytes);
+  } catch (const std::exception& error) {
+    throw storeError(path_,
+                     "search row " + std::to_string(position) + " is damaged: " + error.what());
+  }
+}
+
+void KeyframeStore::loadSearch(KeyframeDatabase* database, size_t keyframes) const {
+  keyframes = std::min(keyframes, size());
+  if (keyframes == 0) return;
+  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, keyframes);
   // Summaries from the rows file would read all of it (each sits beside its 4 KB row): those
   // saved at the last clean shutdown are read instead, the others front to back.
-  const std::vector<uint8_t> saved = savedSummaries(*mapped);
-  const size_t saved_count = saved.size() / vector_file::kSummaryBytes;
+  const std::vector<uint8_t> saved = savedSummaries();
+  const size_t saved_count = std::min(saved.size() / vector_file::kSummaryBytes, keyframes);
   try {
     database->addSaved(
         mapped, mapped->row(0), mapped->entries(),
@@ -241,6 +263,16 @@ std::string KeyframeStore::vectorsPath() const { return path_ + "-vectors"; }
 
 std::string KeyframeStore::graphPath() const { return path_ + "-graph"; }
 
+size_t KeyframeStore::savedGraphKeyframes(const std::string& graph_identity) const {
+  Connection& c = *connection_;
+  std::error_code error;
+  if (c.meta("graph_identity").value_or("") != graph_identity ||
+      !std::filesystem::is_regular_file(graphPath(), error)) {
+    return 0;
+  }
+  return static_cast<size_t>(c.metaNumber("graph_keyframes").value_or(0));
+}
+
 std::string KeyframeStore::summariesPath() const { return path_ + "-summaries"; }
 
 std::optional<uint32_t> KeyframeStore::saveSummaries(const KeyframeDatabase& database, size_t count,
@@ -260,11 +292,11 @@ std::optional<uint32_t> KeyframeStore::saveSummaries(const KeyframeDatabase& dat
   return crc;
 }
 
-std::vector<uint8_t> KeyframeStore::savedSummaries(const vector_file::Mapped& rows) const {
+std::vector<uint8_t> KeyframeStore::savedSummaries() const {
   Connection& c = *connection_;
   const std::optional<uint64_t> count = c.metaNumber("summaries_keyframes");
   const std::optional<uint64_t> checksum = c.metaNumber("summaries_checksum");
-  if (!count || *count == 0 || *count > rows.entries() || !checksum) return {};
+  if (!count || *count == 0 || *count > size() || !checksum) return {};
   std::vector<uint8_t> body;
   if (!readChecksummedFile(summariesPath(), kSummariesMagic, kSummariesVersion, "summaries", &body)
            .empty() ||
@@ -276,7 +308,7 @@ std::vector<uint8_t> KeyframeStore::savedSummaries(const vector_file::Mapped& ro
   try {
     const size_t last = (*count - 1) * vector_file::kSummaryBytes;
     if (crc32c(0, body.data(), body.size()) != *checksum ||
-        vector_file::decodeSummary(body.data() + last).id != rows.summary(*count - 1).id) {
+        vector_file::decodeSummary(body.data() + last).id != entrySummary(*count - 1).id) {
       return {};
     }
   } catch (const std::exception&) {

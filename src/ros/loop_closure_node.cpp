@@ -112,12 +112,15 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
           "is session %u, every keyframe committed as it is stored",
           options_.database_path.c_str(), detector_.database().size(), load_s, graph,
           detector_.mapRowsCheck().c_str(), detector_.session());
-      if (detector_.overMemoryBudget()) {
+      if (detector_.mapKeyframesNotSearched() > 0 || detector_.overMemoryBudget()) {
         ROS_WARN(
-            "Map %s: its search takes %.0f MB, past database/memory_budget_mb (%.0f MB): "
-            "new keyframes are written to the map and searched from its next start",
-            options_.database_path.c_str(), static_cast<double>(detector_.database().bytes()) / 1e6,
-            options_.detector.database.memory_budget_mb);
+            "Map %s: its first %zu keyframes fill database/memory_budget_mb (%.0f MB; or its saved "
+            "search graph covers them: delete %s-graph to build one within the budget) and are "
+            "searched; %zu later ones stay in the map unsearched, and new keyframes are written "
+            "to it unsearched (raise the budget to search them)",
+            options_.database_path.c_str(), detector_.database().size(),
+            options_.detector.database.memory_budget_mb, options_.database_path.c_str(),
+            detector_.mapKeyframesNotSearched());
       }
     }
   }

@@ -51,15 +51,15 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
   const bool mapping = detector_.mode() == DetectorMode::kMapping;
   // Not stored and no store error: past the budget without a map file.
   const bool over_budget =
-      result.searched_from_next_start || (!result.stored && result.store_error.empty());
+      result.written_not_searched || (!result.stored && result.store_error.empty());
   if (mapping && over_budget) {
     ++keyframes_over_budget_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Database memory budget of %.0f MB reached (%zu keyframes searched): new "
                       "keyframes are searched for loops and %s",
                       options_.detector.database.memory_budget_mb, detector_.database().size(),
-                      result.searched_from_next_start
-                          ? "written to the map, searched from its next start"
+                      result.written_not_searched
+                          ? "written to the map, not searched (raise the budget to search them)"
                           : "no longer stored (without a map file, database_path, all is in RAM)");
   }
   if (!result.map_damage.empty()) {

@@ -149,9 +149,9 @@ struct KeyframeResult {
   uint64_t keyframe_id = 0;
   /// Kept: false when refused, localising, or past the memory budget without a map file.
   bool stored = false;
-  /// Past database/memory_budget_mb with a map file: written to the map, not searched in this run
-  /// (the next start searches the whole map).
-  bool searched_from_next_start = false;
+  /// Past database/memory_budget_mb with a map file: written to the map, not searched (a later
+  /// start searches it when the budget leaves room for it).
+  bool written_not_searched = false;
   QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
@@ -224,6 +224,10 @@ class LoopDetector {
   /// a large map); when they turn out damaged or another map's, nothing is searched from then on
   /// (query_status kMapDamaged: no loop is published), while keyframes are still committed.
   const std::string& mapDamage() const { return map_damage_; }
+  /// Worker thread: keyframes of the open map left out of search at open, past
+  /// database/memory_budget_mb: the map's first keyframes that fit it are searched, or those its
+  /// saved search graph covers when more (delete PATH-graph to have it built within the budget).
+  size_t mapKeyframesNotSearched() const { return map_unsearched_; }
   /// Worker thread: "checked", "being checked" or "damaged" ("" without a map file).
   std::string mapRowsCheck() const;
   /// Whether the last openMap() found the map's saved search graph (else it was built).
@@ -257,6 +261,9 @@ class LoopDetector {
   /// Search holds database/memory_budget_mb: new keyframes are searched for loops and written to
   /// the map file, if one is open, but not added to search.
   bool overMemoryBudget() const;
+  /// How many of a map's first `keyframes` search can hold within database/memory_budget_mb,
+  /// their rows `row_stride` bytes apart.
+  size_t keyframesWithinBudget(size_t row_stride, size_t keyframes) const;
 
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);
@@ -318,6 +325,7 @@ class LoopDetector {
   std::vector<std::string> map_leftovers_removed_;
   std::vector<std::string> map_repairs_;
   std::string map_damage_;
+  size_t map_unsearched_ = 0;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

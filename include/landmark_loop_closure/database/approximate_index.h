@@ -64,6 +64,9 @@ class ApproximateIndex {
 
   /// Heap bytes of the links and the graph's bookkeeping (the vectors are counted by their owner).
   size_t bytes() const;
+  /// What bytes() grows by per row on average with `neighbors` links (upper levels included as
+  /// expected, capacity held ahead not).
+  static size_t bytesPerRow(int neighbors);
 
  private:
   struct Graph;

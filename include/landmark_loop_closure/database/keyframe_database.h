@@ -146,6 +146,9 @@ class KeyframeDatabase {
   std::shared_ptr<const KeyframeRecord> findRecord(uint64_t id) const;
   /// Heap bytes held: summaries, vectors, graph, records in RAM; O(1).
   size_t bytes() const;
+  /// What bytes() grows by per keyframe on average (records read from a map, so none in RAM),
+  /// its row `row_stride` bytes (0: rowBytes(); a map's rows file: its entries).
+  size_t bytesPerKeyframe(size_t row_stride = 0) const;
   /// Records read through the reader so far (not found in RAM).
   size_t recordReads() const { return record_reads_; }
 

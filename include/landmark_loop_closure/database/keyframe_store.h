@@ -14,9 +14,8 @@ struct sqlite3_stmt;
 namespace landmark_loop_closure {
 
 namespace vector_file {
-class Mapped;
 class Writer;
-}  // namespace vector_file
+}
 
 /// The map on disk: an SQLite database (WAL journal) and its search rows file PATH-vectors beside
 /// it (vector_file.h; the two are one map: copy, move and delete them together). Every keyframe
@@ -117,7 +116,13 @@ class KeyframeStore {
   /// Fills an empty `database` with every keyframe's summary and row, the rows file mapped and
   /// its rows used in place instead of copied; the summaries read from PATH-summaries when it is
   /// the map's, so the rows are not read at all here.
-  void loadSearch(KeyframeDatabase* database) const;
+  void loadSearch(KeyframeDatabase* database) const { loadSearch(database, size()); }
+  /// The same for the map's first `keyframes` only (a memory budget).
+  void loadSearch(KeyframeDatabase* database, size_t keyframes) const;
+  /// Bytes from one row to the next where loadSearch() leaves them (the rows file's entries).
+  size_t rowStride() const;
+  /// The last keyframe's summary, read from the rows file; nullopt when the map is empty.
+  std::optional<KeyframeSummary> lastSummary() const;
   /// Every keyframe, whole, in id order.
   void forEach(const std::function<void(KeyframeRecord)>& visit) const;
   /// Writes a consistent copy of the map and its rows file to `target` (SQLite's online backup)
@@ -136,6 +141,9 @@ class KeyframeStore {
   /// (after a crash, or past the memory budget). nullptr otherwise: the graph is then built again.
   std::unique_ptr<ApproximateIndex> loadGraph(const std::string& graph_identity,
                                               const QuantizedVectors* vectors, int neighbors) const;
+  /// Keyframes the graph saved with `graph_identity` covers, as the map says; 0 without one or
+  /// when its file is gone.
+  size_t savedGraphKeyframes(const std::string& graph_identity) const;
   std::string graphPath() const;
   std::string summariesPath() const;
   /// The search rows file (PATH-vectors).
@@ -168,7 +176,9 @@ class KeyframeStore {
                                         std::string* error) const;
   /// The summaries saved at the last clean shutdown when they are this map's (92 bytes each, the
   /// rows file's encoding); empty otherwise.
-  std::vector<uint8_t> savedSummaries(const vector_file::Mapped& rows) const;
+  std::vector<uint8_t> savedSummaries() const;
+  /// The summary in the rows file's entry `position`. Throws std::runtime_error naming the map.
+  KeyframeSummary entrySummary(size_t position) const;
   static std::unique_ptr<KeyframeStore> openChecked(const std::string& path,
                                                     const std::string* descriptor_identity,
                                                     int global_dimension);

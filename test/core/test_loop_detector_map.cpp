@@ -1,0 +1,286 @@
+// The detector with a map file: sessions, the map kept on disk as keyframes come, its search
+// graph, the memory budget at open and a damaged rows file found while search runs.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "small_detector.h"
+
+using namespace landmark_loop_closure;
+using test_support::place;
+using test_support::PlaceExtractor;
+
+using test_support::feed;
+using test_support::smallOptions;
+
+namespace {
+
+std::string temporaryPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("lcd_detector_" + name)).string();
+}
+
+/// A map file and what SQLite and the map leave beside it.
+void removeMap(const std::string& path) {
+  for (const char* suffix : {"", "-wal", "-shm", "-vectors", "-graph", "-summaries"}) {
+    std::filesystem::remove(path + suffix);
+  }
+}
+
+}  // namespace
+
+TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
+  const std::string path = temporaryPath("saved_map.lcdb");
+  LoopDetectorOptions options = smallOptions();
+  options.odometry_gate.enabled = true;
+  {
+    LoopDetector first_run(options, std::make_shared<PlaceExtractor>());
+    for (int i = 0; i < 40; ++i) feed(&first_run, i, i);
+    ASSERT_EQ(first_run.saveDatabase(path), "");
+  }
+  // The next day: the odometry starts again at another origin, stamps go on.
+  LoopDetector next_run(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(next_run.loadDatabase(path), "");
+  EXPECT_EQ(next_run.database().size(), 40u);
+  EXPECT_EQ(next_run.session(), 1u);
+  std::optional<AcceptedLoop> loop;
+  bool found_the_maps_last_keyframe = false;
+  for (int i = 0; i < 3; ++i) {
+    const FrameResult result =
+        next_run.process(100000.0 + i, planarPose(500.0 + i, 0, 0), place(37 + i));
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_GE(result.keyframe->keyframe_id, 40u);  // Never an id of the loaded map.
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      // 500 m from the map's poses, but the map's odometry frame is another run's: no gate.
+      EXPECT_NE(report.verdict, CandidateVerdict::kOdometryRejected) << report.detail;
+      found_the_maps_last_keyframe |= report.match_id == 39u;
+    }
+    if (result.keyframe->loop) loop = result.keyframe->loop;
+  }
+  EXPECT_TRUE(found_the_maps_last_keyframe);  // Not excluded as "recent".
+  ASSERT_TRUE(loop);
+  EXPECT_EQ(loop->match_id, 39u);
+  EXPECT_EQ(loop->match_session, 0u);
+  ASSERT_EQ(next_run.database().size(), 43u);
+  EXPECT_EQ(next_run.database().record(42)->session, 1u);
+  EXPECT_EQ(next_run.database().record(42)->id, 42u);
+  removeMap(path);
+}
+
+TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+  const std::string error = detector.loadDatabase(temporaryPath("missing.lcdb"));
+  EXPECT_NE(error.find("missing.lcdb"), std::string::npos) << error;
+  EXPECT_EQ(detector.database().size(), 12u);
+  EXPECT_EQ(detector.session(), 0u);
+
+  // A map made with other descriptors is refused the same way.
+  const std::string path = temporaryPath("other_descriptors.lcdb");
+  LoopDetectorOptions hog = smallOptions();
+  hog.descriptor.type = "hog";
+  {
+    LoopDetector other(hog, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(other.saveDatabase(path), "");
+  }
+  EXPECT_NE(detector.loadDatabase(path).find("other descriptors"), std::string::npos);
+  EXPECT_EQ(detector.database().size(), 12u);
+  removeMap(path);
+
+  detector.reset();
+  EXPECT_TRUE(detector.database().empty());
+  EXPECT_FALSE(feed(&detector, 12, 12).keyframe->error);
+  EXPECT_EQ(detector.database().size(), 1u);
+}
+
+TEST(LoopDetector, AnOpenMapHasEveryStoredKeyframeAndAResetKeepsItAside) {
+  const std::string path = temporaryPath("open_map.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    EXPECT_EQ(detector.mapPath(), path);
+    for (int i = 0; i < 15; ++i) feed(&detector, i, i);
+  }  // No save: every keyframe was committed when it was stored.
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  EXPECT_EQ(detector.database().size(), 15u);
+  EXPECT_EQ(detector.session(), 1u);
+
+  const std::string note = detector.reset();
+  EXPECT_NE(note.find("kept as " + path + ".reset-"), std::string::npos) << note;
+  EXPECT_TRUE(detector.database().empty());
+  feed(&detector, 20, 20);
+  const std::string kept = note.substr(note.find(path));
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 15u) << "the reset map is whole";
+  removeMap(path);
+  removeMap(kept);
+}
+
+TEST(LoopDetector, AMapKeepsItsSearchGraphAndLinksInWhatACrashLeftOut) {
+  const std::string path = temporaryPath("graph_map.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.database.index.type = "approximate";
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    EXPECT_TRUE(detector.mapGraphReused());
+    ASSERT_NE(detector.database().graph(), nullptr);
+    EXPECT_EQ(detector.database().graph()->size(), 12u);
+    feed(&detector, 12, 12);  // Then stopped without saving the graph, as a crash would.
+  }
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  // The saved graph misses the last keyframe: reused, and the keyframe linked in.
+  EXPECT_TRUE(detector.mapGraphReused());
+  ASSERT_NE(detector.database().graph(), nullptr);
+  EXPECT_EQ(detector.database().graph()->size(), 13u);
+  removeMap(path);
+}
+
+TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearchesABudgetsWorth) {
+  const std::string probe_path = temporaryPath("budget_probe.db");
+  const std::string path = temporaryPath("budget_map.db");
+  removeMap(probe_path);
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.database.index.type = "approximate";
+  uint64_t last_written = 0;
+  {
+    LoopDetector probe(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(probe.openMap(probe_path), "");
+    for (int i = 0; i < 40; ++i) feed(&probe, i, i);
+    options.database.memory_budget_mb = static_cast<double>(probe.database().bytes()) / 1e6;
+  }
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 40; ++i) {
+      const KeyframeResult stored = *feed(&detector, i, i).keyframe;
+      EXPECT_TRUE(stored.stored && !stored.written_not_searched) << i;
+    }
+    ASSERT_TRUE(detector.overMemoryBudget());
+    // Revisits still close loops; the keyframes go to the map, not to search.
+    FrameResult last;
+    for (int i = 40; i < 45; ++i) {
+      last = feed(&detector, i, i - 30);
+      EXPECT_TRUE(last.keyframe->stored && last.keyframe->written_not_searched) << i;
+      EXPECT_TRUE(last.keyframe->store_error.empty()) << last.keyframe->store_error;
+    }
+    last_written = last.keyframe->keyframe_id;
+    ASSERT_TRUE(last.keyframe->loop);
+    EXPECT_EQ(last.keyframe->loop->match_id, 14u);
+    EXPECT_EQ(detector.database().size(), 40u);
+    EXPECT_EQ(detector.saveMapGraph(), "") << "the graph over the searched keyframes is saved";
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 45u);
+  // Without a budget the next start searches the whole map.
+  {
+    LoopDetectorOptions unbounded_options = options;
+    unbounded_options.database.memory_budget_mb = 0.0;
+    LoopDetector unbounded(unbounded_options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(unbounded.openMap(path), "");
+    EXPECT_EQ(unbounded.database().size(), 45u);
+    EXPECT_EQ(unbounded.mapKeyframesNotSearched(), 0u);
+  }
+  // With one, what fits it by the database's own account of a keyframe (rows, summary, links;
+  // bench/README.md compares it with what a 1 000 000-keyframe map takes): the map's first
+  // keyframes. The rest stay in the map, and new keyframes follow its last id and session.
+  const double per_keyframe = static_cast<double>(
+      KeyframeDatabase(256, options.database.index)  // PlaceExtractor's dimension.
+          .bytesPerKeyframe(KeyframeStore::openExisting(path)->rowStride()));
+  options.database.memory_budget_mb = per_keyframe * 30.5 / 1e6;
+  {
+    // The graph saved at shutdown covers 40: used whole rather than built again over 30.
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    EXPECT_EQ(detector.database().size(), 40u);
+    EXPECT_EQ(detector.mapKeyframesNotSearched(), 5u);
+    EXPECT_TRUE(detector.mapGraphReused());
+  }
+  std::filesystem::remove(path + "-graph");
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    const size_t searched = detector.database().size();
+    EXPECT_EQ(searched, 30u);
+    EXPECT_EQ(detector.mapKeyframesNotSearched(), 15u);
+    ASSERT_NE(detector.database().graph(), nullptr);
+    EXPECT_EQ(detector.database().graph()->size(), searched);
+    EXPECT_EQ(detector.database().summary(searched - 1).id, searched - 1);
+    EXPECT_EQ(detector.session(), 1u);
+    const KeyframeResult next = *feed(&detector, 45, 45).keyframe;
+    EXPECT_GT(next.keyframe_id, last_written);
+    EXPECT_TRUE(next.stored && next.written_not_searched && next.store_error.empty())
+        << next.store_error;
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 46u);
+  removeMap(probe_path);
+  removeMap(path);
+}
+
+TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndKeepsCommittingKeyframes) {
+  const std::string path = temporaryPath("damaged_rows_map.db");
+  removeMap(path);
+  const LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 20; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  const auto flipFirstRowByte = [](const std::string& map) {
+    std::fstream rows(map + "-vectors", std::ios::in | std::ios::out | std::ios::binary);
+    rows.seekg(30);
+    const char byte = static_cast<char>(rows.get());
+    rows.seekp(30);
+    rows.put(static_cast<char>(byte ^ 0x5a));
+  };
+  flipFirstRowByte(path);
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "") << "search starts while the rows are checked";
+  EXPECT_EQ(detector.database().size(), 20u);
+  for (int wait = 0; wait < 1000 && detector.mapRowsCheck() == "being checked"; ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(detector.mapRowsCheck(), "damaged");
+  // Revisits of places 5..9: nothing searched, no loop, said once; every keyframe still stored.
+  for (int i = 20; i < 25; ++i) {
+    const KeyframeResult result = *feed(&detector, i, i - 15).keyframe;
+    EXPECT_EQ(result.query_status, QueryStatus::kMapDamaged) << i;
+    EXPECT_FALSE(result.loop) << i;
+    EXPECT_TRUE(result.candidates.empty()) << i;
+    EXPECT_TRUE(result.stored && result.store_error.empty()) << i;
+    if (i == 20) {
+      EXPECT_NE(result.map_damage.find("-vectors are damaged"), std::string::npos)
+          << result.map_damage;
+    } else {
+      EXPECT_EQ(result.map_damage, "") << i;
+    }
+  }
+  EXPECT_NE(detector.mapDamage(), "");
+  const std::string note = detector.reset();  // A fresh map: searched again.
+  EXPECT_EQ(detector.mapDamage(), "");
+  EXPECT_EQ(detector.mapRowsCheck(), "checked");
+  // The damaged map, kept aside by the reset, lost nothing: its byte put back, it holds all 25.
+  ASSERT_NE(note.find("kept as " + path), std::string::npos) << note;
+  const std::string kept = note.substr(note.find(path));
+  flipFirstRowByte(kept);
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 25u);
+  removeMap(path);
+  removeMap(kept);
+}
