@@ -27,6 +27,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
+IndexOptions graphOptions() {
+  IndexOptions graph;
+  graph.type = "approximate";
+  graph.neighbors = 8;
+  return graph;
+}
+
 class KeyframeStoreTest : public MapFolderTest {
  protected:
   // Keyframes first..last of `session` committed to the map and added to search, as a node does.
@@ -36,6 +43,16 @@ class KeyframeStoreTest : public MapFolderTest {
       store->add(makeKeyframe(id, session));
       database->add(makeKeyframe(id, session));
     }
+  }
+
+  // Another map in the test's folder: keyframes 1..last of `session`, shut down cleanly.
+  std::string sealedMap(const std::string& name, uint64_t last, uint32_t session) {
+    const std::string path = (folder_ / name).string();
+    auto store = KeyframeStore::open(path, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, last, session);
+    store->saveGraph("hnsw M=8", database);
+    return path;
   }
 
   void execute(const std::string& sql) {
@@ -65,13 +82,6 @@ std::string failureOf(const std::function<void()>& action) {
     return error.what();
   }
   return "";
-}
-
-IndexOptions graphOptions() {
-  IndexOptions graph;
-  graph.type = "approximate";
-  graph.neighbors = 8;
-  return graph;
 }
 
 }  // namespace
@@ -233,27 +243,13 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
       failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkSealedRows(); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file with the same keyframe ids: its content differs.
-  {
-    const std::string twin = (folder_ / "twin.db").string();
-    auto store = KeyframeStore::open(twin, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 3);
-    store->saveGraph("hnsw M=8", database);
-    store.reset();
-    fs::copy_file(twin + "-vectors", rows, fs::copy_options::overwrite_existing);
-  }
+  fs::copy_file(sealedMap("twin.db", 5, 3) + "-vectors", rows,
+                fs::copy_options::overwrite_existing);
   refused = failureOf([&] { KeyframeStore::openExisting(path_); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file (one keyframe fewer) is refused at open.
-  {
-    const std::string other = (folder_ / "other.db").string();
-    auto store = KeyframeStore::open(other, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 4, 0);
-    store->saveGraph("hnsw M=8", database);
-    store.reset();
-    fs::copy_file(other + "-vectors", rows, fs::copy_options::overwrite_existing);
-  }
+  fs::copy_file(sealedMap("other.db", 4, 0) + "-vectors", rows,
+                fs::copy_options::overwrite_existing);
   refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   fs::remove(rows);
@@ -307,15 +303,8 @@ TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadThe
     damage.put('\x07');
   }
   EXPECT_EQ(sessionsLoaded(), right);
-  {
-    const std::string twin = (folder_ / "twin.db").string();
-    auto store = KeyframeStore::open(twin, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 3);
-    store->saveGraph("hnsw M=8", database);
-    store.reset();
-    fs::copy_file(twin + "-summaries", path_ + "-summaries", fs::copy_options::overwrite_existing);
-  }
+  fs::copy_file(sealedMap("twin.db", 5, 3) + "-summaries", path_ + "-summaries",
+                fs::copy_options::overwrite_existing);
   EXPECT_EQ(sessionsLoaded(), right);
   std::ofstream(path_ + "-summaries", std::ios::binary) << saved;
   EXPECT_EQ(sessionsLoaded(), right);
