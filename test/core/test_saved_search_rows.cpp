@@ -45,9 +45,8 @@ class KeyframeStoreTest : public MapFolderTest {
     }
   }
 
-  // Another map in the test's folder: keyframes 1..last of `session`, shut down cleanly.
-  std::string sealedMap(const std::string& name, uint64_t last, uint32_t session) {
-    const std::string path = (folder_ / name).string();
+  // A map at `path` of keyframes 1..last of `session`, shut down cleanly; its path.
+  static std::string sealMap(const std::string& path, uint64_t last, uint32_t session) {
     auto store = KeyframeStore::open(path, kIdentity, kDimension);
     KeyframeDatabase database(kDimension, graphOptions());
     addBoth(store.get(), &database, 1, last, session);
@@ -213,12 +212,7 @@ TEST_F(KeyframeStoreTest, EveryCommittedKeyframeHasItsRowInTheRowsFileAndOpening
 }
 
 TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) {
-  {
-    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 0);
-    store->saveGraph("hnsw M=8", database);
-  }
+  sealMap(path_, 5, 0);
   const std::string rows = path_ + "-vectors";
   const std::string good = bytesOf(rows);
   {
@@ -243,12 +237,12 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
       failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkSealedRows(); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file with the same keyframe ids: its content differs.
-  fs::copy_file(sealedMap("twin.db", 5, 3) + "-vectors", rows,
+  fs::copy_file(sealMap((folder_ / "twin.db").string(), 5, 3) + "-vectors", rows,
                 fs::copy_options::overwrite_existing);
   refused = failureOf([&] { KeyframeStore::openExisting(path_); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file (one keyframe fewer) is refused at open.
-  fs::copy_file(sealedMap("other.db", 4, 0) + "-vectors", rows,
+  fs::copy_file(sealMap((folder_ / "other.db").string(), 4, 0) + "-vectors", rows,
                 fs::copy_options::overwrite_existing);
   refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
@@ -266,12 +260,7 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
 
 TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadTheRows) {
   const size_t entry_bytes = sizeof(float) + kDimension + 92;
-  {
-    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 0);
-    store->saveGraph("hnsw M=8", database);
-  }
+  sealMap(path_, 5, 0);
   ASSERT_EQ(fs::file_size(path_ + "-summaries"), 16 + 8 + 5 * 92 + 4);
   const std::string rows = path_ + "-vectors";
   const std::string good_rows = bytesOf(rows);
@@ -303,7 +292,7 @@ TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadThe
     damage.put('\x07');
   }
   EXPECT_EQ(sessionsLoaded(), right);
-  fs::copy_file(sealedMap("twin.db", 5, 3) + "-summaries", path_ + "-summaries",
+  fs::copy_file(sealMap((folder_ / "twin.db").string(), 5, 3) + "-summaries", path_ + "-summaries",
                 fs::copy_options::overwrite_existing);
   EXPECT_EQ(sessionsLoaded(), right);
   std::ofstream(path_ + "-summaries", std::ios::binary) << saved;
