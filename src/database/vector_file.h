@@ -6,10 +6,10 @@
 // rows: each entry is written before its keyframe's transaction commits, so every committed
 // keyframe has one (a killed process keeps what it wrote; an entry past the map's keyframes is
 // one whose commit never came, and is written over). Opening a map maps the file and search uses
-// the rows in place (1 000 000 keyframes: 4.4 GB, read once at open to check it). The map keeps
-// each entry's CRC-32C and, at a clean shutdown, the CRC-32C of all entries so far (the seal), so
-// the sealed part is checked in one pass and a damaged or foreign file is never used. Private to
-// the core library.
+// the rows in place, as the kernel reads them (1 000 000 keyframes: 4.4 GB). The map keeps each
+// entry's CRC-32C and, at a clean shutdown, the CRC-32C of all entries so far (the seal): the
+// entries after it are checked at open, the sealed part in one pass by a check that may run
+// beside search (KeyframeStore::startSealedRowsCheck). Private to the core library.
 
 #include <atomic>
 #include <cstdint>

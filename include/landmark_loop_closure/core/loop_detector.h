@@ -211,13 +211,16 @@ class LoopDetector {
   /// database: its keyframes are loaded as earlier sessions (new keyframes get the next session
   /// number and ids after every loaded one, chains and the path start again, and the odometry
   /// gate leaves loops into earlier sessions alone, their odometry frame being another), and
-  /// every keyframe stored from now on is committed to it when it is added. On refusal returns
-  /// why and changes nothing; "" on success. Call it before frames are admitted: ids already
-  /// handed out below the loaded ones are refused. While online training holds keyframes the map
-  /// is opened when training ends (its result's store_error says if that failed).
+  /// every keyframe stored from now on is committed to it when it is added. Past
+  /// database/memory_budget_mb only the map's first keyframes are searched
+  /// (mapKeyframesNotSearched()); the rows are checked beside search (mapDamage()). On refusal
+  /// returns why and changes nothing; "" on success. Call it before frames are admitted: ids
+  /// already handed out below the loaded ones are refused. While online training holds keyframes
+  /// the map is opened when training ends (its result's store_error says if that failed).
   std::string openMap(const std::string& path);
-  /// Worker thread: keeps the search graph in the open map for the next start (it changes with
-  /// every keyframe, so it is written at shutdown, not as keyframes come). Returns "" or why.
+  /// Worker thread: keeps the search graph and summaries beside the open map for the next start
+  /// (they change with every keyframe, so they are written at shutdown, not as keyframes come).
+  /// Returns "" or why.
   std::string saveMapGraph();
   /// Worker thread: why search stopped, "" while it runs. openMap() starts search at once and
   /// checks the rows sealed at the map's last clean shutdown on a thread of its own (seconds for
