@@ -58,12 +58,11 @@ std::string LoopDetector::openMap(const std::string& path) {
           searched, std::min(map_keyframes, store->savedGraphKeyframes(index.graphIdentity())));
     }
     store->loadSearch(&loaded, searched);
-    for (size_t index = 0; index < loaded.size(); ++index) {
-      last_session = std::max(last_session, loaded.summary(index).session);
-    }
+    // Keyframes are appended in id order, each run's session after the last: the map's last
+    // keyframe (searched or not) has both the highest id and the highest session.
     if (const std::optional<KeyframeSummary> last = store->lastSummary()) {
       last_id = last->id;
-      last_session = std::max(last_session, last->session);
+      last_session = last->session;
     }
     readRecordsFromStore(&loaded, store.get());
     std::unique_ptr<ApproximateIndex> graph;
