@@ -7,6 +7,8 @@ set(CORE_TESTS
   test_keyframe_database
   test_old_map_file
   test_temporal_consistency
+  test_condition_standardiser
+  test_appearance_check
   test_loop_detector
   test_loop_detector_map
   test_sequence_matching

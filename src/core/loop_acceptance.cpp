@@ -1,5 +1,6 @@
 // LoopDetector's acceptance stage: the shortlist re-ranked (or scored as sequences), then the
-// threshold, the odometry gate, temporal consistency and the geometric check, in that order.
+// threshold, the odometry gate, temporal consistency and verification (loop_verification.cpp),
+// in that order.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -73,6 +74,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       consistency_.update({query_keyframe.id, query_keyframe.path.metres}, above_threshold);
 
   size_t chain_index = 0;
+  std::optional<CellFeatures> query_cells;
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) {
       report.verdict = CandidateVerdict::kBelowThreshold;
@@ -98,7 +100,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       AcceptedLoop loop;
       const auto verify_start = Clock::now();
       const bool verified =
-          verify(query_keyframe.local_features, *match, intrinsics, &report, &loop);
+          verify(query_keyframe, *match, intrinsics, &report, &loop, &query_cells);
       result->times.verify_ms += millisecondsSince(verify_start);
       if (!verified) continue;
       report.verdict = CandidateVerdict::kAccepted;
@@ -174,41 +176,6 @@ bool LoopDetector::consistentLongEnough(const TemporalConsistency::Chain& chain,
   text.precision(2);
   text << std::fixed << chain.metres << " of " << acceptance.consistent_distance_m << " m";
   *detail = text.str();
-  return false;
-}
-
-bool LoopDetector::verify(const LocalFeatures& features, const KeyframeRecord& match,
-                          const CameraIntrinsics& intrinsics, CandidateReport* report,
-                          AcceptedLoop* loop) {
-  if (!options_.verification.enabled) return true;
-  VerificationResult check = verifier_.verify(features, match.local_features, intrinsics);
-  report->inliers = check.inliers;
-  if (check.placeConfirmed()) {
-    // The place is confirmed; depths of the match's keypoints can still give a metric pose, even
-    // where two views left the pose ambiguous or without parallax.
-    if (!match.local_features.points3d.empty()) {
-      MetricPoseResult metric = estimateMetricPose(
-          features, match.local_features,
-          ratioTestMatches(features, match.local_features, options_.verification.ratio_test),
-          intrinsics, options_.verification, options_.metric_pose);
-      if (metric.found) {
-        loop->relative_pose = metric.pose;
-      } else {
-        report->detail = "no metric pose: " + metric.failure;
-      }
-      loop->metric_pose = std::move(metric);
-    }
-    if (!loop->relative_pose && check.accepted() && options_.verification.publish_scale_free_pose) {
-      loop->relative_pose = check.pose;
-    }
-    loop->verification = std::move(check);
-    return true;
-  }
-  if (check.verdict == VerificationVerdict::kNoIntrinsics && !options_.verification.required) {
-    return true;  // Unverified: published without a relative pose.
-  }
-  report->verdict = CandidateVerdict::kGeometryRejected;
-  report->detail = toString(check.verdict);
   return false;
 }
 

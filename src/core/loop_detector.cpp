@@ -23,12 +23,13 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   static const auto table =
       ParameterTable<O>("acceptance/", "precision first.")
           .number("min_score", &O::min_score, between(0, 1),
-                  "final similarity a candidate needs; its scale depends on descriptor/type. "
-                  "backbone: correct matches score 0.52-0.62 (10th percentile-median) on Gardens "
-                  "Point across day/night, wrong ones up to 0.60; the generated corridor scores "
-                  "everything higher (its images look alike) and relies on the consistency, "
-                  "odometry and geometric checks below. Set 0.25 for landmarks (the node does "
-                  "when it falls back to it), 0.7 for hog, 0.97 for calc.")
+                  "final similarity a candidate needs; its scale depends on descriptor/type and on "
+                  "descriptor/condition_window. backbone with the window (default): chosen on "
+                  "Gardens Point halves, the highest score of a wrong loop there was 0.21 "
+                  "(0.12 in the other half), right ones reach 0.2-0.5; 0.25 leaves a margin, as "
+                  "precision comes first. Without the window (condition_window 0) use 0.6. Set "
+                  "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
+                  "for calc (those three measured without the window).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
@@ -78,6 +79,7 @@ const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::parameters() {
           .group(&O::acceptance, AcceptanceOptions::parameters())
           .group(&O::odometry_gate, OdometryGateOptions::parameters())
           .group(&O::verification, VerificationOptions::parameters())
+          .group(&O::appearance, AppearanceCheckOptions::parameters())
           .group(&O::metric_pose, MetricPoseOptions::parameters())
           .integer("metric_pose/triangulation_keyframes", &O::triangulation_keyframes, atLeast(1),
                    "previous keyframes used; farther ones add baseline.")
@@ -95,7 +97,7 @@ std::string LoopDetectorOptions::validate() const {
   }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
          << acceptance.validate() << odometry_gate.validate() << verification.validate()
-         << metric_pose.validate() << camera_mount.validate();
+         << appearance.validate() << metric_pose.validate() << camera_mount.validate();
   return errors.str();
 }
 
@@ -126,6 +128,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       verifier_(options.verification),
       selector_(options.keyframe),
       database_(extractor_ ? extractor_->globalDimension() : 1, options.database.index),
+      standardiser_(options.descriptor.condition_window),
       consistency_(options.acceptance.consistency_unit,
                    options.acceptance.consistency_unit == ConsistencyUnit::kKeyframes
                        ? static_cast<double>(options.acceptance.index_window)
@@ -249,29 +252,51 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
                                          const cv::Mat& depth) {
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
-  if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) {
-    result.error = std::move(error);
-    return result;
-  }
-  if (auto error = checkTexture(image, options_.input)) {
-    result.error = std::move(error);
-    return result;
-  }
-  if (!database_.empty() && keyframe_id <= database_.summary(database_.size() - 1).id) {
-    result.error = InputError{
-        InputErrorCode::kStampNotIncreasing,
-        "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
-    return result;
-  }
-
+  if ((result.error = checkKeyframe(keyframe_id, image))) return result;
   if (training_) return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth});
 
-  const auto describe_start = Clock::now();
-  ImageDescriptor descriptor = extractor_->describe(image);
-  result.times.describe_ms = millisecondsSince(describe_start);
-  if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
+  ImageDescriptor descriptor = describe(image, &result.times);
+  const QueryResult query = search(keyframe_id, stamp, descriptor, &result);
+  KeyframeRecord keyframe =
+      makeKeyframe(keyframe_id, stamp, pose, image, intrinsics, depth, &result.times);
+  decide(&result, descriptor, query, keyframe, intrinsics);
+  if (result.loop) {
+    result.loop->query_id = keyframe_id;
+    result.loop->query_session = session_;
+    result.loop->query_stamp = stamp;
+    result.loop->query_pose = keyframe.pose;
+  }
+  if (mode_ == DetectorMode::kMapping) {
+    keyframe.descriptor = std::move(descriptor);
+    store(std::move(keyframe), &result);
+  }
+  return result;
+}
 
-  const auto query_start = Clock::now();
+std::optional<InputError> LoopDetector::checkKeyframe(uint64_t keyframe_id,
+                                                      const cv::Mat& image) const {
+  if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) return error;
+  if (auto error = checkTexture(image, options_.input)) return error;
+  if (!database_.empty() && keyframe_id <= database_.summary(database_.size() - 1).id) {
+    return InputError{
+        InputErrorCode::kStampNotIncreasing,
+        "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
+  }
+  return std::nullopt;
+}
+
+ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times) {
+  const auto start = Clock::now();
+  ImageDescriptor descriptor = extractor_->describe(image);
+  descriptor.global = standardiser_.apply(descriptor.global);
+  if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
+  times->describe_ms = millisecondsSince(start);
+  return descriptor;
+}
+
+QueryResult LoopDetector::search(uint64_t keyframe_id, double stamp,
+                                 const ImageDescriptor& descriptor, KeyframeResult* result) {
+  const auto start = Clock::now();
   DatabaseOptions search = options_.database;
   // Localising: the map's last keyframes are not this run's recent past (the time rule stays).
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
@@ -287,7 +312,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (store_ && map_damage_.empty() &&
       store_->sealedRowsCheck() == KeyframeStore::RowsCheck::kFailed) {
     map_damage_ = store_->sealedRowsProblem();
-    result.map_damage = map_damage_;
+    result->map_damage = map_damage_;
   }
   if (!map_damage_.empty()) {
     query.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
@@ -295,75 +320,62 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     query = database_.query(descriptor.global, stamp, search, session_);
     if (query_cache_) query_cache_->emplace(keyframe_id, query);
   }
-  result.times.query_ms = millisecondsSince(query_start);
-  result.query_status = query.status;
+  result->times.query_ms = millisecondsSince(start);
+  result->query_status = query.status;
+  return query;
+}
 
+KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
+                                          const cv::Mat& image, const CameraIntrinsics& intrinsics,
+                                          const cv::Mat& depth, StageTimes* times) {
   const auto features_start = Clock::now();
-  LocalFeatures features;
-  if (options_.verification.enabled) {
-    const int width = std::min(image.cols, options_.verification.max_image_width);
-    const int height = std::max(
-        1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
-    features = verifier_.extract(toWorkingImage(image, width, height));
-    // A query's own depths are never used (PnP takes the match's); only stored keyframes need them.
-    if (mode_ == DetectorMode::kMapping) {
-      addDepths(normalisedPose(pose), depth, intrinsics, &features);
-    }
-  }
-  result.times.features_ms = millisecondsSince(features_start);
-
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
   keyframe.session = session_;
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
+  if (options_.verification.enabled) {
+    const int width = std::min(image.cols, options_.verification.max_image_width);
+    const int height = std::max(
+        1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
+    keyframe.local_features = verifier_.extract(toWorkingImage(image, width, height));
+    // A query's own depths are never used (PnP takes the match's); only stored keyframes need them.
+    if (mode_ == DetectorMode::kMapping) {
+      addDepths(keyframe.pose, depth, intrinsics, &keyframe.local_features);
+    }
+  }
+  times->features_ms = millisecondsSince(features_start);
   if (last_keyframe_) {
     keyframe.path = extendPath(last_keyframe_->path, last_keyframe_->pose, keyframe.pose);
   }
   last_keyframe_ = PathEnd{keyframe.pose, keyframe.path};
-  keyframe.local_features = std::move(features);
-
-  decide(&result, descriptor, query, keyframe, intrinsics);
-  if (result.loop) {
-    result.loop->query_id = keyframe_id;
-    result.loop->query_session = session_;
-    result.loop->query_stamp = stamp;
-    result.loop->query_pose = keyframe.pose;
-  }
-
-  if (mode_ == DetectorMode::kLocalization) return result;
-  const bool over_budget = overMemoryBudget();
-  if (over_budget && !store_) return result;
-  keyframe.descriptor = std::move(descriptor);
+  // Kept for ~match_image and compared by the appearance check.
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
   }
-  if (over_budget) {
-    // The budget bounds search's RAM, not the map: the keyframe goes to disk only.
-    try {
-      store_->add(keyframe);
-    } catch (const std::exception& error) {
-      result.store_error = error.what();
-      return result;
-    }
-    result.stored = true;
-    result.written_not_searched = true;
-    return result;
-  }
+  return keyframe;
+}
+
+void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
+  const bool over_budget = overMemoryBudget();
+  if (over_budget && !store_) return;
   if (store_) {
     try {
       store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
     } catch (const std::exception& error) {
-      result.store_error = error.what();
+      result->store_error = error.what();
+      if (over_budget) return;
     }
   }
-  if (result.store_error.empty()) {
+  result->stored = true;
+  if (over_budget) {
+    // The budget bounds search's RAM, not the map: the keyframe went to disk only.
+    result->written_not_searched = true;
+  } else if (result->store_error.empty()) {
     database_.add(std::move(keyframe));
   } else {
     database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
   }
-  result.stored = true;
-  return result;
 }
 
 void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,

@@ -114,6 +114,11 @@ std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image) const
   return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
 }
 
+FeatureMaps BackboneDescriptor::appearanceMaps(const cv::Mat& image) const {
+  if (image.empty() || image.depth() != CV_8U) return {};
+  return forward(image)[0];
+}
+
 ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
   ImageDescriptor descriptor;
   if (image.empty() || image.depth() != CV_8U) return descriptor;

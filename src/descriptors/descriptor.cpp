@@ -98,6 +98,13 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
                 "\"float16\" halves the landmark bytes with no measured loss; or \"float32\".")
           .word("shape_weighting", &O::shape_weighting, {"penalise", "paper"},
                 "\"penalise\" box-shape disagreement (Suenderhauf) or \"paper\" (as printed).")
+          .integer("condition_window", &O::condition_window, between(0, 1000),
+                   "keyframes whose mean global vector each keyframe's loses before it is "
+                   "searched and stored (per-condition standardisation): what the camera's recent "
+                   "keyframes share - night, rain, the season - stops counting as likeness, so "
+                   "different places in the dark no longer match each other. 0 = off. Chosen on "
+                   "Gardens Point and Nordland halves (bench/README.md). Maps store the "
+                   "standardised vectors: a map made with another window does not load.")
           .group(&O::cnn, Cnn::parameters())
           .group(&O::backbone, Backbone::parameters())
           .group(&O::broad, Broad::parameters());
@@ -121,7 +128,12 @@ std::string DescriptorOptions::validate() const {
 std::string descriptorIdentity(const DescriptorOptions& options) {
   const DescriptorType* type = findDescriptorType(options.type);
   if (type == nullptr) return "type=" + options.type;
-  const std::string details = type->identity(options);
+  std::string details = type->identity(options);
+  // Maps made before the window existed (and with it off) keep their identity.
+  if (options.condition_window > 0) {
+    details += (details.empty() ? "" : " ") + std::string("condition_window=") +
+               std::to_string(options.condition_window);
+  }
   return "type=" + options.type + (details.empty() ? "" : " " + details);
 }
 

@@ -66,11 +66,24 @@ class CachedExtractor : public DescriptorExtractor {
   double globalScore(double cosine) const override { return inner_->globalScore(cosine); }
   bool reranks() const override { return inner_->reranks(); }
   bool wantsColour() const override { return inner_->wantsColour(); }
+  FeatureMaps appearanceMaps(const cv::Mat& image) const override {
+    const uint64_t key = imageKey(image);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto found = maps_.find(key);
+      if (found != maps_.end()) return found->second;
+    }
+    FeatureMaps maps = inner_->appearanceMaps(image);
+    std::lock_guard<std::mutex> lock(mutex_);
+    maps_.emplace(key, maps);
+    return maps;
+  }
 
  private:
   std::shared_ptr<const DescriptorExtractor> inner_;
   mutable std::mutex mutex_;
   mutable std::unordered_map<uint64_t, ImageDescriptor> cache_;
+  mutable std::unordered_map<uint64_t, FeatureMaps> maps_;  ///< Of thumbnails, by their bytes.
 };
 
 struct PassInput {

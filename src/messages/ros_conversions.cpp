@@ -179,6 +179,10 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
       msg.reprojection_error = loop.metric_pose->rms_error_px;
     }
   }
+  if (loop.appearance && loop.appearance->confirmed) {
+    msg.appearance_verified = true;
+    msg.appearance_inliers = static_cast<uint32_t>(loop.appearance->inliers);
+  }
   if (loop.relative_pose) {
     const RelativePose& relative = *loop.relative_pose;
     msg.relative_pose.pose.position.x = relative.translation.x();

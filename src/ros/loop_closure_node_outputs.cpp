@@ -107,13 +107,16 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
         toLoopMsg(loop, job.stamp, stampOf(loop.match_id), job.frame_id, pose_frame));
     ++loops_published_;
     const bool checked = result.loop->verification.has_value();
+    const std::string how =
+        checked ? "verified"
+        : result.loop->appearance
+            ? "verified by appearance, no relative pose: " + result.loop->appearance->describe()
+        : !options_.detector.verification.enabled ? "unverified: verification off"
+                                                  : "unverified: no usable camera_info";
     ROS_INFO("Loop: keyframe %lu matches keyframe %lu (score %.3f, %d consistent keyframes, %s)",
              static_cast<unsigned long>(result.loop->query_id),
              static_cast<unsigned long>(result.loop->match_id), result.loop->score,
-             result.loop->consistent_keyframes,
-             checked                                   ? "verified"
-             : !options_.detector.verification.enabled ? "unverified: verification off"
-                                                       : "unverified: no usable camera_info");
+             result.loop->consistent_keyframes, how.c_str());
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
     candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id,
@@ -163,6 +166,8 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
     details << "score " << loop.score;
     if (loop.verification) {
       details << "   " << loop.verification->inliers << " inliers";
+    } else if (loop.appearance) {
+      details << "   " << loop.appearance->inliers << " cells agree";
     } else {
       details << "   unverified";
     }

@@ -57,7 +57,7 @@ void LoopMarkers::clear() {
 }
 
 void LoopMarkers::addLoop(const AcceptedLoop& loop) {
-  if (!loop.verification) {
+  if (!loop.verification && !loop.appearance) {
     unverified_ends_.push_back(toPoint(loop.query_pose));
     unverified_ends_.push_back(toPoint(loop.match_pose));
     return;

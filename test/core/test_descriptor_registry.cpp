@@ -39,6 +39,11 @@ TEST(DescriptorRegistry, TypesWithoutModelsDescribeThroughTheFactory) {
     EXPECT_EQ(extractor->name(), name);
     EXPECT_EQ(static_cast<int>(extractor->describe(image).global.size()),
               extractor->globalDimension());
+    // The condition window is part of what a map's vectors are; off, maps of before still load.
+    EXPECT_EQ(descriptorIdentity(options),
+              std::string("type=") + name + " condition_window=" +
+                  std::to_string(DescriptorOptions{}.condition_window));
+    options.condition_window = 0;
     EXPECT_EQ(descriptorIdentity(options), std::string("type=") + name);
   }
 }

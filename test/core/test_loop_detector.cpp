@@ -326,3 +326,39 @@ TEST(LoopDetector, AcceptanceOptionsAreValidated) {
     EXPECT_NE(problems.find(key), std::string::npos) << key << "\n" << problems;
   }
 }
+
+// With descriptor/condition_window on, what is searched and stored is each keyframe's vector less
+// the mean of the last N keyframes: a revisit still finds its place (its own part stays), and the
+// window is part of the identity a map is checked against.
+TEST(LoopDetector, ConditionWindowStandardisesWhatIsSearchedAndStored) {
+  LoopDetectorOptions options = smallOptions();
+  options.descriptor.condition_window = 4;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  EXPECT_NE(detector.descriptorIdentity().find("condition_window=4"), std::string::npos);
+  ConditionStandardiser expected(4);
+  const PlaceExtractor places;
+  for (int i = 0; i < 30; ++i) {
+    const FrameResult result = feed(&detector, i, i);
+    ASSERT_TRUE(result.keyframe && result.keyframe->stored) << i;
+    const std::vector<float> standardised = expected.apply(places.describe(place(i)).global);
+    const std::shared_ptr<const KeyframeRecord> record = detector.database().record(i);
+    ASSERT_TRUE(record);
+    // The first keyframe, alone in its window, matches nothing.
+    if (i == 0) {
+      for (float x : record->descriptor.global) EXPECT_EQ(x, 0.0f);
+      continue;
+    }
+    // The database keeps 8 bits per value of the standardised vector, not the raw one.
+    EXPECT_GT(cosineSimilarity(record->descriptor.global, standardised), 0.99) << i;
+    if (i >= 3) {
+      EXPECT_LT(cosineSimilarity(record->descriptor.global, places.describe(place(i)).global), 0.9)
+          << i;
+    }
+  }
+  // Revisiting places 10-12 after the window has moved on: the chain forms and the loop is found.
+  feed(&detector, 30, 10);
+  feed(&detector, 31, 11);
+  const FrameResult revisit = feed(&detector, 32, 12);
+  ASSERT_TRUE(revisit.keyframe->loop);
+  EXPECT_EQ(revisit.keyframe->loop->match_id, 12u);
+}

@@ -10,6 +10,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/core/appearance_check.h"
+#include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/core/odometry_gate.h"
@@ -28,7 +30,7 @@ namespace landmark_loop_closure {
 constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
-  double min_score = 0.6;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  double min_score = 0.25;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
   /// kKeyframes: a loop needs consistent_keyframes consecutive keyframes whose matches agree
   /// within index_window ids; kMetres: the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).
@@ -64,6 +66,7 @@ struct LoopDetectorOptions {
   AcceptanceOptions acceptance;
   OdometryGateOptions odometry_gate;
   VerificationOptions verification;
+  AppearanceCheckOptions appearance;
   MetricPoseOptions metric_pose;
   /// Previous keyframes each keyframe's keypoints are triangulated against (the farther ones
   /// add baseline), when metric_pose/triangulate_from_odometry is on and no depth image came.
@@ -128,6 +131,9 @@ struct AcceptedLoop {
   /// Set when the geometric check confirmed the place (it is absent when the check is off or no
   /// intrinsics were known and verification/required is false); its pose may be ambiguous.
   std::optional<VerificationResult> verification;
+  /// Set when the ORB check could not confirm the place and the appearance check did (no
+  /// relative pose then).
+  std::optional<AppearanceCheckResult> appearance;
   /// Set when the match keyframe had keypoint depths and PnP ran (found or not, and why).
   std::optional<MetricPoseResult> metric_pose;
   /// The relative pose for a pose graph: the metric one when found, else the verified scale-free
@@ -290,6 +296,21 @@ class LoopDetector {
   const DescriptorExtractor* extractor() const { return extractor_.get(); }
 
  private:
+  // addKeyframe's steps, in order.
+  /// The image's shape and texture, and an id after every stored one.
+  std::optional<InputError> checkKeyframe(uint64_t keyframe_id, const cv::Mat& image) const;
+  /// The extractor's descriptor, its global vector standardised against the recent keyframes.
+  ImageDescriptor describe(const cv::Mat& image, StageTimes* times);
+  /// The database's candidates (or the replay cache's; none when the map is damaged).
+  QueryResult search(uint64_t keyframe_id, double stamp, const ImageDescriptor& descriptor,
+                     KeyframeResult* result);
+  /// The keyframe as it will be stored, its descriptor aside: pose, path, keypoints with their
+  /// depths, thumbnail.
+  KeyframeRecord makeKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
+                              const cv::Mat& image, const CameraIntrinsics& intrinsics,
+                              const cv::Mat& depth, StageTimes* times);
+  /// Commits the keyframe to the map file and adds it to search (within the memory budget).
+  void store(KeyframeRecord keyframe, KeyframeResult* result);
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
@@ -299,9 +320,15 @@ class LoopDetector {
                       const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).
   bool consistentLongEnough(const TemporalConsistency::Chain& chain, std::string* detail) const;
-  /// False when the candidate must be refused; fills report and, when verified, loop.
-  bool verify(const LocalFeatures& features, const KeyframeRecord& match,
-              const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop);
+  /// False when the candidate must be refused; fills report and, when verified, loop. The ORB
+  /// check first; where it cannot confirm the place, the appearance check of the two thumbnails
+  /// (`query_cells`: the query's, computed on first use).
+  bool verify(const KeyframeRecord& query, const KeyframeRecord& match,
+              const CameraIntrinsics& intrinsics, CandidateReport* report, AcceptedLoop* loop,
+              std::optional<CellFeatures>* query_cells);
+  /// The appearance check's cells of a keyframe's thumbnail; empty when it has none or the
+  /// descriptor has no feature maps.
+  CellFeatures thumbnailCells(const KeyframeRecord& keyframe) const;
   /// Depths for the new keyframe's keypoints: from `depth`, else triangulated against the last
   /// stored keyframes with the odometry's motion.
   void addDepths(const Pose& pose, const cv::Mat& depth, const CameraIntrinsics& intrinsics,
@@ -329,6 +356,7 @@ class LoopDetector {
   std::vector<std::string> map_repairs_;
   std::string map_damage_;
   size_t map_unsearched_ = 0;
+  ConditionStandardiser standardiser_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

@@ -73,6 +73,8 @@ class BackboneDescriptor : public DescriptorExtractor {
   double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const override;
   bool reranks() const override { return options_.rerank_weight > 0.0; }
   bool wantsColour() const override { return options_.colour != "grey"; }
+  /// The layer the grid is pooled from.
+  FeatureMaps appearanceMaps(const cv::Mat& image) const override;
 
   /// The named outputs (layer, then proposal layer) for an image.
   std::vector<FeatureMaps> forward(const cv::Mat& image) const;

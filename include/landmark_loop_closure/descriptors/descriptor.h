@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
 
 namespace landmark_loop_closure {
 
@@ -52,6 +53,9 @@ class DescriptorExtractor {
   virtual bool reranks() const { return false; }
   /// True when describe() wants the camera's colour (8-bit BGR) rather than grey.
   virtual bool wantsColour() const { return false; }
+  /// The feature maps the appearance check compares cell by cell, for an 8-bit grey or BGR
+  /// image; empty when the descriptor has none (only the backbone has).
+  virtual FeatureMaps appearanceMaps(const cv::Mat& /*image*/) const { return {}; }
 };
 
 /// Parameters that choose and shape the descriptor.
@@ -75,6 +79,9 @@ struct DescriptorOptions {
   int landmark_patch = 32;                   ///< Side of a landmark's HOG patch, a multiple of 4.
   double max_landmark_area = 0.5;            ///< Largest landmark box, as a fraction of the image.
   std::string landmark_storage = "float16";  ///< "float16" or "float32".
+  /// Global vectors standardised against the mean of the last N keyframes (ConditionStandardiser);
+  /// 0 = off. Part of the identity: maps store the standardised vectors.
+  int condition_window = 10;
 
   /// cnn_pca: any ONNX CNN's layer, pooled, PCA-whitened (methods.md section 2). The defaults
   /// run the package's encoder; README.md shows the settings for a ResNet-50.

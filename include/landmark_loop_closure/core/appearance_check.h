@@ -1,0 +1,51 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/descriptors/landmarks.h"
+
+namespace landmark_loop_closure {
+
+/// A check of a loop candidate on features that survive a change of light: the cells of the
+/// backbone's feature map (16x9 at the default input), matched as mutual nearest neighbours and
+/// counted when one affine map of cell positions explains them. The same place seen by day and by
+/// night keeps its layout; two dark places that merely look alike do not. It runs where the
+/// ORB check cannot confirm a place (no intrinsics, or too few ORB matches across day and night)
+/// and gives no relative pose.
+struct AppearanceCheckOptions {
+  bool enabled = true;
+  /// Cells that one affine map must explain; fewer: the candidate is refused.
+  int min_inliers = 28;
+  double ransac_threshold_cells = 1.5;  ///< Affine RANSAC inlier distance, in feature-map cells.
+
+  /// Keys under verification/appearance/, documented in config/default.yaml.
+  static const ParameterTable<AppearanceCheckOptions>& parameters();
+  std::string validate() const;
+};
+
+/// One image's feature-map cells: one row per cell (CV_32F, each channel's mean over the image
+/// removed, rows L2-normalised) and its centre in cell units.
+struct CellFeatures {
+  cv::Mat features;
+  std::vector<cv::Point2f> centres;
+  bool empty() const { return features.empty(); }
+};
+
+CellFeatures cellFeatures(const FeatureMaps& maps);
+
+struct AppearanceCheckResult {
+  int mutual_matches = 0;        ///< Cells that are each other's nearest neighbour.
+  int inliers = 0;               ///< Of those, explained by the best affine map.
+  bool confirmed = false;        ///< inliers >= min_inliers.
+  std::string describe() const;  ///< "appearance: 31 of 52 cells agree".
+};
+
+/// Compares two images' cells; images of other cell grids or channel counts are not confirmed.
+AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
+                                      const AppearanceCheckOptions& options);
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,97 @@
+#include "landmark_loop_closure/core/appearance_check.h"
+
+#include <sstream>
+
+#include <opencv2/calib3d.hpp>
+
+namespace landmark_loop_closure {
+
+const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters() {
+  using O = AppearanceCheckOptions;
+  static const auto table =
+      ParameterTable<O>("verification/appearance/",
+                        "a loop the ORB check cannot confirm (no camera_info, or day against "
+                        "night) is confirmed or refused by the backbone's feature-map cells.")
+          .flag("enabled", &O::enabled,
+                "check such loops by the network's cells (backbone descriptor and thumbnails "
+                "needed); off: they are published unverified without camera_info and refused "
+                "when the ORB check refused them.")
+          .integer("min_inliers", &O::min_inliers, between(3, 10000),
+                   "cells (of 144 at the default input) that are mutual nearest neighbours and "
+                   "fit one affine map of positions. Chosen on Gardens Point halves: the same "
+                   "place by day and night has 21-36 (10th percentile-median), different places "
+                   "that look alike at most 26-27 (bench/README.md).")
+          .number("ransac_threshold_cells", &O::ransac_threshold_cells,
+                  openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.");
+  return table;
+}
+
+std::string AppearanceCheckOptions::validate() const { return parameters().check(*this); }
+
+CellFeatures cellFeatures(const FeatureMaps& maps) {
+  CellFeatures cells;
+  if (maps.empty()) return cells;
+  const int count = maps.width * maps.height;
+  cells.features.create(count, maps.channels, CV_32F);
+  for (int c = 0; c < maps.channels; ++c) {
+    const float* channel = maps.channel(c);
+    double mean = 0.0;
+    for (int i = 0; i < count; ++i) mean += channel[i];
+    mean /= count;
+    for (int i = 0; i < count; ++i) {
+      cells.features.at<float>(i, c) = static_cast<float>(channel[i] - mean);
+    }
+  }
+  for (int i = 0; i < count; ++i) {
+    cv::Mat row = cells.features.row(i);
+    const double norm = cv::norm(row);
+    if (norm > 0.0) row /= norm;
+    cells.centres.emplace_back(static_cast<float>(i % maps.width),
+                               static_cast<float>(i / maps.width));
+  }
+  return cells;
+}
+
+std::string AppearanceCheckResult::describe() const {
+  std::ostringstream text;
+  text << "appearance: " << inliers << " of " << mutual_matches << " cells agree";
+  return text.str();
+}
+
+AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
+                                      const AppearanceCheckOptions& options) {
+  AppearanceCheckResult result;
+  if (query.empty() || match.empty() || query.features.cols != match.features.cols ||
+      query.centres.size() != match.centres.size()) {
+    return result;
+  }
+  const cv::Mat similarity = query.features * match.features.t();
+  std::vector<int> best_match(similarity.rows), best_query(similarity.cols);
+  for (int q = 0; q < similarity.rows; ++q) {
+    cv::Point at;
+    cv::minMaxLoc(similarity.row(q), nullptr, nullptr, nullptr, &at);
+    best_match[q] = at.x;
+  }
+  for (int m = 0; m < similarity.cols; ++m) {
+    cv::Point at;
+    cv::minMaxLoc(similarity.col(m), nullptr, nullptr, nullptr, &at);
+    best_query[m] = at.y;
+  }
+  std::vector<cv::Point2f> from, to;
+  for (int q = 0; q < similarity.rows; ++q) {
+    if (best_query[best_match[q]] != q) continue;
+    from.push_back(query.centres[q]);
+    to.push_back(match.centres[best_match[q]]);
+  }
+  result.mutual_matches = static_cast<int>(from.size());
+  if (from.size() >= 3) {
+    std::vector<uchar> inlier_mask;
+    const cv::Mat affine = cv::estimateAffine2D(from, to, inlier_mask, cv::RANSAC,
+                                                options.ransac_threshold_cells, 2000, 0.995, 10);
+    if (!affine.empty()) result.inliers = cv::countNonZero(inlier_mask);
+  }
+  result.confirmed = result.inliers >= options.min_inliers;
+  return result;
+}
+
+}  // namespace landmark_loop_closure
