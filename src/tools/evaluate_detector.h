@@ -21,13 +21,18 @@ struct DetectorSource {
   bool has_odometry = false;    ///< False: the odometry gate is switched off (said so).
 };
 
-/// An image sequence. Without poses: every image a keyframe, 1 s and 1 m apart on a straight
-/// index path, odometry gate off. With poses and stamps (KITTI's, one per image): they drive the
-/// keyframe rule and the odometry gate as odometry would.
+/// An image sequence. Without poses: images 1 s apart, each 1 m further on a straight path
+/// unless its grey image differs from the last moving one's by less than `still_threshold` grey
+/// levels on average (standing still: no keyframe, as odometry would add none; 0 = every image
+/// moves), odometry gate off. With poses and stamps (KITTI's, one per image): they drive the
+/// keyframe rule and the odometry gate as odometry would. Valid `intrinsics` (of the camera at
+/// its own image size, scaled to the played size) switch the geometric check on.
 DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const eval::GroundTruth& truth,
                                    const std::vector<Pose>& poses = {},
-                                   const std::vector<double>& stamps = {});
+                                   const std::vector<double>& stamps = {},
+                                   const CameraIntrinsics& intrinsics = {},
+                                   double still_threshold = 0.0);
 
 /// The generated corridor as the demo bag holds it: drifting odometry, intrinsics, and a loop is
 /// true when the true positions lie within 2.5 m and 20 s apart (the demo report's rule).

@@ -1,5 +1,7 @@
 #include "evaluate_support.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -38,11 +40,45 @@ Progress progressPrinter(const std::string& what) {
 }
 
 std::vector<std::string> limited(std::vector<std::string> paths, const Arguments& arguments) {
+  if (arguments.has("--skip")) {
+    const size_t skip = std::min(paths.size(), static_cast<size_t>(arguments.number("--skip", 0)));
+    paths.erase(paths.begin(), paths.begin() + static_cast<std::ptrdiff_t>(skip));
+  }
   if (arguments.has("--limit")) {
     const size_t limit = static_cast<size_t>(arguments.number("--limit", 0));
     if (limit < paths.size()) paths.resize(limit);
   }
   return paths;
+}
+
+CameraIntrinsics readCameraInfoFile(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const std::exception& error) {
+    throw std::runtime_error(path + ": cannot read a camera_info YAML (" + error.what() + ")");
+  }
+  const YAML::Node data = root["camera_matrix"]["data"];
+  if (!root["image_width"] || !root["image_height"] || !data || !data.IsSequence() ||
+      data.size() != 9) {
+    throw std::runtime_error(path +
+                             ": a camera_info YAML needs image_width, image_height and "
+                             "camera_matrix/data (9 values)");
+  }
+  CameraIntrinsics intrinsics;
+  try {
+    intrinsics.image_size = cv::Size(root["image_width"].as<int>(), root["image_height"].as<int>());
+    intrinsics.fx = data[0].as<double>();
+    intrinsics.cx = data[2].as<double>();
+    intrinsics.fy = data[4].as<double>();
+    intrinsics.cy = data[5].as<double>();
+  } catch (const std::exception& error) {
+    throw std::runtime_error(path + ": camera_info values are not numbers (" + error.what() + ")");
+  }
+  if (const std::string problem = intrinsics.problem(); !problem.empty()) {
+    throw std::runtime_error(path + ": " + problem);
+  }
+  return intrinsics;
 }
 
 Variant descriptorVariant(const std::string& name, const Arguments& arguments,

@@ -13,6 +13,7 @@
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/training.h"
+#include "landmark_loop_closure/geometry/camera_intrinsics.h"
 
 namespace landmark_loop_closure {
 namespace tools {
@@ -41,8 +42,12 @@ std::vector<std::string> splitList(const std::string& text);
 /// A progress line at most every few seconds, so long runs show they are alive.
 eval::Progress progressPrinter(const std::string& what);
 
-/// The first --limit paths.
+/// The paths after the first --skip, at most --limit of them.
 std::vector<std::string> limited(std::vector<std::string> paths, const Arguments& arguments);
+
+/// Pinhole intrinsics from a ROS camera_info YAML (image_width, image_height, camera_matrix);
+/// throws std::runtime_error naming the file when it cannot be read or is unusable.
+CameraIntrinsics readCameraInfoFile(const std::string& path);
 
 /// A descriptor to evaluate, and how to train it when it learns from images.
 struct Variant {

@@ -1,6 +1,7 @@
-// Pipeline benchmark: the time one keyframe costs the worker thread (describe, shortlist from the
-// database, re-rank), stage by stage, on one core, with a database of N keyframes, and the
-// database's bytes per keyframe.
+// Pipeline benchmark: the time one keyframe costs the worker thread (describe and standardise,
+// shortlist from the database, re-rank, the thumbnail kept), stage by stage, on one core, with a
+// database of N keyframes, and the database's bytes per keyframe; and apart, the appearance check
+// that a loop candidate ORB cannot confirm costs (two network passes over thumbnails).
 //   lcd_bench_pipeline [--database DIR] [--queries DIR] [--keyframes 10000] [--top-k 10]
 //                      [--repeat 2] [--descriptor backbone|landmarks|landmarks_conv]
 // The landmark descriptors' describe time is split into its stages; the backbone's is one.
@@ -17,7 +18,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/core/appearance_check.h"
+#include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
@@ -87,7 +91,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::vector<ImageDescriptor> described;
-  for (const cv::Mat& image : database_images) described.push_back(extractor->describe(image));
+  std::vector<std::vector<uint8_t>> thumbnails;
+  for (const cv::Mat& image : database_images) {
+    described.push_back(extractor->describe(image));
+    thumbnails.push_back(encodeThumbnail(toWorkingImage(image, 160, 120)));
+  }
   const cv::Size input = database_images.front().size();
   database_images.clear();  // Decoded images are not part of the database's memory.
 
@@ -107,13 +115,16 @@ int main(int argc, char** argv) {
   database_options.min_size = 1;
 
   Stages stages;
+  ConditionStandardiser standardiser(descriptor_options.condition_window);
+  const AppearanceCheckOptions appearance_options;
   const int repeat = std::stoi(arguments["--repeat"]);
   for (int r = 0; r < repeat; ++r) {
     for (const cv::Mat& image : query_images) {
       const Clock::time_point start = Clock::now();
       DescribeStageTimes describe_times;
-      const ImageDescriptor query =
+      ImageDescriptor query =
           convnet ? convnet->describe(image, &describe_times) : extractor->describe(image);
+      query.global = standardiser.apply(query.global);
       const double describe_ms = millisecondsSince(start);
       const Clock::time_point shortlist_start = Clock::now();
       const QueryResult result = database.query(query.global, 1e12, database_options);
@@ -126,18 +137,35 @@ int main(int argc, char** argv) {
       }
       const double rerank_ms = millisecondsSince(rerank_start);
       if (best < -1.0) return 1;  // Keeps the re-rank from being optimised away.
+      const Clock::time_point thumbnail_start = Clock::now();
+      const std::vector<uint8_t> thumbnail = encodeThumbnail(toWorkingImage(image, 160, 120));
+      const double thumbnail_ms = millisecondsSince(thumbnail_start);
+      const double total_ms = millisecondsSince(start);
+      // Not every keyframe: only one whose candidate passed the threshold and the consistency
+      // check and which ORB could not confirm.
+      const Clock::time_point appearance_start = Clock::now();
+      const size_t match = result.candidates.empty() ? 0 : result.candidates.front().index;
+      const AppearanceCheckResult appearance = checkAppearance(
+          cellFeatures(extractor->appearanceMaps(decodeThumbnail(thumbnail))),
+          cellFeatures(
+              extractor->appearanceMaps(decodeThumbnail(thumbnails[match % thumbnails.size()]))),
+          appearance_options);
+      const double appearance_ms = millisecondsSince(appearance_start);
+      if (appearance.inliers < 0) return 1;
       if (convnet) {
         stages.add("1 prepare (grey, resize)", describe_times.prepare);
         stages.add("2 network pass", describe_times.network);
         stages.add("3 landmark proposals", describe_times.proposals);
         stages.add("4 landmark descriptors", describe_times.landmark_features);
       }
-      stages.add(
-          convnet ? "5 describe (1-4)" : "5 describe (resize, network, grid, landmarks, HOG)",
-          describe_ms);
+      stages.add(convnet ? "5 describe (1-4)"
+                         : "5 describe (resize, network, grid, landmarks, HOG, standardise)",
+                 describe_ms);
       stages.add("6 shortlist (exact search)", shortlist_ms);
       stages.add("7 re-rank top-K", rerank_ms);
-      stages.add("8 total per keyframe", millisecondsSince(start));
+      stages.add("8 thumbnail (WebP)", thumbnail_ms);
+      stages.add("9 total per keyframe", total_ms);
+      stages.add("a appearance check, when a candidate reaches it", appearance_ms);
     }
   }
   std::printf(

@@ -48,8 +48,14 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   --config FILE        the node's parameters (default: the built-in defaults = config/default.yaml);
                        --descriptors then replaces its descriptor (default: the config's own)
   --sweep-steps N      thresholds on the sweep's grid (default 16)
-  Image folders have no odometry: every image is a keyframe 1 s and 1 m apart, the odometry gate
-  is off. The corridor plays its drifting odometry and camera intrinsics; a bag plays every image
+  --still-threshold G  image folders without poses: an image whose grey picture (64 px wide)
+                       differs from the last moving one's by less than G levels on average
+                       stands still and adds no keyframe (default 5; 0 = every image moves)
+  --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
+                       (image_width, image_height, camera_matrix), scaled to the played size;
+                       the geometric check then runs (bench/cameras/ has Gardens Point's)
+  Image folders have no odometry: images are 1 s and 1 m apart (standing still, see
+  --still-threshold, adds no keyframe), the odometry gate is off. The corridor plays its drifting odometry and camera intrinsics; a bag plays every image
   with its odometry and camera_info, as the node receives them.
 
 GROUND TRUTH, one of:
@@ -96,6 +102,8 @@ OPTIONS:
   --contact-sheet N    also draw the N best-scoring pairs (green right, red wrong)
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
+  --skip N             leave out the first N images of each folder (then --limit applies):
+                       --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
   --output DIR         where results go (default lcd_results)
   --name TEXT          dataset name written into the results
@@ -314,7 +322,13 @@ int run(const Arguments& arguments) {
       poses = run.trajectory;
       stamps = readNumbers(arguments.get("--gt-times"));
     }
-    return runDetectorMode(arguments, imageSequenceSource(database_paths, truth, poses, stamps),
+    CameraIntrinsics intrinsics;
+    if (arguments.has("--camera-info")) {
+      intrinsics = readCameraInfoFile(arguments.get("--camera-info"));
+    }
+    return runDetectorMode(arguments,
+                           imageSequenceSource(database_paths, truth, poses, stamps, intrinsics,
+                                               arguments.number("--still-threshold", 5.0)),
                            run.dataset, output_folder);
   }
 
