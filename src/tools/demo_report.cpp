@@ -61,6 +61,8 @@ class DemoReport {
     }
     std::printf("verified:             %d, of which %zu with a metric relative pose\n", verified_,
                 translation_errors_.size());
+    std::printf("by appearance:        %d (ORB could not confirm them; no relative pose)\n",
+                appearance_verified_);
     if (!translation_errors_.empty()) {
       std::printf("metric pose error:    median %.3f m %.2f deg, 90th percentile %.3f m %.2f deg\n",
                   percentile(translation_errors_, 0.5), percentile(rotation_errors_, 0.5),
@@ -141,6 +143,7 @@ class DemoReport {
                                           toVector(match), loop->match_stamp.toSec());
     true_loops_ += is_true ? 1 : 0;
     verified_ += loop->verified ? 1 : 0;
+    appearance_verified_ += loop->appearance_verified ? 1 : 0;
     char pose_error[96] = "";
     if (loop->has_relative_pose && loop->relative_pose_metric) {
       // T_query_match of the true camera poses against the published one.
@@ -172,6 +175,7 @@ class DemoReport {
   int loops_ = 0;
   int true_loops_ = 0;
   int verified_ = 0;
+  int appearance_verified_ = 0;
   std::vector<double> translation_errors_;
   std::vector<double> rotation_errors_;
 };
