@@ -25,9 +25,10 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
           .number("min_score", &O::min_score, between(0, 1),
                   "final similarity a candidate needs; its scale depends on descriptor/type and on "
                   "descriptor/condition_window. backbone with the window (default): chosen on "
-                  "Gardens Point halves, the highest score of a wrong loop there was 0.21 "
-                  "(0.12 in the other half), right ones reach 0.2-0.5; 0.25 leaves a margin, as "
-                  "precision comes first. Without the window (condition_window 0) use 0.6. Set "
+                  "Gardens Point's first half, whose highest wrong loop scored 0.21, plus how far "
+                  "the halves' own choices disagree (0.09: the second half's was 0.12), as "
+                  "precision comes first; right loops score 0.2-0.5 there. Without the window "
+                  "(condition_window 0) use 0.6. Set "
                   "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
                   "for calc (those three measured without the window).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
