@@ -18,9 +18,9 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                 "when the ORB check refused them.")
           .integer("min_inliers", &O::min_inliers, between(3, 10000),
                    "cells (of 144 at the default input) that are mutual nearest neighbours and "
-                   "fit one affine map of positions. Chosen on Gardens Point halves: the same "
-                   "place by day and night has 21-36 (10th percentile-median), different places "
-                   "that look alike at most 26-27 (bench/README.md).")
+                   "fit one affine map of positions. Chosen on Gardens Point's first half: the "
+                   "same place by day and by night has 25 / 38 (10th percentile / median), the "
+                   "most alike wrong places 21-31 at the 90th percentile (bench/README.md).")
           .number("ransac_threshold_cells", &O::ransac_threshold_cells,
                   openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.");
   return table;
@@ -65,23 +65,10 @@ AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatu
       query.centres.size() != match.centres.size()) {
     return result;
   }
-  const cv::Mat similarity = query.features * match.features.t();
-  std::vector<int> best_match(similarity.rows), best_query(similarity.cols);
-  for (int q = 0; q < similarity.rows; ++q) {
-    cv::Point at;
-    cv::minMaxLoc(similarity.row(q), nullptr, nullptr, nullptr, &at);
-    best_match[q] = at.x;
-  }
-  for (int m = 0; m < similarity.cols; ++m) {
-    cv::Point at;
-    cv::minMaxLoc(similarity.col(m), nullptr, nullptr, nullptr, &at);
-    best_query[m] = at.y;
-  }
   std::vector<cv::Point2f> from, to;
-  for (int q = 0; q < similarity.rows; ++q) {
-    if (best_query[best_match[q]] != q) continue;
-    from.push_back(query.centres[q]);
-    to.push_back(match.centres[best_match[q]]);
+  for (const LandmarkMatch& pair : matchLandmarks(query.features, match.features)) {
+    from.push_back(query.centres[pair.a]);
+    to.push_back(match.centres[pair.b]);
   }
   result.mutual_matches = static_cast<int>(from.size());
   if (from.size() >= 3) {
