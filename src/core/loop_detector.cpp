@@ -75,7 +75,8 @@ const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::parameters() {
           .group(&O::keyframe, KeyframeSelectorOptions::parameters())
           .group(&O::descriptor, DescriptorOptions::parameters())
           .flag("descriptor/keep_thumbnails", &O::keep_thumbnails,
-                "keep a 160x120 grey copy per keyframe (19 KB) for ~match_image.")
+                "keep a 160x120 grey copy per keyframe (WebP, ~2 KB) for ~match_image and the "
+                "appearance check (verification/appearance), which cannot run without it.")
           .group(&O::database, DatabaseOptions::parameters())
           .group(&O::acceptance, AcceptanceOptions::parameters())
           .group(&O::odometry_gate, OdometryGateOptions::parameters())

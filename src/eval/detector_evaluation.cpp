@@ -41,7 +41,8 @@ uint64_t imageKey(const cv::Mat& image) {
   return hash;
 }
 
-// Describes each distinct image once; later passes of the sweep get the stored description.
+// Describes each distinct image once (and computes each thumbnail's appearance maps once); later
+// passes of the sweep get the stored results.
 class CachedExtractor : public DescriptorExtractor {
  public:
   explicit CachedExtractor(std::shared_ptr<const DescriptorExtractor> inner)
@@ -49,16 +50,7 @@ class CachedExtractor : public DescriptorExtractor {
   std::string name() const override { return inner_->name(); }
   int globalDimension() const override { return inner_->globalDimension(); }
   ImageDescriptor describe(const cv::Mat& image) const override {
-    const uint64_t key = imageKey(image);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      const auto found = cache_.find(key);
-      if (found != cache_.end()) return found->second;
-    }
-    ImageDescriptor descriptor = inner_->describe(image);
-    std::lock_guard<std::mutex> lock(mutex_);
-    cache_.emplace(key, descriptor);
-    return descriptor;
+    return cached(&descriptors_, image, [this](const cv::Mat& m) { return inner_->describe(m); });
   }
   double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const override {
     return inner_->similarity(query, candidate);
@@ -67,23 +59,30 @@ class CachedExtractor : public DescriptorExtractor {
   bool reranks() const override { return inner_->reranks(); }
   bool wantsColour() const override { return inner_->wantsColour(); }
   FeatureMaps appearanceMaps(const cv::Mat& image) const override {
-    const uint64_t key = imageKey(image);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      const auto found = maps_.find(key);
-      if (found != maps_.end()) return found->second;
-    }
-    FeatureMaps maps = inner_->appearanceMaps(image);
-    std::lock_guard<std::mutex> lock(mutex_);
-    maps_.emplace(key, maps);
-    return maps;
+    return cached(&maps_, image, [this](const cv::Mat& m) { return inner_->appearanceMaps(m); });
   }
 
  private:
+  // The stored value for `image`'s bytes, computed outside the lock when absent.
+  template <typename Value, typename Compute>
+  Value cached(std::unordered_map<uint64_t, Value>* cache, const cv::Mat& image,
+               const Compute& compute) const {
+    const uint64_t key = imageKey(image);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto found = cache->find(key);
+      if (found != cache->end()) return found->second;
+    }
+    Value value = compute(image);
+    std::lock_guard<std::mutex> lock(mutex_);
+    cache->emplace(key, value);
+    return value;
+  }
+
   std::shared_ptr<const DescriptorExtractor> inner_;
   mutable std::mutex mutex_;
-  mutable std::unordered_map<uint64_t, ImageDescriptor> cache_;
-  mutable std::unordered_map<uint64_t, FeatureMaps> maps_;  ///< Of thumbnails, by their bytes.
+  mutable std::unordered_map<uint64_t, ImageDescriptor> descriptors_;
+  mutable std::unordered_map<uint64_t, FeatureMaps> maps_;  ///< Of thumbnails.
 };
 
 struct PassInput {

@@ -20,7 +20,6 @@ class ConditionStandardiser {
   explicit ConditionStandardiser(int window = 0);
 
   bool enabled() const { return window_ > 0; }
-  int window() const { return window_; }
   /// Keyframes in the window now.
   size_t held() const { return recent_.size(); }
 
@@ -30,10 +29,10 @@ class ConditionStandardiser {
   /// match). A vector of another length than the window's restarts the window (the descriptor
   /// changed). Non-finite values count as 0.
   std::vector<float> apply(const std::vector<float>& global);
-  /// Forgets the window.
-  void reset();
 
  private:
+  void reset();
+
   int window_;
   std::deque<std::vector<float>> recent_;
   std::vector<double> sum_;  ///< Of the vectors in recent_.
