@@ -8,9 +8,11 @@ set(CORE_TESTS
   test_old_map_file
   test_temporal_consistency
   test_condition_standardiser
+  test_place_distinctiveness
   test_appearance_check
   test_loop_detector
   test_loop_detector_map
+  test_map_file_safety
   test_sequence_matching
   test_bounded_queue
   test_detector_runtime

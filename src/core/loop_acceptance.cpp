@@ -7,6 +7,7 @@
 
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/core/place_distinctiveness.h"
 
 namespace landmark_loop_closure {
 
@@ -51,11 +52,21 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       reports.begin(), reports.end(),
       [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
   result->times.rerank_ms = millisecondsSince(rerank_start);
+  rateDistinctiveness(&reports);
 
   std::vector<PathPoint> above_threshold;
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) continue;
     if (report.verdict == CandidateVerdict::kUnreadable) continue;
+    if (report.place_ratio < options_.acceptance.min_place_ratio) {
+      report.verdict = CandidateVerdict::kAmbiguous;
+      std::ostringstream detail;
+      detail.precision(2);
+      detail << std::fixed << report.place_ratio << " times the best other place's score, under "
+             << options_.acceptance.min_place_ratio;
+      report.detail = detail.str();
+      continue;
+    }
     const KeyframeSummary* match = database_.findSummary(report.match_id);
     // Earlier sessions' odometry is another frame with its own drift: nothing to compare.
     if (mode_ == DetectorMode::kMapping && match->session == session_) {
@@ -81,7 +92,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       continue;
     }
     if (report.verdict == CandidateVerdict::kOdometryRejected ||
-        report.verdict == CandidateVerdict::kUnreadable) {
+        report.verdict == CandidateVerdict::kUnreadable ||
+        report.verdict == CandidateVerdict::kAmbiguous) {
       continue;
     }
     const TemporalConsistency::Chain& chain = chains[chain_index++];
@@ -112,6 +124,34 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       loop.score = report.score;
       loop.consistent_keyframes = report.consistent_keyframes;
       result->loop = loop;
+    }
+  }
+}
+
+void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) const {
+  std::vector<ShortlistEntry> shortlist;
+  std::vector<const KeyframeSummary*> summaries;
+  for (const CandidateReport& report : *reports) {
+    const KeyframeSummary* summary = database_.findSummary(report.match_id);
+    if (!summary || report.verdict == CandidateVerdict::kUnreadable) continue;
+    shortlist.push_back({summary->id, summary->session, report.score});
+    summaries.push_back(summary);
+  }
+  // Laps of one run: keyframes the odometry puts within its drift of each other are one place.
+  const OdometryGateOptions& gate = options_.odometry_gate;
+  const auto could_be_same_place = [&](size_t a, size_t b) {
+    if (!gate.enabled) return false;
+    return checkOdometry(gate, summaries[a]->pose, summaries[a]->path, summaries[b]->pose,
+                         summaries[b]->path)
+        .consistent;
+  };
+  const std::vector<double> ratios = placeRatios(
+      shortlist, static_cast<uint64_t>(options_.acceptance.place_window), could_be_same_place);
+  size_t next = 0;
+  for (CandidateReport& report : *reports) {
+    if (next < shortlist.size() && shortlist[next].id == report.match_id &&
+        report.verdict != CandidateVerdict::kUnreadable) {
+      report.place_ratio = ratios[next++];
     }
   }
 }

@@ -45,6 +45,16 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "metres: query travel over which the place must stay matched.")
           .number("match_window_m", &O::match_window_m, atLeast(0),
                   "metres: consecutive matches agree within this plus the query's step.")
+          .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
+                  "a candidate's score over the best score of another place in the shortlist "
+                  "must reach this (a place-level ratio test; 0 = off): where the query looks "
+                  "about as much like several places (forest, corridor, darkness), the best is a "
+                  "guess and refused as \"ambiguous\". Another place: same session, more than "
+                  "place_window ids away and, with the odometry gate on, beyond the odometry's "
+                  "drift of it (laps of one run are one place); other sessions are not compared. "
+                  "Chosen on the first halves of Gardens Point and Nordland (bench/README.md).")
+          .integer("place_window", &O::place_window, between(0, 1000000),
+                   "candidates within this many keyframe ids of each other are one place.")
           .group(&O::sequence, SequenceMatchingOptions::parameters());
   return table;
 }
@@ -119,6 +129,8 @@ const char* toString(CandidateVerdict verdict) {
       return "geometry_rejected";
     case CandidateVerdict::kUnreadable:
       return "unreadable";
+    case CandidateVerdict::kAmbiguous:
+      return "ambiguous";
   }
   return "unknown";
 }

@@ -1,32 +1,41 @@
 // LoopDetector and its map file: opening it (search within the memory budget, the rows checked
 // beside search), saving, copying and resetting it.
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <optional>
 
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/database/map_file_safety.h"
 #include "landmark_loop_closure/database/map_tools.h"
 
 namespace landmark_loop_closure {
 
-std::string LoopDetector::saveDatabase(const std::string& path) const {
+std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
+                                       std::string* kept_as) const {
   if (training_) {
     return "nothing to save yet: the broad autoencoder is still training (" +
            std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
            " keyframes held)";
   }
-  std::error_code same_error;
-  if (store_ && std::filesystem::equivalent(path, store_->path(), same_error)) return "";
+  if (store_ && path == store_->path()) return "";  // Every keyframe is committed already.
+  const std::string problem = saveTargetProblem(path, mapPath(), overwrite);
+  if (!problem.empty()) return problem;
+  std::string kept;
   try {
+    struct stat status;
+    if (::stat(path.c_str(), &status) == 0) kept = moveMapAside(path, "replaced");
     if (store_) {
       store_->copyTo(path);
     } else {
       writeMap(database_, descriptor_identity_, path);
     }
   } catch (const std::exception& error) {
-    return error.what();
+    return std::string(error.what()) + (kept.empty() ? "" : "; the earlier map is kept as " + kept);
   }
+  if (kept_as) *kept_as = kept;
   return "";
 }
 
@@ -162,17 +171,13 @@ std::string LoopDetector::reset() {
   // The forgotten keyframes stay on disk: a reset never shortens a saved map.
   const std::string path = store_->path();
   store_.reset();
-  const std::string kept = path + ".reset-" +
-                           std::to_string(std::chrono::duration_cast<std::chrono::seconds>(
-                                              std::chrono::system_clock::now().time_since_epoch())
-                                              .count());
-  std::error_code error;
-  // The rows file belongs to the kept map; the graph goes with it too.
-  std::filesystem::rename(path + "-vectors", kept + "-vectors", error);
-  if (!error) std::filesystem::rename(path, kept, error);
-  if (error) return "the map " + path + " could not be kept aside (" + error.message() + ")";
-  std::filesystem::rename(path + "-graph", kept + "-graph", error);
-  std::filesystem::rename(path + "-summaries", kept + "-summaries", error);
+  std::string kept;
+  try {
+    // A unique name, never one an earlier reset (even in the same second) kept a map under.
+    kept = moveMapAside(path, "reset");
+  } catch (const std::exception& error) {
+    return std::string(error.what()) + "; keyframes are kept in memory only";
+  }
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
     readRecordsFromStore(&database_, store_.get());

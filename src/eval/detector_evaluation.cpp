@@ -125,6 +125,20 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
       keyframe_frames.resize(keyframe.keyframe_id + 1, 0);
     }
     keyframe_frames[keyframe.keyframe_id] = index;
+    if (record_keyframes) {
+      for (const CandidateReport& candidate : keyframe.candidates) {
+        CandidateRow row;
+        row.query_id = keyframe.keyframe_id;
+        row.match_id = candidate.match_id;
+        row.query_frame = index;
+        row.match_frame = keyframe_frames.at(candidate.match_id);
+        row.global_score = candidate.global_score;
+        row.score = candidate.score;
+        row.verdict = toString(candidate.verdict);
+        row.correct = (*input.same_place)(row.query_frame, row.match_frame);
+        pass.candidates.push_back(row);
+      }
+    }
     if (keyframe.loop) {
       PublishedLoop loop;
       loop.query_id = keyframe.keyframe_id;
@@ -278,6 +292,14 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
     loops << loop.query_id << "," << loop.match_id << "," << loop.query_frame << ","
           << loop.match_frame << "," << loop.score << "," << loop.verified << "," << loop.correct
           << "\n";
+  }
+  std::ofstream candidates(base / ("candidates_" + name + ".csv"));
+  candidates << "query_id,match_id,query_frame,match_frame,global_score,score,verdict,correct\n"
+             << std::setprecision(6);
+  for (const CandidateRow& row : result.configured.candidates) {
+    candidates << row.query_id << "," << row.match_id << "," << row.query_frame << ","
+               << row.match_frame << "," << row.global_score << "," << row.score << ","
+               << row.verdict << "," << row.correct << "\n";
   }
   return path;
 }

@@ -101,13 +101,26 @@ const char* toString(GroundTruth::Shape shape) {
   return "unknown";
 }
 
-GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance) {
+GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance,
+                               const std::vector<bool>& stopped) {
+  // place[i]: moving frames up to frame i; a stop keeps the place of the frame before it.
+  const size_t frames = std::max(queries, database);
+  std::vector<long> place(frames);
+  for (size_t i = 0; i < frames; ++i) {
+    const bool stop = i > 0 && i < stopped.size() && stopped[i];
+    place[i] = i == 0 ? 0 : place[i - 1] + (stop ? 0 : 1);
+  }
   GroundTruth truth(queries, database);
   for (size_t query = 0; query < queries; ++query) {
-    const long low = std::max(0L, static_cast<long>(query) - tolerance);
-    const long high =
-        std::min(static_cast<long>(database) - 1, static_cast<long>(query) + tolerance);
-    for (long match = low; match <= high; ++match) truth.add(query, static_cast<size_t>(match));
+    // Places only grow with the frame index: walk out from the query's own frame both ways.
+    for (long match = std::min<long>(query, static_cast<long>(database) - 1);
+         match >= 0 && place[query] - place[match] <= tolerance; --match) {
+      truth.add(query, static_cast<size_t>(match));
+    }
+    for (size_t match = query + 1; match < database && place[match] - place[query] <= tolerance;
+         ++match) {
+      truth.add(query, match);
+    }
   }
   truth.finalize();
   return truth;

@@ -242,6 +242,8 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
       return LoopCandidate::GEOMETRY_REJECTED;
     case CandidateVerdict::kUnreadable:
       return LoopCandidate::UNREADABLE;
+    case CandidateVerdict::kAmbiguous:
+      return LoopCandidate::AMBIGUOUS;
   }
   return LoopCandidate::BELOW_THRESHOLD;
 }
@@ -265,6 +267,7 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time
     candidate.reason = toString(report.verdict);
     if (!report.detail.empty()) candidate.reason += ": " + report.detail;
     candidate.inliers = static_cast<uint32_t>(report.inliers);
+    candidate.place_ratio = report.place_ratio;
     msg.candidates.push_back(candidate);
   }
   return msg;

@@ -124,7 +124,7 @@ class LoopClosureNode {
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
   /// Saves to `path` (or database_path); returns "" or why. Caller holds the detector (inside
   /// withDetector or a runtime callback).
-  std::string saveDatabase(const std::string& path);
+  std::string saveDatabase(const std::string& path, bool overwrite, std::string* kept_as);
   /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
   ros::Time stampOf(uint64_t id) const;
 

@@ -1,7 +1,10 @@
 // The node's keyframe database: the file services, the stamps of loaded keyframes, and the
 // keyframes online training held.
+#include <chrono>
+#include <cstdio>
 #include <string>
 
+#include "landmark_loop_closure/common/text_and_files.h"
 #include "loop_closure_node.h"
 #include "messages/ros_conversions.h"
 
@@ -19,10 +22,11 @@ void LoopClosureNode::advertiseServices() {
   service_spinner_->start();
 }
 
-std::string LoopClosureNode::saveDatabase(const std::string& path) {
+std::string LoopClosureNode::saveDatabase(const std::string& path, bool overwrite,
+                                          std::string* kept_as) {
   const std::string target = path.empty() ? detector_.mapPath() : path;
   if (target.empty()) return "no path given and no map open (the parameter database_path is empty)";
-  const std::string error = detector_.saveDatabase(target);
+  const std::string error = detector_.saveDatabase(target, overwrite, kept_as);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   if (!error.empty()) database_status_ = error;
   return error;
@@ -30,17 +34,20 @@ std::string LoopClosureNode::saveDatabase(const std::string& path) {
 
 bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
+  const std::string path = expandPath(request.path);
   runtime_->withDetector([&](LoopDetector& detector) {
-    std::string error = saveDatabase(request.path);
-    const bool own_map = request.path.empty() || request.path == detector.mapPath();
+    std::string kept;
+    std::string error = saveDatabase(path, request.overwrite, &kept);
+    const bool own_map = path.empty() || path == detector.mapPath();
     if (error.empty() && own_map) error = detector.saveMapGraph();  // A checkpoint.
     response.success = error.empty();
     response.keyframes = detector.database().size();
-    response.message = !error.empty() ? error
-                       : own_map      ? "all " + std::to_string(response.keyframes) +
-                                       " keyframes are committed to " + detector.mapPath()
-                                 : "copied " + std::to_string(response.keyframes) +
-                                       " keyframes to " + request.path;
+    response.message =
+        !error.empty() ? error
+        : own_map ? "all " + std::to_string(response.keyframes) + " keyframes are committed to " +
+                        detector.mapPath()
+                  : "copied " + std::to_string(response.keyframes) + " keyframes to " + path +
+                        (kept.empty() ? "" : "; the map that was there is kept as " + kept);
     if (error.empty()) {
       ROS_INFO("%s", response.message.c_str());
     } else {
@@ -54,9 +61,13 @@ bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
 bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
   runtime_->withDetector([&](LoopDetector& detector) {
-    const std::string path = request.path.empty() ? detector.mapPath() : request.path;
+    const auto load_start = std::chrono::steady_clock::now();
+    const std::string requested = expandPath(request.path);
+    const std::string path = requested.empty() ? detector.mapPath() : requested;
     const std::string error =
         path.empty() ? "no path given and no map open" : detector.loadDatabase(path);
+    const double load_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     response.success = error.empty();
     response.keyframes = detector.database().size();
     if (!error.empty()) {
@@ -66,8 +77,11 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     }
     keyframe_stamps_.clear();
     markers_.clear();
-    response.message = "loaded " + std::to_string(response.keyframes) + " keyframes; session " +
-                       std::to_string(detector.session());
+    char seconds[32];
+    std::snprintf(seconds, sizeof(seconds), "%.2f s", load_seconds);
+    response.message = "loaded " + std::to_string(response.keyframes) + " keyframes from " + path +
+                       " in " + seconds + "; session " + std::to_string(detector.session());
+    ROS_INFO("%s", response.message.c_str());
     session_ = detector.session();
     noteMapSize(detector);
     std::lock_guard<std::mutex> stats(stats_mutex_);

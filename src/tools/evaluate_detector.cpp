@@ -1,5 +1,6 @@
 #include "evaluate_detector.h"
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -51,32 +52,58 @@ namespace {
 // Image-only sequences: whether the camera moved since the last frame that did, judged by the
 // mean absolute difference of the grey images at 64 px wide (a stopped train's or robot's frames
 // differ by noise, under 2 grey levels on Nordland; moving ones by 14 and more).
+constexpr int kStillWidth = 64;
+
+cv::Mat stillPicture(const cv::Mat& image) {
+  if (image.empty()) return cv::Mat();
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  const int height = std::max(1, image.rows * kStillWidth / std::max(1, image.cols));
+  cv::Mat small;
+  cv::resize(grey, small, cv::Size(kStillWidth, height), 0, 0, cv::INTER_AREA);
+  small.convertTo(small, CV_32F);
+  return small;
+}
+
+// Mean absolute grey difference; infinite when the pictures' sizes differ.
+double pictureDifference(const cv::Mat& a, const cv::Mat& b) {
+  if (a.empty() || b.empty() || a.size() != b.size()) return INFINITY;
+  return cv::mean(cv::abs(a - b))[0];
+}
+
 class StandstillDetector {
  public:
   explicit StandstillDetector(double threshold) : threshold_(threshold) {}
   bool moved(const cv::Mat& image) {
     if (threshold_ <= 0.0) return true;
-    cv::Mat grey = image;
-    if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-    const int height = std::max(1, image.rows * kWidth / std::max(1, image.cols));
-    cv::Mat small;
-    cv::resize(grey, small, cv::Size(kWidth, height), 0, 0, cv::INTER_AREA);
-    small.convertTo(small, CV_32F);
-    if (!last_moving_.empty() && last_moving_.size() == small.size() &&
-        cv::mean(cv::abs(small - last_moving_))[0] < threshold_) {
-      return false;
-    }
+    cv::Mat small = stillPicture(image);
+    if (pictureDifference(small, last_moving_) < threshold_) return false;
     last_moving_ = small;
     return true;
   }
 
  private:
-  static constexpr int kWidth = 64;
   double threshold_;
   cv::Mat last_moving_;
 };
 
 }  // namespace
+
+std::vector<bool> jointStops(const std::vector<std::string>& first,
+                             const std::vector<std::string>& second, double threshold) {
+  const size_t frames = std::min(first.size(), second.size());
+  std::vector<bool> stopped(frames, false);
+  cv::Mat previous_first, previous_second;
+  for (size_t i = 0; i < frames; ++i) {
+    const cv::Mat a = stillPicture(cv::imread(first[i], cv::IMREAD_GRAYSCALE));
+    const cv::Mat b = stillPicture(cv::imread(second[i], cv::IMREAD_GRAYSCALE));
+    stopped[i] = i > 0 && pictureDifference(a, previous_first) < threshold &&
+                 pictureDifference(b, previous_second) < threshold;
+    previous_first = a;
+    previous_second = b;
+  }
+  return stopped;
+}
 
 DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const eval::GroundTruth& truth, const std::vector<Pose>& poses,

@@ -34,6 +34,12 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const CameraIntrinsics& intrinsics = {},
                                    double still_threshold = 0.0);
 
+/// Frames at which two aligned traversals both stand still: frame i's grey picture (64 px wide)
+/// differs from frame i - 1's by less than `threshold` grey levels on average in each traversal
+/// (frame 0 never). For alignedGroundTruth's stops.
+std::vector<bool> jointStops(const std::vector<std::string>& first,
+                             const std::vector<std::string>& second, double threshold);
+
 /// The generated corridor as the demo bag holds it: drifting odometry, intrinsics, and a loop is
 /// true when the true positions lie within 2.5 m and 20 s apart (the demo report's rule).
 DetectorSource corridorSource(double laps);

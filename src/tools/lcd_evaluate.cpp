@@ -61,6 +61,10 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
 GROUND TRUTH, one of:
   --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)
   --gt-aligned N                traversals: query i is database i +- N
+      [--gt-stops G]            --as-sequence: frames where both traversals stand still (the
+                                grey picture, 64 px wide, differs from the frame before by
+                                less than G levels in each) show the place of the frame before:
+                                a train's station stop is one place, +- N counts moving frames
   --gt-poses FILE --gt-times FILE   KITTI poses; same place = within --gt-distance metres
                                 (default 5), --gt-angle degrees (default 0 = any heading) and
                                 at least --gt-gap seconds apart (default 30)
@@ -268,8 +272,18 @@ int run(const Arguments& arguments) {
       truth = alignedGroundTruth(query_paths.size(), database_paths.size(), tolerance);
     } else if (first_traversal > 0) {
       // Image first_traversal + i of the second traversal is image i of the first, +- tolerance.
-      const GroundTruth across =
-          alignedGroundTruth(database_paths.size() - first_traversal, first_traversal, tolerance);
+      const double stop_threshold = arguments.number("--gt-stops", 0.0);
+      std::vector<bool> stops;
+      if (stop_threshold > 0.0) {
+        stops =
+            tools::jointStops(std::vector<std::string>(database_paths.begin(),
+                                                       database_paths.begin() + first_traversal),
+                              std::vector<std::string>(database_paths.begin() + first_traversal,
+                                                       database_paths.end()),
+                              stop_threshold);
+      }
+      const GroundTruth across = alignedGroundTruth(database_paths.size() - first_traversal,
+                                                    first_traversal, tolerance, stops);
       truth = GroundTruth(database_paths.size(), database_paths.size());
       for (size_t i = 0; i < across.rows(); ++i) {
         for (const uint32_t j : across.positives(i)) truth.add(first_traversal + i, j);
@@ -280,6 +294,9 @@ int run(const Arguments& arguments) {
       throw std::invalid_argument("--gt-aligned needs --database and --queries");
     }
     run.ground_truth = "aligned traversals, +-" + std::to_string(tolerance);
+    if (arguments.has("--gt-stops")) {
+      run.ground_truth += " moving frames (a stop of both traversals is one place)";
+    }
   } else if (arguments.has("--gt-poses")) {
     const std::vector<Pose> poses = readKittiPoses(arguments.get("--gt-poses"));
     const std::vector<double> stamps = readNumbers(arguments.get("--gt-times"));

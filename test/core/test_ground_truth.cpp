@@ -167,6 +167,22 @@ TEST(GroundTruth, AlignedTraversalsWithTolerance) {
   EXPECT_EQ(truth.positives(9), (std::vector<uint32_t>{7, 8, 9}));
 }
 
+TEST(GroundTruth, AlignedTraversalsCountAStopAsOnePlace) {
+  // Frames 3-6 are a stop (both traversals stand): frames 2-6 show one place.
+  std::vector<bool> stopped(12, false);
+  for (int i = 3; i <= 6; ++i) stopped[i] = true;
+  const GroundTruth truth = alignedGroundTruth(12, 12, 1, stopped);
+  EXPECT_EQ(truth.positives(2), (std::vector<uint32_t>{1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_EQ(truth.positives(5), (std::vector<uint32_t>{1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_EQ(truth.positives(8), (std::vector<uint32_t>{7, 8, 9}));
+  EXPECT_EQ(truth.positives(0), (std::vector<uint32_t>{0, 1}));
+  // Without stops it is the plain tolerance; more queries than database images stay in range.
+  const GroundTruth plain = alignedGroundTruth(14, 10, 1, {});
+  EXPECT_EQ(plain.positives(5), (std::vector<uint32_t>{4, 5, 6}));
+  EXPECT_EQ(plain.positives(10), (std::vector<uint32_t>{9}));
+  EXPECT_TRUE(plain.positives(12).empty());
+}
+
 TEST(GroundTruth, FromPosesNeedsDistanceHeadingAndTimeGap) {
   const std::vector<Pose> poses = {planarPose(0, 0, 0), planarPose(0.5, 0, 0), planarPose(20, 0, 0),
                                    planarPose(0.2, 0, 0), planarPose(0.1, 0, 3.0)};

@@ -36,6 +36,7 @@ void removeMap(const std::string& path) {
 
 TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
   const std::string path = temporaryPath("saved_map.lcdb");
+  removeMap(path);  // A save never replaces a file: start from none.
   LoopDetectorOptions options = smallOptions();
   options.odometry_gate.enabled = true;
   {
@@ -82,6 +83,7 @@ TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
 
   // A map made with other descriptors is refused the same way.
   const std::string path = temporaryPath("other_descriptors.lcdb");
+  removeMap(path);
   LoopDetectorOptions hog = smallOptions();
   hog.descriptor.type = "hog";
   {

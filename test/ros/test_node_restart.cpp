@@ -125,6 +125,13 @@ bool stopNode(pid_t pid, double timeout = 30.0) {
   return false;
 }
 
+// A map and every file beside it: a save never writes over any of them.
+void removeMapFiles(const std::string& path) {
+  for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors", "-summaries"}) {
+    std::filesystem::remove(path + suffix);
+  }
+}
+
 // The true pose of the frame nearest `stamp` (stamps of loaded keyframes are stored as seconds).
 const Pose2D* truthAt(const std::map<double, Pose2D>& truth, const ros::Time& stamp) {
   const auto after = truth.lower_bound(stamp.toSec() - 1e-3);
@@ -189,6 +196,7 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
 
   // The services: save a copy, forget everything, load the copy back.
   const std::string copy = path + ".copy";
+  removeMapFiles(copy);
   DatabaseFile save;
   save.request.path = copy;
   ASSERT_TRUE(ros::service::call("/loop_closure/save_database", save));
@@ -226,7 +234,7 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
   EXPECT_FALSE(missing.response.success);
   EXPECT_NE(missing.response.message.find(".missing"), std::string::npos);
   EXPECT_EQ(missing.response.keyframes, stored);  // A refused load changes nothing.
-  std::filesystem::remove(copy);
+  removeMapFiles(copy);
   EXPECT_TRUE(stopNode(second));
 
   size_t second_run_keyframes = 0;
@@ -339,6 +347,7 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   ASSERT_GT(second, 0);
   DatabaseFile save;
   save.request.path = path + ".copy";
+  removeMapFiles(save.request.path);
   bool answered = false;
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
   while (!answered && ros::WallTime::now() < end) {
@@ -360,7 +369,7 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
               save.response.keyframes);
   ros::param::set("/loop_closure/database_path", std::string());
   std::filesystem::remove(path);
-  std::filesystem::remove(save.request.path);
+  removeMapFiles(save.request.path);
 }
 
 TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {

@@ -15,10 +15,16 @@ namespace {
 uint64_t storedKeyframes() {
   DatabaseFile save;
   save.request.path = (std::filesystem::temp_directory_path() / "lcd_time_jump.lcdb").string();
-  if (!ros::service::call("/loop_closure/save_database", save) || !save.response.success) {
-    return 0;
-  }
-  std::filesystem::remove(save.request.path);
+  // A save never writes over a file: the copy and its rows go before and after.
+  const auto remove_copy = [&save] {
+    for (const char* suffix : {"", "-wal", "-shm", "-graph", "-vectors", "-summaries"}) {
+      std::filesystem::remove(save.request.path + suffix);
+    }
+  };
+  remove_copy();
+  const bool saved = ros::service::call("/loop_closure/save_database", save);
+  remove_copy();
+  if (!saved || !save.response.success) return 0;
   return save.response.keyframes;
 }
 

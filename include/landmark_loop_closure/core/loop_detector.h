@@ -39,6 +39,10 @@ struct AcceptanceOptions {
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
   double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
   double match_window_m = 1.0;         ///< Matches agree within this (plus the query's step).
+  /// A candidate's score over the best score of another place in the shortlist (placeRatios)
+  /// must reach this; 0 = off.
+  double min_place_ratio = 1.2;
+  int place_window = 10;  ///< Candidates within this many ids of each other are one place.
   /// Sequence matching (sequence_length > 1): the threshold applies to a candidate's best path
   /// mean over the last keyframes instead of its own score (SequenceMatcher).
   SequenceMatchingOptions sequence;
@@ -100,6 +104,7 @@ enum class CandidateVerdict {
   kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
   kGeometryRejected,     ///< Consistent, but the geometric check refused it (see detail).
   kUnreadable,           ///< Its record could not be read from the map file (damaged).
+  kAmbiguous,  ///< Above the threshold, but another place scored nearly as high (min_place_ratio).
 };
 
 const char* toString(CandidateVerdict verdict);
@@ -110,6 +115,7 @@ struct CandidateReport {
   double global_score = 0.0;  ///< Shortlist stage: cosine of the global descriptors.
   double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
   double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
+  double place_ratio = 0.0;   ///< score over the best other place's (placeRatios).
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
   std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
@@ -248,9 +254,12 @@ class LoopDetector {
   /// Worker thread: the open map's file, or "" when keyframes live in memory only.
   std::string mapPath() const { return store_ ? store_->path() : ""; }
   /// Worker thread: writes a copy of the keyframes to `path` as a map (atomically: the copy
-  /// appears whole or not at all, replacing what was there). The open map's own path: nothing to
-  /// do, every keyframe is committed. Returns "" or why.
-  std::string saveDatabase(const std::string& path) const;
+  /// appears whole or not at all). The open map's own path: nothing to do, every keyframe is
+  /// committed. Refused before anything is written (saveTargetProblem): the open map under
+  /// another name, what is not a regular file, an existing file unless `overwrite` (then only a
+  /// map, which is first kept aside under a unique name, given in `kept_as`). Returns "" or why.
+  std::string saveDatabase(const std::string& path, bool overwrite = false,
+                           std::string* kept_as = nullptr) const;
   /// Worker thread: openMap() on an existing file.
   std::string loadDatabase(const std::string& path);
   /// Worker thread: forgets every keyframe, chain and session. With a map open, its file is
@@ -316,6 +325,8 @@ class LoopDetector {
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
   /// Sequence matching: replaces the reports by the sequence matcher's candidates and scores.
   /// False while the history is shorter than a sequence (every report then waits).
+  /// Sets each report's place_ratio (placeRatios over the shortlist).
+  void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
   bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                       const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).

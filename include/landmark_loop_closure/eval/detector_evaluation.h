@@ -42,6 +42,18 @@ struct PublishedLoop {
   bool correct = false;
 };
 
+/// One shortlisted candidate of a keyframe and what became of it (the configured pass only).
+struct CandidateRow {
+  uint64_t query_id = 0;
+  uint64_t match_id = 0;
+  size_t query_frame = 0;
+  size_t match_frame = 0;
+  double global_score = 0.0;
+  double score = 0.0;
+  std::string verdict;
+  bool correct = false;
+};
+
 /// What the detector published at one acceptance/min_score.
 struct DetectorPass {
   double min_score = 0.0;
@@ -54,6 +66,7 @@ struct DetectorPass {
   /// "all_excluded").
   std::map<std::string, size_t> refused;
   std::vector<double> keyframe_ms;  ///< The whole pipeline per keyframe (describe to decision).
+  std::vector<CandidateRow> candidates;  ///< Every keyframe's shortlist (configured pass only).
 };
 
 struct DetectorEvaluation {
@@ -85,7 +98,8 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
                                     const Progress& progress = {});
 
 /// Writes detector_<name>.json (every pass: threshold, loops, precision, recall, refusals) and
-/// loops_<name>.csv (the configured pass's loops: ids, frames, score, verified, correct) into
+/// loops_<name>.csv (the configured pass's loops: ids, frames, score, verified, correct) and
+/// candidates_<name>.csv (the configured pass's shortlists: scores, verdict, correct) into
 /// `folder`. Returns the json's path.
 std::string writeDetectorReport(const std::string& folder, const std::string& name,
                                 const std::string& description, const DetectorEvaluation& result);

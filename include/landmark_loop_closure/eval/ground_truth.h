@@ -62,7 +62,11 @@ GroundTruth readMatGroundTruth(const std::string& path, const std::string& varia
 void requirePositives(const GroundTruth& truth, const std::string& source);
 
 /// Two aligned traversals: query i shows the place of database image j when |i - j| <= tolerance.
-GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance);
+/// `stopped[i]` marks a frame at which both traversals stand still (a train at a station): it
+/// shows the place of the frame before it, so a stop counts as one frame, and query i and
+/// database j are the same place when at most `tolerance` moving frames lie between them.
+GroundTruth alignedGroundTruth(size_t queries, size_t database, int tolerance,
+                               const std::vector<bool>& stopped = {});
 
 /// One sequence with poses: i and j are the same place when their positions are within
 /// `max_distance` metres, their headings within `max_angle` radians (<= 0: any heading), and

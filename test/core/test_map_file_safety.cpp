@@ -1,0 +1,198 @@
+// Saves never destroy: what a save may write to, how a map is kept aside, and the detector's
+// save and reset on top of them. Never touches a real device node: a FIFO and a directory stand
+// in for what is not a regular file.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/database/map_file_safety.h"
+#include "small_detector.h"
+
+using namespace landmark_loop_closure;
+namespace fs = std::filesystem;
+
+namespace {
+
+class MapFileSafety : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = fs::temp_directory_path() /
+              ("lcd_map_safety_" + std::to_string(::getpid()) + "_" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_);
+  }
+  void TearDown() override { fs::remove_all(folder_); }
+
+  std::string path(const std::string& name) const { return (folder_ / name).string(); }
+  std::set<std::string> entries() const {
+    std::set<std::string> names;
+    for (const auto& entry : fs::directory_iterator(folder_)) {
+      names.insert(entry.path().filename().string());
+    }
+    return names;
+  }
+  static void write(const std::string& file, const std::string& text) {
+    std::ofstream(file, std::ios::binary) << text;
+  }
+  static std::string read(const std::string& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  /// A detector holding 12 keyframes in memory.
+  /// After the map's keyframes (stamps and places 0-11) when one is given.
+  static std::unique_ptr<LoopDetector> detectorWithKeyframes(const std::string& map = "") {
+    LoopDetectorOptions options = test_support::smallOptions();
+    auto detector =
+        std::make_unique<LoopDetector>(options, std::make_shared<test_support::PlaceExtractor>());
+    const int first = map.empty() ? 0 : 1000;
+    if (!map.empty()) {
+      EXPECT_EQ(detector->loadDatabase(map), "");
+    }
+    for (int i = first; i < first + 12; ++i) {
+      EXPECT_TRUE(test_support::feed(detector.get(), i, i).keyframe);
+    }
+    return detector;
+  }
+
+  fs::path folder_;
+};
+
+TEST_F(MapFileSafety, ANewPathMayBeWritten) {
+  EXPECT_EQ(saveTargetProblem(path("new.db"), "", false), "");
+  EXPECT_EQ(saveTargetProblem(path("new.db"), "", true), "");
+}
+
+TEST_F(MapFileSafety, AnExistingFileNeedsOverwriteAndMustBeAMap) {
+  write(path("notes.txt"), "my notes");
+  const std::string refused = saveTargetProblem(path("notes.txt"), "", false);
+  EXPECT_NE(refused.find("exists"), std::string::npos) << refused;
+  const std::string not_a_map = saveTargetProblem(path("notes.txt"), "", true);
+  EXPECT_NE(not_a_map.find("not a map"), std::string::npos) << not_a_map;
+  EXPECT_EQ(read(path("notes.txt")), "my notes");
+}
+
+TEST_F(MapFileSafety, FifosDirectoriesAndBrokenCompanionsAreRefused) {
+  ASSERT_EQ(::mkfifo(path("pipe").c_str(), 0600), 0);
+  fs::create_directory(path("adir.db"));
+  for (const bool overwrite : {false, true}) {
+    const std::string fifo = saveTargetProblem(path("pipe"), "", overwrite);
+    EXPECT_NE(fifo.find("FIFO"), std::string::npos) << fifo;
+    const std::string folder = saveTargetProblem(path("adir.db"), "", overwrite);
+    EXPECT_NE(folder.find("directory"), std::string::npos) << folder;
+  }
+  write(path("orphan.db-vectors"), "rows of a map moved away");
+  const std::string orphan = saveTargetProblem(path("orphan.db"), "", true);
+  EXPECT_NE(orphan.find("without its map"), std::string::npos) << orphan;
+  const std::string missing = saveTargetProblem(path("no/such/folder/map.db"), "", false);
+  EXPECT_NE(missing.find("does not exist"), std::string::npos) << missing;
+}
+
+TEST_F(MapFileSafety, TheLiveMapIsRecognisedUnderAnyName) {
+  write(path("live.db"), "SQLite format 3");
+  fs::create_symlink(path("live.db"), path("alias.db"));
+  const std::string link = saveTargetProblem(path("alias.db"), path("live.db"), true);
+  EXPECT_NE(link.find("open map itself"), std::string::npos) << link;
+  const std::string spelled =
+      saveTargetProblem(folder_.string() + "/./live.db", path("live.db"), true);
+  EXPECT_NE(spelled.find("open map itself"), std::string::npos) << spelled;
+}
+
+TEST_F(MapFileSafety, KeepingAsideNeverReusesAName) {
+  std::set<std::string> kept;
+  for (int round = 0; round < 3; ++round) {  // Within one second: the names still differ.
+    write(path("map.db"), "map " + std::to_string(round));
+    write(path("map.db-vectors"), "rows " + std::to_string(round));
+    const std::string name = moveMapAside(path("map.db"), "reset");
+    EXPECT_TRUE(kept.insert(name).second) << name;
+    EXPECT_FALSE(fs::exists(path("map.db")));
+    EXPECT_EQ(read(name), "map " + std::to_string(round));
+    EXPECT_EQ(read(name + "-vectors"), "rows " + std::to_string(round));
+  }
+  EXPECT_EQ(entries().size(), 6u);
+}
+
+TEST_F(MapFileSafety, DetectorSaveRefusesAndLeavesNothing) {
+  auto detector = detectorWithKeyframes();
+  ASSERT_EQ(::mkfifo(path("pipe").c_str(), 0600), 0);
+  fs::create_directory(path("adir.db"));
+  write(path("notes.txt"), "my notes");
+  const std::set<std::string> before = entries();
+  EXPECT_NE(detector->saveDatabase(path("pipe")), "");
+  EXPECT_NE(detector->saveDatabase(path("pipe"), true), "");
+  EXPECT_NE(detector->saveDatabase(path("adir.db")), "");
+  EXPECT_NE(detector->saveDatabase(path("notes.txt")), "");
+  EXPECT_NE(detector->saveDatabase(path("notes.txt"), true), "");
+  EXPECT_EQ(entries(), before);  // No stray -vectors, no partial file.
+  EXPECT_TRUE(fs::is_fifo(path("pipe")));
+  EXPECT_EQ(read(path("notes.txt")), "my notes");
+}
+
+TEST_F(MapFileSafety, DetectorOverwriteKeepsTheEarlierMap) {
+  auto first = detectorWithKeyframes();
+  ASSERT_EQ(first->saveDatabase(path("map.db")), "");
+  const std::string refused = first->saveDatabase(path("map.db"));
+  EXPECT_NE(refused.find("exists"), std::string::npos) << refused;
+  std::string kept;
+  ASSERT_EQ(first->saveDatabase(path("map.db"), true, &kept), "");
+  ASSERT_FALSE(kept.empty());
+  EXPECT_TRUE(fs::exists(kept));
+  EXPECT_TRUE(fs::exists(path("map.db")));
+  // Both are maps with the 12 keyframes.
+  for (const std::string& map : {path("map.db"), kept}) {
+    LoopDetector reader(test_support::smallOptions(),
+                        std::make_shared<test_support::PlaceExtractor>());
+    EXPECT_EQ(reader.loadDatabase(map), "") << map;
+    EXPECT_EQ(reader.database().size(), 12u) << map;
+  }
+}
+
+TEST_F(MapFileSafety, DetectorRefusesItsOwnMapUnderAnotherName) {
+  {
+    auto writer = detectorWithKeyframes();
+    ASSERT_EQ(writer->saveDatabase(path("map.db")), "");
+  }
+  auto live = detectorWithKeyframes(path("map.db"));
+  EXPECT_EQ(live->saveDatabase(path("map.db")), "");  // Its own path: a commit.
+  fs::create_symlink(path("map.db"), path("alias.db"));
+  const std::string alias = live->saveDatabase(path("alias.db"), true);
+  EXPECT_NE(alias.find("open map itself"), std::string::npos) << alias;
+}
+
+TEST_F(MapFileSafety, TwoResetsKeepBothEarlierMaps) {
+  {
+    auto writer = detectorWithKeyframes();
+    ASSERT_EQ(writer->saveDatabase(path("map.db")), "");
+  }
+  auto live = detectorWithKeyframes(path("map.db"));  // 12 loaded + 12 new.
+  const std::string first = live->reset();
+  ASSERT_NE(first.find("kept as"), std::string::npos) << first;
+  for (int i = 1012; i < 1017; ++i) {
+    const FrameResult result = test_support::feed(live.get(), i, i);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_FALSE(result.keyframe->error) << result.keyframe->error->message;
+  }
+  const std::string second = live->reset();
+  ASSERT_NE(second.find("kept as"), std::string::npos)
+      << "[" << second << "] " << live->database().size();
+  const std::string first_name = first.substr(first.find("kept as ") + 8);
+  const std::string second_name = second.substr(second.find("kept as ") + 8);
+  EXPECT_NE(first_name, second_name);
+  live.reset();
+  for (const auto& [map, keyframes] :
+       std::vector<std::pair<std::string, size_t>>{{first_name, 24u}, {second_name, 5u}}) {
+    LoopDetector reader(test_support::smallOptions(),
+                        std::make_shared<test_support::PlaceExtractor>());
+    EXPECT_EQ(reader.loadDatabase(map), "") << map;
+    EXPECT_EQ(reader.database().size(), keyframes) << map;
+  }
+}
+
+}  // namespace
