@@ -131,11 +131,13 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
 void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) const {
   std::vector<ShortlistEntry> shortlist;
   std::vector<const KeyframeSummary*> summaries;
-  for (const CandidateReport& report : *reports) {
+  std::vector<CandidateReport*> rated;
+  for (CandidateReport& report : *reports) {
     const KeyframeSummary* summary = database_.findSummary(report.match_id);
     if (!summary || report.verdict == CandidateVerdict::kUnreadable) continue;
     shortlist.push_back({summary->id, summary->session, report.score});
     summaries.push_back(summary);
+    rated.push_back(&report);
   }
   // Laps of one run: keyframes the odometry puts within its drift of each other are one place.
   const OdometryGateOptions& gate = options_.odometry_gate;
@@ -147,13 +149,7 @@ void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) co
   };
   const std::vector<double> ratios = placeRatios(
       shortlist, static_cast<uint64_t>(options_.acceptance.place_window), could_be_same_place);
-  size_t next = 0;
-  for (CandidateReport& report : *reports) {
-    if (next < shortlist.size() && shortlist[next].id == report.match_id &&
-        report.verdict != CandidateVerdict::kUnreadable) {
-      report.place_ratio = ratios[next++];
-    }
-  }
+  for (size_t i = 0; i < rated.size(); ++i) rated[i]->place_ratio = ratios[i];
 }
 
 bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,

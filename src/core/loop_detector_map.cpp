@@ -1,9 +1,6 @@
 // LoopDetector and its map file: opening it (search within the memory budget, the rows checked
 // beside search), saving, copying and resetting it.
-#include <sys/stat.h>
-
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <optional>
 
@@ -25,8 +22,9 @@ std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
   if (!problem.empty()) return problem;
   std::string kept;
   try {
-    struct stat status;
-    if (::stat(path.c_str(), &status) == 0) kept = moveMapAside(path, "replaced");
+    // saveTargetProblem let an existing file through only as a map to overwrite.
+    std::error_code absent;
+    if (std::filesystem::exists(path, absent)) kept = moveMapAside(path, "replaced");
     if (store_) {
       store_->copyTo(path);
     } else {
