@@ -42,6 +42,7 @@ endforeach()
 # test checks the rows file's own checksum.
 target_link_libraries(test_keyframe_store SQLite::SQLite3)
 target_link_libraries(test_saved_search_rows SQLite::SQLite3)
+target_link_libraries(test_map_file_safety SQLite::SQLite3)
 target_include_directories(test_keyframe_store PRIVATE src)
 target_include_directories(test_saved_search_rows PRIVATE src)
 target_include_directories(test_old_map_file PRIVATE src)

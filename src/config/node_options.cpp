@@ -38,11 +38,12 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                 "leading ~ and $VARIABLES are expanded, here and in the model paths. "
                 "Services ~save_database (a copy to `path`), ~load_database (switch to the map "
                 "at `path`) and ~reset (the old file is kept as PATH.reset-TIME). A file that "
-                "cannot be opened (damaged, other descriptors, open in another node, the earlier "
-                "format: `lcd_db convert`) stops the node with the reason and is left alone; "
-                "search starts at once and the rows saved at the last clean shutdown are checked "
-                "beside it: found damaged, search stops with one error (keyframes are still "
-                "committed).")
+                "cannot be opened (damaged, empty or not a map, other descriptors, open in "
+                "another node, the earlier format: `lcd_db convert`) stops the node with the "
+                "reason and is left alone; search starts at once and the map's pages and the rows "
+                "saved at the last clean shutdown are checked beside it (new keyframes are held "
+                "in memory until the check passes): found damaged, search stops with one error "
+                "and the map is never written to again (keyframes are kept in memory only).")
           .section("Inputs")
           .choice("pose_source", &O::pose_source, poseSourceNames(),
                   "\"odom\": images synced with nav_msgs/Odometry on `odom`; \"tf\": images only, "

@@ -323,11 +323,7 @@ QueryResult LoopDetector::search(uint64_t keyframe_id, double stamp,
       replayed = true;
     }
   }
-  if (store_ && map_damage_.empty() &&
-      store_->sealedRowsCheck() == KeyframeStore::RowsCheck::kFailed) {
-    map_damage_ = store_->sealedRowsProblem();
-    result->map_damage = map_damage_;
-  }
+  noteMapDamage(result);
   if (!map_damage_.empty()) {
     query.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
   } else if (!replayed) {
@@ -370,7 +366,29 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   return keyframe;
 }
 
+std::string LoopDetector::takeNewMapDamage() {
+  if (store_ && map_damage_.empty() &&
+      store_->integrityCheck() == KeyframeStore::MapCheck::kFailed) {
+    map_damage_ = store_->integrityProblem();
+    return map_damage_;
+  }
+  return "";
+}
+
+void LoopDetector::noteMapDamage(KeyframeResult* result) {
+  if (std::string damage = takeNewMapDamage(); !damage.empty()) {
+    result->map_damage = std::move(damage);
+  }
+}
+
 void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
+  noteMapDamage(result);
+  if (!map_damage_.empty()) {
+    // A damaged map is left as it is: keyframes stay in memory (mapDamage() said so once).
+    result->stored = true;
+    database_.addUnstored(std::move(keyframe));
+    return;
+  }
   const bool over_budget = overMemoryBudget();
   if (over_budget && !store_) return;
   if (store_) {

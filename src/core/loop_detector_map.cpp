@@ -79,8 +79,9 @@ std::string LoopDetector::openMap(const std::string& path) {
     }
     graph_reused = graph != nullptr;
     loaded.setIndex(index, std::move(graph));
-    // Reading the whole rows file would hold search back for seconds: it is checked meanwhile.
-    store->startSealedRowsCheck();
+    // Reading the whole map would hold search back for seconds: it is checked meanwhile, and
+    // keyframes are held from it until it passes.
+    store->startIntegrityCheck();
   } catch (const std::exception& error) {
     return error.what();
   }
@@ -142,15 +143,15 @@ std::string LoopDetector::loadDatabase(const std::string& path) {
   return openMap(path);
 }
 
-std::string LoopDetector::mapRowsCheck() const {
+std::string LoopDetector::mapCheck() const {
   if (!store_) return "";
-  switch (store_->sealedRowsCheck()) {
-    case KeyframeStore::RowsCheck::kPassed:
+  switch (store_->integrityCheck()) {
+    case KeyframeStore::MapCheck::kPassed:
       return "checked";
-    case KeyframeStore::RowsCheck::kFailed:
+    case KeyframeStore::MapCheck::kFailed:
       return "damaged";
-    case KeyframeStore::RowsCheck::kPending:
-    case KeyframeStore::RowsCheck::kRunning:
+    case KeyframeStore::MapCheck::kPending:
+    case KeyframeStore::MapCheck::kRunning:
       break;
   }
   return "being checked";

@@ -42,6 +42,25 @@ void checkPath(const std::string& path) {
   }
 }
 
+// An existing file that is not an SQLite database (or is empty) is no map: refused before SQLite
+// opens it, which would take an empty file for a new database and write one into it.
+void refuseForeignFile(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return;  // checkPath() already named why it cannot be read.
+  char header[16] = {};
+  const size_t read = std::fread(header, 1, sizeof(header), file);
+  std::fclose(file);
+  if (read == 0) {
+    throw storeError(path,
+                     "is an empty file, not a map (a new map is made at a path where no file is)");
+  }
+  static const char kSqliteHeader[16] = "SQLite format 3";  // And its terminating zero.
+  if (read < sizeof(header) || std::memcmp(header, kSqliteHeader, sizeof(header)) != 0) {
+    if (read >= 8 && std::memcmp(header, "LLCKFDB\n", 8) == 0) return;  // isOldMapFile() says.
+    throw storeError(path, "is not a map (not an SQLite database); it is left as it is");
+  }
+}
+
 }  // namespace
 
 std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
@@ -65,7 +84,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::open(const std::string& path,
 std::unique_ptr<KeyframeStore> KeyframeStore::openExisting(const std::string& path) {
   if (!std::filesystem::exists(path)) throw storeError(path, "does not exist");
   auto store = openChecked(path, nullptr, 0);
-  store->checkSealedRows();
+  store->checkIntegrity();
   return store;
 }
 
@@ -92,12 +111,15 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
                                                           const std::string* descriptor_identity,
                                                           int global_dimension) {
   checkPath(path);
-  if (!std::filesystem::exists(path)) {
+  const bool existed = std::filesystem::exists(path);
+  if (!existed) {
     // A log left by an earlier map at this path would be replayed into the new one.
     std::error_code ignored;
     for (const char* journal : {"-wal", "-shm", "-journal"}) {
       std::filesystem::remove(path + journal, ignored);
     }
+  } else {
+    refuseForeignFile(path);
   }
   if (isOldMapFile(path)) {
     throw storeError(path,
@@ -121,6 +143,11 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   // than 4 KB pages leave (25.2 against 25.6 KB per keyframe in lcd_bench_map). No effect on an
   // existing map.
   connection->execute("PRAGMA page_size = 2048", "cannot be configured");
+  if (existed && !connection->hasTable("meta")) {
+    // Another program's database: nothing of ours is created in it (the log's mode below would
+    // already change its header).
+    throw storeError(path, "is an SQLite database but not a keyframe map (it has no meta table)");
+  }
   sqlite3_stmt* journal = connection->prepare("PRAGMA journal_mode = WAL");
   const bool wal =
       sqlite3_step(journal) == SQLITE_ROW &&
@@ -190,6 +217,10 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   std::unique_ptr<KeyframeStore> store(new KeyframeStore(path, std::move(connection)));
   store->descriptor_identity_ = identity;
   store->global_dimension_ = global_dimension;
+  if (existed) {
+    store->check_ = std::make_unique<IntegrityCheck>();
+    store->check_->map_path = path;
+  }
   store->openRows();
   return store;
 }
@@ -197,7 +228,17 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
 KeyframeStore::KeyframeStore(std::string path, std::unique_ptr<Connection> connection)
     : path_(std::move(path)), connection_(std::move(connection)) {}
 
-KeyframeStore::~KeyframeStore() = default;
+KeyframeStore::~KeyframeStore() {
+  try {
+    settleBeforeClose();
+  } catch (const std::exception&) {
+    // A full disk: what was held is lost, as a killed process loses its queue.
+  }
+  if (integrityCheck() == MapCheck::kFailed) {
+    // Closing checkpoints the log into the file: a damaged map is left exactly as it was.
+    sqlite3_db_config(connection_->db, SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
+  }
+}
 
 namespace {
 
@@ -298,6 +339,30 @@ uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
 void KeyframeStore::add(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
   const std::string not_stored = "keyframe " + std::to_string(keyframe.id) + " not stored";
+  if (integrityCheck() == MapCheck::kPending) {
+    try {
+      checkIntegrity();  // Tools add without starting it; a node starts it at open.
+    } catch (const std::runtime_error&) {
+      // kFailed: refused below.
+    }
+  }
+  switch (integrityCheck()) {
+    case MapCheck::kFailed:
+      throw storeError(path_, not_stored + ": the map is damaged and is left as it is");
+    case MapCheck::kRunning:
+    case MapCheck::kPending: {  // Stopped before it finished (the store is closing).
+      const std::optional<uint64_t> last = held_.empty() ? c.last_id : held_.back().id;
+      if (last && keyframe.id <= *last) {
+        throw storeError(path_, "keyframe id " + std::to_string(keyframe.id) +
+                                    " is not after the last stored " + std::to_string(*last));
+      }
+      held_.push_back(keyframe);
+      return;
+    }
+    case MapCheck::kPassed:
+      commitHeld();
+      break;
+  }
   c.execute("BEGIN IMMEDIATE", not_stored);
   uint32_t checksum = 0;
   try {
@@ -318,31 +383,40 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
 }
 
 void KeyframeStore::addAll(const KeyframeDatabase& database) {
+  std::vector<std::shared_ptr<const KeyframeRecord>> keyframes(database.size());
+  for (size_t i = 0; i < database.size(); ++i) {
+    keyframes[i] = database.record(i);
+    if (!keyframes[i]) {
+      throw storeError(path_, "keyframe " + std::to_string(database.summary(i).id) +
+                                  " could not be read to copy it");
+    }
+  }
+  insertInOneTransaction(keyframes.size(), [&](size_t i) { return keyframes[i].get(); });
+}
+
+void KeyframeStore::insertInOneTransaction(
+    size_t count, const std::function<const KeyframeRecord*(size_t)>& keyframe) {
   Connection& c = *connection_;
   const std::optional<uint64_t> last_id = c.last_id;
-  const size_t count = c.count;
+  const size_t committed = c.count;
   uint32_t entries_checksum = entries_checksum_;
   c.execute("BEGIN IMMEDIATE", "cannot be written");
   try {
-    for (size_t i = 0; i < database.size(); ++i) {
-      const std::shared_ptr<const KeyframeRecord> keyframe = database.record(i);
-      if (!keyframe) {
-        throw storeError(path_, "keyframe " + std::to_string(database.summary(i).id) +
-                                    " could not be read to copy it");
-      }
+    for (size_t i = 0; i < count; ++i) {
+      const KeyframeRecord& next = *keyframe(i);
       entries_checksum =
-          crc32cCombine(entries_checksum, insert(*keyframe),
+          crc32cCombine(entries_checksum, insert(next),
                         static_cast<uint64_t>(vector_file::entryBytes(global_dimension_)));
-      c.last_id = keyframe->id;
+      c.last_id = next.id;
       ++c.count;
     }
+    c.execute("COMMIT", "cannot be written");
   } catch (...) {
     sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     c.last_id = last_id;
-    c.count = count;
+    c.count = committed;
     throw;
   }
-  c.execute("COMMIT", "cannot be written");
   entries_checksum_ = entries_checksum;
 }
 
@@ -367,7 +441,11 @@ void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) co
   if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
 }
 
-void KeyframeStore::copyTo(const std::string& target) const {
+void KeyframeStore::copyTo(const std::string& target) {
+  if (awaitIntegrityCheck() == MapCheck::kFailed) {
+    throw storeError(target, "not written: " + integrityProblem());
+  }
+  commitHeld();
   const std::string partial = target + ".partial";
   std::filesystem::remove(partial);
   sqlite3* copy = nullptr;
@@ -465,6 +543,9 @@ void KeyframeStore::replaceFile(const std::string& from, const std::string& to) 
 }
 
 std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
+  for (const KeyframeRecord& held : held_) {
+    if (held.id == id) return asStored(held);
+  }
   Connection& c = *connection_;
   sqlite3_bind_int64(c.select, 1, static_cast<sqlite3_int64>(id));
   std::optional<KeyframeRecord> keyframe;
@@ -480,7 +561,7 @@ std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {
   return keyframe;
 }
 
-size_t KeyframeStore::size() const { return connection_->count; }
+size_t KeyframeStore::size() const { return connection_->count + held_.size(); }
 
 std::vector<uint32_t> KeyframeStore::sessions() const {
   Connection& c = *connection_;

@@ -77,7 +77,7 @@ void KeyframeStore::openRows() {
                       "its search rows " + file + " are damaged or another map's (" + what + ")");
   };
   // The entries sealed at the last clean shutdown: here only that they are there and end with the
-  // right keyframe; their checksum is checked by checkSealedRows() or on a thread of its own.
+  // right keyframe; their checksum is part of the integrity check.
   const uint64_t sealed = c.metaNumber("vectors_rows").value_or(0);
   uint64_t checked = 0;
   uint32_t crc = mapped->checksum(0);  // The header's.
@@ -94,11 +94,12 @@ void KeyframeStore::openRows() {
     if (!last_matches)
       throw damaged("its last sealed entry is not keyframe " + std::to_string(*sealed_last) + "'s");
     crc = static_cast<uint32_t>(*sealed_checksum);
-    seal_check_ = std::make_unique<SealCheck>();
-    seal_check_->rows = mapped;
-    seal_check_->entries = sealed;
-    seal_check_->expected = crc;
-    seal_check_->damaged = damaged("checksum").what();
+    if (check_) {
+      check_->rows = mapped;
+      check_->entries = sealed;
+      check_->expected = crc;
+      check_->rows_damaged = damaged("checksum").what();
+    }
     checked = sealed;
     last_checked_id = sealed_last;
   }
@@ -159,39 +160,11 @@ void KeyframeStore::openRows() {
   entries_checksum_ = crc;
 }
 
-void KeyframeStore::checkSealedRows() {
-  if (sealedRowsCheck() == RowsCheck::kPending) seal_check_->run();
-  if (awaitSealedRowsCheck() == RowsCheck::kFailed) throw std::runtime_error(seal_check_->damaged);
-}
-
-void KeyframeStore::startSealedRowsCheck() {
-  if (sealedRowsCheck() != RowsCheck::kPending) return;
-  seal_check_->state = RowsCheck::kRunning;
-  try {
-    seal_check_->thread = std::thread([check = seal_check_.get()] { check->run(); });
-  } catch (const std::system_error&) {
-    seal_check_->run();  // No thread to be had: checked now.
-  }
-}
-
-KeyframeStore::RowsCheck KeyframeStore::sealedRowsCheck() const {
-  return seal_check_ ? seal_check_->state.load() : RowsCheck::kPassed;
-}
-
-KeyframeStore::RowsCheck KeyframeStore::awaitSealedRowsCheck() {
-  if (seal_check_ && seal_check_->thread.joinable()) seal_check_->thread.join();
-  return sealedRowsCheck();
-}
-
-std::string KeyframeStore::sealedRowsProblem() const {
-  return sealedRowsCheck() == RowsCheck::kFailed ? seal_check_->damaged : "";
-}
-
 void KeyframeStore::forEachSummary(
     const std::function<void(const KeyframeSummary&, const uint8_t* vector_row, size_t row_bytes)>&
         visit) const {
   const size_t row_bytes = sizeof(float) + static_cast<size_t>(global_dimension_);
-  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, size());
+  const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, connection_->count);
   for (size_t index = 0; index < mapped->entries(); ++index) {
     KeyframeSummary summary;
     try {
@@ -207,8 +180,8 @@ void KeyframeStore::forEachSummary(
 size_t KeyframeStore::rowStride() const { return vector_file::entryBytes(global_dimension_); }
 
 std::optional<KeyframeSummary> KeyframeStore::lastSummary() const {
-  if (size() == 0) return std::nullopt;
-  return entrySummary(size() - 1);
+  if (connection_->count == 0) return std::nullopt;
+  return entrySummary(connection_->count - 1);
 }
 
 KeyframeSummary KeyframeStore::entrySummary(size_t position) const {
@@ -226,7 +199,7 @@ KeyframeSummary KeyframeStore::entrySummary(size_t position) const {
 }
 
 void KeyframeStore::loadSearch(KeyframeDatabase* database, size_t keyframes) const {
-  keyframes = std::min(keyframes, size());
+  keyframes = std::min(keyframes, connection_->count);
   if (keyframes == 0) return;
   const auto mapped = mapRows(path_, vectorsPath(), global_dimension_, keyframes);
   // Summaries from the rows file would read all of it (each sits beside its 4 KB row): those
@@ -296,7 +269,7 @@ std::vector<uint8_t> KeyframeStore::savedSummaries() const {
   Connection& c = *connection_;
   const std::optional<uint64_t> count = c.metaNumber("summaries_keyframes");
   const std::optional<uint64_t> checksum = c.metaNumber("summaries_checksum");
-  if (!count || *count == 0 || *count > size() || !checksum) return {};
+  if (!count || *count == 0 || *count > connection_->count || !checksum) return {};
   std::vector<uint8_t> body;
   if (!readChecksummedFile(summariesPath(), kSummariesMagic, kSummariesVersion, "summaries", &body)
            .empty() ||
@@ -318,6 +291,10 @@ std::vector<uint8_t> KeyframeStore::savedSummaries() const {
 }
 
 void KeyframeStore::saveGraph(const std::string& graph_identity, const KeyframeDatabase& database) {
+  if (integrityCheck() == MapCheck::kFailed) {
+    throw storeError(path_, "nothing saved beside a damaged map");
+  }
+  settleBeforeClose();
   Connection& c = *connection_;
   // The rows reach the disk before the seal that vouches for them.
   try {

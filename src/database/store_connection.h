@@ -110,6 +110,15 @@ struct KeyframeStore::Connection {
     sqlite3_finalize(last);
   }
 
+  bool hasTable(const char* name) {
+    sqlite3_stmt* statement =
+        prepare("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?");
+    sqlite3_bind_text(statement, 1, name, -1, SQLITE_TRANSIENT);
+    const bool found = sqlite3_step(statement) == SQLITE_ROW;
+    sqlite3_finalize(statement);
+    return found;
+  }
+
   void setMeta(const std::string& key, const std::string& value) {
     sqlite3_stmt* statement = prepare("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)");
     sqlite3_bind_text(statement, 1, key.c_str(), -1, SQLITE_TRANSIENT);
@@ -120,27 +129,29 @@ struct KeyframeStore::Connection {
   }
 };
 
-/// The check of the rows sealed at the last clean shutdown: their checksum against the seal's.
-struct KeyframeStore::SealCheck {
-  std::shared_ptr<const vector_file::Mapped> rows;
+/// The integrity check of a map that existed before this open: the rows sealed at its last clean
+/// shutdown against the seal's checksum, then SQLite's quick_check of the database file's pages,
+/// read through a connection of its own that takes no lock (nothing is written to the file while
+/// it runs: keyframes are held, and a log left by a crash was checkpointed before it started).
+struct KeyframeStore::IntegrityCheck {
+  std::string map_path;
+  std::shared_ptr<const vector_file::Mapped> rows;  ///< Null when nothing was sealed.
   uint64_t entries = 0;
   uint32_t expected = 0;
-  std::string damaged;  ///< The message should they not match (set before the check starts).
-  std::atomic<RowsCheck> state{RowsCheck::kPending};
+  std::string rows_damaged;  ///< The message should the rows not match their seal.
+  std::string problem;       ///< Set before state becomes kFailed.
+  std::atomic<MapCheck> state{MapCheck::kPending};
   std::atomic<bool> stop{false};
   std::thread thread;
 
-  /// Reads the rows and sets `state`; nothing when stopped first.
-  void run() {
-    const std::optional<uint32_t> crc = rows->checksum(entries, stop);
-    if (!crc) return;
-    state = *crc == expected ? RowsCheck::kPassed : RowsCheck::kFailed;
-  }
-
-  ~SealCheck() {
+  /// Reads the rows and pages and sets `state`; leaves it when stopped first.
+  void run();
+  /// Stops a running check and waits for its thread.
+  void halt() {
     stop = true;
     if (thread.joinable()) thread.join();
   }
+  ~IntegrityCheck() { halt(); }
 };
 
 }  // namespace landmark_loop_closure

@@ -9,7 +9,7 @@
 // the rows in place, as the kernel reads them (1 000 000 keyframes: 4.4 GB). The map keeps each
 // entry's CRC-32C and, at a clean shutdown, the CRC-32C of all entries so far (the seal): the
 // entries after it are checked at open, the sealed part in one pass by a check that may run
-// beside search (KeyframeStore::startSealedRowsCheck). Private to the core library.
+// beside search (KeyframeStore::startIntegrityCheck). Private to the core library.
 
 #include <atomic>
 #include <cstdint>

@@ -78,9 +78,16 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
   diagnostics_.setHardwareID("none");
   diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
-  diagnostics_timer_ =
-      node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
-                            [this](const ros::WallTimerEvent&) { diagnostics_.force_update(); });
+  diagnostics_timer_ = node_.createWallTimer(
+      ros::WallDuration(kDiagnosticsPeriod), [this](const ros::WallTimerEvent&) {
+        // The map's check ends on its own thread: said without a keyframe.
+        runtime_->tryWithDetector([this](LoopDetector& detector) {
+          reportMapDamage(detector.takeNewMapDamage());
+          noteMapSize(detector);
+          return false;
+        });
+        diagnostics_.force_update();
+      });
 
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
@@ -108,10 +115,10 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                           : detector_.mapGraphReused()            ? "read"
                                                                   : "built";
       ROS_INFO(
-          "Map %s: %zu keyframes loaded in %.2f s (search graph %s, search rows %s); this run "
+          "Map %s: %zu keyframes loaded in %.2f s (search graph %s, integrity %s); this run "
           "is session %u, every keyframe committed as it is stored",
           options_.database_path.c_str(), detector_.database().size(), load_s, graph,
-          detector_.mapRowsCheck().c_str(), detector_.session());
+          detector_.mapCheck().c_str(), detector_.session());
       if (detector_.mapKeyframesNotSearched() > 0 || detector_.overMemoryBudget()) {
         ROS_WARN(
             "Map %s: its first %zu keyframes fill database/memory_budget_mb (%.0f MB; or its saved "

@@ -110,6 +110,8 @@ class LoopClosureNode {
   /// Diagnostics read the map's real size and bytes: called wherever the database changes
   /// (start, keyframe, held keyframes, load, reset). Caller holds the detector.
   void noteMapSize(const LoopDetector& detector);
+  /// One ERROR for a map found damaged (LoopDetector::takeNewMapDamage()); nothing for "".
+  void reportMapDamage(const std::string& damage);
   std::string cameraInfoProblem();
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   static double wallNow();
@@ -190,7 +192,7 @@ class LoopClosureNode {
   double last_drop_wall_ = -1e9;  // and when that count last grew.
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
-  std::string map_rows_check_;                   ///< LoopDetector::mapRowsCheck().
+  std::string map_check_;                        ///< LoopDetector::mapCheck().
   std::string map_damage_;                       ///< LoopDetector::mapDamage().
 
   // The worker, its queue and the detector lock; started last, stopped first.

@@ -78,7 +78,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("database bytes", database_bytes_);
   status.add("keyframes past the memory budget", keyframes_over_budget_.load());
   status.add("map", database_status_);
-  if (!map_rows_check_.empty()) status.add("map search rows", map_rows_check_);
+  if (!map_check_.empty()) status.add("map check", map_check_);
   status.add("session", session_.load());
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());

@@ -27,8 +27,17 @@ void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
   map_keyframes_ = detector.database().size();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   database_bytes_ = detector.database().bytes();
-  map_rows_check_ = detector.mapRowsCheck();
+  map_check_ = detector.mapCheck();
   map_damage_ = detector.mapDamage();
+}
+
+void LoopClosureNode::reportMapDamage(const std::string& damage) {
+  if (damage.empty()) return;
+  ROS_ERROR(
+      "%s: no loops are searched from now on and nothing more is written to the map (new "
+      "keyframes are kept in memory only); ~reset keeps it aside and starts a new map, "
+      "~load_database switches to a sound one",
+      damage.c_str());
 }
 
 void LoopClosureNode::onTimelineReset() {
@@ -62,12 +71,7 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
                           ? "written to the map, not searched (raise the budget to search them)"
                           : "no longer stored (without a map file, database_path, all is in RAM)");
   }
-  if (!result.map_damage.empty()) {
-    ROS_ERROR(
-        "%s: no loops are searched from now on (keyframes are still committed to the map); "
-        "restart with a sound map",
-        result.map_damage.c_str());
-  }
+  reportMapDamage(result.map_damage);
   keyframe_stamps_[job.id] = keyframe.stamp;
   publishResults(keyframe, result, prepared.grey);
   if (!result.store_error.empty()) {

@@ -89,6 +89,13 @@ void DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& act
   if (action(*detector_)) held_.clear();
 }
 
+bool DetectorRuntime::tryWithDetector(const std::function<bool(LoopDetector&)>& action) {
+  const std::unique_lock<std::mutex> lock(detector_mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) return false;
+  if (action(*detector_)) held_.clear();
+  return true;
+}
+
 void DetectorRuntime::work() {
   while (std::optional<KeyframeJob> job = queue_.pop()) process(*job);
 }

@@ -322,7 +322,7 @@ int main(int argc, char** argv) {
       store->loadGraph(index.graphIdentity(), reopened.vectors(), index.neighbors);
   const bool reused = graph != nullptr;
   reopened.setIndex(index, std::move(graph));
-  store->startSealedRowsCheck();
+  store->startIntegrityCheck();
   const double graph_s = msSince(graph_start) / 1000.0;
   const double open_s = msSince(open_start) / 1000.0;
   std::printf("\nReopened %zu keyframes in %.2f s (graph %s in %.2f s); RSS %.0f MB.\n",
@@ -347,9 +347,9 @@ int main(int argc, char** argv) {
     std::printf("First %d queries + re-rank after opening: %.0f ms median, %.0f ms max.\n",
                 settings.first_queries, percentile(first_ms, 0.5), percentile(first_ms, 1.0));
   }
-  const KeyframeStore::RowsCheck check = store->awaitSealedRowsCheck();
-  std::printf("Sealed search rows %s %.2f s after opening began.\n",
-              check == KeyframeStore::RowsCheck::kPassed ? "checked" : "FOUND DAMAGED",
+  const KeyframeStore::MapCheck check = store->awaitIntegrityCheck();
+  std::printf("Map integrity (sealed search rows, pages) %s %.2f s after opening began.\n",
+              check == KeyframeStore::MapCheck::kPassed ? "checked" : "FOUND DAMAGED",
               msSince(open_start) / 1000.0);
   std::fflush(stdout);
   if (places.empty()) {

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <thread>
@@ -235,7 +236,20 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
   removeMap(path);
 }
 
-TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndKeepsCommittingKeyframes) {
+std::string fileBytes(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
+}
+
+// Waits for the map's integrity check (a thread of its own).
+std::string settledMapCheck(const LoopDetector& detector) {
+  for (int wait = 0; wait < 1000 && detector.mapCheck() == "being checked"; ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return detector.mapCheck();
+}
+
+TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWrittenTo) {
   const std::string path = temporaryPath("damaged_rows_map.db");
   removeMap(path);
   const LoopDetectorOptions options = smallOptions();
@@ -253,14 +267,13 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndKeepsCommittin
     rows.put(static_cast<char>(byte ^ 0x5a));
   };
   flipFirstRowByte(path);
+  const std::string damaged_map = fileBytes(path);
+  const std::string damaged_rows = fileBytes(path + "-vectors");
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "") << "search starts while the rows are checked";
+  ASSERT_EQ(detector.openMap(path), "") << "search starts while the map is checked";
   EXPECT_EQ(detector.database().size(), 20u);
-  for (int wait = 0; wait < 1000 && detector.mapRowsCheck() == "being checked"; ++wait) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_EQ(detector.mapRowsCheck(), "damaged");
-  // Revisits of places 5..9: nothing searched, no loop, said once; every keyframe still stored.
+  ASSERT_EQ(settledMapCheck(detector), "damaged");
+  // Revisits of places 5..9: nothing searched, no loop, said once; kept in memory, not written.
   for (int i = 20; i < 25; ++i) {
     const KeyframeResult result = *feed(&detector, i, i - 15).keyframe;
     EXPECT_EQ(result.query_status, QueryStatus::kMapDamaged) << i;
@@ -274,15 +287,89 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndKeepsCommittin
       EXPECT_EQ(result.map_damage, "") << i;
     }
   }
+  EXPECT_EQ(detector.database().size(), 25u);
   EXPECT_NE(detector.mapDamage(), "");
+  EXPECT_NE(detector.saveMapGraph(), "") << "nothing is saved beside a damaged map";
+  EXPECT_TRUE(fileBytes(path) == damaged_map);
+  EXPECT_TRUE(fileBytes(path + "-vectors") == damaged_rows);
   const std::string note = detector.reset();  // A fresh map: searched again.
   EXPECT_EQ(detector.mapDamage(), "");
-  EXPECT_EQ(detector.mapRowsCheck(), "checked");
-  // The damaged map, kept aside by the reset, lost nothing: its byte put back, it holds all 25.
+  EXPECT_EQ(detector.mapCheck(), "checked");
+  // The damaged map, kept aside by the reset, is as it was: its byte put back, it holds its 20.
   ASSERT_NE(note.find("kept as " + path), std::string::npos) << note;
   const std::string kept = note.substr(note.find(path));
+  EXPECT_TRUE(fileBytes(kept) == damaged_map);
+  EXPECT_TRUE(fileBytes(kept + "-vectors") == damaged_rows);
   flipFirstRowByte(kept);
-  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 25u);
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 20u);
   removeMap(path);
   removeMap(kept);
+}
+
+TEST(LoopDetector, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
+  const std::string path = temporaryPath("damaged_page_map.db");
+  removeMap(path);
+  const LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 60; ++i) feed(&detector, i, i % 30);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  // 4 KiB in the middle of the database file turned over, as a failing disk would.
+  const uintmax_t size = std::filesystem::file_size(path);
+  ASSERT_GT(size, 16384u);
+  {
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::streamoff middle = static_cast<std::streamoff>(size / 2 / 4096 * 4096);
+    std::string page(4096, '\0');
+    file.seekg(middle);
+    file.read(&page[0], 4096);
+    for (char& byte : page) byte = static_cast<char>(~byte);
+    file.seekp(middle);
+    file.write(page.data(), 4096);
+  }
+  const std::string damaged_map = fileBytes(path);
+  const std::string damaged_rows = fileBytes(path + "-vectors");
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(settledMapCheck(detector), "damaged");
+    const KeyframeResult result = *feed(&detector, 60, 5).keyframe;
+    EXPECT_NE(result.map_damage.find("map " + path + ": its pages are damaged"), std::string::npos)
+        << result.map_damage;
+    EXPECT_EQ(result.query_status, QueryStatus::kMapDamaged);
+    EXPECT_TRUE(result.stored && result.store_error.empty());
+    feed(&detector, 61, 6);
+    EXPECT_NE(detector.saveDatabase(temporaryPath("damaged_page_copy.db")), "");
+    EXPECT_FALSE(std::filesystem::exists(temporaryPath("damaged_page_copy.db")));
+  }
+  EXPECT_TRUE(fileBytes(path) == damaged_map) << "a damaged map is left as it was";
+  EXPECT_TRUE(fileBytes(path + "-vectors") == damaged_rows);
+  removeMap(path);
+}
+
+TEST(LoopDetector, KeyframesAddedWhileTheMapIsCheckedAreCommittedOnceItPasses) {
+  const std::string path = temporaryPath("checked_map.db");
+  removeMap(path);
+  const LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 20; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    // Whether or not the check has ended by then, every keyframe reaches the map.
+    for (int i = 20; i < 23; ++i) {
+      const KeyframeResult result = *feed(&detector, i, i - 15).keyframe;
+      EXPECT_TRUE(result.stored && result.store_error.empty()) << i;
+    }
+    ASSERT_EQ(settledMapCheck(detector), "checked");
+    feed(&detector, 23, 8);
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 24u);
+  removeMap(path);
 }

@@ -10,8 +10,10 @@
 #include <set>
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/map_file_safety.h"
 #include "small_detector.h"
 
@@ -192,6 +194,39 @@ TEST_F(MapFileSafety, TwoResetsKeepBothEarlierMaps) {
                         std::make_shared<test_support::PlaceExtractor>());
     EXPECT_EQ(reader.loadDatabase(map), "") << map;
     EXPECT_EQ(reader.database().size(), keyframes) << map;
+  }
+}
+
+// What is not a map - an empty file, another program's database, a text file - is refused by
+// open (at start) and by load, and left exactly as it was: nothing is created in it or beside it.
+TEST_F(MapFileSafety, AnEmptyForeignOrTextFileIsNoMapAndIsLeftAlone) {
+  write(path("empty.db"), "");
+  write(path("notes.db"), "not a map\n");
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path("other.db").c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE contacts (name TEXT); INSERT INTO contacts VALUES ('a')",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  const std::set<std::string> before = entries();
+  for (const auto& [name, reason] : std::vector<std::pair<std::string, std::string>>{
+           {"empty.db", "is an empty file, not a map"},
+           {"notes.db", "is not a map (not an SQLite database)"},
+           {"other.db", "is an SQLite database but not a keyframe map"}}) {
+    const std::string bytes = read(path(name));
+    std::string refused;
+    try {
+      KeyframeStore::open(path(name), "test", 8);
+    } catch (const std::exception& error) {
+      refused = error.what();
+    }
+    EXPECT_NE(refused.find("map " + path(name) + ": " + reason), std::string::npos) << refused;
+    auto detector = detectorWithKeyframes();
+    const std::string load = detector->loadDatabase(path(name));
+    EXPECT_NE(load.find(reason), std::string::npos) << load;
+    EXPECT_EQ(detector->database().size(), 12u) << "the map in use is kept";
+    EXPECT_TRUE(read(path(name)) == bytes) << name << " was changed";
+    EXPECT_EQ(entries(), before) << name;
   }
 }
 

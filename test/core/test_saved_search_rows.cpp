@@ -224,17 +224,17 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
   // open, in a node on its own thread while search runs.
   {
     auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    EXPECT_EQ(store->sealedRowsCheck(), KeyframeStore::RowsCheck::kPending);
-    store->startSealedRowsCheck();
-    EXPECT_EQ(store->awaitSealedRowsCheck(), KeyframeStore::RowsCheck::kFailed);
-    EXPECT_NE(store->sealedRowsProblem().find(rows + " are damaged"), std::string::npos)
-        << store->sealedRowsProblem();
+    EXPECT_EQ(store->integrityCheck(), KeyframeStore::MapCheck::kPending);
+    store->startIntegrityCheck();
+    EXPECT_EQ(store->awaitIntegrityCheck(), KeyframeStore::MapCheck::kFailed);
+    EXPECT_NE(store->integrityProblem().find(rows + " are damaged"), std::string::npos)
+        << store->integrityProblem();
     EXPECT_EQ(store->size(), 5u) << "nothing is removed for it";
   }
   std::string refused = failureOf([&] { KeyframeStore::openExisting(path_); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   refused =
-      failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkSealedRows(); });
+      failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkIntegrity(); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file with the same keyframe ids: its content differs.
   fs::copy_file(sealMap((folder_ / "twin.db").string(), 5, 3) + "-vectors", rows,
@@ -253,9 +253,9 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
   std::ofstream(rows, std::ios::binary) << good;
   const auto store = KeyframeStore::open(path_, kIdentity, kDimension);
   EXPECT_EQ(store->size(), 5u);
-  store->startSealedRowsCheck();
-  EXPECT_EQ(store->awaitSealedRowsCheck(), KeyframeStore::RowsCheck::kPassed);
-  EXPECT_EQ(store->sealedRowsProblem(), "");
+  store->startIntegrityCheck();
+  EXPECT_EQ(store->awaitIntegrityCheck(), KeyframeStore::MapCheck::kPassed);
+  EXPECT_EQ(store->integrityProblem(), "");
 }
 
 TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadTheRows) {

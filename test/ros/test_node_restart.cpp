@@ -87,10 +87,11 @@ std::string readFile(const std::string& path) {
 
 // Publishes the corridor's first `frames` frames at the harness's rate, calling `after` on each.
 void publishCorridor(test_support::NodeHarness* harness, size_t frames,
-                     const std::function<void(const SequenceFrame&)>& after = {}) {
+                     const std::function<void(const SequenceFrame&)>& after = {},
+                     double start_stamp = 1700000000.0) {
   const CorridorWorld world;
   SequenceOptions options;
-  options.start_stamp = 1700000000.0;
+  options.start_stamp = start_stamp;
   SequenceGenerator sequence(world, CameraModel{}, options);
   ros::WallRate rate(test_support::kPublishRateHz);
   SequenceFrame frame;
@@ -277,9 +278,11 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
 TEST(LoopClosureNode, ACorruptDatabaseFileStopsTheNodeAndIsLeftAlone) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "lcd_node_corrupt.lcdb").string();
-  // The earlier format, and a file that is no map at all.
-  for (const std::string& garbage : {std::string("LLCKFDB\nnot really a database"),
-                                     std::string(4096, 'x') + "no SQLite header either"}) {
+  // The earlier format, a file that is no map at all, and an empty file (a new map is made only
+  // where no file is).
+  for (const std::string& garbage :
+       {std::string("LLCKFDB\nnot really a database"),
+        std::string(4096, 'x') + "no SQLite header either", std::string()}) {
     {
       std::ofstream file(path, std::ios::binary);
       file << garbage;
@@ -291,9 +294,59 @@ TEST(LoopClosureNode, ACorruptDatabaseFileStopsTheNodeAndIsLeftAlone) {
     EXPECT_NE(status, -1) << "the node started with a corrupt map";
     EXPECT_NE(status, 0);
     EXPECT_EQ(readFile(path), garbage);  // Left as it was.
+    EXPECT_FALSE(std::filesystem::exists(path + "-vectors"));
   }
   std::filesystem::remove(path);
   ros::param::set("/loop_closure/database_path", std::string());
+}
+
+TEST(LoopClosureNode, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lcd_node_damaged_page.db").string();
+  removeMapFiles(path);
+  ros::param::set("/loop_closure/database_path", path);
+  test_support::NodeHarness harness;
+  const pid_t first = startNode();
+  ASSERT_GT(first, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the first run did not subscribe";
+  publishCorridor(&harness, 150);
+  harness.waitUntilQuiet();
+  ASSERT_TRUE(stopNode(first));
+  ASSERT_TRUE(harness.waitForNodeGone());
+  // 4 KiB in the middle of the map turned over, as a failing disk would.
+  const uintmax_t size = std::filesystem::file_size(path);
+  ASSERT_GT(size, 16384u);
+  {
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::streamoff middle = static_cast<std::streamoff>(size / 2 / 4096 * 4096);
+    std::string page(4096, '\0');
+    file.seekg(middle);
+    file.read(&page[0], 4096);
+    for (char& byte : page) byte = static_cast<char>(~byte);
+    file.seekp(middle);
+    file.write(page.data(), 4096);
+  }
+  const std::string damaged_map = readFile(path);
+  const std::string damaged_rows = readFile(path + "-vectors");
+  const size_t keyframes_before = harness.keyframes().size();
+  const pid_t second = startNode();
+  ASSERT_GT(second, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the second run did not subscribe";
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (harness.diagnostic("map check") != "damaged" && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+  }
+  EXPECT_EQ(harness.diagnostic("map check"), "damaged") << "said without a keyframe";
+  // Frames go on: keyframes are made and published, none is written to the damaged map.
+  publishCorridor(&harness, 60, {}, 1700001000.0);
+  harness.waitUntilQuiet();
+  EXPECT_GT(harness.keyframes().size(), keyframes_before);
+  EXPECT_TRUE(stopNode(second));
+  EXPECT_TRUE(readFile(path) == damaged_map) << "the damaged map was written to";
+  EXPECT_TRUE(readFile(path + "-vectors") == damaged_rows) << "its rows were written to";
+  ros::param::set("/loop_closure/database_path", std::string());
+  removeMapFiles(path);
 }
 
 TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {

@@ -235,16 +235,21 @@ class LoopDetector {
   /// Returns "" or why.
   std::string saveMapGraph();
   /// Worker thread: why search stopped, "" while it runs. openMap() starts search at once and
-  /// checks the rows sealed at the map's last clean shutdown on a thread of its own (seconds for
-  /// a large map); when they turn out damaged or another map's, nothing is searched from then on
-  /// (query_status kMapDamaged: no loop is published), while keyframes are still committed.
+  /// checks the map's integrity (its pages, and the rows sealed at its last clean shutdown) on a
+  /// thread of its own (seconds for a large map), holding new keyframes from the file until it
+  /// passes; when the map turns out damaged, nothing is searched from then on (query_status
+  /// kMapDamaged: no loop is published) and nothing more is written to it: keyframes are kept in
+  /// memory only (a reset starts a new map beside it).
   const std::string& mapDamage() const { return map_damage_; }
+  /// Worker thread: sets mapDamage() when the map's check has just failed and returns it, once
+  /// ("" otherwise, and then the next keyframe's result does not carry it).
+  std::string takeNewMapDamage();
   /// Worker thread: keyframes of the open map left out of search at open, past
   /// database/memory_budget_mb: the map's first keyframes that fit it are searched, or those its
   /// saved search graph covers when more (delete PATH-graph to have it built within the budget).
   size_t mapKeyframesNotSearched() const { return map_unsearched_; }
   /// Worker thread: "checked", "being checked" or "damaged" ("" without a map file).
-  std::string mapRowsCheck() const;
+  std::string mapCheck() const;
   /// Whether the last openMap() found the map's saved search graph (else it was built).
   bool mapGraphReused() const { return map_graph_reused_; }
   /// Temporary files of an interrupted save that opening the map removed.
@@ -320,6 +325,8 @@ class LoopDetector {
                               const cv::Mat& depth, StageTimes* times);
   /// Commits the keyframe to the map file and adds it to search (within the memory budget).
   void store(KeyframeRecord keyframe, KeyframeResult* result);
+  /// Sets mapDamage() (and `result`'s, once) when the map's integrity check has failed.
+  void noteMapDamage(KeyframeResult* result);
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);

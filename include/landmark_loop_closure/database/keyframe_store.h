@@ -38,26 +38,30 @@ class Writer;
 /// One process at a time: the file is locked while open. Not thread-safe; one owner.
 ///
 /// Opening checks each row written since the last clean shutdown against its keyframe, and of
-/// the sealed rows only that the file holds them and that the last is the right keyframe's. Their
-/// checksum (the whole rows file: 4.4 GB at 1 000 000 keyframes) is checked by
-/// checkSealedRows(), which openExisting() runs, or by startSealedRowsCheck() while search
-/// already runs on them.
+/// the sealed rows only that the file holds them and that the last is the right keyframe's. The
+/// rest of an existing map's integrity - the sealed rows' checksum (the whole rows file: 4.4 GB at
+/// 1 000 000 keyframes) and SQLite's quick_check of every page of the database file - is checked
+/// by checkIntegrity(), which openExisting() runs, or by startIntegrityCheck() while search
+/// already runs on the map. Until it passes nothing is written to the map: keyframes added
+/// meanwhile are held in memory (get() finds them) and committed once it passes; a map found
+/// damaged is never written to again by this store.
 class KeyframeStore {
  public:
   static constexpr int kFormatVersion = 3;
 
-  /// Where the check of the rows sealed at the last clean shutdown stands.
-  enum class RowsCheck {
-    kPassed,   ///< Checked, or nothing was sealed (every row was checked at open).
+  /// Where the integrity check of an opened map stands.
+  enum class MapCheck {
+    kPassed,   ///< Checked, or a map created by this open.
     kPending,  ///< Not started.
     kRunning,  ///< On its thread.
-    kFailed,   ///< Damaged or another map's: sealedRowsProblem() says so.
+    kFailed,   ///< Damaged or another map's rows: integrityProblem() says so.
   };
 
   /// Opens `path`, creating it when missing. Throws std::runtime_error naming the path and the
-  /// reason when it is not a regular file (checked before opening, so a FIFO cannot block), cannot
-  /// be written, is open in another process, was written by a newer version, or holds keyframes
-  /// of another descriptor identity or global dimension.
+  /// reason when it is not a regular file (checked before opening, so a FIFO cannot block), is
+  /// empty or not a map of this package (another program's file is never written to), cannot be
+  /// written, is open in another process, was written by a newer version, or holds keyframes of
+  /// another descriptor identity or global dimension.
   static std::unique_ptr<KeyframeStore> open(const std::string& path,
                                              const std::string& descriptor_identity,
                                              int global_dimension);
@@ -66,8 +70,8 @@ class KeyframeStore {
   /// What opening repaired, one line each: keyframes a power cut left without their search row
   /// (the last ones) are removed from the map.
   const std::vector<std::string>& repairs() const { return repairs_; }
-  /// Opens an existing map whatever its descriptors (tools that copy or merge maps), its sealed
-  /// rows checked. Throws as open() and checkSealedRows() do, and when `path` does not exist.
+  /// Opens an existing map whatever its descriptors (tools that copy or merge maps), its
+  /// integrity checked. Throws as open() and checkIntegrity() do, and when `path` does not exist.
   static std::unique_ptr<KeyframeStore> openExisting(const std::string& path);
   /// True when `path` starts like the map file of the earlier format (versions 1-3), which
   /// `lcd_db convert` turns into a store once.
@@ -90,19 +94,22 @@ class KeyframeStore {
   KeyframeStore(const KeyframeStore&) = delete;
   KeyframeStore& operator=(const KeyframeStore&) = delete;
 
-  /// Checks the sealed rows now, unless already done. Throws std::runtime_error naming the rows
-  /// file when they are damaged or another map's.
-  void checkSealedRows();
-  /// Checks them on a thread of its own (reading the file, little CPU); the destructor stops it.
-  void startSealedRowsCheck();
-  RowsCheck sealedRowsCheck() const;
-  /// Waits for a check started by startSealedRowsCheck(); its outcome.
-  RowsCheck awaitSealedRowsCheck();
+  /// Checks the map's integrity now, unless already done. Throws std::runtime_error naming the
+  /// file and what is wrong when it is damaged (or its rows are another map's).
+  void checkIntegrity();
+  /// Checks it on a thread of its own (reading the files, little CPU); the destructor stops it.
+  void startIntegrityCheck();
+  MapCheck integrityCheck() const;
+  /// Waits for a check started by startIntegrityCheck(); its outcome.
+  MapCheck awaitIntegrityCheck();
   /// Why the check failed; "" unless kFailed.
-  std::string sealedRowsProblem() const;
+  std::string integrityProblem() const;
+  /// Keyframes added while the check runs, not yet committed.
+  size_t heldKeyframes() const { return held_.size(); }
 
-  /// Writes and commits one keyframe. Throws std::runtime_error (disk full, id not greater than
-  /// the last) with the store unchanged.
+  /// Writes and commits one keyframe (with those held before it); while the integrity check runs
+  /// it is held instead, and a pending check is run first. Throws std::runtime_error (disk full,
+  /// id not greater than the last, the map found damaged) with the store unchanged.
   void add(const KeyframeRecord& keyframe);
   /// Writes every keyframe of `database` in one transaction: all or none.
   void addAll(const KeyframeDatabase& database);
@@ -126,8 +133,9 @@ class KeyframeStore {
   /// Every keyframe, whole, in id order.
   void forEach(const std::function<void(KeyframeRecord)>& visit) const;
   /// Writes a consistent copy of the map and its rows file to `target` (SQLite's online backup)
-  /// and renames them over whatever was there. The search graph is not copied.
-  void copyTo(const std::string& target) const;
+  /// and renames them over whatever was there. The search graph is not copied. Waits for the
+  /// integrity check and refuses a damaged map.
+  void copyTo(const std::string& target);
   /// At a clean shutdown: flushes the rows file and seals it (its checksum so far in the map, so
   /// the next open checks it in one pass), and keeps `database`'s search graph and summaries for
   /// the next open in graphPath() and summariesPath() with their checksums in the map. `database`
@@ -148,6 +156,7 @@ class KeyframeStore {
   std::string summariesPath() const;
   /// The search rows file (PATH-vectors).
   std::string vectorsPath() const;
+  /// Keyframes of the map, held ones included.
   size_t size() const;
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
   int globalDimension() const { return global_dimension_; }
@@ -164,9 +173,10 @@ class KeyframeStore {
   /// A keyframe from a row of (session, stamp, motion, search_row, row_checksum, record) at
   /// `first_column`, its global row read from the rows file.
   KeyframeRecord readRow(sqlite3_stmt* row, int first_column, uint64_t id) const;
-  /// Opens the rows file and checks it against the map: the sealed entries in one pass, the
-  /// later ones against their keyframes' checksums. Throws std::runtime_error when it is missing
-  /// or damaged; removes the last keyframes when a power cut lost their rows (repairs()).
+  /// Opens the rows file and checks it against the map: the later entries against their
+  /// keyframes' checksums here, the sealed ones by the integrity check (set up here). Throws
+  /// std::runtime_error when it is missing or damaged; removes the last keyframes when a power cut
+  /// lost their rows (repairs()).
   void openRows();
   /// Which entry of the rows file keyframe `id`'s is; nullopt when the map lacks it.
   std::optional<uint64_t> searchRowOf(uint64_t id) const;
@@ -188,8 +198,16 @@ class KeyframeStore {
   int global_dimension_ = 0;
   std::unique_ptr<Connection> connection_;
   std::unique_ptr<vector_file::Writer> rows_;
-  struct SealCheck;
-  std::unique_ptr<SealCheck> seal_check_;  ///< Null when nothing was sealed.
+  /// Commits the held keyframes in one transaction (the check passed, or was given up at close).
+  void commitHeld();
+  /// Writes keyframes in one transaction: all or none. Throws std::runtime_error.
+  void insertInOneTransaction(size_t count,
+                              const std::function<const KeyframeRecord*(size_t)>& keyframe);
+  /// Stops a running check and commits what it held: the map was not found damaged.
+  void settleBeforeClose();
+  struct IntegrityCheck;
+  std::unique_ptr<IntegrityCheck> check_;  ///< Null for a map this open created.
+  std::vector<KeyframeRecord> held_;       ///< Added while the check runs, in id order.
   uint32_t entries_checksum_ = 0;  ///< CRC-32C of the rows file's header and entries so far.
   std::vector<std::string> leftovers_removed_;
   std::vector<std::string> repairs_;

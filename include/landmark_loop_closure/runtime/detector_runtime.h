@@ -133,6 +133,9 @@ class DetectorRuntime {
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
   /// true when it replaced or forgot the map: the keyframes online training held are dropped.
   void withDetector(const std::function<bool(LoopDetector&)>& action);
+  /// The same when the detector is free now; false (nothing run) while a keyframe or service
+  /// holds it, so a timer never waits on the worker.
+  bool tryWithDetector(const std::function<bool(LoopDetector&)>& action);
 
   /// Stops the worker after the keyframe in hand; queued keyframes are dropped. Idempotent.
   void stop();
