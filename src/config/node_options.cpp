@@ -56,13 +56,13 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
           .number("tf_timeout", &O::tf_timeout, atLeast(0),
                   "tf mode: seconds to wait for the transform at an image stamp, then drop the "
                   "image.")
-          .integer("sync_queue_size", &O::sync_queue_size, atLeast(1),
+          .integer("sync_queue_size", &O::sync_queue_size, between(1, 1000),
                    "odom mode: ApproximateTime queue length per topic (messages).")
           .number("sync_slop", &O::sync_slop, above(0),
                   "odom mode: largest stamp difference between an image and its odometry (s).")
-          .integer("worker_queue_size", &O::worker_queue_size, atLeast(1),
+          .integer("worker_queue_size", &O::worker_queue_size, between(1, 100),
                    "keyframes waiting for the worker thread; when full the oldest is dropped and "
-                   "counted.")
+                   "counted. Each holds its image (~1 MB at 640x480 colour).")
           .number("input_timeout", &O::input_timeout, above(0),
                   "diagnostics warn when no image/odometry arrived for this long (s), and a "
                   "warning names the stamps when both arrive but never pair within sync_slop.")
@@ -73,7 +73,7 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                   "start over from it. Smaller steps back are always dropped.")
           .number("time_jump_back_s", &O::time_jump_back_s, above(0),
                   "seconds back that count as a jump rather than an out-of-order frame.")
-          .integer("time_jump_frames", &O::time_jump_frames, atLeast(0),
+          .integer("time_jump_frames", &O::time_jump_frames, between(0, 100000),
                    "this many frames in a row not after the last keyframe are a time jump "
                    "whatever its size (a keyframe with a wrong stamp, the clock set back): "
                    "logged, diagnostics ERROR for 30 s, and the next frame starts a new "

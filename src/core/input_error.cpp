@@ -12,9 +12,9 @@ const ParameterTable<InputLimits>& InputLimits::parameters() {
   using O = InputLimits;
   static const auto table =
       ParameterTable<O>("input/", "")
-          .integer("min_image_side", &O::min_image_side, atLeast(1),
+          .integer("min_image_side", &O::min_image_side, between(1, 4096),
                    "images with a side shorter than this (px) are dropped.")
-          .integer("max_image_pixels", &O::max_image_pixels, atLeast(1),
+          .integer("max_image_pixels", &O::max_image_pixels, between(1, 268435456),
                    "images with more pixels (8K = 7680x4320) are dropped as corrupt.")
           .number("quaternion_norm_tolerance", &O::quaternion_norm_tolerance,
                   openBetween(0, 1, true, true),

@@ -21,7 +21,7 @@ const ParameterTable<KeyframeSelectorOptions>& KeyframeSelectorOptions::paramete
                   "M above this: odometry jump (tracking lost?), frame refused and logged.")
           .number("max_time_gap", &O::max_time_gap, atLeast(0),
                   "seconds without a keyframe that force one even when standing still; 0 = off.")
-          .integer("jump_reanchor_frames", &O::jump_reanchor_frames, atLeast(0),
+          .integer("jump_reanchor_frames", &O::jump_reanchor_frames, between(0, 100000),
                    "after this many consecutive jump frames the odometry is taken as "
                    "re-initialised and the next frame becomes a keyframe; 0 = never.");
   return table;

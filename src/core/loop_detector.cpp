@@ -37,9 +37,9 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "\"metres\": the robot travels consistent_distance_m while its matches stay "
                   "within match_window_m (plus its own step) along the old path - independent of "
                   "keyframe spacing and of dropped keyframes.")
-          .integer("consistent_keyframes", &O::consistent_keyframes, atLeast(1),
+          .integer("consistent_keyframes", &O::consistent_keyframes, between(1, 100),
                    "k: consecutive keyframes that must match the same stretch of the map.")
-          .integer("index_window", &O::index_window, atLeast(0),
+          .integer("index_window", &O::index_window, between(0, 1000),
                    "their matches may differ by at most this many keyframe ids.")
           .number("consistent_distance_m", &O::consistent_distance_m, atLeast(0),
                   "metres: query travel over which the place must stay matched.")
@@ -93,8 +93,8 @@ const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::parameters() {
           .group(&O::verification, VerificationOptions::parameters())
           .group(&O::appearance, AppearanceCheckOptions::parameters())
           .group(&O::metric_pose, MetricPoseOptions::parameters())
-          .integer("metric_pose/triangulation_keyframes", &O::triangulation_keyframes, atLeast(1),
-                   "previous keyframes used; farther ones add baseline.")
+          .integer("metric_pose/triangulation_keyframes", &O::triangulation_keyframes,
+                   between(1, 20), "previous keyframes used; farther ones add baseline.")
           .group(&O::camera_mount, CameraMount::parameters());
   return table;
 }

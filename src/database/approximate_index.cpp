@@ -30,15 +30,15 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
                 "\"exact\": compare every keyframe; \"approximate\": an HNSW graph (hnswlib) gives "
                 "the shortlist; \"auto\": the graph is kept from the start, used once "
                 "approximate_from keyframes are stored.")
-          .integer("approximate_from", &O::approximate_from, atLeast(1),
+          .integer("approximate_from", &O::approximate_from, between(1, 100000000),
                    "auto: exact search below this size (~8 ms at 20 000).")
           .integer("neighbors", &O::neighbors, between(4, 128),
                    "HNSW links per keyframe (M): recall and memory grow with it.")
-          .integer("ef_construction", &O::ef_construction, atLeast(4),
+          .integer("ef_construction", &O::ef_construction, between(4, 4096),
                    "HNSW insertion effort: graph quality against insert time; >= neighbors. "
                    "128: recall@10 1.000 at 100 000 keyframes (64: 0.99), insert 2.3 ms "
                    "median (64: 0.85 ms) on the worker thread (lcd_bench_map).")
-          .integer("ef_search", &O::ef_search, atLeast(1),
+          .integer("ef_search", &O::ef_search, between(1, 4096),
                    "HNSW search effort: shortlist recall against query time.");
   return table;
 }

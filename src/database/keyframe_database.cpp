@@ -13,13 +13,13 @@ const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
   using O = DatabaseOptions;
   static const auto table =
       ParameterTable<O>("database/", "database search.")
-          .integer("exclude_recent_keyframes", &O::exclude_recent_keyframes, atLeast(0),
+          .integer("exclude_recent_keyframes", &O::exclude_recent_keyframes, between(0, 1000000),
                    "the newest N keyframes are never loop candidates.")
           .number("exclude_recent_seconds", &O::exclude_recent_seconds, atLeast(0),
                   "nor are keyframes less than this many seconds older than the query.")
-          .integer("min_size", &O::min_size, atLeast(1),
+          .integer("min_size", &O::min_size, between(1, 1000000),
                    "no search until the database holds this many keyframes.")
-          .integer("top_k", &O::top_k, atLeast(1),
+          .integer("top_k", &O::top_k, between(1, 1000),
                    "candidates kept per query (landmarks re-rank them all).")
           .number("memory_budget_mb", &O::memory_budget_mb, atLeast(0),
                   "0: no limit. RAM of the keyframes (diagnostics \"database bytes\"): with a "

@@ -291,7 +291,7 @@ const ParameterTable<DescriptorOptions::Broad>& DescriptorOptions::Broad::parame
       ParameterTable<O>("descriptor/broad/",
                         "type broad: FLCD-BA's broad autoencoder (methods.md section 3).")
           .text("model", &O::model, "file written by `lcd_train broad`; required for type broad.")
-          .integer("online_training_keyframes", &O::online_training_keyframes, atLeast(0),
+          .integer("online_training_keyframes", &O::online_training_keyframes, between(0, 100000),
                    "> 0 and `model` does not exist yet: keyframes are held until this many have "
                    "come (at least 10), the autoencoder trains on them in the background (~10 s "
                    "on one core) while later keyframes are held too, is written to `model`, and "

@@ -75,7 +75,7 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
                 "and runs \"landmarks\" instead. Compared in bench/README.md." +
                     types() + ".")
           .text("model", &O::model, "ONNX file; \"\" = the package's model/calc_encoder.onnx.")
-          .integer("max_landmarks", &O::max_landmarks, atLeast(1),
+          .integer("max_landmarks", &O::max_landmarks, between(1, 500),
                    "landmarks kept per image (highest conv2 activation energy first).")
           .number("max_landmark_area", &O::max_landmark_area, openBetween(0, 1, true, false),
                   "a box covering more than this fraction of the image is no landmark.")

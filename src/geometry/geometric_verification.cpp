@@ -279,14 +279,15 @@ const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
                 "monocular poses (rotation + unit direction) go out with has_relative_pose true. "
                 "Off by default: on generated pairs about one in four accepted poses is further "
                 "off than its covariance says (README).")
-          .integer("max_image_width", &O::max_image_width, atLeast(64),
+          .integer("max_image_width", &O::max_image_width, between(64, 8192),
                    "keypoints are found on the image shrunk to at most this width.")
-          .integer("max_features", &O::max_features, atLeast(8), "ORB keypoints kept per keyframe.")
+          .integer("max_features", &O::max_features, between(8, 10000),
+                   "ORB keypoints kept per keyframe.")
           .number("ratio_test", &O::ratio_test, openBetween(0, 1, true, false),
                   "a keypoint match needs best / second-best Hamming distance below this.")
           .number("ransac_threshold_px", &O::ransac_threshold_px, above(0),
                   "RANSAC inlier threshold, pixels.")
-          .integer("min_inliers", &O::min_inliers, atLeast(8),
+          .integer("min_inliers", &O::min_inliers, between(8, 10000),
                    "fewer geometric inliers: the loop is refused.")
           .number("min_spread", &O::min_spread, between(0, 1),
                   "share of a 4x4 grid over the query image that must hold inliers.")
@@ -296,7 +297,7 @@ const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
           .integer("orb_levels", &O::orb_levels, between(1, 8),
                    "ORB pyramid levels (scale 1.2); keypoints of coarser levels sit up to a pixel "
                    "off, which skews the pose, and revisits are seen at similar scale.")
-          .integer("ambiguity_directions", &O::ambiguity_directions, atLeast(0),
+          .integer("ambiguity_directions", &O::ambiguity_directions, between(0, 100000),
                    "translation directions over the half sphere where the best rotation is "
                    "fitted: directions the matches cannot rule out widen the covariance.")
           .number("keypoint_sigma_px", &O::keypoint_sigma_px, atLeast(0),

@@ -202,7 +202,7 @@ const ParameterTable<MetricPoseOptions>& MetricPoseOptions::parameters() {
           .number("max_reprojection_px", &O::max_reprojection_px, above(0),
                   "a triangulated point must reproject this close in the other view; also the "
                   "PnP RANSAC inlier threshold.")
-          .integer("min_inliers", &O::min_inliers, atLeast(6),
+          .integer("min_inliers", &O::min_inliers, between(6, 10000),
                    "fewer PnP inliers: the loop keeps no metric pose (still verified).")
           .number("max_translation_sd_m", &O::max_translation_sd_m, above(0),
                   "larger uncertainty: no metric pose (see the candidate's detail).")

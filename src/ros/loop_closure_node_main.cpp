@@ -9,8 +9,7 @@ int main(int argc, char** argv) {
   const nodelet::V_string arguments(argv + 1, argv + argc);
   if (!loader.load(ros::this_node::getName(), "landmark_loop_closure/LoopClosureNodelet",
                    remappings, arguments)) {
-    ROS_FATAL("Could not start the loop closure nodelet (see the messages above)");
-    return 1;
+    return 1;  // The nodelet said why in one FATAL line.
   }
   ros::spin();
   return 0;

@@ -5,7 +5,9 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <regex>
 #include <set>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -159,6 +161,44 @@ TEST(ParameterTable, OutOfRangeValuesAreNamedWithTheirRange) {
             std::string::npos)
       << errors;
   EXPECT_NE(errors.find("camera_mount/roll must be a finite number (got .inf)"), std::string::npos)
+      << errors;
+}
+
+TEST(ParameterTable, EveryIntegerHasAnUpperBoundThatIsEnforcedAndDocumented) {
+  // Integers render without a decimal point in the documented defaults: each one's comment (its
+  // line and the comment lines under it) says its range.
+  std::vector<std::pair<std::string, std::string>> integers;  // Line, documentation.
+  std::istringstream lines(documentedDefaultsYaml());
+  bool in_integer = false;
+  for (std::string line; std::getline(lines, line);) {
+    const size_t first = line.find_first_not_of(' ');
+    if (first == std::string::npos) continue;
+    if (line[first] == '#') {
+      if (in_integer && first > 0) integers.back().second += " " + line.substr(first + 1);
+      continue;
+    }
+    in_integer = false;
+    const size_t colon = line.find(": ");
+    if (colon == std::string::npos) continue;
+    const std::string rest = line.substr(colon + 2);
+    const std::string value = rest.substr(0, rest.find_first_of(" #"));
+    if (value.empty() || value.find_first_not_of("-0123456789") != std::string::npos) continue;
+    integers.emplace_back(line, line);
+    in_integer = true;
+  }
+  EXPECT_GE(integers.size(), 40u);
+  for (const auto& [line, doc] : integers) {
+    EXPECT_TRUE(std::regex_search(doc, std::regex("Allowed:\\s+in\\s+\\[-?[0-9]+,\\s+[0-9]+\\]")))
+        << line;
+  }
+  NodeOptions options;
+  options.worker_queue_size = 2000000000;
+  options.detector.database.top_k = 100000;
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("worker_queue_size must be in [1, 100] (got 2000000000)"),
+            std::string::npos)
+      << errors;
+  EXPECT_NE(errors.find("database/top_k must be in [1, 1000] (got 100000)"), std::string::npos)
       << errors;
 }
 

@@ -370,8 +370,25 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
     EXPECT_NE(status, 0);
     const std::string output = readFile(log);
     EXPECT_NE(output.find(model), std::string::npos) << output;
+    size_t fatal_lines = 0;
+    for (size_t at = output.find("[FATAL]"); at != std::string::npos;
+         at = output.find("[FATAL]", at + 1)) {
+      ++fatal_lines;
+    }
+    EXPECT_EQ(fatal_lines, 1u) << "one FATAL line per refusal:\n" << output;
   }
+  // A parameter out of its range: one FATAL naming it.
   ros::param::set("/loop_closure/descriptor/backbone/model", std::string());
+  ros::param::set("/loop_closure/worker_queue_size", 2000000000);
+  const pid_t node = startNode(log);
+  ASSERT_GT(node, 0);
+  EXPECT_NE(exitStatus(node), 0);
+  const std::string output = readFile(log);
+  EXPECT_NE(output.find("worker_queue_size must be in [1, 100] (got 2000000000)"),
+            std::string::npos)
+      << output;
+  EXPECT_EQ(output.find("[FATAL]"), output.rfind("[FATAL]")) << output;
+  ros::param::set("/loop_closure/worker_queue_size", 8);
   std::filesystem::remove(corrupt);
   std::filesystem::remove(log);
 }

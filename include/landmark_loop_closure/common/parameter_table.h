@@ -1,7 +1,9 @@
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -71,8 +73,14 @@ class ParameterTable {
                          std::string doc) {
     return numeric(key, member, range, std::move(doc));
   }
+  /// Every integer has both bounds (a queue of 2 000 000 000 keyframes is a typo, not a
+  /// setting); the range is written into its documentation.
   ParameterTable& integer(const std::string& key, int Options::*member, ParameterRange range,
                           std::string doc) {
+    if (!std::isfinite(range.low) || !std::isfinite(range.high)) {
+      throw std::logic_error("integer parameter " + prefix_ + key + " is declared without bounds");
+    }
+    doc += std::string(doc.empty() ? "" : " ") + "Allowed: " + range.describe() + ".";
     return numeric(key, member, range, std::move(doc));
   }
   ParameterTable& flag(const std::string& key, bool Options::*member, std::string doc) {
