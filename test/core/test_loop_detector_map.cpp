@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "map_damage.h"
 #include "small_detector.h"
 
 using namespace landmark_loop_closure;
@@ -249,16 +250,19 @@ std::string settledMapCheck(const LoopDetector& detector) {
   return detector.mapCheck();
 }
 
+// A map of `keyframes` keyframes (places i % places), closed cleanly.
+void writeDetectorMap(const std::string& path, int keyframes, int places) {
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  for (int i = 0; i < keyframes; ++i) feed(&detector, i, i % places);
+  EXPECT_EQ(detector.saveMapGraph(), "");
+}
+
 TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWrittenTo) {
   const std::string path = temporaryPath("damaged_rows_map.db");
   removeMap(path);
   const LoopDetectorOptions options = smallOptions();
-  {
-    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
-    for (int i = 0; i < 20; ++i) feed(&detector, i, i);
-    EXPECT_EQ(detector.saveMapGraph(), "");
-  }
+  writeDetectorMap(path, 20, 20);
   const auto flipFirstRowByte = [](const std::string& map) {
     std::fstream rows(map + "-vectors", std::ios::in | std::ios::out | std::ios::binary);
     rows.seekg(30);
@@ -310,25 +314,8 @@ TEST(LoopDetector, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
   const std::string path = temporaryPath("damaged_page_map.db");
   removeMap(path);
   const LoopDetectorOptions options = smallOptions();
-  {
-    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
-    for (int i = 0; i < 60; ++i) feed(&detector, i, i % 30);
-    EXPECT_EQ(detector.saveMapGraph(), "");
-  }
-  // 4 KiB in the middle of the database file turned over, as a failing disk would.
-  const uintmax_t size = std::filesystem::file_size(path);
-  ASSERT_GT(size, 16384u);
-  {
-    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
-    const std::streamoff middle = static_cast<std::streamoff>(size / 2 / 4096 * 4096);
-    std::string page(4096, '\0');
-    file.seekg(middle);
-    file.read(&page[0], 4096);
-    for (char& byte : page) byte = static_cast<char>(~byte);
-    file.seekp(middle);
-    file.write(page.data(), 4096);
-  }
+  writeDetectorMap(path, 60, 30);
+  ASSERT_TRUE(test_support::turnOverMiddlePage(path));
   const std::string damaged_map = fileBytes(path);
   const std::string damaged_rows = fileBytes(path + "-vectors");
   {
@@ -353,12 +340,7 @@ TEST(LoopDetector, KeyframesAddedWhileTheMapIsCheckedAreCommittedOnceItPasses) {
   const std::string path = temporaryPath("checked_map.db");
   removeMap(path);
   const LoopDetectorOptions options = smallOptions();
-  {
-    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
-    for (int i = 0; i < 20; ++i) feed(&detector, i, i);
-    EXPECT_EQ(detector.saveMapGraph(), "");
-  }
+  writeDetectorMap(path, 20, 20);
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
     ASSERT_EQ(detector.openMap(path), "");

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "../core/map_damage.h"
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
@@ -313,19 +314,7 @@ TEST(LoopClosureNode, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
   harness.waitUntilQuiet();
   ASSERT_TRUE(stopNode(first));
   ASSERT_TRUE(harness.waitForNodeGone());
-  // 4 KiB in the middle of the map turned over, as a failing disk would.
-  const uintmax_t size = std::filesystem::file_size(path);
-  ASSERT_GT(size, 16384u);
-  {
-    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
-    const std::streamoff middle = static_cast<std::streamoff>(size / 2 / 4096 * 4096);
-    std::string page(4096, '\0');
-    file.seekg(middle);
-    file.read(&page[0], 4096);
-    for (char& byte : page) byte = static_cast<char>(~byte);
-    file.seekp(middle);
-    file.write(page.data(), 4096);
-  }
+  ASSERT_TRUE(test_support::turnOverMiddlePage(path));  // As a failing disk would.
   const std::string damaged_map = readFile(path);
   const std::string damaged_rows = readFile(path + "-vectors");
   const size_t keyframes_before = harness.keyframes().size();
