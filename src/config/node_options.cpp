@@ -60,7 +60,7 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                    "odom mode: ApproximateTime queue length per topic (messages).")
           .number("sync_slop", &O::sync_slop, above(0),
                   "odom mode: largest stamp difference between an image and its odometry (s).")
-          .integer("worker_queue_size", &O::worker_queue_size, between(1, 100),
+          .integer("worker_queue_size", &O::worker_queue_size, between(1, 10000),
                    "keyframes waiting for the worker thread; when full the oldest is dropped and "
                    "counted. Each holds its image (~1 MB at 640x480 colour).")
           .number("input_timeout", &O::input_timeout, above(0),

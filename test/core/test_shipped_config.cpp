@@ -195,7 +195,7 @@ TEST(ParameterTable, EveryIntegerHasAnUpperBoundThatIsEnforcedAndDocumented) {
   options.worker_queue_size = 2000000000;
   options.detector.database.top_k = 100000;
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("worker_queue_size must be in [1, 100] (got 2000000000)"),
+  EXPECT_NE(errors.find("worker_queue_size must be in [1, 10000] (got 2000000000)"),
             std::string::npos)
       << errors;
   EXPECT_NE(errors.find("database/top_k must be in [1, 1000] (got 100000)"), std::string::npos)

@@ -373,7 +373,7 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
   ASSERT_GT(node, 0);
   EXPECT_NE(exitStatus(node), 0);
   const std::string output = readFile(log);
-  EXPECT_NE(output.find("worker_queue_size must be in [1, 100] (got 2000000000)"),
+  EXPECT_NE(output.find("worker_queue_size must be in [1, 10000] (got 2000000000)"),
             std::string::npos)
       << output;
   EXPECT_EQ(output.find("[FATAL]"), output.rfind("[FATAL]")) << output;
