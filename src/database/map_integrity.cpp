@@ -98,13 +98,16 @@ void KeyframeStore::IntegrityCheck::run() {
   state = MapCheck::kPassed;
 }
 
+void KeyframeStore::beginIntegrityCheck() {
+  check_->state = MapCheck::kRunning;
+  check_->stop = false;
+  // A log left by a crash goes into the file first, so the check reads what the map holds.
+  sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
+}
+
 void KeyframeStore::checkIntegrity() {
   if (integrityCheck() == MapCheck::kPending) {
-    check_->state = MapCheck::kRunning;
-    check_->stop = false;
-    // A log left by a crash goes into the file first, so the check reads what the map holds.
-    sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr,
-                              nullptr);
+    beginIntegrityCheck();
     check_->run();
   }
   if (awaitIntegrityCheck() == MapCheck::kFailed) throw std::runtime_error(check_->problem);
@@ -112,9 +115,7 @@ void KeyframeStore::checkIntegrity() {
 
 void KeyframeStore::startIntegrityCheck() {
   if (integrityCheck() != MapCheck::kPending) return;
-  check_->state = MapCheck::kRunning;
-  check_->stop = false;
-  sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
+  beginIntegrityCheck();
   try {
     check_->thread = std::thread([check = check_.get()] { check->run(); });
   } catch (const std::system_error&) {

@@ -203,6 +203,8 @@ class KeyframeStore {
   /// Writes keyframes in one transaction: all or none. Throws std::runtime_error.
   void insertInOneTransaction(size_t count,
                               const std::function<const KeyframeRecord*(size_t)>& keyframe);
+  /// Marks a pending check running and checkpoints the log into the file it reads.
+  void beginIntegrityCheck();
   /// Stops a running check and commits what it held: the map was not found damaged.
   void settleBeforeClose();
   struct IntegrityCheck;
