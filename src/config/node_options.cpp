@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "landmark_loop_closure/common/text_and_files.h"
+#include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
 
@@ -156,6 +159,17 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
                  ", its tuned value)";
     }
     options->fallback_warning = warning;
+  }
+  const std::vector<std::string> ignored = ignoredDescriptorParameters(detector.descriptor);
+  options->ignored_warning.clear();
+  if (!ignored.empty()) {
+    std::string keys;
+    for (const std::string& key : ignored) keys += (keys.empty() ? "" : ", ") + key;
+    const DescriptorType* type = findDescriptorType(detector.descriptor.type);
+    options->ignored_warning = "descriptor/type " + detector.descriptor.type + " does not read " +
+                               keys + ": " + (ignored.size() == 1 ? "it is" : "they are") +
+                               " set but change nothing (" + type->name + ": " + type->summary +
+                               ")";
   }
 }
 

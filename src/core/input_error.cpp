@@ -52,6 +52,8 @@ const char* toString(InputErrorCode code) {
       return "non_unit_quaternion";
     case InputErrorCode::kNoTexture:
       return "no_texture";
+    case InputErrorCode::kMalformedImage:
+      return "malformed_image";
   }
   return "unknown";
 }

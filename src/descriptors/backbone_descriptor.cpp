@@ -301,6 +301,7 @@ bool applyBackboneVariantPart(const std::string& part, DescriptorOptions* option
 DescriptorType backboneDescriptorType() {
   DescriptorType type;
   type.name = "backbone";
+  type.reads = {"backbone/", "max_landmark_area", "shape_weighting", "landmark_storage"};
   type.summary = "the landmark-ConvNet on a pretrained network (descriptor/backbone/*)";
   type.validate = validateBackbone;
   type.identity = [](const DescriptorOptions& options) {

@@ -303,6 +303,7 @@ const ParameterTable<DescriptorOptions::Broad>& DescriptorOptions::Broad::parame
 DescriptorType broadDescriptorType() {
   DescriptorType type;
   type.name = "broad";
+  type.reads = {"broad/"};
   type.summary = "FLCD-BA's broad autoencoder, trained by ridge regression (descriptor/broad/*)";
   type.validate = [](const DescriptorOptions& options) {
     return options.broad.model.empty()

@@ -267,6 +267,7 @@ CnnGlobalOptions cnnGlobalOptions(const DescriptorOptions::Cnn& cnn) {
 DescriptorType cnnPcaDescriptorType() {
   DescriptorType type;
   type.name = "cnn_pca";
+  type.reads = {"cnn/"};
   type.summary = "a CNN layer, pooled and PCA-whitened (descriptor/cnn/*)";
   type.validate = validateCnn;
   type.identity = [](const DescriptorOptions& options) {

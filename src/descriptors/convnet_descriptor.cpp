@@ -180,6 +180,7 @@ bool applyLandmarksVariantPart(const std::string& part, DescriptorOptions* optio
 DescriptorType calcDescriptorType() {
   DescriptorType type;
   type.name = "calc";
+  type.reads = {"model"};
   type.summary = "the package's CALC encoder's output alone, 1064 values";
   type.identity = modelIdentity;
   type.make = makeConvNet;
@@ -189,6 +190,9 @@ DescriptorType calcDescriptorType() {
 DescriptorType landmarksDescriptorType() {
   DescriptorType type;
   type.name = "landmarks";
+  type.reads = {"model",           "max_landmarks",     "landmark_grid",   "landmark_layer",
+                "shape_weighting", "landmark_features", "working_width",   "working_height",
+                "landmark_patch",  "max_landmark_area", "landmark_storage"};
   type.summary = "the encoder shortlists, landmark matching re-ranks (descriptor/* landmark keys)";
   type.identity = [](const DescriptorOptions& options) {
     std::ostringstream identity;

@@ -43,14 +43,14 @@ std::optional<InputError> checkImageMessage(const sensor_msgs::Image& image) {
     message << "image " << image.width << "x" << image.height << " " << image.encoding
             << " has step " << image.step << " and " << image.data.size()
             << " bytes of data, which cannot hold it";
-    return InputError{InputErrorCode::kEmptyImage, message.str()};
+    return InputError{InputErrorCode::kMalformedImage, message.str()};
   }
   // Rows of 16-bit samples must start on a sample: OpenCV cannot view them otherwise.
   if (image.step % CV_ELEM_SIZE1(*type) != 0) {
     std::ostringstream message;
     message << "image " << image.encoding << " has step " << image.step
             << ", not a multiple of its " << CV_ELEM_SIZE1(*type) << "-byte samples";
-    return InputError{InputErrorCode::kEmptyImage, message.str()};
+    return InputError{InputErrorCode::kMalformedImage, message.str()};
   }
   return std::nullopt;
 }

@@ -169,6 +169,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
            nameOf(poseSourceNames(), options_.pose_source).c_str(), image_topic_.c_str(),
            odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
   if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
+  if (!options_.ignored_warning.empty()) ROS_WARN("%s", options_.ignored_warning.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
     ROS_WARN(
         "mode is localization but the keyframe database is empty: nothing will be found "

@@ -83,6 +83,8 @@ class LoopClosureNode {
   void admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
                   const std::string& frame_id);
   void reportRejected(const InputError& error);
+  /// Records (and warns once per period and cause) whether camera_info suits an accepted frame.
+  void noteCalibration(const std::optional<CalibrationProblem>& problem);
 
   // DetectorRuntime callbacks, on its worker thread with the detector locked.
   static NodeKeyframe nodeKeyframe(const KeyframeJob& job);
@@ -146,6 +148,8 @@ class LoopClosureNode {
   InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.
   StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{30};  // Callbacks fill, worker reads.
   KindThrottle depth_warnings_{kWarningPeriod};  ///< The depth decoder's reasons, one silence each.
+  std::atomic<bool> depth_silence_reported_{false};    ///< Warned of a silent depth publisher.
+  KindThrottle camera_info_warnings_{kWarningPeriod};  ///< Under stats_mutex_; one per cause.
   std::string camera_mount_frame_;  // Worker thread only: the frame the tf mount was found for.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

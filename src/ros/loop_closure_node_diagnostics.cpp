@@ -55,6 +55,11 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::WARN,
                         "geometric check off: camera_info invalid (" + problem + ")");
   }
+  if (options_.use_depth && depth_silence_reported_) {
+    status.mergeSummary(
+        diagnostic_msgs::DiagnosticStatus::WARN,
+        "no depth image on " + depth_subscriber_.getTopic() + ": keyframes go on without depth");
+  }
   if (now - last_drop_wall_ < kDropWarningS) {
     status.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                          "the worker dropped keyframes in the last %.0f s", kDropWarningS);
@@ -87,6 +92,8 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("odometry jumps", odometry_jumps_.load());
   if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
   if (options_.use_depth) {
+    status.add("depth stream",
+               depth_silence_reported_ ? "silent: advertised, nothing published" : "ok");
     status.add("keyframes with depth", keyframes_with_depth_.load());
     status.add("keyframes without depth", keyframes_without_depth_.load());
   }

@@ -69,6 +69,9 @@ void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) 
 
 void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
   depth_buffer_.push(depth->header.stamp.toSec(), depth);
+  if (depth_silence_reported_.exchange(false)) {
+    ROS_INFO("Depth images arrive on %s again", depth_subscriber_.getTopic().c_str());
+  }
 }
 
 void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
@@ -84,18 +87,13 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   frame.height = static_cast<int>(image->height);
   frame.cv_type = *cvTypeOfEncoding(image->encoding);
   frame.clock = ros::Time::now().toSec();
+  std::optional<CalibrationProblem> calibration_problem;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     frame.intrinsics = camera_intrinsics_;
-    // Unusable calibration turns the geometric check off: said once per period, and in the
-    // diagnostics and every loop's log line, instead of silently.
     if (camera_info_seen_) {
-      camera_info_problem_ = frame.intrinsics.problemFor(cv::Size(frame.width, frame.height));
-      if (!camera_info_problem_.empty()) {
-        ROS_WARN_THROTTLE(kWarningPeriod, "camera_info not used, the geometric check is off: %s",
-                          camera_info_problem_.c_str());
-        frame.intrinsics = CameraIntrinsics();
-      }
+      calibration_problem = frame.intrinsics.checkFor(cv::Size(frame.width, frame.height));
+      if (calibration_problem) frame.intrinsics = CameraIntrinsics();
     }
   }
   frame.source = FrameSource{image, frame_id};
@@ -123,6 +121,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     return;
   }
   ++frames_admitted_;
+  noteCalibration(calibration_problem);
   const Selection& selection = admission.selection;
   if (selection.verdict == SelectionVerdict::kOdometryJump) {
     ++odometry_jumps_;
@@ -144,6 +143,19 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
                       "far); raise worker_queue_size or keyframe/min_motion",
                       static_cast<unsigned long>(runtime_->keyframesDropped()));
+  }
+}
+
+void LoopClosureNode::noteCalibration(const std::optional<CalibrationProblem>& problem) {
+  // Only frames the runtime accepted judge camera_info: a dropped 1x1 image says nothing about it.
+  // Unusable calibration turns the geometric check off: said once per period and cause, and in
+  // the diagnostics and every loop's log line, instead of silently.
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!camera_info_seen_) return;
+  camera_info_problem_ = problem ? problem->text : "";
+  if (problem && camera_info_warnings_.allow(problem->cause, ros::WallTime::now().toSec())) {
+    ROS_WARN("camera_info not used, the geometric check is off (%s): %s", problem->cause.c_str(),
+             problem->text.c_str());
   }
 }
 
@@ -180,6 +192,17 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
   wait.silence_s = kDepthSilence;
   const std::optional<sensor_msgs::ImageConstPtr> nearest =
       depth_buffer_.nearest(stamp.toSec(), wait, depth_subscriber_.getNumPublishers() > 0);
+  if (!nearest && depth_buffer_.silent()) {
+    // A publisher that never publishes: one bounded wait, then keyframes go on without depth at
+    // their normal speed until a depth image comes.
+    if (!depth_silence_reported_.exchange(true)) {
+      ROS_WARN(
+          "No depth image came on %s within %.1f s although %u publisher(s) advertise it: "
+          "keyframes go on without depth, not waiting for it again until one comes (use_depth)",
+          depth_subscriber_.getTopic().c_str(), kDepthWait, depth_subscriber_.getNumPublishers());
+    }
+    return {};
+  }
   if (!nearest) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "No depth image within sync_slop %.3f s of the keyframe at %.3f: its "

@@ -37,6 +37,9 @@ NodeOptions readConfig(const std::string& path) {
   if (!node.fallback_warning.empty()) {
     std::fprintf(stderr, "lcd_evaluate: %s\n", node.fallback_warning.c_str());
   }
+  if (!node.ignored_warning.empty()) {
+    std::fprintf(stderr, "lcd_evaluate: %s\n", node.ignored_warning.c_str());
+  }
   return node;
 }
 

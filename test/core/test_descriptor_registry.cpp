@@ -4,6 +4,7 @@
 #include <functional>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -41,8 +42,8 @@ TEST(DescriptorRegistry, TypesWithoutModelsDescribeThroughTheFactory) {
               extractor->globalDimension());
     // The condition window is part of what a map's vectors are; off, maps of before still load.
     EXPECT_EQ(descriptorIdentity(options),
-              std::string("type=") + name + " condition_window=" +
-                  std::to_string(DescriptorOptions{}.condition_window));
+              std::string("type=") + name +
+                  " condition_window=" + std::to_string(DescriptorOptions{}.condition_window));
     options.condition_window = 0;
     EXPECT_EQ(descriptorIdentity(options), std::string("type=") + name);
   }
@@ -72,6 +73,32 @@ TEST(DescriptorRegistry, TypeSpecificValidationComesFromTheEntry) {
   EXPECT_NE(errors.find("descriptor/backbone/colour"), std::string::npos) << errors;
   EXPECT_NE(errors.find("descriptor/backbone/grid_rows"), std::string::npos) << errors;
   EXPECT_EQ(errors.find("descriptor/cnn/"), std::string::npos) << errors;
+}
+
+TEST(DescriptorRegistry, KeysTheChosenTypeDoesNotReadAreNamedWhenSet) {
+  using Keys = std::vector<std::string>;
+  DescriptorOptions options;
+  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{}) << "defaults are never 'set'";
+  options.model = "/tmp/garbage.onnx";  // The package's encoder: the backbone never reads it.
+  options.backbone.layer = "block_13_expand";
+  options.max_landmark_area = 0.4;  // The backbone's landmark boxes use it.
+  options.condition_window = 5;
+  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"descriptor/model"});
+  options.type = "landmarks";
+  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"descriptor/backbone/layer"});
+  options.type = "hog";
+  EXPECT_EQ(
+      ignoredDescriptorParameters(options),
+      (Keys{"descriptor/model", "descriptor/max_landmark_area", "descriptor/backbone/layer"}));
+  DescriptorOptions cnn;
+  cnn.type = "cnn_pca";
+  cnn.cnn.model = "/tmp/resnet.onnx";
+  cnn.broad.model = "/tmp/broad.model";
+  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"descriptor/broad/model"});
+  cnn.type = "broad";
+  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"descriptor/cnn/model"});
+  cnn.type = "no_such_type";
+  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{}) << "validate() names an unknown type";
 }
 
 TEST(DescriptorRegistry, VariantNamesFindTheLongestTypeAndApplyEachPart) {

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <limits>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -179,33 +182,56 @@ TEST(GeometricVerification, OptionsAreValidated) {
   }
 }
 
-TEST(CameraIntrinsics, UnusableCalibrationIsNamedField) {
+TEST(CameraIntrinsics, EachUnusableCalibrationHasItsOwnCauseAndNamesTheField) {
   CameraIntrinsics good;
   good.fx = good.fy = 200.0;
   good.cx = 159.5;
   good.cy = 119.5;
   good.image_size = cv::Size(320, 240);
   EXPECT_EQ(good.problem(), "");
-  EXPECT_EQ(good.problemFor(cv::Size(640, 480)), "") << "the same camera at twice the size";
+  EXPECT_FALSE(good.checkFor(cv::Size(640, 480))) << "the same camera at twice the size";
 
-  const auto problem = [&good](const std::function<void(CameraIntrinsics*)>& spoil) {
-    CameraIntrinsics spoilt = good;
-    spoil(&spoilt);
-    EXPECT_FALSE(spoilt.valid());
-    return spoilt.problem();
+  struct Case {
+    std::function<void(CameraIntrinsics*)> spoil;
+    std::string cause;
+    std::string says;
   };
-  EXPECT_NE(
-      problem([](CameraIntrinsics* k) { k->fx = k->fy = k->cx = k->cy = 0.0; }).find("K all zeros"),
-      std::string::npos);
-  EXPECT_NE(problem([](CameraIntrinsics* k) { k->fx = -200.0; }).find("must be > 0"),
-            std::string::npos);
-  EXPECT_NE(problem([](CameraIntrinsics* k) { k->cy = std::nan(""); }).find("non-finite"),
-            std::string::npos);
-  EXPECT_NE(problem([](CameraIntrinsics* k) { k->image_size = cv::Size(0, 0); }).find("empty"),
-            std::string::npos);
-  EXPECT_NE(problem([](CameraIntrinsics* k) { k->fx = 1e300; }).find("over 100 image widths"),
-            std::string::npos);
-  EXPECT_NE(problem([](CameraIntrinsics* k) { k->cx = 900.0; }).find("principal point"),
-            std::string::npos);
-  EXPECT_NE(good.problemFor(cv::Size(640, 360)).find("aspect ratio"), std::string::npos);
+  const std::vector<Case> cases = {
+      {[](CameraIntrinsics* k) { k->fx = k->fy = k->cx = k->cy = 0.0; }, "no_calibration",
+       "K is all zeros"},
+      {[](CameraIntrinsics* k) { k->fx = -200.0; }, "focal_not_positive",
+       "fx -200, fy 200 must both be positive"},
+      {[](CameraIntrinsics* k) { k->cy = std::nan(""); }, "non_finite", "non-finite"},
+      {[](CameraIntrinsics* k) { k->fx = std::numeric_limits<double>::infinity(); }, "non_finite",
+       "non-finite"},
+      {[](CameraIntrinsics* k) { k->image_size = cv::Size(0, 0); }, "empty_size", "is empty"},
+      {[](CameraIntrinsics* k) { k->fx = k->fy = 1e-12; }, "focal_implausible",
+       "16 to 32000 px for 320 px"},
+      {[](CameraIntrinsics* k) { k->fx = k->fy = 15.9; }, "focal_implausible", "0.05 and 100"},
+      {[](CameraIntrinsics* k) { k->fx = k->fy = 1e300; }, "focal_implausible", "image widths"},
+      {[](CameraIntrinsics* k) { k->fy = 401.0; }, "pixel_aspect", "factor of 2"},
+      {[](CameraIntrinsics* k) { k->cx = 900.0; }, "principal_point", "principal point (900"},
+      {[](CameraIntrinsics* k) { k->cx = k->cy = 0.0; }, "principal_point", "middle 80 %"},
+      {[](CameraIntrinsics* k) { k->cy = 220.0; }, "principal_point", "320x240 image"},
+  };
+  for (const Case& c : cases) {
+    CameraIntrinsics spoilt = good;
+    c.spoil(&spoilt);
+    const std::optional<CalibrationProblem> found = spoilt.check();
+    ASSERT_TRUE(found) << c.cause;
+    EXPECT_FALSE(spoilt.valid());
+    EXPECT_EQ(found->cause, c.cause) << found->text;
+    EXPECT_NE(found->text.find(c.says), std::string::npos) << found->text;
+    EXPECT_EQ(spoilt.problem(), found->text);
+  }
+  CameraIntrinsics edge = good;  // The rule's limits themselves are usable.
+  edge.fx = 16.0;
+  edge.fy = 32.0;
+  edge.cx = 32.0;
+  edge.cy = 216.0;
+  EXPECT_TRUE(edge.valid()) << edge.problem();
+  const std::optional<CalibrationProblem> other = good.checkFor(cv::Size(640, 360));
+  ASSERT_TRUE(other);
+  EXPECT_EQ(other->cause, "aspect_ratio");
+  EXPECT_NE(other->text.find("aspect ratio"), std::string::npos);
 }

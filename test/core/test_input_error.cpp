@@ -77,7 +77,7 @@ TEST(CheckTexture, AcceptsTexturedImagesAndCanBeTurnedOff) {
 }
 
 TEST(InputErrorCode, EveryCodeHasAName) {
-  for (int code = 0; code <= static_cast<int>(InputErrorCode::kNoTexture); ++code) {
+  for (int code = 0; code <= static_cast<int>(InputErrorCode::kMalformedImage); ++code) {
     EXPECT_STRNE(toString(static_cast<InputErrorCode>(code)), "unknown");
   }
 }

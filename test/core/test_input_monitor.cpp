@@ -121,6 +121,29 @@ TEST(StampedBuffer, WaitsForAMatchThatIsStillComing) {
   producer.join();
 }
 
+TEST(StampedBuffer, APublisherThatNeverPublishesCostsOneWaitUntilItemsCome) {
+  StampedBuffer<int> buffer(10);
+  StampedWait wait;
+  wait.slop_s = 0.02;
+  wait.max_wait_s = 0.1;
+  EXPECT_FALSE(buffer.silent());
+  EXPECT_EQ(buffer.nearest(1.0, wait, true), std::nullopt) << "one bounded wait";
+  EXPECT_TRUE(buffer.silent());
+  wait.max_wait_s = 5.0;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(buffer.nearest(1.1, wait, true), std::nullopt);
+  EXPECT_EQ(buffer.nearest(1.2, wait, true), std::nullopt);
+  EXPECT_LT(secondsSince(start), 1.0) << "a silent stream is not waited for again";
+  buffer.push(1.25, 4);
+  EXPECT_FALSE(buffer.silent()) << "an item ends the silence";
+  std::thread producer([&buffer] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    buffer.push(1.3, 5);
+  });
+  EXPECT_EQ(buffer.nearest(1.3, wait, true), 5) << "once items come, a match is waited for again";
+  producer.join();
+}
+
 TEST(StampedBuffer, KeepsOnlyTheNewestItems) {
   StampedBuffer<int> buffer(3);
   for (int i = 0; i < 10; ++i) buffer.push(i, i);

@@ -42,6 +42,7 @@ TEST(ShippedConfig, EveryFileLoadsAndValidates) {
     readNodeOptions(&reader, &options);
     EXPECT_EQ(reader.errors(), "");
     EXPECT_EQ(options.validate(), "");
+    EXPECT_EQ(options.ignored_warning, "") << "a shipped file sets a key its descriptor ignores";
     for (const std::string& key : source.keys()) {
       EXPECT_TRUE(reader.isKnown(key)) << "unknown key " << key;
     }
@@ -200,6 +201,23 @@ TEST(ParameterTable, EveryIntegerHasAnUpperBoundThatIsEnforcedAndDocumented) {
       << errors;
   EXPECT_NE(errors.find("database/top_k must be in [1, 1000] (got 100000)"), std::string::npos)
       << errors;
+}
+
+TEST(NodeOptions, KeysTheDescriptorDoesNotReadAreWarnedAboutInOneLine) {
+  const YamlParameterSource source(
+      YAML::Load("descriptor: {type: hog, model: /tmp/garbage.onnx, condition_window: 5, "
+                 "cnn: {layer: conv2}}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  EXPECT_EQ(options.ignored_warning.rfind(
+                "descriptor/type hog does not read descriptor/model, descriptor/cnn/layer: they "
+                "are set but change nothing (hog: ",
+                0),
+            0u)
+      << options.ignored_warning;
+  EXPECT_EQ(options.ignored_warning.find("condition_window"), std::string::npos);
 }
 
 TEST(NodeOptions, PathsExpandHomeAndVariablesAsAShellWould) {

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -45,6 +46,7 @@ class NodeHarness {
     loop_subscriber_ = node_.subscribe("/loop_closures", 1000, &NodeHarness::onLoop, this);
     diagnostics_subscriber_ =
         node_.subscribe("/diagnostics", 10, &NodeHarness::onDiagnostics, this);
+    log_subscriber_ = node_.subscribe("/rosout", 1000, &NodeHarness::onLog, this);
   }
 
   /// Waits until the node listens to images and to its pose source (odometry or tf); false after
@@ -78,8 +80,21 @@ class NodeHarness {
     return false;
   }
 
-  /// From now on camera_info carries K all zeros, as an uncalibrated driver sends it.
-  void breakCameraInfo() { broken_camera_info_ = true; }
+  /// The generated camera's K, as a calibrated driver sends it.
+  static sensor_msgs::CameraInfo::_K_type calibratedK() {
+    const sim::CameraModel camera;
+    return {camera.focal_px,
+            0.0,
+            (camera.width - 1) / 2.0,
+            0.0,
+            camera.focal_px,
+            (camera.height - 1) / 2.0,
+            0.0,
+            0.0,
+            1.0};
+  }
+  /// From now on camera_info carries `k` (K all zeros: an uncalibrated driver).
+  void setCameraMatrix(const sensor_msgs::CameraInfo::_K_type& k) { camera_matrix_ = k; }
 
   /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
   /// the same stamp, or the odometry `odometry_offset` seconds later; `corrupt_pose` puts NaN in x.
@@ -111,16 +126,12 @@ class NodeHarness {
     tf.transforms.push_back(transform);
     if (!corrupt_pose) tf_publisher_.publish(tf);  // tf itself refuses NaN transforms.
     image_publisher_.publish(message);
-    // The generated camera's intrinsics, as a calibrated driver would send them.
     const sim::CameraModel camera;
     sensor_msgs::CameraInfo info;
     info.header = header;
     info.width = static_cast<uint32_t>(camera.width);
     info.height = static_cast<uint32_t>(camera.height);
-    const double focal = broken_camera_info_ ? 0.0 : camera.focal_px;  // K all zeros: uncalibrated.
-    info.K = {focal, 0.0,   broken_camera_info_ ? 0.0 : (camera.width - 1) / 2.0,
-              0.0,   focal, broken_camera_info_ ? 0.0 : (camera.height - 1) / 2.0,
-              0.0,   0.0,   1.0};
+    info.K = camera_matrix_;
     camera_info_publisher_.publish(info);
   }
 
@@ -176,6 +187,21 @@ class NodeHarness {
     const auto it = diagnostics_.find(key);
     return it == diagnostics_.end() ? std::string() : it->second;
   }
+  /// How many of the node's log lines (on /rosout) contained `text`.
+  size_t loggedCount(const std::string& text) const {
+    size_t count = 0;
+    for (const std::string& line : log_lines_) count += line.find(text) != std::string::npos;
+    return count;
+  }
+  /// Spins until the node logged a line containing `text`; false after `timeout` seconds.
+  bool waitForLog(const std::string& text, double timeout = 5.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    while (ros::ok() && loggedCount(text) == 0 && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.02).sleep();
+    }
+    return loggedCount(text) > 0;
+  }
   /// Whether a diagnostics summary of the node ever contained `text`.
   bool summarySaid(const std::string& text) const {
     for (const std::string& summary : summaries_) {
@@ -210,6 +236,9 @@ class NodeHarness {
     last_output_ = ros::WallTime::now();
   }
   void onLoop(const LoopClosureConstPtr& loop) { loops_.push_back(*loop); }
+  void onLog(const rosgraph_msgs::LogConstPtr& log) {
+    if (log->name.find("loop_closure") != std::string::npos) log_lines_.push_back(log->msg);
+  }
   void onDiagnostics(const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
     for (const auto& status : array->status) {
       if (status.name.find("loop closure") == std::string::npos) continue;
@@ -223,12 +252,14 @@ class NodeHarness {
   ros::Publisher odom_publisher_;
   ros::Publisher tf_publisher_;
   ros::Publisher camera_info_publisher_;
-  bool broken_camera_info_ = false;
+  sensor_msgs::CameraInfo::_K_type camera_matrix_ = calibratedK();
   ros::Publisher depth_publisher_;
   ros::Publisher static_tf_publisher_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber diagnostics_subscriber_;
+  ros::Subscriber log_subscriber_;
+  std::vector<std::string> log_lines_;
   std::map<uint64_t, ros::Time> keyframes_;
   std::map<uint64_t, uint32_t> keyframe_sessions_;
   std::vector<LoopClosure> loops_;

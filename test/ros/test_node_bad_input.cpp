@@ -1,7 +1,10 @@
 // The running node, fed a one-way route with bad frames mixed in (unsupported encoding, NaN pose,
 // a stamp 10 s back, the clock set back for good, black frames), publishes no loop, drops every
 // bad frame without output, keeps working after them and counts them in its diagnostics.
+#include <limits>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "node_harness.h"
 
@@ -76,21 +79,69 @@ TEST(LoopClosureNode, OneWayRouteWithBadInputPublishesNoLoopAndSurvives) {
   EXPECT_NE(harness.diagnostic("rejected: no_texture"), "");
   EXPECT_EQ(harness.diagnostic("camera_info"), "usable");
 
-  // An uncalibrated camera (K all zeros): the geometric check goes off, and says so.
-  harness.breakCameraInfo();
-  for (int i = 1; i <= 20; ++i) {
-    harness.publish(frame.stamp + 0.1 * i, frame.odom, frame.image);
-    ros::spinOnce();
-    rate.sleep();
+  // Bad calibrations one after another, within one warning period: each cause is said in its own
+  // WARN (one throttle per cause), named rightly, and turns the geometric check off.
+  const auto feed = [&](int count) {
+    for (int i = 1; i <= count; ++i) {
+      frame.stamp += 0.1;
+      harness.publish(frame.stamp, frame.odom, frame.image);
+      ros::spinOnce();
+      rate.sleep();
+    }
+  };
+  const auto waitForCameraInfo = [&](const std::string& prefix) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(5.0);
+    while (harness.diagnostic("camera_info").rfind(prefix, 0) != 0 && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+    return harness.diagnostic("camera_info");
+  };
+  const sensor_msgs::CameraInfo::_K_type good = test_support::NodeHarness::calibratedK();
+  struct BadCalibration {
+    sensor_msgs::CameraInfo::_K_type k;
+    std::string cause;
+    std::string diagnostic;
+  };
+  sensor_msgs::CameraInfo::_K_type zeros{};
+  sensor_msgs::CameraInfo::_K_type nan_k = good;
+  nan_k[5] = std::numeric_limits<double>::quiet_NaN();
+  sensor_msgs::CameraInfo::_K_type negative = good;
+  negative[0] = -good[0];
+  sensor_msgs::CameraInfo::_K_type tiny = good;
+  tiny[0] = tiny[4] = 1e-12;
+  const std::vector<BadCalibration> bad_calibrations = {
+      {zeros, "(no_calibration): K is all zeros", "invalid: K is all zeros"},
+      {nan_k, "(non_finite): K holds a non-finite value", "invalid: K holds a non-finite"},
+      {negative, "(focal_not_positive): focal lengths fx -", "invalid: focal lengths fx -"},
+      {tiny, "(focal_implausible): focal lengths fx 1e-12", "invalid: focal lengths fx 1e-12"},
+  };
+  for (const BadCalibration& bad : bad_calibrations) {
+    harness.setCameraMatrix(bad.k);
+    feed(10);
+    EXPECT_TRUE(harness.waitForLog("camera_info not used, the geometric check is off " + bad.cause))
+        << bad.cause;
+    EXPECT_EQ(waitForCameraInfo(bad.diagnostic).rfind(bad.diagnostic, 0), 0u)
+        << harness.diagnostic("camera_info");
   }
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(5.0);
-  while (harness.diagnostic("camera_info").rfind("invalid", 0) != 0 && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    ros::WallDuration(0.05).sleep();
-  }
-  EXPECT_EQ(harness.diagnostic("camera_info").rfind("invalid: focal lengths fx 0", 0), 0u)
-      << harness.diagnostic("camera_info");
+  EXPECT_EQ(harness.loggedCount("(no_calibration)"), 1u) << "one WARN per cause and period";
   EXPECT_TRUE(harness.summarySaid("geometric check off: camera_info invalid"));
+
+  // A good calibration again, then dropped images of other shapes: only accepted images judge it.
+  harness.setCameraMatrix(good);
+  feed(10);
+  EXPECT_EQ(waitForCameraInfo("usable"), "usable");
+  frame.stamp += 0.1;
+  harness.publish(frame.stamp, frame.odom, cv::Mat(1, 1, CV_8UC1, cv::Scalar(128)));
+  frame.stamp += 0.1;
+  cv::Mat tall(10000, 10, CV_8UC1);
+  cv::randu(tall, 0, 255);
+  harness.publish(frame.stamp, frame.odom, tall);
+  EXPECT_TRUE(harness.waitForLog("image 1x1 is smaller than the minimum side"));
+  ros::WallDuration(2.5).sleep();  // More than one diagnostics period.
+  ros::spinOnce();
+  EXPECT_EQ(harness.diagnostic("camera_info"), "usable") << "a dropped image changed it";
+  EXPECT_EQ(harness.loggedCount("(aspect_ratio)"), 0u);
 }
 
 int main(int argc, char** argv) {

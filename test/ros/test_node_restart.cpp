@@ -382,6 +382,32 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
   std::filesystem::remove(log);
 }
 
+TEST(LoopClosureNode, AModelFileTheDescriptorDoesNotReadIsWarnedAboutOnce) {
+  // descriptor/model is the package encoder's file; the default backbone reads its own
+  // (descriptor/backbone/model), so a garbage file there changes nothing and must be said.
+  const std::filesystem::path folder = std::filesystem::temp_directory_path();
+  const std::string garbage = (folder / "lcd_ignored_model.onnx").string();
+  {
+    std::ofstream file(garbage, std::ios::binary);
+    file << "not an ONNX protobuf";
+  }
+  const std::string log = (folder / "lcd_ignored_model_node.log").string();
+  ros::param::set("/loop_closure/database_path", std::string());
+  ros::param::set("/loop_closure/descriptor/model", garbage);
+  test_support::NodeHarness harness;
+  const pid_t node = startNode(log);
+  ASSERT_GT(node, 0);
+  EXPECT_TRUE(harness.waitForNode()) << readFile(log);
+  EXPECT_TRUE(stopNode(node));
+  const std::string output = readFile(log);
+  const std::string warning = "descriptor/type backbone does not read descriptor/model: it is set";
+  EXPECT_NE(output.find(warning), std::string::npos) << output;
+  EXPECT_EQ(output.find(warning), output.rfind(warning)) << "once:\n" << output;
+  ros::param::del("/loop_closure/descriptor/model");
+  std::filesystem::remove(garbage);
+  std::filesystem::remove(log);
+}
+
 TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   const std::string path = (std::filesystem::temp_directory_path() / "lcd_node_killed.db").string();
   std::filesystem::remove(path);

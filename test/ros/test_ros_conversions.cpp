@@ -96,14 +96,22 @@ TEST(RosConversions, UnsupportedEncodingIsNamed) {
   EXPECT_NE(error->message.find("32FC1"), std::string::npos);
 }
 
-TEST(RosConversions, TruncatedOrEmptyBuffersAreRefused) {
+TEST(RosConversions, TruncatedBuffersAreMalformedAndEmptyImagesEmpty) {
   sensor_msgs::Image image = makeImage(sensor_msgs::image_encodings::MONO8, 64, 48, 1);
   image.data.resize(100);
-  EXPECT_TRUE(checkImageMessage(image));
+  std::optional<InputError> error = checkImageMessage(image);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kMalformedImage) << "truncated data is not 'empty'";
+  EXPECT_NE(error->message.find("100 bytes"), std::string::npos) << error->message;
   image = makeImage(sensor_msgs::image_encodings::BGR8, 64, 48, 3);
   image.step = 64;  // Too short for 3 bytes per pixel.
-  EXPECT_TRUE(checkImageMessage(image));
-  EXPECT_TRUE(checkImageMessage(makeImage(sensor_msgs::image_encodings::MONO8, 0, 0, 1)));
+  error = checkImageMessage(image);
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kMalformedImage) << "a step mismatch is not 'empty'";
+  EXPECT_NE(error->message.find("step 64"), std::string::npos) << error->message;
+  error = checkImageMessage(makeImage(sensor_msgs::image_encodings::MONO8, 0, 0, 1));
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kEmptyImage);
 }
 
 TEST(RosConversions, AnImageWithStampZeroIsRefused) {
@@ -210,6 +218,7 @@ TEST(RosConversions, UnusableDepthImagesSayWhy) {
   const auto refused = checkImageMessage(odd_step);
   ASSERT_TRUE(refused);
   EXPECT_NE(refused->message.find("2-byte samples"), std::string::npos) << refused->message;
+  EXPECT_EQ(refused->code, InputErrorCode::kMalformedImage);
 }
 
 TEST(RosConversions, AnUntrustedPoseIsVerifiedButNotPublished) {

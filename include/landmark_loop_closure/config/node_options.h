@@ -70,6 +70,9 @@ struct NodeOptions {
   /// Set when the options had to change to run at all (the pretrained backbone was never
   /// fetched): one line for the node to warn with. Empty otherwise.
   std::string fallback_warning;
+  /// Set when keys under descriptor/ were given values the descriptor in use does not read
+  /// (descriptor/model under type backbone): one line naming them. Empty otherwise.
+  std::string ignored_warning;
 
   /// Every key the nodelet reads, each declared once with its range and description.
   static const ParameterTable<NodeOptions>& parameters();

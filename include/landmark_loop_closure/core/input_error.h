@@ -25,6 +25,7 @@ enum class InputErrorCode {
   kNonFinitePose,
   kNonUnitQuaternion,
   kNoTexture,  ///< Nearly uniform image (lens cap, darkness, overexposure): all such look alike.
+  kMalformedImage,  ///< Row step or data length that cannot hold the stated size and encoding.
 };
 
 const char* toString(InputErrorCode code);

@@ -15,6 +15,9 @@ namespace landmark_loop_closure {
 struct DescriptorType {
   std::string name;     ///< The value of descriptor/type.
   std::string summary;  ///< One line: what it is and how long its global vector is.
+  /// Keys under descriptor/ this type reads besides type and condition_window; one ending in '/'
+  /// is a whole group ("backbone/"). Any other key set away from its default is ignored by it.
+  std::vector<std::string> reads;
   /// Problems with the options this type reads, one line each ending in '\n'; "" = usable.
   std::function<std::string(const DescriptorOptions&)> validate = [](const DescriptorOptions&) {
     return std::string();
@@ -37,6 +40,10 @@ const std::vector<DescriptorType>& descriptorRegistry();
 
 /// The type called `name`; nullptr when there is none.
 const DescriptorType* findDescriptorType(const std::string& name);
+
+/// Keys ("descriptor/model") set away from their defaults that `options.type` does not read: a
+/// user who set them expects an effect they do not have. Empty for an unknown type.
+std::vector<std::string> ignoredDescriptorParameters(const DescriptorOptions& options);
 
 /// The registered type whose name starts `variant` ("hog_whole_x" -> hog_whole, not hog);
 /// nullptr when none does.

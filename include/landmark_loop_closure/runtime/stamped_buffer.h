@@ -34,6 +34,8 @@ class StampedBuffer {
       std::lock_guard<std::mutex> lock(mutex_);
       items_.emplace_back(stamp, std::move(item));
       if (items_.size() > capacity_) items_.pop_front();
+      ++pushes_;
+      silent_ = false;
     }
     arrived_.notify_all();
   }
@@ -41,11 +43,13 @@ class StampedBuffer {
   /// The item nearest `stamp` within wait.slop_s. Waits up to wait.max_wait_s while none matches
   /// yet, no item newer than stamp + slop has come (the matching one would have come first), and
   /// the stream is alive: its newest item within wait.silence_s of the stamp or, when nothing
-  /// came yet, `producers_present`.
+  /// came yet, `producers_present`. A wait that runs out with nothing at all arriving marks the
+  /// stream silent (a publisher that never publishes): no later call waits until an item comes.
   std::optional<T> nearest(double stamp, const StampedWait& wait, bool producers_present) {
     const auto give_up = std::chrono::steady_clock::now() +
                          std::chrono::duration<double>(std::max(0.0, wait.max_wait_s));
     std::unique_lock<std::mutex> lock(mutex_);
+    const uint64_t pushes_before = pushes_;
     bool timed_out = false;
     while (true) {
       const T* best = nullptr;
@@ -61,11 +65,19 @@ class StampedBuffer {
       }
       if (best != nullptr) return *best;
       const bool alive =
-          items_.empty() ? producers_present : items_.back().first + wait.silence_s > stamp;
+          !silent_ &&
+          (items_.empty() ? producers_present : items_.back().first + wait.silence_s > stamp);
+      if (timed_out && pushes_ == pushes_before) silent_ = true;
       if (timed_out || later_arrived || !alive) return std::nullopt;
       // After a timeout the loop looks once more: an item may have come with it.
       timed_out = arrived_.wait_until(lock, give_up) == std::cv_status::timeout;
     }
+  }
+
+  /// Whether a wait ran out with nothing arriving and no item came since.
+  bool silent() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return silent_;
   }
 
   size_t size() const {
@@ -78,6 +90,8 @@ class StampedBuffer {
   mutable std::mutex mutex_;
   std::condition_variable arrived_;
   std::deque<std::pair<double, T>> items_;
+  uint64_t pushes_ = 0;
+  bool silent_ = false;
 };
 
 }  // namespace landmark_loop_closure
