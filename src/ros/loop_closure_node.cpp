@@ -4,6 +4,7 @@
 #include "loop_closure_node.h"
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
@@ -28,6 +29,24 @@ constexpr double kDiagnosticsPeriod = 1.0;
 double LoopClosureNode::wallNow() { return ros::WallTime::now().toSec(); }
 
 namespace {
+
+// The node's last lines: ROS shut its console down before a node stopped by SIGINT is destroyed,
+// so they are written to the terminal directly, in the console's format, when ROS is gone.
+void logAtStop(ros::console::levels::Level level, const std::string& text) {
+  const bool warn = level >= ros::console::levels::Warn;
+  if (ros::ok()) {
+    if (warn) {
+      ROS_WARN("%s", text.c_str());
+    } else {
+      ROS_INFO("%s", text.c_str());
+    }
+    return;
+  }
+  std::FILE* out = warn ? stderr : stdout;
+  std::fprintf(out, "[%s] [%.9f]: %s\n", warn ? " WARN" : " INFO", ros::WallTime::now().toSec(),
+               text.c_str());
+  std::fflush(out);
+}
 
 InputMonitorOptions inputMonitorOptions(const NodeOptions& options) {
   InputMonitorOptions monitor;
@@ -179,17 +198,33 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
 LoopClosureNode::~LoopClosureNode() {
   if (service_spinner_) service_spinner_->stop();
+  const size_t unprocessed = runtime_->queued();
   runtime_->stop();
-  runtime_->withDetector([](LoopDetector& detector) {
+  // Between ROS shutting down and this point the worker may have stored keyframes it could no
+  // longer publish: the last line says so, so the map's count and the topic's can be reconciled.
+  std::string shutdown_note;
+  if (const uint64_t unpublished = keyframes_unpublished_at_shutdown_.load(); unpublished > 0) {
+    shutdown_note += "; " + std::to_string(unpublished) +
+                     " of them stored after ROS shut down, not published on keyframes";
+  }
+  if (unprocessed > 0) {
+    shutdown_note += "; " + std::to_string(unprocessed) + " queued keyframes not processed";
+  }
+  runtime_->withDetector([&shutdown_note](LoopDetector& detector) {
     if (detector.mapPath().empty()) return false;
     const ros::WallTime start = ros::WallTime::now();
     const std::string error = detector.saveMapGraph();
     const double seconds = (ros::WallTime::now() - start).toSec();
-    if (!error.empty()) ROS_WARN("%s", error.c_str());
-    ROS_INFO("Map %s: %zu keyframes, each committed when it was stored%s%.2f s",
-             detector.mapPath().c_str(), detector.database().size(),
-             error.empty() ? "; search graph and rows saved in " : "; search files not saved, ",
-             seconds);
+    if (!error.empty()) logAtStop(ros::console::levels::Warn, error);
+    char line[512];
+    std::snprintf(line, sizeof(line), "Map %s: %zu keyframes, each committed when it was stored",
+                  detector.mapPath().c_str(), detector.database().size());
+    char timing[96];
+    std::snprintf(
+        timing, sizeof(timing), "%s%.2f s",
+        error.empty() ? "; search graph and rows saved in " : "; search files not saved, ",
+        seconds);
+    logAtStop(ros::console::levels::Info, line + shutdown_note + timing);
     return false;
   });
 }

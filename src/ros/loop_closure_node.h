@@ -124,6 +124,9 @@ class LoopClosureNode {
   // blocks the image callbacks.
   void advertiseServices();
   bool onSaveDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
+  /// Says (log and service `message`) how many keyframes queued before a load or reset the
+  /// worker drops.
+  void noteDroppedAtMapSwitch(size_t dropped, const char* service, std::string* message);
   bool onLoadDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
   /// Saves to `path` (or database_path); returns "" or why. Caller holds the detector (inside
@@ -185,6 +188,8 @@ class LoopClosureNode {
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};
+  /// Keyframes stored after ROS shut down, so never published (said in the last log line).
+  std::atomic<uint64_t> keyframes_unpublished_at_shutdown_{0};
   std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<bool> camera_info_seen_{false};
   std::string camera_info_problem_;   ///< Under stats_mutex_: why camera_info is unusable, or "".

@@ -58,9 +58,20 @@ bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
   return true;
 }
 
+void LoopClosureNode::noteDroppedAtMapSwitch(size_t dropped, const char* service,
+                                             std::string* message) {
+  if (dropped == 0) return;
+  const std::string note = std::to_string(dropped) + " keyframe" + (dropped == 1 ? "" : "s") +
+                           " queued before the " + service +
+                           " dropped: taken against the previous map, they are not stored or "
+                           "published";
+  *message += "; " + note;
+  ROS_WARN("%s", note.c_str());
+}
+
 bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
-  runtime_->withDetector([&](LoopDetector& detector) {
+  const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
     const auto load_start = std::chrono::steady_clock::now();
     const std::string requested = expandPath(request.path);
     const std::string path = requested.empty() ? detector.mapPath() : requested;
@@ -88,11 +99,12 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     database_status_ = path;
     return true;  // The keyframes held for online training belonged to the replaced map.
   });
+  noteDroppedAtMapSwitch(dropped, "load", &response.message);
   return true;
 }
 
 bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
-  runtime_->withDetector([&](LoopDetector& detector) {
+  const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
     const size_t forgotten = detector.database().size();
     const std::string note = detector.reset();
     runtime_->restartTimeline();  // New frames are not bounded by the old timeline's stamps.
@@ -106,6 +118,7 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
     ROS_INFO("Reset: %s", response.message.c_str());
     return true;
   });
+  noteDroppedAtMapSwitch(dropped, "reset", &response.message);
   return true;
 }
 

@@ -102,6 +102,8 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
 
 void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
+  // Stored, but ROS is gone: nobody can receive it. Counted, and said at shutdown.
+  if (!ros::ok()) ++keyframes_unpublished_at_shutdown_;
   keyframe_publisher_.publish(
       toKeyframeMsg(job.id, detector_.session(), job.stamp, job.pose, job.frame_id));
   if (result.loop) {

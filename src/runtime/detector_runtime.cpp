@@ -35,6 +35,9 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
     result.admission.error = InputError{InputErrorCode::kStampInFuture, message.str()};
     return result;
   }
+  // Read before the detector admits the frame: a map replaced meanwhile drops this keyframe
+  // rather than storing one admitted against the previous map.
+  const uint64_t map_epoch = map_epoch_.load();
   if (restart_timeline_.exchange(false)) {
     detector_->restartAdmission();
     not_increasing_in_a_row_ = 0;
@@ -78,21 +81,28 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
   job.intrinsics = frame.intrinsics;
   job.source = std::move(frame.source);
   job.generation = generation_.load();
+  job.map_epoch = map_epoch;
   result.queued = true;
   result.dropped_oldest = queue_.push(std::move(job));
   if (result.dropped_oldest) ++dropped_;
   return result;
 }
 
-void DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& action) {
+size_t DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& action) {
   const std::lock_guard<std::mutex> lock(detector_mutex_);
-  if (action(*detector_)) held_.clear();
+  if (!action(*detector_)) return 0;
+  held_.clear();
+  ++map_epoch_;
+  return queue_.size();
 }
 
 bool DetectorRuntime::tryWithDetector(const std::function<bool(LoopDetector&)>& action) {
   const std::unique_lock<std::mutex> lock(detector_mutex_, std::try_to_lock);
   if (!lock.owns_lock()) return false;
-  if (action(*detector_)) held_.clear();
+  if (action(*detector_)) {
+    held_.clear();
+    ++map_epoch_;
+  }
   return true;
 }
 
@@ -105,6 +115,10 @@ void DetectorRuntime::process(KeyframeJob& job) {
   const std::lock_guard<std::mutex> lock(detector_mutex_);
   if (job.generation < generation_.load()) {  // From before time jumped back.
     ++stale_;
+    return;
+  }
+  if (job.map_epoch < map_epoch_.load()) {  // Queued before a load or reset replaced the map.
+    ++dropped_at_map_switch_;
     return;
   }
   if (job.generation > worker_generation_) {

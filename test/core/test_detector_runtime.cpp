@@ -284,6 +284,34 @@ TEST(DetectorRuntime, RestartingTheTimelineLetsEarlierStampsInAfterAReset) {
   EXPECT_EQ(detector->database().size(), 2u);
 }
 
+TEST(DetectorRuntime, KeyframesQueuedBeforeAMapIsReplacedAreDroppedAndCounted) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  RuntimeOptions options;
+  options.queue_size = 10;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  for (int i = 0; i < 4; ++i) runtime.admit(frame(i, i * 10, 100.0 + i));
+  ASSERT_TRUE(recorder.waitDone(4));
+  // While a service holds the detector, the camera goes on: three keyframes are queued against
+  // the map the service then replaces (~reset or ~load_database).
+  const size_t dropped = runtime.withDetector([&](LoopDetector& held) {
+    for (int i = 4; i < 7; ++i) EXPECT_TRUE(runtime.admit(frame(i, i * 10, 100.0 + i)).queued);
+    held.reset();
+    return true;
+  });
+  EXPECT_GE(dropped, 2u) << "the worker may hold one of them, waiting for the detector";
+  EXPECT_LE(dropped, 3u);
+  runtime.restartTimeline();
+  EXPECT_TRUE(runtime.admit(frame(0, 70, 10.0)).queued);
+  EXPECT_TRUE(runtime.admit(frame(1, 80, 11.0)).queued);
+  ASSERT_TRUE(recorder.waitDone(6));
+  EXPECT_EQ(runtime.keyframesDroppedAtMapSwitch(), 3u);
+  EXPECT_EQ(detector->database().size(), 2u) << "only keyframes taken after the reset";
+  EXPECT_TRUE(recorder.rejected().empty()) << "dropped as queued before the switch, not refused";
+  // A service that leaves the map as it was (a save) drops nothing.
+  EXPECT_EQ(runtime.withDetector([](LoopDetector&) { return false; }), 0u);
+}
+
 TEST(DetectorRuntime, TimeJumpingBackWithResetStartsANewTimelineAndDropsStaleKeyframes) {
   const std::unique_ptr<LoopDetector> detector = smallDetector();
   Recorder recorder;

@@ -18,6 +18,7 @@
 #include <functional>
 #include <iterator>
 #include <map>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -455,6 +456,46 @@ TEST(LoopClosureNode, AKilledNodeKeepsEveryKeyframeItCommitted) {
   ros::param::set("/loop_closure/database_path", std::string());
   std::filesystem::remove(path);
   removeMapFiles(save.request.path);
+}
+
+TEST(LoopClosureNode, AStopUnderLoadAccountsForEveryStoredKeyframe) {
+  const std::filesystem::path folder = std::filesystem::temp_directory_path();
+  const std::string path = (folder / "lcd_node_stopped.db").string();
+  const std::string log = (folder / "lcd_node_stopped.log").string();
+  removeMapFiles(path);
+  ros::param::set("/loop_closure/database_path", path);
+  test_support::NodeHarness harness;
+  const pid_t node = startNode(log);
+  ASSERT_GT(node, 0);
+  ASSERT_TRUE(harness.waitForNode()) << "the node did not subscribe";
+  // SIGINT, as roslaunch stops a node, while frames still arrive and keyframes are queued.
+  publishCorridor(&harness, 300, [node](const SequenceFrame& frame) {
+    if (frame.index == 250) kill(node, SIGINT);
+  });
+  EXPECT_NE(exitStatus(node), -1) << "the node did not stop";
+  spinFor(1.0);
+  const std::string output = readFile(log);
+  // "Map PATH: N keyframes, each committed when it was stored[; K of them stored after ROS shut
+  // down, not published on keyframes]..."
+  std::smatch found;
+  ASSERT_TRUE(std::regex_search(output, found, std::regex("Map [^ ]+: ([0-9]+) keyframes, each")))
+      << output;
+  const size_t stored = std::stoul(found[1]);
+  size_t unpublished = 0;
+  if (std::regex_search(
+          output, found,
+          std::regex("; ([0-9]+) of them stored after ROS shut down, not published"))) {
+    unpublished = std::stoul(found[1]);
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(path)->size(), stored);
+  EXPECT_EQ(harness.keyframes().size() + unpublished, stored)
+      << "every keyframe in the map was published, or the last line says it was not:\n"
+      << output;
+  std::printf("stopped with %zu keyframes in the map, %zu published, %zu said unpublished\n",
+              stored, harness.keyframes().size(), unpublished);
+  ros::param::set("/loop_closure/database_path", std::string());
+  removeMapFiles(path);
+  std::filesystem::remove(log);
 }
 
 TEST(LoopClosureNode, AFullDiskKeepsTheNodeRunningAndTheMapWhole) {

@@ -52,6 +52,7 @@ struct KeyframeJob {
   CameraIntrinsics intrinsics;
   std::any source;
   uint64_t generation = 0;  ///< The timeline it was admitted in.
+  uint64_t map_epoch = 0;   ///< The map it was admitted against (a load or reset starts another).
 };
 
 /// A frame as the caller receives it.
@@ -131,8 +132,10 @@ class DetectorRuntime {
   RuntimeAdmission admit(FrameInput frame);
 
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
-  /// true when it replaced or forgot the map: the keyframes online training held are dropped.
-  void withDetector(const std::function<bool(LoopDetector&)>& action);
+  /// true when it replaced or forgot the map: the keyframes online training held are dropped, and
+  /// so are the keyframes queued before it (their ids and stamps were given against the previous
+  /// map); returns how many were queued then.
+  size_t withDetector(const std::function<bool(LoopDetector&)>& action);
   /// The same when the detector is free now; false (nothing run) while a keyframe or service
   /// holds it, so a timer never waits on the worker.
   bool tryWithDetector(const std::function<bool(LoopDetector&)>& action);
@@ -144,6 +147,8 @@ class DetectorRuntime {
   /// Time jumps found by time_jump_frames (each started a new timeline).
   uint64_t timeJumps() const { return time_jumps_; }
   uint64_t staleKeyframesDropped() const { return stale_; }
+  /// Keyframes queued before a load or reset replaced the map, dropped by the worker.
+  uint64_t keyframesDroppedAtMapSwitch() const { return dropped_at_map_switch_; }
   size_t queued() const { return queue_.size(); }
   /// Worker time of the last keyframe and the longest so far, in milliseconds.
   double lastProcessingMs() const { return last_ms_; }
@@ -166,6 +171,8 @@ class DetectorRuntime {
   std::vector<ReleasedKeyframe> held_;  ///< Worker, under detector_mutex_.
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> stale_{0};
+  std::atomic<uint64_t> map_epoch_{0};  ///< Bumped when a map service replaced the map.
+  std::atomic<uint64_t> dropped_at_map_switch_{0};
   std::atomic<double> last_ms_{0.0};
   std::atomic<double> max_ms_{0.0};
   std::thread worker_;
