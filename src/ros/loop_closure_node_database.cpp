@@ -73,10 +73,14 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
   const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
     const auto load_start = std::chrono::steady_clock::now();
-    const std::string requested = expandPath(request.path);
-    const std::string path = requested.empty() ? detector.mapPath() : requested;
+    const std::string path = expandPath(request.path);
+    // The open map is loaded already; reloading it through a second connection would only fail.
     const std::string error =
-        path.empty() ? "no path given and no map open" : detector.loadDatabase(path);
+        path.empty()
+            ? "no path given: name the map to load" +
+                  (detector.mapPath().empty() ? std::string()
+                                              : " (" + detector.mapPath() + " is the map open now)")
+            : detector.loadDatabase(path);
     const double load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     response.success = error.empty();

@@ -237,6 +237,12 @@ TEST(LoopClosureNode, LoopsAreFoundAcrossARestartFromTheSavedDatabase) {
   EXPECT_FALSE(missing.response.success);
   EXPECT_NE(missing.response.message.find(".missing"), std::string::npos);
   EXPECT_EQ(missing.response.keyframes, stored);  // A refused load changes nothing.
+  DatabaseFile unnamed;                           // No path: which map to load is not guessed.
+  ASSERT_TRUE(ros::service::call("/loop_closure/load_database", unnamed));
+  EXPECT_FALSE(unnamed.response.success);
+  EXPECT_NE(unnamed.response.message.find("no path given: name the map to load"), std::string::npos)
+      << unnamed.response.message;
+  EXPECT_EQ(unnamed.response.keyframes, stored);
   removeMapFiles(copy);
   EXPECT_TRUE(stopNode(second));
 
