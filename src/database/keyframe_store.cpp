@@ -4,6 +4,7 @@
 #include "database/keyframe_codec.h"
 #include "database/store_connection.h"
 #include "database/vector_file.h"
+#include "landmark_loop_closure/database/map_file_safety.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
 #include <sqlite3.h>
@@ -11,7 +12,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -45,19 +45,16 @@ void checkPath(const std::string& path) {
 // An existing file that is not an SQLite database (or is empty) is no map: refused before SQLite
 // opens it, which would take an empty file for a new database and write one into it.
 void refuseForeignFile(const std::string& path) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) return;  // checkPath() already named why it cannot be read.
-  char header[16] = {};
-  const size_t read = std::fread(header, 1, sizeof(header), file);
-  std::fclose(file);
-  if (read == 0) {
-    throw storeError(path,
-                     "is an empty file, not a map (a new map is made at a path where no file is)");
-  }
-  static const char kSqliteHeader[16] = "SQLite format 3";  // And its terminating zero.
-  if (read < sizeof(header) || std::memcmp(header, kSqliteHeader, sizeof(header)) != 0) {
-    if (read >= 8 && std::memcmp(header, "LLCKFDB\n", 8) == 0) return;  // isOldMapFile() says.
-    throw storeError(path, "is not a map (not an SQLite database); it is left as it is");
+  switch (fileStartOf(path)) {
+    case FileStart::kEmpty:
+      throw storeError(
+          path, "is an empty file, not a map (a new map is made at a path where no file is)");
+    case FileStart::kOther:
+      throw storeError(path, "is not a map (not an SQLite database); it is left as it is");
+    case FileStart::kUnreadable:  // checkPath() already named why it cannot be read.
+    case FileStart::kSqlite:
+    case FileStart::kOldMap:  // Named by openChecked(), with how to convert it.
+      return;
   }
 }
 
@@ -99,12 +96,7 @@ KeyframeRecord KeyframeStore::asStored(const KeyframeRecord& keyframe) {
 }
 
 bool KeyframeStore::isOldMapFile(const std::string& path) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) return false;
-  char magic[8] = {};
-  const bool read = std::fread(magic, 1, 8, file) == 8;
-  std::fclose(file);
-  return read && std::memcmp(magic, "LLCKFDB\n", 8) == 0;
+  return fileStartOf(path) == FileStart::kOldMap;
 }
 
 std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& path,

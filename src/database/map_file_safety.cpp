@@ -22,14 +22,6 @@ const char* kindOf(mode_t mode) {
   return "not a regular file";
 }
 
-bool isSqliteFile(const std::string& path) {
-  static const char kHeader[] = "SQLite format 3";  // 16 bytes with its terminating zero.
-  std::ifstream file(path, std::ios::binary);
-  char header[16] = {};
-  if (!file.read(header, sizeof(header))) return false;
-  return std::memcmp(header, kHeader, sizeof(header)) == 0;
-}
-
 std::string timeLabel() {
   const std::time_t now = std::time(nullptr);
   std::tm utc{};
@@ -64,6 +56,21 @@ bool moveNoClobber(const std::string& from, const std::string& to) {
 
 }  // namespace
 
+FileStart fileStartOf(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return FileStart::kUnreadable;
+  char header[16] = {};
+  file.read(header, sizeof(header));
+  const size_t read = static_cast<size_t>(file.gcount());
+  if (read == 0) return FileStart::kEmpty;
+  static const char kSqliteHeader[16] = "SQLite format 3";  // And its terminating zero.
+  if (read == sizeof(header) && std::memcmp(header, kSqliteHeader, sizeof(header)) == 0) {
+    return FileStart::kSqlite;
+  }
+  if (read >= 8 && std::memcmp(header, "LLCKFDB\n", 8) == 0) return FileStart::kOldMap;
+  return FileStart::kOther;
+}
+
 std::vector<std::string> mapFiles(const std::string& map) {
   return {map, map + "-vectors", map + "-graph", map + "-summaries"};
 }
@@ -93,7 +100,7 @@ std::string saveTargetProblem(const std::string& target, const std::string& live
              " exists; nothing was written (ask with overwrite to replace it: the old "
              "map is then kept under a new name)";
     }
-    if (!isSqliteFile(target)) {
+    if (fileStartOf(target) != FileStart::kSqlite) {
       return target + " exists and is not a map; it is never replaced";
     }
   }

@@ -5,6 +5,16 @@
 
 namespace landmark_loop_closure {
 
+/// What an existing file's first bytes say it is, read without opening it as a database.
+enum class FileStart {
+  kUnreadable,  ///< Missing or cannot be read.
+  kEmpty,
+  kSqlite,  ///< An SQLite database (a map, or another program's).
+  kOldMap,  ///< A map file of the format before the store (`lcd_db convert`).
+  kOther,
+};
+FileStart fileStartOf(const std::string& path);
+
 /// The files that make one map: the map itself and the companions written beside it (its search
 /// rows, its search graph, its summaries).
 std::vector<std::string> mapFiles(const std::string& map);
