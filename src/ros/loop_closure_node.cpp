@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 #include <image_transport/camera_common.h>
@@ -216,15 +218,12 @@ LoopClosureNode::~LoopClosureNode() {
     const std::string error = detector.saveMapGraph();
     const double seconds = (ros::WallTime::now() - start).toSec();
     if (!error.empty()) logAtStop(ros::console::levels::Warn, error);
-    char line[512];
-    std::snprintf(line, sizeof(line), "Map %s: %zu keyframes, each committed when it was stored",
-                  detector.mapPath().c_str(), detector.database().size());
-    char timing[96];
-    std::snprintf(
-        timing, sizeof(timing), "%s%.2f s",
-        error.empty() ? "; search graph and rows saved in " : "; search files not saved, ",
-        seconds);
-    logAtStop(ros::console::levels::Info, line + shutdown_note + timing);
+    std::ostringstream line;
+    line << "Map " << detector.mapPath() << ": " << detector.database().size()
+         << " keyframes, each committed when it was stored" << shutdown_note
+         << (error.empty() ? "; search graph and rows saved in " : "; search files not saved, ")
+         << std::fixed << std::setprecision(2) << seconds << " s";
+    logAtStop(ros::console::levels::Info, line.str());
     return false;
   });
 }

@@ -90,20 +90,22 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
 
 size_t DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& action) {
   const std::lock_guard<std::mutex> lock(detector_mutex_);
-  if (!action(*detector_)) return 0;
-  held_.clear();
-  ++map_epoch_;
-  return queue_.size();
+  return runOnDetector(action);
 }
 
 bool DetectorRuntime::tryWithDetector(const std::function<bool(LoopDetector&)>& action) {
   const std::unique_lock<std::mutex> lock(detector_mutex_, std::try_to_lock);
   if (!lock.owns_lock()) return false;
-  if (action(*detector_)) {
-    held_.clear();
-    ++map_epoch_;
-  }
+  runOnDetector(action);
   return true;
+}
+
+size_t DetectorRuntime::runOnDetector(const std::function<bool(LoopDetector&)>& action) {
+  if (!action(*detector_)) return 0;
+  // The map was replaced: what was held or queued for the previous one is dropped.
+  held_.clear();
+  ++map_epoch_;
+  return queue_.size();
 }
 
 void DetectorRuntime::work() {

@@ -157,6 +157,8 @@ class DetectorRuntime {
  private:
   void work();
   void process(KeyframeJob& job);
+  /// withDetector()'s work, detector_mutex_ held.
+  size_t runOnDetector(const std::function<bool(LoopDetector&)>& action);
 
   LoopDetector* detector_;
   const RuntimeOptions options_;
