@@ -43,6 +43,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     reports.push_back(report);
     indices.push_back(candidate.index);
   }
+  normaliseScores(&reports, descriptor, indices, query_keyframe.stamp);
   if (options_.acceptance.sequence.enabled() &&
       !scoreSequences(&reports, descriptor, indices, query_keyframe.stamp)) {
     result->times.rerank_ms = millisecondsSince(rerank_start);
@@ -150,6 +151,62 @@ void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) co
   const std::vector<double> ratios = placeRatios(
       shortlist, static_cast<uint64_t>(options_.acceptance.place_window), could_be_same_place);
   for (size_t i = 0; i < rated.size(); ++i) rated[i]->place_ratio = ratios[i];
+}
+
+namespace {
+
+double cosine(const std::vector<float>& a, const std::vector<float>& b) {
+  if (a.size() != b.size() || a.empty()) return 0.0;
+  double dot = 0.0, norm_a = 0.0, norm_b = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    dot += static_cast<double>(a[i]) * b[i];
+    norm_a += static_cast<double>(a[i]) * a[i];
+    norm_b += static_cast<double>(b[i]) * b[i];
+  }
+  if (!(norm_a > 0.0) || !(norm_b > 0.0)) return 0.0;
+  return dot / std::sqrt(norm_a * norm_b);
+}
+
+}  // namespace
+
+void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
+                                   const ImageDescriptor& descriptor,
+                                   const std::vector<size_t>& indices, double stamp) const {
+  const ScoreNormalisation normalisation = options_.acceptance.score_normalisation;
+  if (normalisation == ScoreNormalisation::kNone) return;
+  if (normalisation == ScoreNormalisation::kPreviousKeyframe) {
+    const double previous = extractor_->globalScore(cosine(descriptor.global, previous_global_));
+    for (CandidateReport& report : *reports) {
+      report.score = previousKeyframeScore(report.score, previous);
+    }
+    return;
+  }
+  DatabaseOptions search = options_.database;
+  if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
+  const auto scores_of = [&](const std::vector<size_t>& population) {
+    std::vector<double> scores = database_.similarities(descriptor.global, population);
+    for (double& score : scores) score = extractor_->globalScore(score);
+    return scores;
+  };
+  std::vector<size_t> population;
+  if (normalisation == ScoreNormalisation::kZScore) {
+    for (size_t index = 0; index < database_.size(); ++index) {
+      if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
+    }
+    const std::vector<double> scores = scores_of(population);
+    for (CandidateReport& report : *reports) report.score = standardisedScore(report.score, scores);
+    return;
+  }
+  const size_t window = static_cast<size_t>(options_.acceptance.contrast_window);
+  for (size_t i = 0; i < reports->size() && i < indices.size(); ++i) {
+    population.clear();
+    const size_t first = indices[i] > window ? indices[i] - window : 0;
+    const size_t last = std::min(database_.size() - 1, indices[i] + window);
+    for (size_t index = first; index <= last; ++index) {
+      if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
+    }
+    (*reports)[i].score = standardisedScore((*reports)[i].score, scores_of(population));
+  }
 }
 
 bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,

@@ -22,7 +22,7 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   using O = AcceptanceOptions;
   static const auto table =
       ParameterTable<O>("acceptance/", "precision first.")
-          .number("min_score", &O::min_score, between(0, 1),
+          .number("min_score", &O::min_score, between(0, 100),
                   "final similarity a candidate needs; its scale depends on descriptor/type and on "
                   "descriptor/condition_window. backbone with the window (default): chosen on "
                   "Gardens Point's first half, whose highest wrong loop scored 0.21, plus how far "
@@ -30,7 +30,8 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "precision comes first; right loops score 0.2-0.5 there. Without the window "
                   "(condition_window 0) use 0.6. Set "
                   "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
-                  "for calc (those three measured without the window).")
+                  "for calc (those three measured without the window). At most 1, except with "
+                  "score_normalisation local_contrast or z_score (standard deviations).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
@@ -55,12 +56,38 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "Chosen on the first halves of Gardens Point and Nordland (bench/README.md).")
           .integer("place_window", &O::place_window, between(0, 1000000),
                    "candidates within this many keyframe ids of each other are one place.")
+          .choice("score_normalisation", &O::score_normalisation, scoreNormalisationNames(),
+                  "what a candidate's similarity is normalised by before min_score, i.e. what "
+                  "the query resembles anyway (sequence_length 1 only): \"none\"; "
+                  "\"previous_keyframe\" (DBoW2): over its similarity to the keyframe before "
+                  "it, capped at 1; \"local_contrast\" (SeqSLAM): standardised against the "
+                  "query's similarities to the candidate's contrast_window neighbours on each side "
+                  "in the map; \"z_score\": standardised against its similarities to the whole "
+                  "map (one more pass over it). The last two are in standard deviations: set "
+                  "min_score to match. Measured against each other in bench/README.md.")
+          .integer("contrast_window", &O::contrast_window, between(1, 1000),
+                   "local_contrast: map keyframes on each side of a candidate it is compared "
+                   "with.")
           .group(&O::sequence, SequenceMatchingOptions::parameters());
   return table;
 }
 
 std::string AcceptanceOptions::validate() const {
-  return parameters().check(*this) + sequence.validate();
+  std::string problems = parameters().check(*this) + sequence.validate();
+  if (score_normalisation != ScoreNormalisation::kNone && sequence.enabled()) {
+    problems +=
+        "acceptance/score_normalisation applies to single keyframes' scores: it needs "
+        "acceptance/sequence_length 1\n";
+  }
+  if (score_normalisation != ScoreNormalisation::kLocalContrast &&
+      score_normalisation != ScoreNormalisation::kZScore && min_score > 1.0) {
+    std::ostringstream problem;
+    problem << "acceptance/min_score " << min_score
+            << " is above 1, which no similarity reaches (only standardised scores, "
+               "score_normalisation local_contrast or z_score, go above 1)\n";
+    problems += problem.str();
+  }
+  return problems;
 }
 
 const std::vector<std::pair<std::string, DetectorMode>>& detectorModeNames() {
@@ -274,6 +301,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   KeyframeRecord keyframe =
       makeKeyframe(keyframe_id, stamp, pose, image, intrinsics, depth, &result.times);
   decide(&result, descriptor, query, keyframe, intrinsics);
+  previous_global_ = descriptor.global;
   if (result.loop) {
     result.loop->query_id = keyframe_id;
     result.loop->query_session = session_;

@@ -256,6 +256,19 @@ double KeyframeDatabase::similarity(const std::vector<float>& global, size_t ind
   return vectors_->dot(QuantizedVectors::encode(global).data(), index);
 }
 
+std::vector<double> KeyframeDatabase::similarities(const std::vector<float>& global,
+                                                   const std::vector<size_t>& indices) const {
+  if (static_cast<int>(global.size()) != globalDimension()) {
+    throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
+                                " values, the database holds " + std::to_string(globalDimension()));
+  }
+  const auto encoded = QuantizedVectors::encode(global);
+  std::vector<double> result;
+  result.reserve(indices.size());
+  for (const size_t index : indices) result.push_back(vectors_->dot(encoded.data(), index));
+  return result;
+}
+
 QueryResult KeyframeDatabase::query(const std::vector<float>& global, double stamp,
                                     const DatabaseOptions& options, uint32_t session) const {
   QueryResult result;

@@ -203,16 +203,21 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   }
   setRecall(&evaluation.configured, evaluation.revisits);
 
-  // The sweep: the configured threshold, then a grid from 1 down to the lowest final score seen,
-  // then bisections where the first false loop appears.
+  // The sweep: the configured threshold, then a grid from 1 (or the highest candidate score:
+  // standardised scores count spreads) down to the lowest final score seen, then bisections
+  // where the first false loop appears.
   double lowest = options.acceptance.min_score;
   for (const PublishedLoop& loop : evaluation.configured.loops)
     lowest = std::min(lowest, loop.score);
-  lowest = std::max(0.0, lowest - 0.3);  // acceptance/min_score is in [0, 1].
+  lowest = std::max(0.0, lowest - 0.3);  // acceptance/min_score is at least 0.
+  double highest = 1.0;
+  for (const CandidateRow& candidate : evaluation.configured.candidates) {
+    highest = std::max(highest, candidate.score);
+  }
   std::vector<double> grid;
   const int steps = std::max(2, evaluation_options.sweep_steps);
   for (int i = 0; i < steps; ++i) {
-    grid.push_back(1.0 - (1.0 - lowest) * i / (steps - 1));
+    grid.push_back(highest - (highest - lowest) * i / (steps - 1));
   }
   std::map<double, DetectorPass> passes;  // By threshold.
   passes[options.acceptance.min_score] = evaluation.configured;
@@ -226,7 +231,7 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   for (const double threshold : grid) run(threshold);
   for (int i = 0; i < evaluation_options.refine_steps; ++i) {
     // Lowest clean threshold and the highest one below it that is not clean.
-    double clean_threshold = 1.0;
+    double clean_threshold = highest;
     bool found_clean = false;
     for (auto it = passes.rbegin(); it != passes.rend(); ++it) {
       if (!clean(it->second)) break;

@@ -16,6 +16,7 @@
 #include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/core/odometry_gate.h"
 #include "landmark_loop_closure/core/online_training.h"
+#include "landmark_loop_closure/core/score_normalisation.h"
 #include "landmark_loop_closure/core/sequence_matching.h"
 #include "landmark_loop_closure/core/temporal_consistency.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
@@ -43,6 +44,9 @@ struct AcceptanceOptions {
   /// must reach this; 0 = off.
   double min_place_ratio = 1.2;
   int place_window = 10;  ///< Candidates within this many ids of each other are one place.
+  /// What a candidate's similarity is divided or standardised by before min_score (L = 1 only).
+  ScoreNormalisation score_normalisation = ScoreNormalisation::kNone;
+  int contrast_window = 10;  ///< local_contrast: map neighbours on each side of a candidate.
   /// Sequence matching (sequence_length > 1): the threshold applies to a candidate's best path
   /// mean over the last keyframes instead of its own score (SequenceMatcher).
   SequenceMatchingOptions sequence;
@@ -334,6 +338,10 @@ class LoopDetector {
   /// False while the history is shorter than a sequence (every report then waits).
   /// Sets each report's place_ratio (placeRatios over the shortlist).
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
+  /// acceptance/score_normalisation: each report's score normalised by what the query resembles
+  /// anyway (score_normalisation.h); `indices` are the reports' database indices.
+  void normaliseScores(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
+                       const std::vector<size_t>& indices, double stamp) const;
   bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                       const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).
@@ -375,6 +383,8 @@ class LoopDetector {
   std::string map_damage_;
   size_t map_unsearched_ = 0;
   ConditionStandardiser standardiser_;
+  /// The last keyframe's global vector (score_normalisation previous_keyframe).
+  std::vector<float> previous_global_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   std::shared_ptr<QueryCache> query_cache_;

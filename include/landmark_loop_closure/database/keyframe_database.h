@@ -131,6 +131,9 @@ class KeyframeDatabase {
                 uint32_t session = 0) const;
   /// Cosine of `global` with keyframe `index`'s descriptor, as query() scores it.
   double similarity(const std::vector<float>& global, size_t index) const;
+  /// The same for several keyframes, the query encoded once.
+  std::vector<double> similarities(const std::vector<float>& global,
+                                   const std::vector<size_t>& indices) const;
 
   int globalDimension() const { return vectors_->dimension(); }
   size_t size() const { return summaries_.size(); }
