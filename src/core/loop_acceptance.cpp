@@ -122,6 +122,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       loop.match_stamp = match->stamp;
       loop.match_pose = match->pose;
       loop.global_score = report.global_score;
+      loop.rerank_score = extractor_->reranks() ? report.image_score : report.global_score;
       loop.score = report.score;
       loop.consistent_keyframes = report.consistent_keyframes;
       result->loop = loop;

@@ -163,7 +163,7 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.match_stamp = match_stamp;
   msg.score = loop.score;
   msg.global_score = loop.global_score;
-  msg.rerank_score = loop.score;
+  msg.rerank_score = loop.rerank_score;
   msg.consistent_frames = static_cast<uint32_t>(loop.consistent_keyframes);
   msg.query_pose = toRos(loop.query_pose);
   msg.match_pose = toRos(loop.match_pose);

@@ -93,6 +93,8 @@ TEST(ScoreNormalisationInTheDetector, ZScoreAcceptsAPlaceThatStandsOutOfTheMap) 
   // One keyframe of 37 searched scores 1, the rest 0: about sqrt(37) spreads above the mean.
   EXPECT_GT(revisit.keyframe->loop->score, 5.0);
   EXPECT_NEAR(revisit.keyframe->loop->global_score, 1.0, 0.02);  // The raw cosine stays.
+  // The descriptor does not re-rank: the re-ranking stage's score is the global one.
+  EXPECT_DOUBLE_EQ(revisit.keyframe->loop->rerank_score, revisit.keyframe->loop->global_score);
 }
 
 TEST(ScoreNormalisationInTheDetector, ZScoreRefusesAPlaceHalfTheMapLooksLike) {

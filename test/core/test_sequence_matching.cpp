@@ -92,6 +92,23 @@ TEST(SequenceMatching, ThePlaceIsCarriedForwardWhenTheImageAloneMissesIt) {
   EXPECT_FALSE(result.keyframe->loop);
 }
 
+TEST(SequenceMatching, TheLoopKeepsTheImageScoresBesideTheSequenceScore) {
+  LoopDetectorOptions options = sequenceOptions();
+  options.acceptance.min_score = 0.7;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+  for (int k = 0; k < 4; ++k) feed(&detector, 40 + k, 10 + k);
+  // Place 200 looks like nothing stored; the sequence (mean 0.75) leads to place 14.
+  const FrameResult result = feed(&detector, 44, 200);
+  ASSERT_TRUE(result.keyframe->loop);
+  const AcceptedLoop& loop = *result.keyframe->loop;
+  EXPECT_EQ(loop.match_id, 14u);
+  EXPECT_NEAR(loop.score, 0.75, 1e-9);
+  // The image alone: its cosine with place 14, and no re-ranking, so the same.
+  EXPECT_NEAR(loop.global_score, 0.0, 0.02);
+  EXPECT_DOUBLE_EQ(loop.rerank_score, loop.global_score);
+}
+
 TEST(SequenceMatching, ResetForgetsTheHistory) {
   LoopDetector detector(sequenceOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 40; ++i) feed(&detector, i, i);

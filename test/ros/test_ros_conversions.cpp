@@ -131,6 +131,7 @@ TEST(RosConversions, LoopMessageCarriesEveryField) {
   loop.match_stamp = 2.25;
   loop.score = 0.9;
   loop.global_score = 0.8;
+  loop.rerank_score = 0.85;
   loop.consistent_keyframes = 4;
   loop.query_pose = planarPose(1, 2, 0.3);
   loop.match_pose = planarPose(1.1, 2.1, 0.2);
@@ -145,6 +146,7 @@ TEST(RosConversions, LoopMessageCarriesEveryField) {
   EXPECT_EQ(message.match_stamp, match_stamp);
   EXPECT_DOUBLE_EQ(message.score, 0.9);
   EXPECT_DOUBLE_EQ(message.global_score, 0.8);
+  EXPECT_DOUBLE_EQ(message.rerank_score, 0.85);  // Its own stage, not a copy of score.
   EXPECT_EQ(message.consistent_frames, 4u);
   EXPECT_DOUBLE_EQ(message.match_pose.position.x, 1.1);
   EXPECT_FALSE(message.has_relative_pose);

@@ -135,7 +135,10 @@ struct AcceptedLoop {
   uint32_t match_session = 0;  ///< The run that stored the match (earlier ones come from a file).
   double match_stamp = 0.0;
   Pose match_pose;
-  double global_score = 0.0;
+  double global_score = 0.0;  ///< Cosine of the global descriptors (the shortlist's).
+  /// The landmark re-ranking's similarity; global_score when the descriptor does not re-rank.
+  double rerank_score = 0.0;
+  /// What min_score was compared with: rerank_score, or the sequence mean, or normalised.
   double score = 0.0;
   int consistent_keyframes = 0;
   /// Set when the geometric check confirmed the place (it is absent when the check is off or no
