@@ -10,6 +10,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
+#include "landmark_loop_closure/geometry/pose_jacobian.h"
+
 namespace landmark_loop_closure {
 
 namespace {
@@ -51,20 +53,20 @@ struct Correspondences {
 
 using Parameters = Eigen::Matrix<double, 5, 1>;
 
-// The pose moved by p = (rotation vector, applied on the left; two steps of the translation
-// direction in its tangent plane).
+// The pose moved by p = (two steps of the translation direction in its tangent plane; rotation
+// vector applied on the left): pose_jacobian.h's order.
 RelativePose perturbed(const RelativePose& pose, const Parameters& p) {
   Eigen::Vector3d b1;
   Eigen::Vector3d b2;
   tangentBasis(pose.translation, &b1, &b2);
-  const Eigen::Vector3d rotation_vector = p.head<3>();
+  const Eigen::Vector3d rotation_vector = p.tail<3>();
   const double angle = rotation_vector.norm();
   const Eigen::Matrix3d increment =
       angle > 0.0 ? Eigen::AngleAxisd(angle, rotation_vector / angle).toRotationMatrix()
                   : Eigen::Matrix3d::Identity();
   RelativePose moved = pose;
   moved.rotation = increment * pose.rotation;
-  moved.translation = (pose.translation + p(3) * b1 + p(4) * b2).normalized();
+  moved.translation = (pose.translation + p(0) * b1 + p(1) * b2).normalized();
   return moved;
 }
 
@@ -80,34 +82,35 @@ Eigen::VectorXd residuals(const Correspondences& c, const RelativePose& pose, co
   return r;
 }
 
-// Over the first `free` parameters: 5 (rotation and direction) or 3 (rotation only).
+// Direction and rotation, or the rotation only (the direction held).
+const std::vector<int>& freeParameters(bool rotation_only) {
+  static const std::vector<int> all = allColumns(5);
+  static const std::vector<int> rotation = {2, 3, 4};
+  return rotation_only ? rotation : all;
+}
+
 Eigen::MatrixXd jacobian(const Correspondences& c, const RelativePose& pose, double focal,
-                         int free = 5) {
-  constexpr double kStep = 1e-6;
-  Eigen::MatrixXd j(static_cast<Eigen::Index>(c.query.size()), free);
-  for (int k = 0; k < free; ++k) {
-    Parameters plus = Parameters::Zero();
-    Parameters minus = Parameters::Zero();
-    plus(k) = kStep;
-    minus(k) = -kStep;
-    j.col(k) = (residuals(c, pose, plus, focal) - residuals(c, pose, minus, focal)) / (2.0 * kStep);
-  }
-  return j;
+                         bool rotation_only = false) {
+  return poseJacobian(
+      [&](const Eigen::VectorXd& p) { return residuals(c, pose, Parameters(p), focal); }, 5,
+      freeParameters(rotation_only));
 }
 
 // Levenberg-Marquardt on the Sampson errors of the inliers, from the RANSAC solution (a minimal
-// sample's pose, not the best fit to all inliers). `free`: 5 fits rotation and direction, 3 the
-// rotation only with the direction held.
-void refine(const Correspondences& c, double focal, RelativePose* pose, int free = 5) {
+// sample's pose, not the best fit to all inliers); `rotation_only` holds the direction.
+void refine(const Correspondences& c, double focal, RelativePose* pose,
+            bool rotation_only = false) {
+  const std::vector<int>& free = freeParameters(rotation_only);
   double cost = residuals(c, *pose, Parameters::Zero(), focal).squaredNorm();
   double damping = 1e-3;
   for (int iteration = 0; iteration < 50 && damping < 1e8; ++iteration) {
     const Eigen::VectorXd r = residuals(c, *pose, Parameters::Zero(), focal);
-    const Eigen::MatrixXd j = jacobian(c, *pose, focal, free);
+    const Eigen::MatrixXd j = jacobian(c, *pose, focal, rotation_only);
     Eigen::MatrixXd a = j.transpose() * j;
     a.diagonal() *= 1.0 + damping;
+    const Eigen::VectorXd solution = a.ldlt().solve(-j.transpose() * r);
     Parameters step = Parameters::Zero();
-    step.head(free) = a.ldlt().solve(-j.transpose() * r);
+    for (size_t k = 0; k < free.size(); ++k) step(free[k]) = solution(static_cast<Eigen::Index>(k));
     const RelativePose candidate = perturbed(*pose, step);
     const double candidate_cost = residuals(c, candidate, Parameters::Zero(), focal).squaredNorm();
     if (candidate_cost < cost) {
@@ -205,7 +208,7 @@ std::vector<ProfilePoint> directionProfile(const Correspondences& c, double foca
     ProfilePoint point;
     point.pose = best;
     point.pose.translation = direction;
-    refine(c, focal, &point.pose, 3);
+    refine(c, focal, &point.pose, /*rotation_only=*/true);
     point.cost = cost(c, point.pose, focal);
     profile.push_back(point);
   }
@@ -223,7 +226,7 @@ Eigen::Matrix<double, 6, 1> difference(const RelativePose& a, const RelativePose
   return d;
 }
 
-// sigma^2 (J^T J)^-1 over (rotation, direction), mapped to x, y, z, rx, ry, rz. False when the
+// sigma^2 (J^T J)^-1 over (direction, rotation), mapped to x, y, z, rx, ry, rz. False when the
 // problem is degenerate.
 bool estimateCovariance(const Correspondences& c, double focal, double min_sigma_px,
                         RelativePose* pose, double* rms_px) {
@@ -246,8 +249,8 @@ bool estimateCovariance(const Correspondences& c, double focal, double min_sigma
   basis << b1, b2;
   // Parameters -> message order: translation = basis * direction increments; rotation as is.
   Eigen::Matrix<double, 6, 5> map = Eigen::Matrix<double, 6, 5>::Zero();
-  map.block<3, 2>(0, 3) = basis;
-  map.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();
+  map.block<3, 2>(0, 0) = basis;
+  map.block<3, 3>(3, 2) = Eigen::Matrix3d::Identity();
   pose->covariance = map * covariance * map.transpose();
   return true;
 }

@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <opencv2/calib3d.hpp>
 
+#include "landmark_loop_closure/geometry/pose_jacobian.h"
+
 namespace landmark_loop_closure {
 
 namespace {
@@ -38,8 +40,8 @@ struct PnpProblem {
   std::vector<Eigen::Matrix2d> whitener;
 };
 
-// The pose moved by p = (translation step, rotation vector applied on the left), the order of
-// the covariance (x, y, z, rotation about x, y, z).
+// The pose moved by p = (translation step, rotation vector applied on the left): pose_jacobian.h's
+// order, the covariance's (x, y, z, rotation about x, y, z).
 RelativePose perturbed(const RelativePose& pose, const Eigen::Matrix<double, 6, 1>& p) {
   const Eigen::Vector3d rotation_vector = p.tail<3>();
   const double angle = rotation_vector.norm();
@@ -109,16 +111,12 @@ Eigen::Matrix3d pointCovariance(const Eigen::Vector3d& point, double depth_sd, d
 
 Eigen::MatrixXd jacobian(const PnpProblem& problem, const RelativePose& pose,
                          const CameraIntrinsics& k) {
-  constexpr double kStep = 1e-6;
-  Eigen::MatrixXd j(2 * static_cast<Eigen::Index>(problem.object.size()), 6);
-  for (int c = 0; c < 6; ++c) {
-    Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
-    step(c) = kStep;
-    j.col(c) = (residuals(problem, perturbed(pose, step), k) -
-                residuals(problem, perturbed(pose, -step), k)) /
-               (2.0 * kStep);
-  }
-  return j;
+  static const std::vector<int> all = allColumns(6);
+  return poseJacobian(
+      [&](const Eigen::VectorXd& p) {
+        return residuals(problem, perturbed(pose, Eigen::Matrix<double, 6, 1>(p)), k);
+      },
+      6, all);
 }
 
 // Levenberg-Marquardt on the reprojection errors.

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "landmark_loop_closure/geometry/metric_pose.h"
+#include "landmark_loop_closure/geometry/pose_jacobian.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 #include "textured_room.h"
 
@@ -350,4 +351,28 @@ TEST(DepthImage, OnlyFiniteReadingsAboveZeroCount) {
   metres.at<float>(3, 4) = 2.5f;
   EXPECT_TRUE(hasUsableDepth(metres));
   EXPECT_FALSE(hasUsableDepth(cv::Mat(4, 5, CV_8UC1, cv::Scalar(7)))) << "not a depth type";
+}
+
+TEST(PoseJacobian, DifferentiatesTheChosenColumnsInOrder) {
+  // r(p) = (2 p0 + p1^2, 3 p2, sin(p3)): at zero dr/dp = [[2, 0, 0, 0], [0, 0, 3, 0], [0, 0, 0,
+  // 1]].
+  const auto residuals = [](const Eigen::VectorXd& p) {
+    Eigen::VectorXd r(3);
+    r << 2.0 * p(0) + p(1) * p(1), 3.0 * p(2), std::sin(p(3));
+    return r;
+  };
+  const Eigen::MatrixXd all = poseJacobian(residuals, 4, allColumns(4));
+  ASSERT_EQ(all.rows(), 3);
+  ASSERT_EQ(all.cols(), 4);
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(3, 4);
+  expected(0, 0) = 2.0;
+  expected(1, 2) = 3.0;
+  expected(2, 3) = 1.0;
+  EXPECT_LT((all - expected).cwiseAbs().maxCoeff(), 1e-6);
+  // The last two only (a rotation-only refinement holds the others).
+  const Eigen::MatrixXd some = poseJacobian(residuals, 4, {2, 3});
+  ASSERT_EQ(some.cols(), 2);
+  EXPECT_NEAR(some(1, 0), 3.0, 1e-6);
+  EXPECT_NEAR(some(2, 1), 1.0, 1e-6);
+  EXPECT_NEAR(some(0, 0), 0.0, 1e-6);
 }
