@@ -157,7 +157,7 @@ std::string LoopDetector::mapCheck() const {
   return "being checked";
 }
 
-std::string LoopDetector::reset() {
+LoopDetector::ResetOutcome LoopDetector::reset() {
   if (training_) training_->clear();
   map_damage_.clear();
   map_unsearched_ = 0;
@@ -166,24 +166,33 @@ std::string LoopDetector::reset() {
   consistency_.reset();
   sequence_.reset();
   last_keyframe_.reset();
-  if (!store_ || store_->size() == 0) return "";
+  ResetOutcome outcome;
+  if (!store_ || store_->size() == 0) return outcome;
   // The forgotten keyframes stay on disk: a reset never shortens a saved map.
   const std::string path = store_->path();
   store_.reset();
-  std::string kept;
+  std::error_code error_code;
+  if (!std::filesystem::exists(path, error_code)) {
+    outcome.problem = "the map " + path +
+                      " is gone (deleted or moved while open): nothing was kept aside; keyframes "
+                      "are kept in memory only";
+    return outcome;
+  }
   try {
     // A unique name, never one an earlier reset (even in the same second) kept a map under.
-    kept = moveMapAside(path, "reset");
+    outcome.kept_as = moveMapAside(path, "reset");
   } catch (const std::exception& error) {
-    return std::string(error.what()) + "; keyframes are kept in memory only";
+    outcome.problem = std::string(error.what()) + "; keyframes are kept in memory only";
+    return outcome;
   }
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
     readRecordsFromStore(&database_, store_.get());
   } catch (const std::exception& open_error) {
-    return std::string(open_error.what()) + "; keyframes are kept in memory only";
+    outcome.problem = "no fresh map could start at " + path + ": " + open_error.what() +
+                      "; keyframes are kept in memory only";
   }
-  return "the earlier map is kept as " + kept;
+  return outcome;
 }
 
 bool LoopDetector::overMemoryBudget() const {

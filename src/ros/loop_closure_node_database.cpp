@@ -110,16 +110,23 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
 bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
   const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
     const size_t forgotten = detector.database().size();
-    const std::string note = detector.reset();
+    const LoopDetector::ResetOutcome outcome = detector.reset();
     runtime_->restartTimeline();  // New frames are not bounded by the old timeline's stamps.
     session_ = detector.session();
     noteMapSize(detector);
     keyframe_stamps_.clear();
     markers_.clear();
-    response.success = true;
-    response.message =
-        "forgot " + std::to_string(forgotten) + " keyframes" + (note.empty() ? "" : "; " + note);
-    ROS_INFO("Reset: %s", response.message.c_str());
+    response.success = outcome.problem.empty();
+    response.message = "forgot " + std::to_string(forgotten) + " keyframes";
+    if (!outcome.kept_as.empty()) {
+      response.message += "; the earlier map is kept as " + outcome.kept_as;
+    }
+    if (!response.success) {
+      response.message += ", but " + outcome.problem;
+      ROS_ERROR("Reset: %s", response.message.c_str());
+    } else {
+      ROS_INFO("Reset: %s", response.message.c_str());
+    }
     return true;
   });
   noteDroppedAtMapSwitch(dropped, "reset", &response.message);

@@ -117,14 +117,36 @@ TEST(LoopDetector, AnOpenMapHasEveryStoredKeyframeAndAResetKeepsItAside) {
   EXPECT_EQ(detector.database().size(), 15u);
   EXPECT_EQ(detector.session(), 1u);
 
-  const std::string note = detector.reset();
-  EXPECT_NE(note.find("kept as " + path + ".reset-"), std::string::npos) << note;
+  const LoopDetector::ResetOutcome outcome = detector.reset();
+  EXPECT_EQ(outcome.problem, "");
+  EXPECT_EQ(outcome.kept_as.rfind(path + ".reset-", 0), 0u) << outcome.kept_as;
   EXPECT_TRUE(detector.database().empty());
   feed(&detector, 20, 20);
-  const std::string kept = note.substr(note.find(path));
+  const std::string kept = outcome.kept_as;
   EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 15u) << "the reset map is whole";
   removeMap(path);
   removeMap(kept);
+}
+
+TEST(LoopDetector, AResetSaysSoWhenTheMapCouldNotBeKeptAside) {
+  const std::filesystem::path folder = temporaryPath("reset_gone");
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder);
+  const std::string path = (folder / "map.db").string();
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  for (int i = 0; i < 12; ++i) feed(&detector, i, i);
+  // The map's folder is deleted under the running detector (a cleanup script, a full disk).
+  std::filesystem::remove_all(folder);
+  const LoopDetector::ResetOutcome outcome = detector.reset();
+  EXPECT_EQ(outcome.kept_as, "");
+  EXPECT_NE(outcome.problem.find("is gone"), std::string::npos) << outcome.problem;
+  EXPECT_NE(outcome.problem.find("kept in memory only"), std::string::npos) << outcome.problem;
+  EXPECT_TRUE(detector.database().empty());
+  EXPECT_FALSE(std::filesystem::exists(folder)) << "nothing is created in its place";
+  const FrameResult next = feed(&detector, 20, 20);
+  EXPECT_FALSE(next.keyframe->error);
+  EXPECT_EQ(detector.database().size(), 1u);  // Searched in memory.
 }
 
 TEST(LoopDetector, AMapKeepsItsSearchGraphAndLinksInWhatACrashLeftOut) {
@@ -296,12 +318,13 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWritten
   EXPECT_NE(detector.saveMapGraph(), "") << "nothing is saved beside a damaged map";
   EXPECT_TRUE(fileBytes(path) == damaged_map);
   EXPECT_TRUE(fileBytes(path + "-vectors") == damaged_rows);
-  const std::string note = detector.reset();  // A fresh map: searched again.
+  const LoopDetector::ResetOutcome outcome = detector.reset();  // A fresh map: searched again.
+  EXPECT_EQ(outcome.problem, "");
   EXPECT_EQ(detector.mapDamage(), "");
   EXPECT_EQ(detector.mapCheck(), "checked");
   // The damaged map, kept aside by the reset, is as it was: its byte put back, it holds its 20.
-  ASSERT_NE(note.find("kept as " + path), std::string::npos) << note;
-  const std::string kept = note.substr(note.find(path));
+  ASSERT_EQ(outcome.kept_as.rfind(path, 0), 0u) << outcome.kept_as;
+  const std::string kept = outcome.kept_as;
   EXPECT_TRUE(fileBytes(kept) == damaged_map);
   EXPECT_TRUE(fileBytes(kept + "-vectors") == damaged_rows);
   flipFirstRowByte(kept);

@@ -274,9 +274,16 @@ class LoopDetector {
                            std::string* kept_as = nullptr) const;
   /// Worker thread: openMap() on an existing file.
   std::string loadDatabase(const std::string& path);
+  /// What reset() did with the open map's file.
+  struct ResetOutcome {
+    std::string kept_as;  ///< Where the earlier map was kept; empty without one.
+    /// Empty when the earlier map was kept and a fresh one started at its path; otherwise why
+    /// not (the keyframes are forgotten all the same, new ones are kept in memory only).
+    std::string problem;
+  };
   /// Worker thread: forgets every keyframe, chain and session. With a map open, its file is
-  /// kept under a new name (returned) and a fresh map starts at its path.
-  std::string reset();
+  /// kept under a new name and a fresh map starts at its path.
+  ResetOutcome reset();
   /// Receiving thread: forgets the last keyframe and image size, so that the next frame starts the
   /// keyframe rule afresh whatever its stamp (time jumped back). Pair it with reset().
   void restartAdmission();
