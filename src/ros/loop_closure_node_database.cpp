@@ -90,6 +90,16 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
       ROS_ERROR("%s", error.c_str());
       return false;
     }
+    if (detector.mapWaitingForTraining() == path) {
+      // Nothing is replaced yet: the map opens once online training has made the descriptor.
+      const auto [held, wanted] = detector.trainingProgress();
+      response.keyframes = 0;
+      response.message = "not loaded yet: online training holds " + std::to_string(held) + " of " +
+                         std::to_string(wanted) + " keyframes; " + path +
+                         " is opened when it has made the descriptor";
+      ROS_WARN("%s", response.message.c_str());
+      return false;
+    }
     keyframe_stamps_.clear();
     markers_.clear();
     char seconds[32];

@@ -256,6 +256,11 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
   LoopDetector detector(options, nullptr);
   EXPECT_EQ(detector.extractor(), nullptr);
 
+  const std::filesystem::path map_folder =
+      std::filesystem::path(::testing::TempDir()) / "online_training_map";
+  std::filesystem::remove_all(map_folder);
+  std::filesystem::create_directories(map_folder);
+  const std::string map_path = (map_folder / "map.lcdb").string();
   std::map<uint64_t, SequenceFrame> truth_by_keyframe;
   int keyframes = 0, loops = 0, true_loops = 0, trained_at = 0;
   driveCorridor(
@@ -265,6 +270,13 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
         if (trained_at == 0 && result.training_summary.empty()) {
           // Held while the first 150 are collected and while training runs in the background.
           ASSERT_EQ(result.held_for_training, keyframes);
+          if (keyframes == 20) {
+            // A map asked for now waits for the descriptor: nothing is loaded yet, and says so.
+            ASSERT_EQ(detector.openMap(map_path), "");
+            EXPECT_EQ(detector.mapWaitingForTraining(), map_path);
+            EXPECT_EQ(detector.trainingProgress(), std::make_pair(20, 150));
+            EXPECT_EQ(detector.mapPath(), "");
+          }
           EXPECT_TRUE(detector.database().empty());
           EXPECT_NE(detector.saveDatabase(::testing::TempDir() + "/never.lcdb").find("training"),
                     std::string::npos);
@@ -280,8 +292,11 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
           EXPECT_NE(result.training_summary.find("trained on 150 keyframes"), std::string::npos)
               << result.training_summary;
           ASSERT_NE(detector.extractor(), nullptr);
-          // Every held keyframe is stored, those that came during training too.
+          // Every held keyframe is stored, those that came during training too, in the map.
           EXPECT_EQ(detector.database().size(), static_cast<size_t>(keyframes));
+          EXPECT_EQ(detector.mapPath(), map_path);
+          EXPECT_EQ(detector.mapWaitingForTraining(), "");
+          EXPECT_EQ(detector.trainingProgress(), std::make_pair(0, 0));
           EXPECT_TRUE(std::filesystem::exists(options.descriptor.broad.model));
         }
         EXPECT_EQ(result.held_for_training, 0);
@@ -295,4 +310,5 @@ TEST(LoopDetectorOnCorridor, OnlineTrainingOfTheBroadAutoencoder) {
   // The next run loads the written model instead of training again.
   EXPECT_FALSE(needsOnlineTraining(options.descriptor));
   EXPECT_NE(makeDescriptorExtractor(options.descriptor), nullptr);
+  std::filesystem::remove_all(map_folder);
 }

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -237,6 +238,14 @@ class LoopDetector {
   /// already handed out below the loaded ones are refused. While online training holds keyframes
   /// the map is opened when training ends (its result's store_error says if that failed).
   std::string openMap(const std::string& path);
+  /// The map openMap() was asked for while online training held keyframes, opened when training
+  /// ends; empty when none waits.
+  const std::string& mapWaitingForTraining() const { return pending_map_path_; }
+  /// Online training: keyframes held so far and wanted; {0, 0} when not training.
+  std::pair<int, int> trainingProgress() const {
+    return training_ ? std::make_pair(training_->held(), training_->wanted())
+                     : std::make_pair(0, 0);
+  }
   /// Worker thread: keeps the search graph and summaries beside the open map for the next start
   /// (they change with every keyframe, so they are written at shutdown, not as keyframes come).
   /// Returns "" or why.
