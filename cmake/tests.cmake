@@ -28,6 +28,7 @@ set(CORE_TESTS
   test_backbone_descriptor
   test_broad_autoencoder
   test_geometric_verification
+  test_lens_distortion
   test_metric_pose
   test_shipped_config
   test_sim)

@@ -89,6 +89,10 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                   "clock caught up. 0 = off.")
           .flag("publish_rejected_markers", &O::publish_rejected_markers,
                 "also draw rejected loop candidates in ~markers (grey lines).")
+          .flag("images_rectified", &O::images_rectified,
+                "true: `image` is rectified (image_proc's image_rect): camera_info's P gives the "
+                "intrinsics and its D is not applied. false (image_raw): K, and keypoints are "
+                "corrected for the lens by D (plumb_bob, rational_polynomial, equidistant).")
           .flag("use_depth", &O::use_depth,
                 "subscribe to `depth` (16UC1 mm or 32FC1 m, registered to `image`, any size): "
                 "keyframes take their keypoint depths from the depth image nearest in time "

@@ -377,6 +377,12 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
     const int height = std::max(
         1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
     keyframe.local_features = verifier_.extract(toWorkingImage(image, width, height));
+    // The lens is corrected once, here: every check after sees a pinhole camera with the same K,
+    // and a stored keyframe keeps the calibration it was taken with.
+    LocalFeatures& features = keyframe.local_features;
+    if (intrinsics.distorted() && intrinsics.valid()) {
+      features.points = intrinsics.scaledTo(features.image_size).idealPixels(features.points);
+    }
     // A query's own depths are never used (PnP takes the match's); only stored keyframes need them.
     if (mode_ == DetectorMode::kMapping) {
       addDepths(keyframe.pose, depth, intrinsics, &keyframe.local_features);

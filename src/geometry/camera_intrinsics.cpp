@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <opencv2/calib3d.hpp>
+
 namespace landmark_loop_closure {
 
 namespace {
@@ -25,7 +27,28 @@ std::optional<CalibrationProblem> CameraIntrinsics::check() const {
       fy <= kMaxFocalWidths * width && fy <= kMaxPixelAspect * fx && fx <= kMaxPixelAspect * fy &&
       cx >= kPrincipalPointMargin * width && cx <= (1.0 - kPrincipalPointMargin) * width &&
       cy >= kPrincipalPointMargin * height && cy <= (1.0 - kPrincipalPointMargin) * height;
-  if (usable) return std::nullopt;  // The common case builds no text: it runs for every keyframe.
+  if (usable) {
+    if (distortion == LensDistortion::kNone) return std::nullopt;  // No text: runs per keyframe.
+    std::ostringstream text;
+    if (distortion == LensDistortion::kUnsupported) {
+      text << "distortion model \"" << distortion_name
+           << "\" is not one the keypoints can be corrected for (plumb_bob, rational_polynomial, "
+              "equidistant)";
+      return problemOf("distortion_model", text);
+    }
+    const size_t wanted = distortion == LensDistortion::kRationalPolynomial ? 8
+                          : distortion == LensDistortion::kEquidistant      ? 4
+                                                                            : 5;
+    const bool count_ok = coefficients.size() == wanted ||
+                          (distortion == LensDistortion::kPlumbBob && coefficients.size() == 4);
+    bool coefficients_finite = true;
+    for (const double value : coefficients) coefficients_finite &= std::isfinite(value);
+    if (count_ok && coefficients_finite) return std::nullopt;
+    text << "D has " << coefficients.size() << " values"
+         << (coefficients_finite ? "" : ", not all finite") << ": " << distortion_name << " needs "
+         << wanted;
+    return problemOf("distortion_coefficients", text);
+  }
   std::ostringstream text;
   if (!finite) {
     text << "K holds a non-finite value (fx " << fx << ", fy " << fy << ", cx " << cx << ", cy "
@@ -89,7 +112,65 @@ CameraIntrinsics CameraIntrinsics::scaledTo(cv::Size size) const {
   scaled.cx = (cx + 0.5) * sx - 0.5;
   scaled.cy = (cy + 0.5) * sy - 0.5;
   scaled.image_size = size;
+  scaled.distortion = distortion;
+  scaled.distortion_name = distortion_name;
+  scaled.coefficients = coefficients;
   return scaled;
+}
+
+LensDistortion lensDistortionNamed(const std::string& name) {
+  if (name == "plumb_bob") return LensDistortion::kPlumbBob;
+  if (name == "rational_polynomial") return LensDistortion::kRationalPolynomial;
+  if (name == "equidistant") return LensDistortion::kEquidistant;
+  if (name.empty() || name == "none") return LensDistortion::kNone;
+  return LensDistortion::kUnsupported;
+}
+
+bool CameraIntrinsics::distorted() const {
+  if (distortion == LensDistortion::kNone || distortion == LensDistortion::kUnsupported) {
+    return false;
+  }
+  for (const double value : coefficients) {
+    if (value != 0.0) return true;
+  }
+  return false;
+}
+
+std::vector<cv::Point2f> CameraIntrinsics::idealPixels(
+    const std::vector<cv::Point2f>& pixels) const {
+  if (!distorted() || pixels.empty()) return pixels;
+  const cv::Mat k(matrix());
+  std::vector<cv::Point2f> ideal;
+  if (distortion == LensDistortion::kEquidistant) {
+    cv::fisheye::undistortPoints(pixels, ideal, k, coefficients, cv::noArray(), k);
+  } else {
+    // Strong lenses (k1 about -0.3) need more than the default five iterations at the corners.
+    cv::undistortPoints(
+        pixels, ideal, k, coefficients, cv::noArray(), k,
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-9));
+  }
+  return ideal;
+}
+
+std::vector<cv::Point2f> CameraIntrinsics::imagePixels(
+    const std::vector<cv::Point2f>& ideal) const {
+  if (!distorted() || ideal.empty()) return ideal;
+  std::vector<cv::Point3f> rays;
+  rays.reserve(ideal.size());
+  for (const cv::Point2f& p : ideal) {
+    rays.emplace_back(static_cast<float>((p.x - cx) / fx), static_cast<float>((p.y - cy) / fy),
+                      1.0f);
+  }
+  const cv::Mat k(matrix());
+  const cv::Vec3d no_rotation(0.0, 0.0, 0.0);
+  const cv::Vec3d no_translation(0.0, 0.0, 0.0);
+  std::vector<cv::Point2f> pixels;
+  if (distortion == LensDistortion::kEquidistant) {
+    cv::fisheye::projectPoints(rays, pixels, no_rotation, no_translation, k, coefficients);
+  } else {
+    cv::projectPoints(rays, no_rotation, no_translation, k, coefficients, pixels);
+  }
+  return pixels;
 }
 
 }  // namespace landmark_loop_closure

@@ -312,12 +312,14 @@ int keypointsFromDepth(const cv::Mat& depth, const CameraIntrinsics& intrinsics,
   const double sx = static_cast<double>(depth.cols) / keyframe->image_size.width;
   const double sy = static_cast<double>(depth.rows) / keyframe->image_size.height;
   const double quantum = depth.depth() == CV_16U ? options.depth_image_metres_per_unit : 0.0;
+  // Keypoints are lens-corrected (LoopDetector::makeKeyframe); the depth image is not.
+  const std::vector<cv::Point2f> seen_at = k.imagePixels(keyframe->points);
   int found = 0;
   for (size_t i = 0; i < keyframe->points.size(); ++i) {
     const cv::Point2f& p = keyframe->points[i];
     // Pixel centres scale as (x + 0.5): the same convention as CameraIntrinsics::scaledTo.
-    const int col = static_cast<int>(std::floor((p.x + 0.5) * sx));
-    const int row = static_cast<int>(std::floor((p.y + 0.5) * sy));
+    const int col = static_cast<int>(std::floor((seen_at[i].x + 0.5) * sx));
+    const int row = static_cast<int>(std::floor((seen_at[i].y + 0.5) * sy));
     if (col < 0 || row < 0 || col >= depth.cols || row >= depth.rows) continue;
     const double z = depth.depth() == CV_16U
                          ? depth.at<uint16_t>(row, col) * options.depth_image_metres_per_unit

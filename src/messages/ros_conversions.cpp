@@ -205,13 +205,32 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   return msg;
 }
 
-CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info) {
+CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info, bool rectified) {
   CameraIntrinsics intrinsics;
+  intrinsics.image_size = cv::Size(static_cast<int>(info.width), static_cast<int>(info.height));
+  if (rectified) {
+    // image_rect: P's left 3x3 is the rectified camera; no lens model is left to apply.
+    intrinsics.fx = info.P[0];
+    intrinsics.cx = info.P[2];
+    intrinsics.fy = info.P[5];
+    intrinsics.cy = info.P[6];
+    return intrinsics;
+  }
   intrinsics.fx = info.K[0];
   intrinsics.cx = info.K[2];
   intrinsics.fy = info.K[4];
   intrinsics.cy = info.K[5];
-  intrinsics.image_size = cv::Size(static_cast<int>(info.width), static_cast<int>(info.height));
+  intrinsics.distortion_name = info.distortion_model;
+  intrinsics.coefficients.assign(info.D.begin(), info.D.end());
+  intrinsics.distortion = lensDistortionNamed(info.distortion_model);
+  bool all_zero = true;
+  for (const double value : info.D) all_zero = all_zero && value == 0.0;
+  // Simulators and drivers without a lens model leave D empty or zero, whatever the name: a
+  // pinhole.
+  if (all_zero) {
+    intrinsics.distortion = LensDistortion::kNone;
+    intrinsics.coefficients.clear();
+  }
   return intrinsics;
 }
 

@@ -43,8 +43,9 @@ geometry_msgs::Pose toRos(const Pose& pose);
 
 double toSeconds(const ros::Time& stamp);
 
-/// Pinhole values of K; invalid (CameraIntrinsics::valid() false) for an uncalibrated camera.
-CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info);
+/// K, D and distortion_model (`rectified`: P and no distortion: the image is image_rect);
+/// invalid (CameraIntrinsics::valid() false) for an uncalibrated camera.
+CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info, bool rectified = false);
 
 /// Stamps as double seconds lose nanoseconds at epoch scale, so messages carry the original
 /// ros::Time of each keyframe, passed in by the caller.

@@ -63,7 +63,8 @@ void LoopClosureNode::retryPendingTf() {
 
 void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  camera_intrinsics_ = fromCameraInfo(*info);  // Converted once, not on every image.
+  // Converted once, not on every image.
+  camera_intrinsics_ = fromCameraInfo(*info, options_.images_rectified);
   camera_info_seen_ = true;
 }
 

@@ -385,6 +385,38 @@ TEST(RosConversions, CameraInfoGivesIntrinsicsAndAnUncalibratedOneIsInvalid) {
   EXPECT_FALSE(fromCameraInfo(sensor_msgs::CameraInfo{}).valid());  // K all zero.
 }
 
+TEST(RosConversions, CameraInfoCarriesTheLensModelAndRectifiedImagesUseP) {
+  sensor_msgs::CameraInfo info;
+  info.width = 640;
+  info.height = 480;
+  info.K = {500.0, 0.0, 319.5, 0.0, 510.0, 239.5, 0.0, 0.0, 1.0};
+  info.P = {480.0, 0.0, 321.0, 0.0, 0.0, 480.0, 241.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+  info.distortion_model = "plumb_bob";
+  info.D = {-0.3, 0.08, 0.001, 0.0, 0.0};
+  const CameraIntrinsics raw = fromCameraInfo(info);
+  EXPECT_TRUE(raw.valid()) << raw.problem();
+  EXPECT_EQ(raw.distortion, LensDistortion::kPlumbBob);
+  EXPECT_EQ(raw.coefficients, info.D);
+  EXPECT_TRUE(raw.distorted());
+  EXPECT_DOUBLE_EQ(raw.fx, 500.0);
+  // image_rect: P's camera, nothing left to correct.
+  const CameraIntrinsics rectified = fromCameraInfo(info, /*rectified=*/true);
+  EXPECT_TRUE(rectified.valid());
+  EXPECT_FALSE(rectified.distorted());
+  EXPECT_DOUBLE_EQ(rectified.fx, 480.0);
+  EXPECT_DOUBLE_EQ(rectified.cx, 321.0);
+  EXPECT_DOUBLE_EQ(rectified.cy, 241.0);
+  // A model we cannot apply makes the calibration unusable, said by its own cause.
+  info.distortion_model = "kannala_brandt";
+  const CameraIntrinsics unknown = fromCameraInfo(info);
+  ASSERT_TRUE(unknown.check());
+  EXPECT_EQ(unknown.check()->cause, "distortion_model");
+  // Zeros under any name (simulators, uncalibrated drivers): a pinhole.
+  info.D.assign(5, 0.0);
+  EXPECT_TRUE(fromCameraInfo(info).valid());
+  EXPECT_FALSE(fromCameraInfo(info).distorted());
+}
+
 TEST(RosConversions, CandidatesCarryVerdictConstants) {
   KeyframeResult result;
   result.keyframe_id = 9;

@@ -59,6 +59,7 @@ struct NodeOptions {
   /// are refused; 0 = off.
   double max_stamp_ahead_s = 5.0;
   bool publish_rejected_markers = false;  ///< Also draw rejected candidates in rviz.
+  bool images_rectified = false;          ///< `image` is rectified: P's intrinsics, D not applied.
   bool use_depth = false;  ///< Subscribe to `depth` (registered to the image) for metric poses.
   RelativePoseFrame relative_pose_frame = RelativePoseFrame::kCamera;
   /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.

@@ -2,6 +2,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -14,13 +15,30 @@ struct CalibrationProblem {
   std::string text;
 };
 
-/// Pinhole intrinsics of the images given to the verifier (from sensor_msgs/CameraInfo's K).
+/// The lens models of sensor_msgs/CameraInfo's distortion_model that keypoints are corrected for.
+enum class LensDistortion {
+  kNone,                ///< A pinhole camera, or rectified images.
+  kPlumbBob,            ///< "plumb_bob": k1 k2 p1 p2 [k3] (OpenCV's radial-tangential model).
+  kRationalPolynomial,  ///< "rational_polynomial": k1 k2 p1 p2 k3 k4 k5 k6.
+  kEquidistant,         ///< "equidistant": k1 k2 k3 k4 (OpenCV's fisheye model).
+  kUnsupported,         ///< Any other name (distortion_name says which): not usable.
+};
+
+/// The model for camera_info's distortion_model string; an empty name with all-zero D is kNone.
+LensDistortion lensDistortionNamed(const std::string& name);
+
+/// Intrinsics of the images given to the verifier (from sensor_msgs/CameraInfo's K, D and
+/// distortion_model). Keypoints are corrected for the lens once, where they are found
+/// (idealPixels): everything after works on a pinhole camera with the same K.
 struct CameraIntrinsics {
   double fx = 0.0;
   double fy = 0.0;
   double cx = 0.0;
   double cy = 0.0;
   cv::Size image_size;  ///< The image size the values refer to.
+  LensDistortion distortion = LensDistortion::kNone;
+  std::string distortion_name;       ///< camera_info's distortion_model, for messages.
+  std::vector<double> coefficients;  ///< camera_info's D, in its model's order.
 
   /// The plausibility rule a real pinhole camera meets: every value finite, a non-empty size, fx
   /// and fy between 0.05 and 100 image widths (a horizontal field of view between about 170 and
@@ -38,9 +56,17 @@ struct CameraIntrinsics {
   /// check()'s text, "" when usable.
   std::string problem() const;
   bool valid() const { return !check(); }
-  /// The same camera for an image resized to `size`.
+  /// The same camera for an image resized to `size` (the distortion, on normalised
+  /// coordinates, does not change).
   CameraIntrinsics scaledTo(cv::Size size) const;
   cv::Matx33d matrix() const { return {fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0}; }
+  /// A lens model with a coefficient other than 0.
+  bool distorted() const;
+  /// Where keypoints found at `pixels` would be seen through a distortion-free lens with the
+  /// same K (the pixels themselves without distortion).
+  std::vector<cv::Point2f> idealPixels(const std::vector<cv::Point2f>& pixels) const;
+  /// The inverse: where ideal pixels lie in the image.
+  std::vector<cv::Point2f> imagePixels(const std::vector<cv::Point2f>& ideal) const;
 };
 
 }  // namespace landmark_loop_closure
