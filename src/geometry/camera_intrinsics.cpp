@@ -126,6 +126,16 @@ LensDistortion lensDistortionNamed(const std::string& name) {
   return LensDistortion::kUnsupported;
 }
 
+void CameraIntrinsics::setLens(const std::string& model, std::vector<double> d) {
+  distortion_name = model;
+  coefficients = std::move(d);
+  distortion = lensDistortionNamed(model);
+  if (std::all_of(coefficients.begin(), coefficients.end(), [](double v) { return v == 0.0; })) {
+    distortion = LensDistortion::kNone;
+    coefficients.clear();
+  }
+}
+
 bool CameraIntrinsics::distorted() const {
   if (distortion == LensDistortion::kNone || distortion == LensDistortion::kUnsupported) {
     return false;

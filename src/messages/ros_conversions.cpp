@@ -220,17 +220,7 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info, bool rectif
   intrinsics.cx = info.K[2];
   intrinsics.fy = info.K[4];
   intrinsics.cy = info.K[5];
-  intrinsics.distortion_name = info.distortion_model;
-  intrinsics.coefficients.assign(info.D.begin(), info.D.end());
-  intrinsics.distortion = lensDistortionNamed(info.distortion_model);
-  bool all_zero = true;
-  for (const double value : info.D) all_zero = all_zero && value == 0.0;
-  // Simulators and drivers without a lens model leave D empty or zero, whatever the name: a
-  // pinhole.
-  if (all_zero) {
-    intrinsics.distortion = LensDistortion::kNone;
-    intrinsics.coefficients.clear();
-  }
+  intrinsics.setLens(info.distortion_model, std::vector<double>(info.D.begin(), info.D.end()));
   return intrinsics;
 }
 

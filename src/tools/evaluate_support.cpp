@@ -72,6 +72,12 @@ CameraIntrinsics readCameraInfoFile(const std::string& path) {
     intrinsics.cx = data[2].as<double>();
     intrinsics.fy = data[4].as<double>();
     intrinsics.cy = data[5].as<double>();
+    // The lens, as the node takes it from camera_info.
+    const YAML::Node distortion = root["distortion_coefficients"]["data"];
+    if (distortion && distortion.IsSequence()) {
+      intrinsics.setLens(root["distortion_model"] ? root["distortion_model"].as<std::string>() : "",
+                         distortion.as<std::vector<double>>());
+    }
   } catch (const std::exception& error) {
     throw std::runtime_error(path + ": camera_info values are not numbers (" + error.what() + ")");
   }

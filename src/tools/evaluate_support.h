@@ -45,7 +45,8 @@ eval::Progress progressPrinter(const std::string& what);
 /// The paths after the first --skip, at most --limit of them.
 std::vector<std::string> limited(std::vector<std::string> paths, const Arguments& arguments);
 
-/// Pinhole intrinsics from a ROS camera_info YAML (image_width, image_height, camera_matrix);
+/// Intrinsics from a ROS camera_info YAML (image_width, image_height, camera_matrix, and the lens:
+/// distortion_model, distortion_coefficients);
 /// throws std::runtime_error naming the file when it cannot be read or is unusable.
 CameraIntrinsics readCameraInfoFile(const std::string& path);
 

@@ -60,6 +60,9 @@ struct CameraIntrinsics {
   /// coordinates, does not change).
   CameraIntrinsics scaledTo(cv::Size size) const;
   cv::Matx33d matrix() const { return {fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0}; }
+  /// camera_info's distortion_model and D. All zeros under any name (simulators, drivers without
+  /// a lens model) is a pinhole.
+  void setLens(const std::string& model, std::vector<double> d);
   /// A lens model with a coefficient other than 0.
   bool distorted() const;
   /// Where keypoints found at `pixels` would be seen through a distortion-free lens with the
