@@ -191,7 +191,10 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   };
   std::vector<size_t> population;
   if (normalisation == ScoreNormalisation::kZScore) {
-    for (size_t index = 0; index < database_.size(); ++index) {
+    // At most kZScoreSample keyframes spread evenly over the map: the mean and spread are as
+    // good, and the cost stays bounded however large the map grows.
+    const size_t stride = std::max<size_t>(1, database_.size() / kZScoreSample);
+    for (size_t index = 0; index < database_.size(); index += stride) {
       if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
     }
     const std::vector<double> scores = scores_of(population);

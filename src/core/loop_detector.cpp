@@ -62,8 +62,9 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "\"previous_keyframe\" (DBoW2): over its similarity to the keyframe before "
                   "it, capped at 1; \"local_contrast\" (SeqSLAM): standardised against the "
                   "query's similarities to the candidate's contrast_window neighbours on each side "
-                  "in the map; \"z_score\": standardised against its similarities to the whole "
-                  "map (one more pass over it). The last two are in standard deviations: set "
+                  "in the map; \"z_score\": standardised against its similarities to the map "
+                  "(at most 2000 keyframes spread over it). The last two are in standard "
+                  "deviations: set "
                   "min_score to match. Measured against each other in bench/README.md.")
           .integer("contrast_window", &O::contrast_window, between(1, 1000),
                    "local_contrast: map keyframes on each side of a candidate it is compared "

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,6 +15,9 @@ enum class ScoreNormalisation {
   kLocalContrast,     ///< SeqSLAM: standardised against the candidate's neighbours in the map.
   kZScore,            ///< Standardised against the query's similarity to the whole map.
 };
+
+/// z_score compares the query with at most this many map keyframes, spread evenly.
+constexpr size_t kZScoreSample = 2000;
 
 /// The parameter's words: "none", "previous_keyframe", "local_contrast", "z_score".
 const std::vector<std::pair<std::string, ScoreNormalisation>>& scoreNormalisationNames();
