@@ -216,9 +216,10 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   }
   std::vector<double> grid;
   const int steps = std::max(2, evaluation_options.sweep_steps);
-  for (int i = 0; i < steps; ++i) {
-    grid.push_back(highest - (highest - lowest) * i / (steps - 1));
+  for (int i = 0; i + 1 < steps; ++i) {
+    grid.push_back(std::max(lowest, highest - (highest - lowest) * i / (steps - 1)));
   }
+  grid.push_back(lowest);  // Exactly: rounding must not take it below 0.
   std::map<double, DetectorPass> passes;  // By threshold.
   passes[options.acceptance.min_score] = evaluation.configured;
   const auto run = [&](double threshold) {
