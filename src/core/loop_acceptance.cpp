@@ -154,29 +154,14 @@ void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) co
   for (size_t i = 0; i < rated.size(); ++i) rated[i]->place_ratio = ratios[i];
 }
 
-namespace {
-
-double cosine(const std::vector<float>& a, const std::vector<float>& b) {
-  if (a.size() != b.size() || a.empty()) return 0.0;
-  double dot = 0.0, norm_a = 0.0, norm_b = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    dot += static_cast<double>(a[i]) * b[i];
-    norm_a += static_cast<double>(a[i]) * a[i];
-    norm_b += static_cast<double>(b[i]) * b[i];
-  }
-  if (!(norm_a > 0.0) || !(norm_b > 0.0)) return 0.0;
-  return dot / std::sqrt(norm_a * norm_b);
-}
-
-}  // namespace
-
 void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
                                    const ImageDescriptor& descriptor,
                                    const std::vector<size_t>& indices, double stamp) const {
   const ScoreNormalisation normalisation = options_.acceptance.score_normalisation;
   if (normalisation == ScoreNormalisation::kNone) return;
   if (normalisation == ScoreNormalisation::kPreviousKeyframe) {
-    const double previous = extractor_->globalScore(cosine(descriptor.global, previous_global_));
+    const double previous =
+        extractor_->globalScore(cosineSimilarity(descriptor.global, previous_global_));
     for (CandidateReport& report : *reports) {
       report.score = previousKeyframeScore(report.score, previous);
     }

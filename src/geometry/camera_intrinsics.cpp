@@ -28,9 +28,10 @@ std::optional<CalibrationProblem> CameraIntrinsics::check() const {
       cx >= kPrincipalPointMargin * width && cx <= (1.0 - kPrincipalPointMargin) * width &&
       cy >= kPrincipalPointMargin * height && cy <= (1.0 - kPrincipalPointMargin) * height;
   if (usable) {
-    if (distortion == LensDistortion::kNone) return std::nullopt;  // No text: runs per keyframe.
-    std::ostringstream text;
+    // The usable cases build no text: this runs for every image.
+    if (distortion == LensDistortion::kNone) return std::nullopt;
     if (distortion == LensDistortion::kUnsupported) {
+      std::ostringstream text;
       text << "distortion model \"" << distortion_name
            << "\" is not one the keypoints can be corrected for (plumb_bob, rational_polynomial, "
               "equidistant)";
@@ -44,6 +45,7 @@ std::optional<CalibrationProblem> CameraIntrinsics::check() const {
     bool coefficients_finite = true;
     for (const double value : coefficients) coefficients_finite &= std::isfinite(value);
     if (count_ok && coefficients_finite) return std::nullopt;
+    std::ostringstream text;
     text << "D has " << coefficients.size() << " values"
          << (coefficients_finite ? "" : ", not all finite") << ": " << distortion_name << " needs "
          << wanted;
@@ -106,15 +108,13 @@ CameraIntrinsics CameraIntrinsics::scaledTo(cv::Size size) const {
   const double sx = static_cast<double>(size.width) / image_size.width;
   const double sy = static_cast<double>(size.height) / image_size.height;
   // Pixel centres: a pixel's centre x + 0.5 scales, so the principal point shifts by half a pixel.
-  CameraIntrinsics scaled;
+  // The lens model, on normalised coordinates, stays as it is.
+  CameraIntrinsics scaled = *this;
   scaled.fx = fx * sx;
   scaled.fy = fy * sy;
   scaled.cx = (cx + 0.5) * sx - 0.5;
   scaled.cy = (cy + 0.5) * sy - 0.5;
   scaled.image_size = size;
-  scaled.distortion = distortion;
-  scaled.distortion_name = distortion_name;
-  scaled.coefficients = coefficients;
   return scaled;
 }
 

@@ -24,7 +24,8 @@ enum class LensDistortion {
   kUnsupported,         ///< Any other name (distortion_name says which): not usable.
 };
 
-/// The model for camera_info's distortion_model string; an empty name with all-zero D is kNone.
+/// The model named by camera_info's distortion_model: "" or "none" is kNone, an unknown name
+/// kUnsupported (setLens() makes an all-zero D a pinhole whatever the name).
 LensDistortion lensDistortionNamed(const std::string& name);
 
 /// Intrinsics of the images given to the verifier (from sensor_msgs/CameraInfo's K, D and
