@@ -157,11 +157,18 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
   options->fallback_warning.clear();
   if (!warning.empty()) {
     detector.descriptor = used;
-    if (detector.acceptance.min_score == AcceptanceOptions().min_score) {
-      detector.acceptance.min_score = kLandmarksMinScore;
+    AcceptanceOptions& acceptance = detector.acceptance;
+    // The encoder re-ranks, which no score normalisation works with (a standardised min_score
+    // means nothing for it either); its own threshold is a plain similarity.
+    const bool normalised = acceptance.score_normalisation != ScoreNormalisation::kNone;
+    if (normalised || acceptance.min_score == AcceptanceOptions().min_score) {
+      acceptance.min_score = kLandmarksMinScore;
       warning += " (acceptance/min_score " + std::to_string(kLandmarksMinScore).substr(0, 4) +
-                 ", its tuned value)";
+                 ", its tuned value";
+      if (normalised) warning += ", and no score_normalisation, which it cannot use";
+      warning += ")";
     }
+    acceptance.score_normalisation = ScoreNormalisation::kNone;
     options->fallback_warning = warning;
   }
   const std::vector<std::string> ignored = ignoredDescriptorParameters(detector.descriptor);

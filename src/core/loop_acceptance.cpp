@@ -28,6 +28,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     report.match_stamp = stored.stamp;
     report.global_score = candidate.global_score;
     report.score = extractor_->globalScore(candidate.global_score);
+    report.image_score = report.score;
     if (extractor_->reranks()) {
       const std::shared_ptr<const KeyframeRecord> record = database_.record(candidate.index);
       if (!record) {
@@ -156,7 +157,7 @@ void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) co
 
 void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
                                    const ImageDescriptor& descriptor,
-                                   const std::vector<size_t>& indices, double stamp) const {
+                                   const std::vector<size_t>& indices, double stamp) {
   const ScoreNormalisation normalisation = options_.acceptance.score_normalisation;
   if (normalisation == ScoreNormalisation::kNone) return;
   if (normalisation == ScoreNormalisation::kPreviousKeyframe) {
@@ -182,8 +183,12 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
     for (size_t index = 0; index < database_.size(); index += stride) {
       if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
     }
-    const std::vector<double> scores = scores_of(population);
-    for (CandidateReport& report : *reports) report.score = standardisedScore(report.score, scores);
+    const Standardisation standardisation = Standardisation::of(scores_of(population));
+    if (options_.acceptance.sequence.enabled()) {
+      sequence_.standardiseCurrent(standardisation);  // Each path step in its own query's spreads.
+      return;
+    }
+    for (CandidateReport& report : *reports) report.score = standardisation.apply(report.score);
     return;
   }
   const size_t window = static_cast<size_t>(options_.acceptance.contrast_window);
@@ -205,7 +210,7 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
   for (size_t i = 0; i < reports->size(); ++i) {
     SequenceCandidate candidate;
     candidate.index = indices[i];
-    candidate.image_score = (*reports)[i].score;
+    candidate.image_score = (*reports)[i].image_score;
     candidates.push_back(candidate);
   }
   DatabaseOptions search = options_.database;

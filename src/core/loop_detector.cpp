@@ -56,16 +56,20 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "Chosen on the first halves of Gardens Point and Nordland (bench/README.md).")
           .integer("place_window", &O::place_window, between(0, 1000000),
                    "candidates within this many keyframe ids of each other are one place.")
-          .choice("score_normalisation", &O::score_normalisation, scoreNormalisationNames(),
-                  "what a candidate's similarity is normalised by before min_score, i.e. what "
-                  "the query resembles anyway (sequence_length 1 only): \"none\"; "
-                  "\"previous_keyframe\" (DBoW2): over its similarity to the keyframe before "
-                  "it, capped at 1; \"local_contrast\" (SeqSLAM): standardised against the "
-                  "query's similarities to the candidate's contrast_window neighbours on each side "
-                  "in the map; \"z_score\": standardised against its similarities to the map "
-                  "(at most 2000 keyframes spread over it). The last two are in standard "
-                  "deviations: set "
-                  "min_score to match. Measured against each other in bench/README.md.")
+          .choice(
+              "score_normalisation", &O::score_normalisation, scoreNormalisationNames(),
+              "what a candidate's similarity is normalised by before min_score, i.e. what "
+              "the query resembles anyway: \"none\"; "
+              "\"previous_keyframe\" (DBoW2): over its similarity to the keyframe before "
+              "it, capped at 1; \"local_contrast\" (SeqSLAM): standardised against the "
+              "query's similarities to the candidate's contrast_window neighbours on each side "
+              "in the map; \"z_score\": standardised against its similarities to the map "
+              "(at most 2000 keyframes spread over it; with sequence matching each path step "
+              "is standardised by its own query keyframe's similarities, and the path's mean "
+              "is compared). The middle two need sequence_length 1; none works with a descriptor "
+              "that re-ranks (landmarks, backbone rerank_weight > 0). The last two are in standard "
+              "deviations: set "
+              "min_score to match. Measured against each other in bench/README.md.")
           .integer("contrast_window", &O::contrast_window, between(1, 1000),
                    "local_contrast: map keyframes on each side of a candidate it is compared "
                    "with.")
@@ -75,10 +79,11 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
 
 std::string AcceptanceOptions::validate() const {
   std::string problems = parameters().check(*this) + sequence.validate();
-  if (score_normalisation != ScoreNormalisation::kNone && sequence.enabled()) {
+  if (score_normalisation != ScoreNormalisation::kNone &&
+      score_normalisation != ScoreNormalisation::kZScore && sequence.enabled()) {
     problems +=
-        "acceptance/score_normalisation applies to single keyframes' scores: it needs "
-        "acceptance/sequence_length 1\n";
+        "acceptance/score_normalisation previous_keyframe and local_contrast apply to single "
+        "keyframes' scores: they need acceptance/sequence_length 1 (z_score works with both)\n";
   }
   if (score_normalisation != ScoreNormalisation::kLocalContrast &&
       score_normalisation != ScoreNormalisation::kZScore && min_score > 1.0) {
@@ -138,6 +143,14 @@ std::string LoopDetectorOptions::validate() const {
   errors << keyframe.validate() << descriptor.validate() << database.validate()
          << acceptance.validate() << odometry_gate.validate() << verification.validate()
          << appearance.validate() << metric_pose.validate() << camera_mount.validate();
+  if (acceptance.score_normalisation != ScoreNormalisation::kNone && descriptor.reranks()) {
+    // Its population is the query's global similarities to the map; a re-ranked score is
+    // another measure, and re-ranking the whole map would cost what the shortlist saves.
+    errors << "acceptance/score_normalisation " << toString(acceptance.score_normalisation)
+           << " normalises global similarities: descriptor/type " << descriptor.type
+           << " re-ranks its shortlist with another score (use \"none\", or "
+              "descriptor/backbone/rerank_weight 0)\n";
+  }
   return errors.str();
 }
 

@@ -49,8 +49,12 @@ std::string SequenceMatchingOptions::validate() const {
 }
 
 void SequenceMatcher::push(ImageDescriptor descriptor) {
-  history_.push_front(Slot{std::move(descriptor), {}, {}});
+  history_.push_front(Slot{std::move(descriptor), {}, {}, {}});
   while (history_.size() > static_cast<size_t>(std::max(1, options_.length))) history_.pop_back();
+}
+
+void SequenceMatcher::standardiseCurrent(const Standardisation& standardisation) {
+  if (!history_.empty()) history_.front().standardisation = standardisation;
 }
 
 double SequenceMatcher::similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
@@ -102,7 +106,9 @@ void SequenceMatcher::score(const KeyframeDatabase& database, const DescriptorEx
           complete = false;
           break;
         }
-        sum += similarity(&history_[slot], static_cast<size_t>(index), database, extractor);
+        Slot* earlier = &history_[slot];
+        sum += earlier->standardisation.apply(
+            similarity(earlier, static_cast<size_t>(index), database, extractor));
       }
       if (!complete) continue;
       const double mean = sum / static_cast<double>(history_.size());

@@ -112,6 +112,10 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
   return table;
 }
 
+bool DescriptorOptions::reranks() const {
+  return type == "landmarks" || (type == "backbone" && backbone.rerank_weight > 0.0);
+}
+
 std::string DescriptorOptions::validate() const {
   std::string errors = parameters().check(*this) + Broad::parameters().check(broad);
   if (landmark_patch % 4 != 0) {

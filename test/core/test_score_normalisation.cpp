@@ -53,12 +53,27 @@ TEST(ScoreNormalisationOptions, EveryNormalisationIsValidWithTheOtherDefaults) {
   }
 }
 
-TEST(ScoreNormalisationOptions, RefusedWithSequenceMatching) {
+TEST(ScoreNormalisationOptions, OnlyZScoreWorksWithSequenceMatching) {
   AcceptanceOptions options;
-  options.score_normalisation = ScoreNormalisation::kZScore;
   options.sequence.length = 5;
-  EXPECT_NE(options.validate().find("needs acceptance/sequence_length 1"), std::string::npos)
-      << options.validate();
+  options.score_normalisation = ScoreNormalisation::kZScore;
+  EXPECT_TRUE(options.validate().empty()) << options.validate();
+  for (const ScoreNormalisation single :
+       {ScoreNormalisation::kPreviousKeyframe, ScoreNormalisation::kLocalContrast}) {
+    options.score_normalisation = single;
+    EXPECT_NE(options.validate().find("need acceptance/sequence_length 1"), std::string::npos)
+        << options.validate();
+  }
+}
+
+TEST(Standardisation, IdentityByDefaultAndZeroWithoutSpread) {
+  EXPECT_DOUBLE_EQ(Standardisation{}.apply(0.37), 0.37);
+  const Standardisation flat = Standardisation::of({0.4, 0.4, 0.4});
+  EXPECT_DOUBLE_EQ(flat.apply(0.9), 0.0);
+  const Standardisation spread = Standardisation::of({0.1, 0.2, 0.3});
+  EXPECT_NEAR(spread.mean, 0.2, 1e-12);
+  EXPECT_NEAR(spread.spread, 0.1, 1e-12);
+  EXPECT_NEAR(spread.apply(0.5), 3.0, 1e-9);
 }
 
 TEST(ScoreNormalisationOptions, MinScoreAboveOneOnlyForStandardisedScores) {
@@ -122,6 +137,41 @@ TEST(ScoreNormalisationInTheDetector, PreviousKeyframeScoresNothingForAQueryUnli
   ASSERT_FALSE(revisit.keyframe->candidates.empty());
   EXPECT_DOUBLE_EQ(revisit.keyframe->candidates.front().score, 0.0);
   EXPECT_NEAR(revisit.keyframe->candidates.front().global_score, 1.0, 0.02);
+}
+
+LoopDetectorOptions zScoreSequenceOptions() {
+  LoopDetectorOptions options = zScoreOptions();
+  options.acceptance.sequence.length = 4;
+  options.acceptance.consistent_keyframes = 1;  // Only the standardised sequence decides.
+  return options;
+}
+
+TEST(ScoreNormalisationInTheDetector, ZScoreSequenceAcceptsARevisitAlongItsPath) {
+  LoopDetector detector(zScoreSequenceOptions(), std::make_shared<test_support::PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) ASSERT_FALSE(test_support::feed(&detector, i, i).keyframe->loop);
+  // The first revisit keyframe's path holds one match among novel places: a quarter of it.
+  EXPECT_FALSE(test_support::feed(&detector, 40, 10).keyframe->loop);
+  test_support::feed(&detector, 41, 11);
+  test_support::feed(&detector, 42, 12);
+  const FrameResult whole_path = test_support::feed(&detector, 43, 13);
+  ASSERT_TRUE(whole_path.keyframe->loop);
+  const AcceptedLoop& loop = *whole_path.keyframe->loop;
+  EXPECT_EQ(loop.match_id, 13u);
+  // Each of the four steps stands about sqrt(N) spreads out; so does the path's mean.
+  EXPECT_GT(loop.score, 5.0);
+  EXPECT_NEAR(loop.global_score, 1.0, 0.02);  // The raw cosine stays.
+}
+
+TEST(ScoreNormalisationInTheDetector, ZScoreSequenceRefusesAPathHalfTheMapLooksLike) {
+  LoopDetector detector(zScoreSequenceOptions(), std::make_shared<test_support::PlaceExtractor>());
+  for (int i = 0; i < 40; ++i) test_support::feed(&detector, i, i % 2);
+  for (int i = 40; i < 48; ++i) {
+    const FrameResult result = test_support::feed(&detector, i, i % 2);
+    EXPECT_FALSE(result.keyframe->loop) << "keyframe " << i;
+    for (const CandidateReport& report : result.keyframe->candidates) {
+      EXPECT_LT(report.score, 1.5) << "keyframe " << i;
+    }
+  }
 }
 
 }  // namespace

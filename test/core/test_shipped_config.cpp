@@ -240,3 +240,42 @@ TEST(NodeOptions, PathsExpandHomeAndVariablesAsAShellWould) {
   EXPECT_EQ(options.database_path, "/home/robot/maps/lab.db");
   EXPECT_EQ(options.detector.descriptor.backbone.model, "/data/maps/n.onnx");
 }
+
+// Without the fetched backbone the node falls back to the package's encoder, which re-ranks:
+// a score normalisation and its standardised threshold are replaced, and the warning says so.
+TEST(NodeOptions, BackboneFallbackDropsTheScoreNormalisationItCannotUse) {
+  const fs::path empty_models = fs::temp_directory_path() / "lcd_no_backbone_models";
+  fs::create_directories(empty_models);
+  const char* before = std::getenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR");
+  const std::string kept = before ? before : "";
+  setenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR", empty_models.c_str(), 1);
+  const YamlParameterSource source(
+      YAML::Load("acceptance: {score_normalisation: z_score, min_score: 2.5}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  if (before) {
+    setenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR", kept.c_str(), 1);
+  } else {
+    unsetenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR");
+  }
+  fs::remove(empty_models);
+  EXPECT_EQ(options.detector.descriptor.type, "landmarks");
+  EXPECT_EQ(options.detector.acceptance.score_normalisation, ScoreNormalisation::kNone);
+  EXPECT_DOUBLE_EQ(options.detector.acceptance.min_score, kLandmarksMinScore);
+  EXPECT_NE(options.fallback_warning.find("no score_normalisation"), std::string::npos)
+      << options.fallback_warning;
+  EXPECT_EQ(options.validate(), "");
+}
+
+TEST(NodeOptions, AScoreNormalisationWithAReRankingDescriptorIsRefused) {
+  NodeOptions options;
+  options.detector.descriptor.type = "backbone";
+  options.detector.descriptor.backbone.rerank_weight = 0.3;
+  options.detector.acceptance.score_normalisation = ScoreNormalisation::kZScore;
+  EXPECT_NE(options.validate().find("acceptance/score_normalisation z_score normalises global"),
+            std::string::npos)
+      << options.validate();
+  options.detector.descriptor.backbone.rerank_weight = 0.0;
+  EXPECT_EQ(options.validate(), "");
+}

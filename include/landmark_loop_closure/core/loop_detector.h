@@ -358,9 +358,10 @@ class LoopDetector {
   /// Sets each report's place_ratio (placeRatios over the shortlist).
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
   /// acceptance/score_normalisation: each report's score normalised by what the query resembles
-  /// anyway (score_normalisation.h); `indices` are the reports' database indices.
+  /// anyway (score_normalisation.h); `indices` are the reports' database indices. With sequence
+  /// matching (z_score only) the sequence matcher is told the query's standardisation instead.
   void normaliseScores(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
-                       const std::vector<size_t>& indices, double stamp) const;
+                       const std::vector<size_t>& indices, double stamp);
   bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                       const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/core/score_normalisation.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 
@@ -32,7 +33,7 @@ struct SequenceMatchingOptions {
 /// One candidate as the sequence matcher sees it: its database position and scores.
 struct SequenceCandidate {
   size_t index = 0;          ///< Position in the database.
-  double image_score = 0.0;  ///< The current keyframe's own similarity to it.
+  double image_score = 0.0;  ///< The current keyframe's own similarity to it (not standardised).
   double score = 0.0;        ///< Best path mean (set by SequenceMatcher::score).
   double speed = 0.0;        ///< The path's speed.
   bool projected = false;    ///< Added from an earlier keyframe's candidate, not the shortlist.
@@ -44,6 +45,10 @@ class SequenceMatcher {
 
   /// Appends the new query keyframe (slot 0 from now on); older ones shift back.
   void push(ImageDescriptor descriptor);
+  /// Scores the current keyframe's similarities in spreads of its own similarities to the map
+  /// (score_normalisation z_score): a path's mean is then a mean of standardised similarities,
+  /// each query keyframe measured against what it resembles anyway.
+  void standardiseCurrent(const Standardisation& standardisation);
   /// Forgets the history (reset, another map, time jumped back).
   void reset() { history_.clear(); }
   /// Query keyframes held (at most length).
@@ -63,8 +68,10 @@ class SequenceMatcher {
   struct Slot {
     ImageDescriptor descriptor;
     std::vector<size_t> candidates;                 ///< Its database positions, for projection.
-    std::unordered_map<size_t, double> similarity;  ///< Scores already computed, by position.
+    std::unordered_map<size_t, double> similarity;  ///< Similarities already computed, by position.
+    Standardisation standardisation;                ///< Identity unless standardiseCurrent.
   };
+  /// The slot's similarity to a database keyframe, not standardised.
   double similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
                     const DescriptorExtractor& extractor) const;
 

@@ -142,6 +142,9 @@ struct DescriptorOptions {
   /// only when that type is chosen.
   static const ParameterTable<DescriptorOptions>& parameters();
   std::string validate() const;
+  /// True when the chosen descriptor re-ranks its shortlist with a second similarity
+  /// (DescriptorExtractor::reranks() of what these options build).
+  bool reranks() const;
 };
 
 /// The ONNX encoder shipped with the package (calc_encoder.onnx in modelDirectory()).
