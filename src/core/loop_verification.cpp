@@ -33,7 +33,7 @@ bool LoopDetector::verify(const KeyframeRecord& query, const KeyframeRecord& mat
       loop->metric_pose = std::move(metric);
     }
     if (!loop->relative_pose && check.accepted() && options_.verification.publish_scale_free_pose) {
-      loop->relative_pose = check.pose;
+      loop->relative_pose = withUnknownScale(check.pose);
     }
     loop->verification = std::move(check);
     return true;

@@ -261,6 +261,13 @@ Eigen::Vector3d normalised(const cv::Point2f& pixel, const CameraIntrinsics& k) 
 
 }  // namespace
 
+RelativePose withUnknownScale(RelativePose pose) {
+  if (pose.metric || !(pose.translation.norm() > 0.0)) return pose;
+  const Eigen::Vector3d direction = pose.translation.normalized();
+  pose.covariance.block<3, 3>(0, 0) += kUnknownScaleVariance * direction * direction.transpose();
+  return pose;
+}
+
 size_t LocalFeatures::bytes() const {
   return points.size() * sizeof(cv::Point2f) + descriptors.total() * descriptors.elemSize() +
          points3d.size() * sizeof(cv::Point3f) + depth_sd.size() * sizeof(float);

@@ -10,7 +10,9 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
@@ -234,4 +236,39 @@ TEST(CameraIntrinsics, EachUnusableCalibrationHasItsOwnCauseAndNamesTheField) {
   ASSERT_TRUE(other);
   EXPECT_EQ(other->cause, "aspect_ratio");
   EXPECT_NE(other->text.find("aspect ratio"), std::string::npos);
+}
+
+// A direction has no variance along itself: published as it is, a scale-free pose's covariance
+// has rank 5 and a backend inverting it gets infinities.
+TEST(GeometricVerification, PublishedScaleFreeCovarianceIsInvertible) {
+  RelativePose pose;
+  pose.translation = Eigen::Vector3d(0.6, 0.0, 0.8);
+  const Eigen::Vector3d across_a(0.8, 0.0, -0.6);
+  const Eigen::Vector3d across_b(0.0, 1.0, 0.0);
+  pose.covariance.block<3, 3>(0, 0) =
+      1e-4 * (across_a * across_a.transpose()) + 2e-4 * (across_b * across_b.transpose());
+  pose.covariance.block<3, 3>(3, 3) = 1e-6 * Eigen::Matrix3d::Identity();
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  ASSERT_LT(Eigen::FullPivLU<Matrix6>(pose.covariance).rank(), 6);
+
+  const RelativePose published = withUnknownScale(pose);
+  const Eigen::SelfAdjointEigenSolver<Matrix6> eigen(published.covariance);
+  EXPECT_GT(eigen.eigenvalues().minCoeff(), 0.0);
+  const Eigen::Vector3d along = pose.translation;
+  EXPECT_NEAR(along.dot(published.covariance.block<3, 3>(0, 0) * along), kUnknownScaleVariance,
+              1e-6);
+  // Across the direction and in rotation nothing changes.
+  EXPECT_NEAR(across_a.dot(published.covariance.block<3, 3>(0, 0) * across_a), 1e-4, 1e-9);
+  EXPECT_NEAR(across_b.dot(published.covariance.block<3, 3>(0, 0) * across_b), 2e-4, 1e-9);
+  const Eigen::Matrix3d rotation_before = pose.covariance.block<3, 3>(3, 3);
+  const Eigen::Matrix3d rotation_after = published.covariance.block<3, 3>(3, 3);
+  EXPECT_TRUE(rotation_after.isApprox(rotation_before));
+  // What a backend sees after inverting: almost no information along the direction.
+  const Matrix6 information = published.covariance.inverse();
+  EXPECT_LT(along.dot(information.block<3, 3>(0, 0) * along), 1e-5);
+  EXPECT_GT(across_a.dot(information.block<3, 3>(0, 0) * across_a), 1e3);
+
+  RelativePose metric = pose;
+  metric.metric = true;
+  EXPECT_TRUE(withUnknownScale(metric).covariance.isApprox(metric.covariance));
 }

@@ -81,6 +81,16 @@ struct RelativePose {
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
+/// Variance (m^2) a published scale-free pose carries along its translation direction, whose
+/// length is unknown (sd 1000 m): its covariance is then invertible, and a backend that inverts it
+/// gets next to no information along the direction and the measured one across it.
+constexpr double kUnknownScaleVariance = 1e6;
+
+/// A scale-free pose as it is published: kUnknownScaleVariance added along the unit translation
+/// (a direction has no variance along itself, so the covariance alone has rank 5). Metric poses
+/// are returned unchanged.
+RelativePose withUnknownScale(RelativePose pose);
+
 struct VerificationResult {
   VerificationVerdict verdict = VerificationVerdict::kNoIntrinsics;
   int matches = 0;
