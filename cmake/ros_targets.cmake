@@ -26,6 +26,11 @@ target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_messages ${PROJECT
   ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_generate_messages_cpp)
 
+# The markers' cost per keyframe as the map grows (bench/README.md).
+add_executable(lcd_bench_markers src/tools/lcd_bench_markers.cpp)
+target_include_directories(lcd_bench_markers SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(lcd_bench_markers ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+
 add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
 target_include_directories(loop_closure_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
@@ -36,7 +41,7 @@ install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_node
   ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${PROJECT_NAME}_messages ${PROJECT_NAME}_bag
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
-install(TARGETS loop_closure_node lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
+install(TARGETS loop_closure_node lcd_bench_markers lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
 install(DIRECTORY launch config msg srv DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})

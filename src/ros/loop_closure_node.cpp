@@ -92,7 +92,12 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   keyframe_publisher_ =
       node_.advertise<Keyframe>("keyframes", 1000);  // Bursts after online training.
   candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
-  markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  // Each keyframe sends only the markers it changed (queued, so none is lost); a viewer that
+  // connects later is sent everything once.
+  markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>(
+      "markers", 100, [this](const ros::SingleSubscriberPublisher& subscriber) {
+        subscriber.publish(markers_.snapshot(ros::Time::now()));
+      });
   image_transport::ImageTransport private_transport(private_node_);
   // Latched: the latest loop stays on view, also for a viewer that starts later.
   match_image_publisher_ = private_transport.advertise("match_image", 1, true);

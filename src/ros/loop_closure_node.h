@@ -168,7 +168,7 @@ class LoopClosureNode {
   ros::Publisher markers_publisher_;
   image_transport::Publisher match_image_publisher_;
   bool loop_shown_ = false;  ///< The match view holds the latest loop; worker thread only.
-  LoopMarkers markers_;      // Worker thread only.
+  LoopMarkers markers_;      // Thread-safe: the worker draws, a connecting viewer reads.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
 
   // Database services.

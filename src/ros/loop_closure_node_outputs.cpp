@@ -146,8 +146,10 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
       markers_.addRejected(job.pose, match->pose);
     }
   }
-  if (markers_publisher_.getNumSubscribers() > 0) {
-    markers_publisher_.publish(markers_.toMsg(job.stamp));
+  // Taken every keyframe (the change set restarts), sent when someone listens.
+  const visualization_msgs::MarkerArray changed = markers_.changes(job.stamp);
+  if (!changed.markers.empty() && markers_publisher_.getNumSubscribers() > 0) {
+    markers_publisher_.publish(changed);
   }
   publishMatchImage(job, result, grey);
 }

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstddef>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -9,32 +11,71 @@
 
 namespace landmark_loop_closure {
 
-/// What rviz shows: keyframe positions (blue), verified loops green (brighter and wider the
-/// higher their score), loops published without the geometric check orange, optionally rejected
-/// candidates grey, and a legend saying so above the first keyframe. Every marker is one rviz
-/// accepts: a namespace with nothing to draw is sent as DELETE, never as an empty point list.
+/// What rviz shows: keyframe positions (blue), verified loops green (brighter the higher their
+/// score), loops published without the geometric check orange, optionally rejected candidates
+/// grey, and a legend saying so above the middle of the map. Every marker is one rviz accepts: a
+/// namespace with nothing to draw is sent as DELETE, never as an empty point list.
+///
+/// Drawn incrementally, so a keyframe costs the same on a map of any size: points are kept in
+/// chunks of kChunkPoints, one marker id per chunk, and changes() sends only the chunks that
+/// changed since the last call; snapshot() sends everything (for a viewer that connects later).
+/// Thread-safe: the worker adds, a subscriber's connection asks for a snapshot.
 class LoopMarkers {
  public:
+  static constexpr size_t kChunkPoints = 1000;
+
   LoopMarkers(std::string frame_id, double min_score, bool show_rejected);
 
   void addKeyframe(const Pose& pose);
   void addLoop(const AcceptedLoop& loop);
   void addRejected(const Pose& query, const Pose& match);
-  void setFrameId(const std::string& frame_id) { frame_id_ = frame_id; }
-  /// Forgets everything drawn (a database loaded or reset).
+  void setFrameId(const std::string& frame_id);
+  /// Forgets everything drawn (a database loaded or reset); the next changes() deletes it in rviz.
   void clear();
 
-  visualization_msgs::MarkerArray toMsg(const ros::Time& stamp) const;
+  /// The markers changed since the last changes() (after clear(): a DELETEALL first).
+  visualization_msgs::MarkerArray changes(const ros::Time& stamp);
+  /// Every marker: what a viewer that connects now needs.
+  visualization_msgs::MarkerArray snapshot(const ros::Time& stamp) const;
 
  private:
+  /// One namespace's points, in chunks of kChunkPoints (line lists: an even number per chunk).
+  struct Layer {
+    std::string ns;
+    int type = 0;
+    double width = 0.0;
+    std_msgs::ColorRGBA colour;
+    bool per_point_colour = false;
+    std::vector<std::vector<geometry_msgs::Point>> points;
+    std::vector<std::vector<std_msgs::ColorRGBA>> colours;
+    std::vector<bool> changed;  ///< Per chunk, since the last changes().
+
+    void add(const geometry_msgs::Point& point, const std_msgs::ColorRGBA* point_colour);
+    void clear();
+    void markers(const std::string& frame_id, const ros::Time& stamp, bool only_changed,
+                 visualization_msgs::MarkerArray* array) const;
+  };
+
+  visualization_msgs::Marker legend(const ros::Time& stamp) const;
+
+  mutable std::mutex mutex_;
   std::string frame_id_;
   double min_score_;
   bool show_rejected_;
-  std::vector<geometry_msgs::Point> keyframes_;
-  std::vector<geometry_msgs::Point> loop_ends_;
-  std::vector<std_msgs::ColorRGBA> loop_colours_;
-  std::vector<geometry_msgs::Point> unverified_ends_;
+  Layer keyframes_;
+  Layer loops_;
+  Layer unverified_;
+  /// Rejected candidates: only the most recent kMaxRejectedLines (rviz slows down with many),
+  /// one marker that is re-sent whole when it changes (its size is bounded).
   std::vector<geometry_msgs::Point> rejected_ends_;
+  bool rejected_changed_ = false;
+  // The legend sits above the middle of the map: running sums, not a pass over every keyframe.
+  double sum_x_ = 0.0;
+  double sum_y_ = 0.0;
+  double max_z_ = 0.0;
+  size_t keyframe_count_ = 0;
+  bool legend_changed_ = false;
+  bool cleared_ = false;
 };
 
 }  // namespace landmark_loop_closure

@@ -309,10 +309,10 @@ void expectRvizAcceptsAll(const visualization_msgs::MarkerArray& array, const st
 TEST(LoopMarkers, EveryMarkerTheNodePublishesIsOneRvizAccepts) {
   for (const bool show_rejected : {false, true}) {
     LoopMarkers markers("odom", 0.25, show_rejected);
-    expectRvizAcceptsAll(markers.toMsg(ros::Time(1.0)), "nothing yet");
+    expectRvizAcceptsAll(markers.snapshot(ros::Time(1.0)), "nothing yet");
     markers.addKeyframe(planarPose(0.0, 0.0, 0.0));
     markers.addKeyframe(planarPose(1.0, 0.0, 0.0));
-    expectRvizAcceptsAll(markers.toMsg(ros::Time(2.0)), "keyframes only");
+    expectRvizAcceptsAll(markers.snapshot(ros::Time(2.0)), "keyframes only");
     AcceptedLoop verified;
     verified.score = 0.3;
     verified.query_pose = planarPose(1.0, 0.0, 0.0);
@@ -320,12 +320,12 @@ TEST(LoopMarkers, EveryMarkerTheNodePublishesIsOneRvizAccepts) {
     check.verdict = VerificationVerdict::kAccepted;
     verified.verification = check;
     markers.addLoop(verified);
-    expectRvizAcceptsAll(markers.toMsg(ros::Time(3.0)), "a verified loop");
+    expectRvizAcceptsAll(markers.snapshot(ros::Time(3.0)), "a verified loop");
     AcceptedLoop unverified;
     unverified.score = 0.9;
     markers.addLoop(unverified);
     markers.addRejected(planarPose(1.0, 0.0, 0.0), planarPose(0.0, 0.0, 0.0));
-    const visualization_msgs::MarkerArray all = markers.toMsg(ros::Time(4.0));
+    const visualization_msgs::MarkerArray all = markers.snapshot(ros::Time(4.0));
     expectRvizAcceptsAll(all, "every kind");
     // Verified loops are green at any score, unverified orange, rejected grey; a legend says so.
     std::map<std::string, visualization_msgs::Marker> by_namespace;
@@ -339,13 +339,62 @@ TEST(LoopMarkers, EveryMarkerTheNodePublishesIsOneRvizAccepts) {
       EXPECT_EQ(by_namespace["rejected"].color.r, by_namespace["rejected"].color.g);
     }
     EXPECT_NE(by_namespace["legend"].text.find("green: verified"), std::string::npos);
+    markers.changes(ros::Time(4.5));
     markers.clear();
-    const visualization_msgs::MarkerArray cleared = markers.toMsg(ros::Time(5.0));
+    const visualization_msgs::MarkerArray cleared = markers.snapshot(ros::Time(5.0));
     expectRvizAcceptsAll(cleared, "after a reset");
     for (const visualization_msgs::Marker& marker : cleared.markers) {
       EXPECT_EQ(marker.action, visualization_msgs::Marker::DELETE) << marker.ns;
     }
+    // A viewer that saw the old map is told to forget all of it.
+    const visualization_msgs::MarkerArray reset = markers.changes(ros::Time(5.0));
+    expectRvizAcceptsAll(reset, "the change after a reset");
+    ASSERT_FALSE(reset.markers.empty());
+    EXPECT_EQ(reset.markers.front().action, visualization_msgs::Marker::DELETEALL);
   }
+}
+
+// A keyframe's markers cost the same on a map of any size: only the chunk it changed goes out,
+// while a viewer that connects later gets every chunk.
+TEST(LoopMarkers, EachKeyframeSendsOnlyWhatItChanged) {
+  LoopMarkers markers("odom", 0.25, true);
+  const size_t keyframes = 2 * LoopMarkers::kChunkPoints + 10;
+  VerificationResult check;
+  check.verdict = VerificationVerdict::kAccepted;
+  for (size_t i = 0; i < keyframes; ++i) {
+    markers.addKeyframe(planarPose(0.1 * static_cast<double>(i), 0.0, 0.0));
+    AcceptedLoop loop;
+    loop.score = 0.5;
+    loop.query_pose = planarPose(0.1 * static_cast<double>(i), 0.0, 0.0);
+    loop.verification = check;
+    markers.addLoop(loop);
+    markers.changes(ros::Time(1.0));
+  }
+  markers.addKeyframe(planarPose(-1.0, 0.0, 0.0));
+  const visualization_msgs::MarkerArray changed = markers.changes(ros::Time(2.0));
+  expectRvizAcceptsAll(changed, "one keyframe's change");
+  std::map<std::string, std::vector<visualization_msgs::Marker>> changed_by_namespace;
+  for (const auto& marker : changed.markers) changed_by_namespace[marker.ns].push_back(marker);
+  ASSERT_EQ(changed_by_namespace["keyframes"].size(), 1u);
+  EXPECT_EQ(changed_by_namespace["keyframes"][0].id, 2);  // The third chunk, the one it joined.
+  EXPECT_EQ(changed_by_namespace["keyframes"][0].points.size(), 11u);
+  EXPECT_EQ(changed_by_namespace.count("loops"), 0u);  // No loop came: nothing re-sent.
+  EXPECT_EQ(changed_by_namespace["legend"].size(), 1u);
+
+  const visualization_msgs::MarkerArray all = markers.snapshot(ros::Time(3.0));
+  expectRvizAcceptsAll(all, "a large map");
+  size_t keyframe_points = 0;
+  size_t loop_points = 0;
+  for (const auto& marker : all.markers) {
+    if (marker.ns == "keyframes") keyframe_points += marker.points.size();
+    if (marker.ns == "loops") {
+      loop_points += marker.points.size();
+      EXPECT_EQ(marker.points.size() % 2, 0u) << "a line's two ends share a chunk";
+    }
+  }
+  EXPECT_EQ(keyframe_points, keyframes + 1);
+  EXPECT_EQ(loop_points, 2 * keyframes);
+  EXPECT_TRUE(markers.changes(ros::Time(4.0)).markers.empty()) << "nothing new since";
 }
 
 TEST(LoopMarkers, VerifiedAndUnverifiedLoopsAreDrawnApart) {
@@ -360,7 +409,7 @@ TEST(LoopMarkers, VerifiedAndUnverifiedLoopsAreDrawnApart) {
   AcceptedLoop unverified;
   unverified.query_pose = planarPose(5.0, 0.0, 0.0);
   markers.addLoop(unverified);
-  const visualization_msgs::MarkerArray array = markers.toMsg(ros::Time(1.0));
+  const visualization_msgs::MarkerArray array = markers.snapshot(ros::Time(1.0));
   std::map<std::string, visualization_msgs::Marker> by_namespace;
   for (const visualization_msgs::Marker& marker : array.markers) by_namespace[marker.ns] = marker;
   ASSERT_EQ(by_namespace.count("loops"), 1u);
