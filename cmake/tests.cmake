@@ -18,6 +18,7 @@ set(CORE_TESTS
   test_bounded_queue
   test_detector_runtime
   test_input_monitor
+  test_odometry_history
   test_keyframe_store
   test_saved_search_rows
   test_match_image

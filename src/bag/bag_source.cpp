@@ -1,5 +1,6 @@
 #include "bag/bag_source.h"
 
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -10,6 +11,7 @@
 #include <sensor_msgs/Image.h>
 
 #include "landmark_loop_closure/core/input_error.h"
+#include "landmark_loop_closure/runtime/odometry_history.h"
 #include "messages/ros_conversions.h"
 
 namespace landmark_loop_closure {
@@ -37,18 +39,21 @@ void openBag(const BagSourceOptions& options, rosbag::Bag* bag) {
 }
 
 // Poses first: a bag's odometry may be written after the image it belongs to.
-void readPoses(const BagSourceOptions& options, rosbag::Bag& bag,
-               std::map<ros::Time, Pose>* odometry, std::map<ros::Time, Pose>* truth) {
+void readPoses(const BagSourceOptions& options, rosbag::Bag& bag, OdometryHistory* odometry,
+               std::map<ros::Time, Pose>* truth) {
   std::vector<std::string> pose_topics = {options.odom_topic};
   if (!options.truth_topic.empty()) pose_topics.push_back(options.truth_topic);
   for (const rosbag::MessageInstance& message :
        rosbag::View(bag, rosbag::TopicQuery(pose_topics))) {
     if (const auto pose = message.instantiate<nav_msgs::Odometry>()) {
-      (message.getTopic() == options.odom_topic ? *odometry : *truth)[pose->header.stamp] =
-          fromRos(pose->pose.pose);
+      if (message.getTopic() == options.odom_topic) {
+        odometry->add(toSeconds(pose->header.stamp), fromRos(pose->pose.pose));
+      } else {
+        (*truth)[pose->header.stamp] = fromRos(pose->pose.pose);
+      }
     }
   }
-  if (odometry->empty()) {
+  if (odometry->size() == 0) {
     throw std::runtime_error(options.path + " has no nav_msgs/Odometry on " + options.odom_topic);
   }
   if (!options.truth_topic.empty() && truth->empty()) {
@@ -61,7 +66,7 @@ void readPoses(const BagSourceOptions& options, rosbag::Bag& bag,
 void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameSink& sink) {
   rosbag::Bag bag;
   openBag(options, &bag);
-  std::map<ros::Time, Pose> odometry;
+  OdometryHistory odometry(std::numeric_limits<size_t>::max());
   std::map<ros::Time, Pose> truth;
   readPoses(options, bag, &odometry, &truth);
   const std::string info_topic =
@@ -82,8 +87,10 @@ void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameS
     const auto image = message.instantiate<sensor_msgs::Image>();
     if (!image) continue;
     ++images;
-    const Pose* pose = nearest(odometry, image->header.stamp, options.sync_slop);
-    if (!pose || checkImageMessage(*image)) continue;
+    const OdometryLookup lookup =
+        odometry.at(toSeconds(image->header.stamp), options.odometry_max_interval);
+    if (lookup.status != OdometryAt::kFound || checkImageMessage(*image)) continue;
+    const Pose* pose = &lookup.pose;
     eval::DetectorFrame frame;
     frame.stamp = toSeconds(image->header.stamp);
     frame.pose = *pose;
@@ -103,7 +110,7 @@ void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameS
 BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
   rosbag::Bag bag;
   openBag(options, &bag);
-  std::map<ros::Time, Pose> odometry;
+  OdometryHistory odometry(std::numeric_limits<size_t>::max());
   std::map<ros::Time, Pose> truth;
   readPoses(options, bag, &odometry, &truth);
 
@@ -115,11 +122,13 @@ BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
     const auto image = message.instantiate<sensor_msgs::Image>();
     if (!image) continue;
     ++keyframes.images_read;
-    const Pose* pose = nearest(odometry, image->header.stamp, options.sync_slop);
-    if (!pose) {
+    const OdometryLookup lookup =
+        odometry.at(toSeconds(image->header.stamp), options.odometry_max_interval);
+    if (lookup.status != OdometryAt::kFound) {
       ++keyframes.images_without_odometry;
       continue;
     }
+    const Pose* pose = &lookup.pose;
     const double stamp = toSeconds(image->header.stamp);
     if (checkImageMessage(*image) || checkPose(*pose, limits) ||
         (selector.hasKeyframe() && stamp <= selector.lastKeyframeStamp())) {

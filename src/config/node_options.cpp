@@ -49,26 +49,37 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                 "and the map is never written to again (keyframes are kept in memory only).")
           .section("Inputs")
           .choice("pose_source", &O::pose_source, poseSourceNames(),
-                  "\"odom\": images synced with nav_msgs/Odometry on `odom`; \"tf\": images only, "
-                  "pose = tf lookup odom_frame -> base_frame at the image stamp.")
+                  "\"odom\": images with nav_msgs/Odometry on `odom`, interpolated to each image's "
+                  "stamp; \"tf\": images only, pose = tf lookup odom_frame -> base_frame at the "
+                  "image stamp.")
           .text("odom_frame", &O::odom_frame,
                 "tf mode: fixed frame of the lookup (odom mode uses the odometry's frame_id).")
           .text("base_frame", &O::base_frame,
                 "the robot's body frame: tf mode looks its pose up; camera_mount/from_tf and "
-                "relative_pose_frame: base use it in both modes.")
+                "relative_pose_frame: base use it in both modes. odom mode: odometry whose "
+                "child_frame_id is another frame is turned into base_frame's pose through tf "
+                "(child_frame_id -> base_frame, latest), or dropped with an error until tf has "
+                "it; an empty child_frame_id is taken as base_frame.")
           .number("tf_timeout", &O::tf_timeout, atLeast(0),
                   "tf mode: seconds to wait for the transform at an image stamp, then drop the "
                   "image.")
           .integer("sync_queue_size", &O::sync_queue_size, between(1, 1000),
-                   "odom mode: ApproximateTime queue length per topic (messages).")
+                   "odom mode: images held until the odometry message after their stamp comes "
+                   "(visual odometry publishes after the image); when full the oldest is dropped "
+                   "with a warning.")
+          .number("odometry_max_interval", &O::odometry_max_interval, above(0),
+                  "odom mode: an image's pose is the odometry interpolated to its stamp (position "
+                  "linearly, orientation by slerp) between the messages just before and after "
+                  "it, which may be at most this far apart (s); an image at a message's stamp "
+                  "takes it. Images the odometry cannot place are dropped with the reason.")
           .number("sync_slop", &O::sync_slop, above(0),
-                  "odom mode: largest stamp difference between an image and its odometry (s).")
+                  "largest stamp difference between a keyframe and its depth image (s).")
           .integer("worker_queue_size", &O::worker_queue_size, between(1, 10000),
                    "keyframes waiting for the worker thread; when full the oldest is dropped and "
                    "counted. Each holds its image (~1 MB at 640x480 colour).")
           .number("input_timeout", &O::input_timeout, above(0),
                   "diagnostics warn when no image/odometry arrived for this long (s), and a "
-                  "warning names the stamps when both arrive but never pair within sync_slop.")
+                  "warning names the stamps when both arrive but never pair.")
           .choice("time_jump_back", &O::time_jump_back, timeJumpPolicyNames(),
                   "a frame more than time_jump_back_s older than the last keyframe (bag "
                   "restarted, sim clock reset): \"drop\" it and every frame until time passes "

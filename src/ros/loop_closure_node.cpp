@@ -53,7 +53,7 @@ void logAtStop(ros::console::levels::Level level, const std::string& text) {
 InputMonitorOptions inputMonitorOptions(const NodeOptions& options) {
   InputMonitorOptions monitor;
   monitor.timeout_s = options.input_timeout;
-  monitor.sync_slop_s = options.sync_slop;
+  monitor.max_interval_s = options.odometry_max_interval;
   return monitor;
 }
 
@@ -254,21 +254,10 @@ void LoopClosureNode::subscribe() {
   }
   odom_topic_ = node_.resolveName("odom");
   const uint32_t queue = static_cast<uint32_t>(options_.sync_queue_size);
-  image_filter_.subscribe(image_transport_, "image", queue);
-  odom_filter_.subscribe(node_, "odom", queue);
-  image_filter_.registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this](const sensor_msgs::ImageConstPtr& image) {
-        inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
-      }));
-  odom_filter_.registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
-      [this](const nav_msgs::OdometryConstPtr& odometry) {
-        inputs_.poseArrived(wallNow(), odometry->header.stamp.toSec());
-      }));
-  sync_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(queue),
-                                                                      image_filter_, odom_filter_);
-  sync_->setMaxIntervalDuration(ros::Duration(options_.sync_slop));
-  sync_->registerCallback(boost::bind(&LoopClosureNode::onImageWithOdometry, this,
-                                      boost::placeholders::_1, boost::placeholders::_2));
+  image_subscriber_ =
+      image_transport_.subscribe("image", queue, &LoopClosureNode::onImageForOdometry, this);
+  // Odometry usually comes faster than images: enough for the images' wait.
+  odom_subscriber_ = node_.subscribe("odom", 200, &LoopClosureNode::onOdometry, this);
 }
 
 }  // namespace landmark_loop_closure

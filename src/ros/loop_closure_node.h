@@ -4,15 +4,12 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <unordered_map>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
-#include <image_transport/subscriber_filter.h>
-#include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -28,6 +25,7 @@
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 #include "landmark_loop_closure/runtime/input_monitor.h"
+#include "landmark_loop_closure/runtime/odometry_history.h"
 #include "landmark_loop_closure/runtime/stamped_buffer.h"
 #include "loop_markers.h"
 
@@ -70,12 +68,13 @@ class LoopClosureNode {
     sensor_msgs::ImageConstPtr image;
     ros::WallTime received;
   };
-  using SyncPolicy =
-      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, nav_msgs::Odometry>;
-
   void subscribe();
-  void onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
-                           const nav_msgs::OdometryConstPtr& odometry);
+  void onImageForOdometry(const sensor_msgs::ImageConstPtr& image);
+  void onOdometry(const nav_msgs::OdometryConstPtr& odometry);
+  /// Admits, in stamp order, the held images the odometry now places; drops those it never will.
+  void pairPendingWithOdometry();
+  /// The odometry's pose as base_frame's: through tf when child_frame_id is another frame.
+  std::optional<Pose> bodyPose(const nav_msgs::Odometry& odometry);
   void onImageForTf(const sensor_msgs::ImageConstPtr& image);
   void retryPendingTf();
   void onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info);
@@ -142,10 +141,12 @@ class LoopClosureNode {
 
   // Inputs.
   image_transport::ImageTransport image_transport_;
-  image_transport::SubscriberFilter image_filter_;
-  message_filters::Subscriber<nav_msgs::Odometry> odom_filter_;
-  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
   image_transport::Subscriber image_subscriber_;
+  ros::Subscriber odom_subscriber_;
+  // odom mode, callback thread only: recent odometry and the images waiting for it.
+  OdometryHistory odometry_history_;
+  std::string odometry_frame_;  ///< frame_id of the latest odometry message.
+  std::deque<PendingImage> pending_odometry_;
   ros::Subscriber camera_info_subscriber_;
   image_transport::Subscriber depth_subscriber_;
   InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.

@@ -18,12 +18,78 @@ constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the s
 
 }  // namespace
 
-void LoopClosureNode::onImageWithOdometry(const sensor_msgs::ImageConstPtr& image,
-                                          const nav_msgs::OdometryConstPtr& odometry) {
-  inputs_.paired(wallNow());
-  const std::string& frame =
+void LoopClosureNode::onImageForOdometry(const sensor_msgs::ImageConstPtr& image) {
+  inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
+  pending_odometry_.push_back({image, ros::WallTime::now()});
+  if (pending_odometry_.size() > static_cast<size_t>(options_.sync_queue_size)) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Dropped image at %.3f: %d images wait for odometry after their stamps "
+                      "(sync_queue_size), the newest odometry is at %.3f",
+                      pending_odometry_.front().image->header.stamp.toSec(),
+                      options_.sync_queue_size, odometry_history_.newest());
+    pending_odometry_.pop_front();
+  }
+  pairPendingWithOdometry();
+}
+
+std::optional<Pose> LoopClosureNode::bodyPose(const nav_msgs::Odometry& odometry) {
+  const Pose pose = fromRos(odometry.pose.pose);
+  const std::string& child = odometry.child_frame_id;
+  if (child.empty() || child == options_.base_frame || options_.base_frame.empty()) return pose;
+  if (!tf_buffer_) {  // Made when first needed: most odometry is already of base_frame.
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
+  }
+  std::string error;
+  if (!tf_buffer_->canTransform(child, options_.base_frame, ros::Time(0), &error)) {
+    ROS_ERROR_THROTTLE(kWarningPeriod,
+                       "Odometry is of child_frame_id '%s', not base_frame '%s', and tf has no "
+                       "transform between them yet (%s): odometry dropped until it has",
+                       child.c_str(), options_.base_frame.c_str(), error.c_str());
+    return std::nullopt;
+  }
+  const Eigen::Isometry3d child_from_base =
+      tf2::transformToEigen(tf_buffer_->lookupTransform(child, options_.base_frame, ros::Time(0)));
+  ROS_INFO_ONCE("Odometry is of child_frame_id '%s': turned into base_frame '%s' through tf",
+                child.c_str(), options_.base_frame.c_str());
+  return Pose::fromIsometry(pose.toIsometry() * child_from_base);
+}
+
+void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
+  const double stamp = odometry->header.stamp.toSec();
+  inputs_.poseArrived(wallNow(), stamp);
+  const std::optional<Pose> pose = bodyPose(*odometry);
+  if (!pose) return;
+  odometry_frame_ =
       odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
-  admitFrame(image, fromRos(odometry->pose.pose), frame);
+  odometry_history_.add(stamp, *pose);
+  pairPendingWithOdometry();
+}
+
+void LoopClosureNode::pairPendingWithOdometry() {
+  while (!pending_odometry_.empty()) {
+    const sensor_msgs::ImageConstPtr image = pending_odometry_.front().image;
+    const double stamp = image->header.stamp.toSec();
+    const OdometryLookup lookup = odometry_history_.at(stamp, options_.odometry_max_interval);
+    if (lookup.status == OdometryAt::kNotYet || lookup.status == OdometryAt::kNoOdometry) return;
+    pending_odometry_.pop_front();
+    if (lookup.status == OdometryAt::kFound) {
+      inputs_.paired(wallNow());
+      admitFrame(image, lookup.pose, odometry_frame_);
+      continue;
+    }
+    if (lookup.status == OdometryAt::kGapTooLong) {
+      ROS_WARN_THROTTLE(kWarningPeriod,
+                        "Dropped image at %.3f: the odometry messages around it are %.3f s "
+                        "apart, more than odometry_max_interval %.3f",
+                        stamp, lookup.interval, options_.odometry_max_interval);
+    } else {
+      ROS_WARN_THROTTLE(kWarningPeriod,
+                        "Dropped image at %.3f: it is older than every odometry message held "
+                        "(%zu, from the newest at %.3f back)",
+                        stamp, odometry_history_.size(), odometry_history_.newest());
+    }
+  }
 }
 
 void LoopClosureNode::onImageForTf(const sensor_msgs::ImageConstPtr& image) {

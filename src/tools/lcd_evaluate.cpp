@@ -226,10 +226,10 @@ int run(const Arguments& arguments) {
     bag.truth_topic = arguments.get("--truth-topic");
     BagKeyframes keyframes = readBagKeyframes(bag);
     std::fprintf(stderr,
-                 "lcd_evaluate: %zu images, %zu keyframes (%zu without odometry within %.2f s, "
-                 "%zu refused)\n",
+                 "lcd_evaluate: %zu images, %zu keyframes (%zu without odometry around them, "
+                 "messages at most %.2f s apart; %zu refused)\n",
                  keyframes.images_read, keyframes.images.size(), keyframes.images_without_odometry,
-                 bag.sync_slop, keyframes.images_rejected);
+                 bag.odometry_max_interval, keyframes.images_rejected);
     if (keyframes.keyframes_without_truth > 0) {
       std::fprintf(stderr, "lcd_evaluate: %zu keyframes had no truth pose; odometry used\n",
                    keyframes.keyframes_without_truth);

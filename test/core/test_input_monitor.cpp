@@ -16,7 +16,7 @@ namespace {
 InputMonitorOptions monitorOptions() {
   InputMonitorOptions options;
   options.timeout_s = 5.0;
-  options.sync_slop_s = 0.05;
+  options.max_interval_s = 0.25;
   options.rejection_log_period_s = 5.0;
   return options;
 }

@@ -42,9 +42,11 @@ struct NodeOptions {
   /// The robot's body frame: tf mode looks its pose up; camera_mount_from_tf and
   /// relative_pose_frame "base" use it in both modes.
   std::string base_frame = "base_link";
-  double tf_timeout = 0.2;     ///< tf mode: seconds to wait for a transform, then drop.
-  int sync_queue_size = 30;    ///< odom mode: ApproximateTime queue per topic.
-  double sync_slop = 0.05;     ///< odom mode: seconds an image and odometry may differ.
+  double tf_timeout = 0.2;   ///< tf mode: seconds to wait for a transform, then drop.
+  int sync_queue_size = 30;  ///< odom mode: images waiting for the odometry after them.
+  double sync_slop = 0.05;   ///< Seconds a keyframe and its depth image may differ.
+  double odometry_max_interval =
+      0.25;                    ///< odom mode: seconds between the messages around an image.
   int worker_queue_size = 8;   ///< Keyframes waiting for the worker thread.
   double input_timeout = 5.0;  ///< Seconds without input before diagnostics warn.
   /// A frame stamped more than time_jump_back_s before the last keyframe (bag restarted, simulated

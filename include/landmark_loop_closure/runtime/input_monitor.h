@@ -11,7 +11,7 @@ namespace landmark_loop_closure {
 
 struct InputMonitorOptions {
   double timeout_s = 5.0;               ///< An input silent this long is reported.
-  double sync_slop_s = 0.05;            ///< Named in the unpaired-inputs warning.
+  double max_interval_s = 0.25;         ///< odometry_max_interval, named in the unpaired warning.
   double rejection_log_period_s = 5.0;  ///< One log line per kind of bad frame per period.
 };
 

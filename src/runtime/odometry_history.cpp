@@ -1,0 +1,74 @@
+#include "landmark_loop_closure/runtime/odometry_history.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace landmark_loop_closure {
+
+Pose interpolatePose(const Pose& a, const Pose& b, double t) {
+  Pose pose;
+  pose.position = a.position + t * (b.position - a.position);
+  pose.orientation = a.orientation.slerp(t, b.orientation).normalized();
+  return pose;
+}
+
+void OdometryHistory::add(double stamp, const Pose& pose) {
+  const auto later =
+      std::lower_bound(messages_.begin(), messages_.end(), stamp,
+                       [](const Message& message, double value) { return message.stamp < value; });
+  if (later != messages_.end() && std::abs(later->stamp - stamp) <= kSameStamp) {
+    later->pose = pose;
+    return;
+  }
+  messages_.insert(later, Message{stamp, pose});
+  while (messages_.size() > capacity_) messages_.pop_front();
+}
+
+OdometryLookup OdometryHistory::at(double stamp, double max_interval) const {
+  OdometryLookup lookup;
+  if (messages_.empty()) return lookup;
+  if (stamp > messages_.back().stamp + kSameStamp) {
+    lookup.status = OdometryAt::kNotYet;
+    return lookup;
+  }
+  if (stamp < messages_.front().stamp - kSameStamp) {
+    lookup.status = OdometryAt::kBeforeHistory;
+    return lookup;
+  }
+  const auto after =
+      std::lower_bound(messages_.begin(), messages_.end(), stamp - kSameStamp,
+                       [](const Message& message, double value) { return message.stamp < value; });
+  if (std::abs(after->stamp - stamp) <= kSameStamp) {
+    lookup.status = OdometryAt::kFound;
+    lookup.pose = after->pose;
+    return lookup;
+  }
+  const auto before = std::prev(after);  // Exists: stamp is after the oldest message.
+  lookup.interval = after->stamp - before->stamp;
+  if (lookup.interval > max_interval) {
+    lookup.status = OdometryAt::kGapTooLong;
+    return lookup;
+  }
+  lookup.status = OdometryAt::kFound;
+  lookup.pose =
+      interpolatePose(before->pose, after->pose, (stamp - before->stamp) / lookup.interval);
+  return lookup;
+}
+
+const char* toString(OdometryAt status) {
+  switch (status) {
+    case OdometryAt::kFound:
+      return "found";
+    case OdometryAt::kNotYet:
+      return "after the newest odometry";
+    case OdometryAt::kBeforeHistory:
+      return "before the oldest odometry held";
+    case OdometryAt::kGapTooLong:
+      return "odometry messages around it too far apart";
+    case OdometryAt::kNoOdometry:
+      return "no odometry yet";
+  }
+  return "unknown";
+}
+
+}  // namespace landmark_loop_closure
