@@ -10,6 +10,8 @@
 //       dataset/poses/00.txt --kitti-times dataset/sequences/00/times.txt --kitti-calib
 //       dataset/sequences/00/calib.txt [--true-distance 5] [--variants shipped]
 //   lcd_bench_verification --export-kitti DIR [--laps L]   (the corridor in KITTI's layout)
+//   lcd_bench_verification --k1 -0.3 [--k2 0.1] [--lens handled|ignored] [--variants shipped]
+//       (the corridor seen through a plumb_bob lens; the detector told of it, or not)
 // --min-score lowers the acceptance threshold to where false loops appear, to show what the
 // check and the gate stop. KITTI's true poses stand in for the odometry (no drift, so the gate
 // has nothing to stop and triangulated depths are as good as the images allow); the camera sits
@@ -28,6 +30,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -68,10 +71,40 @@ class FrameSource {
   virtual CameraIntrinsics intrinsics() const = 0;
 };
 
+/// The lens of --k1/--k2 (plumb_bob): the corridor is rendered through it, and the detector is
+/// told of it unless `ignored`.
+struct CorridorLens {
+  std::vector<double> coefficients;  ///< Empty: a pinhole camera.
+  bool ignored = false;
+};
+
 class CorridorSource : public FrameSource {
  public:
-  CorridorSource(double laps, const CameraMount& mount)
-      : sequence_(world_, camera_, optionsFor(laps)), mount_(mount.toPose().toIsometry()) {}
+  CorridorSource(double laps, const CameraMount& mount, const CorridorLens& lens = {})
+      : sequence_(world_, camera_, optionsFor(laps)),
+        wide_sequence_(world_, wideCamera(), optionsFor(laps)),
+        mount_(mount.toPose().toIsometry()),
+        lens_(lens) {
+    if (lens_.coefficients.empty()) return;
+    // Each pixel of the distorted image looks along its undistorted ray: sample a wider pinhole
+    // render there (the ray of a corner lies outside the undistorted 320x240 image).
+    CameraIntrinsics distorted = camera_.intrinsics();
+    distorted.setLens("plumb_bob", lens_.coefficients);
+    std::vector<cv::Point2f> pixels;
+    for (int v = 0; v < camera_.height; ++v) {
+      for (int u = 0; u < camera_.width; ++u) pixels.emplace_back(u, v);
+    }
+    const std::vector<cv::Point2f> ideal = distorted.idealPixels(pixels);
+    const CameraIntrinsics wide = wideCamera().intrinsics();
+    map_x_.create(camera_.height, camera_.width, CV_32FC1);
+    map_y_.create(camera_.height, camera_.width, CV_32FC1);
+    for (size_t i = 0; i < ideal.size(); ++i) {
+      const int v = static_cast<int>(i) / camera_.width;
+      const int u = static_cast<int>(i) % camera_.width;
+      map_x_.at<float>(v, u) = static_cast<float>(ideal[i].x - distorted.cx + wide.cx);
+      map_y_.at<float>(v, u) = static_cast<float>(ideal[i].y - distorted.cy + wide.cy);
+    }
+  }
 
   bool next(BenchFrame* frame) override {
     if (!sequence_.next(&current_, false)) return false;
@@ -84,11 +117,26 @@ class CorridorSource : public FrameSource {
     return true;
   }
   cv::Mat image(const BenchFrame& frame) const override {
-    return sequence_.render(frames_.at(frame.index));
+    if (lens_.coefficients.empty()) return sequence_.render(frames_.at(frame.index));
+    cv::Mat distorted;
+    cv::remap(wide_sequence_.render(frames_.at(frame.index)), distorted, map_x_, map_y_,
+              cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    return distorted;
   }
-  CameraIntrinsics intrinsics() const override { return camera_.intrinsics(); }
+  CameraIntrinsics intrinsics() const override {
+    CameraIntrinsics k = camera_.intrinsics();
+    if (!lens_.coefficients.empty() && !lens_.ignored) k.setLens("plumb_bob", lens_.coefficients);
+    return k;
+  }
 
  private:
+  static sim::CameraModel wideCamera() {
+    sim::CameraModel wide;
+    wide.width = 480;
+    wide.height = 360;
+    return wide;
+  }
+
   static sim::SequenceOptions optionsFor(double laps) {
     sim::SequenceOptions options;
     options.laps = laps;
@@ -98,7 +146,11 @@ class CorridorSource : public FrameSource {
   const sim::CorridorWorld world_;
   const sim::CameraModel camera_;
   sim::SequenceGenerator sequence_;
+  sim::SequenceGenerator wide_sequence_;
   Eigen::Isometry3d mount_;
+  CorridorLens lens_;
+  cv::Mat map_x_;
+  cv::Mat map_y_;
   sim::SequenceFrame current_;
   std::vector<sim::SequenceFrame> frames_;
 };
@@ -242,9 +294,10 @@ void exportKitti(FrameSource* source, const std::string& folder) {
 
 int main(int argc, char** argv) try {
   std::map<std::string, std::string> arguments = {
-      {"--config", ""},      {"--laps", "2"},       {"--min-score", ""},   {"--kitti-images", ""},
-      {"--kitti-poses", ""}, {"--kitti-times", ""}, {"--kitti-calib", ""}, {"--true-distance", ""},
-      {"--variants", "all"}, {"--export-kitti", ""}};
+      {"--config", ""},      {"--laps", "2"},        {"--min-score", ""},   {"--kitti-images", ""},
+      {"--kitti-poses", ""}, {"--kitti-times", ""},  {"--kitti-calib", ""}, {"--true-distance", ""},
+      {"--variants", "all"}, {"--export-kitti", ""}, {"--k1", ""},          {"--k2", "0"},
+      {"--lens", "handled"}};
   for (int i = 1; i + 1 < argc; i += 2) arguments[argv[i]] = argv[i + 1];
   cv::setNumThreads(1);
 
@@ -267,8 +320,13 @@ int main(int argc, char** argv) try {
                                    ? std::stod(arguments["--true-distance"])
                                    : (kitti ? 5.0 : 2.5);  // The demo report's 2.5 m.
   const CameraMount& mount = node_options.detector.camera_mount;
+  CorridorLens lens;
+  if (!arguments["--k1"].empty()) {
+    lens.coefficients = {std::stod(arguments["--k1"]), std::stod(arguments["--k2"]), 0.0, 0.0, 0.0};
+    lens.ignored = arguments["--lens"] == "ignored";
+  }
   const auto makeSource = [&]() -> std::unique_ptr<FrameSource> {
-    if (!kitti) return std::make_unique<CorridorSource>(laps, mount);
+    if (!kitti) return std::make_unique<CorridorSource>(laps, mount, lens);
     return std::make_unique<KittiSource>(arguments["--kitti-images"], arguments["--kitti-poses"],
                                          arguments["--kitti-times"], arguments["--kitti-calib"],
                                          mount);
@@ -292,8 +350,13 @@ int main(int argc, char** argv) try {
                 arguments["--kitti-images"].c_str(), true_distance,
                 node_options.detector.acceptance.min_score);
   } else {
-    std::printf("Generated corridor, %.1f laps, min_score %.3f, one core\n\n", laps,
+    std::printf("Generated corridor, %.1f laps, min_score %.3f, one core", laps,
                 node_options.detector.acceptance.min_score);
+    if (!lens.coefficients.empty()) {
+      std::printf(", lens k1 %.3f k2 %.3f (plumb_bob), %s by the detector", lens.coefficients[0],
+                  lens.coefficients[1], lens.ignored ? "ignored" : "handled");
+    }
+    std::printf("\n\n");
   }
   std::printf("| variant | keyframes | revisited | loops | true | false | precision | recall |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
