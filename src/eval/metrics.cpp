@@ -52,10 +52,13 @@ Metrics computeMetrics(const std::vector<QueryOutcome>& outcomes) {
     previous_precision = precision;
     if (correct_at_any_score > 0) {
       const double vpr_recall = true_positives / static_cast<double>(correct_at_any_score);
-      if (!metrics.vprbench.curve.empty()) {
-        const PrPoint& last = metrics.vprbench.curve.back();
-        metrics.vprbench.auc += 0.5 * (precision + last.precision) * (vpr_recall - last.recall);
-      }
+      // sklearn's precision_recall_curve, which VPR-Bench calls, ends its curve at recall 0,
+      // precision 1: the first trapezoid starts there.
+      const double last_recall =
+          metrics.vprbench.curve.empty() ? 0.0 : metrics.vprbench.curve.back().recall;
+      const double last_precision =
+          metrics.vprbench.curve.empty() ? 1.0 : metrics.vprbench.curve.back().precision;
+      metrics.vprbench.auc += 0.5 * (precision + last_precision) * (vpr_recall - last_recall);
       if (false_positives == 0) metrics.vprbench.recall_at_100_precision = vpr_recall;
       metrics.vprbench.curve.push_back({score, precision, vpr_recall});
     }

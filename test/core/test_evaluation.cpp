@@ -61,8 +61,9 @@ TEST(Metrics, VprBenchConventionDividesByTheCorrectlyMatchedQueries) {
   EXPECT_DOUBLE_EQ(m.vprbench.recall_at_100_precision, 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(m.vprbench.curve.back().recall, 1.0);
   EXPECT_DOUBLE_EQ(m.vprbench.curve.back().precision, 3.0 / 5.0);
-  // Trapezoids over the curve's points only: (1/3,1)->(2/3,1)->(2/3,2/3)->(1,3/4)->(1,3/5).
-  EXPECT_NEAR(m.vprbench.auc, 1.0 / 3.0 + (2.0 / 3.0 + 0.75) / 2.0 / 3.0, 1e-12);
+  // Trapezoids from sklearn's final point (0,1): (0,1)->(1/3,1)->(2/3,1)->(2/3,2/3)->(1,3/4)
+  // ->(1,3/5).
+  EXPECT_NEAR(m.vprbench.auc, 1.0 / 3.0 + 1.0 / 3.0 + (2.0 / 3.0 + 0.75) / 2.0 / 3.0, 1e-12);
 }
 
 TEST(Metrics, PerfectAndEmpty) {

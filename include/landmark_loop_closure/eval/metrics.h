@@ -36,8 +36,9 @@ struct Metrics {
 
   /// VPR-Bench's convention (Zaffar et al., IJCV 2021), for rows beside its tables: the same
   /// best matches and scores, but recall = true positives / queries whose best match is right
-  /// (so it always reaches 1 at the lowest threshold), and the AUC integrates the curve's own
-  /// points only (trapezoids, no (0, 1) anchor), as sklearn's auc() does.
+  /// (so it always reaches 1 at the lowest threshold), and the AUC integrates the curve with
+  /// trapezoids from the point (recall 0, precision 1) that sklearn's precision_recall_curve
+  /// appends, as VPR-Bench's auc(recall, precision) over that curve does.
   struct VprBench {
     std::vector<PrPoint> curve;
     double auc = 0.0;
