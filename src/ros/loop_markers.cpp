@@ -130,6 +130,7 @@ void LoopMarkers::clear() {
   loops_.clear();
   unverified_.clear();
   rejected_ends_.clear();
+  rejected_changed_ = false;  // The DELETEALL of the next changes() removes it.
   sum_x_ = sum_y_ = max_z_ = 0.0;
   keyframe_count_ = 0;
   cleared_ = true;
@@ -181,6 +182,14 @@ visualization_msgs::Marker LoopMarkers::legend(const ros::Time& stamp) const {
   return legend;
 }
 
+visualization_msgs::Marker LoopMarkers::rejected(const ros::Time& stamp) const {
+  visualization_msgs::Marker rejected =
+      makeMarker(frame_id_, stamp, "rejected", 0, visualization_msgs::Marker::LINE_LIST, 0.02);
+  rejected.points = rejected_ends_;
+  rejected.color = colour(0.6f, 0.6f, 0.6f, 0.5f);
+  return deletedIfEmpty(std::move(rejected));
+}
+
 visualization_msgs::MarkerArray LoopMarkers::changes(const ros::Time& stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
   visualization_msgs::MarkerArray array;
@@ -195,13 +204,7 @@ visualization_msgs::MarkerArray LoopMarkers::changes(const ros::Time& stamp) {
     layer->markers(frame_id_, stamp, true, &array);
     std::fill(layer->changed.begin(), layer->changed.end(), false);
   }
-  if (show_rejected_ && (rejected_changed_ || cleared_)) {
-    visualization_msgs::Marker rejected =
-        makeMarker(frame_id_, stamp, "rejected", 0, visualization_msgs::Marker::LINE_LIST, 0.02);
-    rejected.points = rejected_ends_;
-    rejected.color = colour(0.6f, 0.6f, 0.6f, 0.5f);
-    if (!rejected.points.empty() || !cleared_) array.markers.push_back(deletedIfEmpty(rejected));
-  }
+  if (show_rejected_ && rejected_changed_) array.markers.push_back(rejected(stamp));
   if (legend_changed_ && keyframe_count_ > 0) array.markers.push_back(legend(stamp));
   rejected_changed_ = legend_changed_ = cleared_ = false;
   return array;
@@ -213,13 +216,7 @@ visualization_msgs::MarkerArray LoopMarkers::snapshot(const ros::Time& stamp) co
   for (const Layer* layer : {&keyframes_, &loops_, &unverified_}) {
     layer->markers(frame_id_, stamp, false, &array);
   }
-  if (show_rejected_) {
-    visualization_msgs::Marker rejected =
-        makeMarker(frame_id_, stamp, "rejected", 0, visualization_msgs::Marker::LINE_LIST, 0.02);
-    rejected.points = rejected_ends_;
-    rejected.color = colour(0.6f, 0.6f, 0.6f, 0.5f);
-    array.markers.push_back(deletedIfEmpty(rejected));
-  }
+  if (show_rejected_) array.markers.push_back(rejected(stamp));
   array.markers.push_back(legend(stamp));
   return array;
 }

@@ -57,6 +57,7 @@ class LoopMarkers {
   };
 
   visualization_msgs::Marker legend(const ros::Time& stamp) const;
+  visualization_msgs::Marker rejected(const ros::Time& stamp) const;
 
   mutable std::mutex mutex_;
   std::string frame_id_;
