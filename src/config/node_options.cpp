@@ -86,7 +86,9 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                   "the last keyframe again; \"reset\": forget every keyframe (as ~reset) and "
                   "start over from it. Smaller steps back are always dropped.")
           .number("time_jump_back_s", &O::time_jump_back_s, above(0),
-                  "seconds back that count as a jump rather than an out-of-order frame.")
+                  "seconds back that count as a jump rather than an out-of-order frame; odometry "
+                  "that jumps back this far starts its history afresh (images waiting for the "
+                  "earlier timeline's odometry are dropped).")
           .integer("time_jump_frames", &O::time_jump_frames, between(0, 100000),
                    "this many frames in a row not after the last keyframe are a time jump "
                    "whatever its size (a keyframe with a wrong stamp, the clock set back): "

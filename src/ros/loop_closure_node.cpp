@@ -84,6 +84,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                                       ? nullptr
                                       : makeDescriptorExtractor(options.detector.descriptor)),
       image_transport_(node),
+      odometry_history_(2000, options.time_jump_back_s),
       inputs_(inputMonitorOptions(options), wallNow()),
       markers_(options.odom_frame, options.detector.acceptance.min_score,
                options.publish_rejected_markers),

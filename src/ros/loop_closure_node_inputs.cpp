@@ -62,7 +62,18 @@ void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
   if (!pose) return;
   odometry_frame_ =
       odometry->header.frame_id.empty() ? options_.odom_frame : odometry->header.frame_id;
-  odometry_history_.add(stamp, *pose);
+  const double newest_before = odometry_history_.newest();
+  if (odometry_history_.add(stamp, *pose)) {
+    // Images of the old timeline would wait for odometry that never comes.
+    const size_t held = pending_odometry_.size();
+    while (!pending_odometry_.empty() && pending_odometry_.front().image->header.stamp.toSec() >
+                                             stamp + options_.time_jump_back_s) {
+      pending_odometry_.pop_front();
+    }
+    ROS_WARN("Odometry jumped back from %.3f to %.3f: the earlier odometry is forgotten%s",
+             newest_before, stamp,
+             held > pending_odometry_.size() ? ", and the images waiting for it dropped" : "");
+  }
   pairPendingWithOdometry();
 }
 

@@ -12,16 +12,20 @@ Pose interpolatePose(const Pose& a, const Pose& b, double t) {
   return pose;
 }
 
-void OdometryHistory::add(double stamp, const Pose& pose) {
+bool OdometryHistory::add(double stamp, const Pose& pose) {
+  const bool new_timeline =
+      jump_back_s_ > 0.0 && !messages_.empty() && stamp < messages_.back().stamp - jump_back_s_;
+  if (new_timeline) messages_.clear();
   const auto later =
       std::lower_bound(messages_.begin(), messages_.end(), stamp,
                        [](const Message& message, double value) { return message.stamp < value; });
   if (later != messages_.end() && std::abs(later->stamp - stamp) <= kSameStamp) {
     later->pose = pose;
-    return;
+    return new_timeline;
   }
   messages_.insert(later, Message{stamp, pose});
   while (messages_.size() > capacity_) messages_.pop_front();
+  return new_timeline;
 }
 
 OdometryLookup OdometryHistory::at(double stamp, double max_interval) const {

@@ -85,3 +85,22 @@ TEST(OdometryHistory, SlerpTakesTheShorterWayRound) {
   const Pose middle = interpolatePose(a, b, 0.5);
   EXPECT_NEAR(std::abs(yawOf(middle)), M_PI, 1e-9);
 }
+
+// A bag played again: with a full history, every message of the new timeline would be older than
+// all it holds and dropped, and so would every image.
+TEST(OdometryHistory, AJumpBackStartsANewTimeline) {
+  OdometryHistory history(5, 1.0);
+  for (int i = 0; i < 5; ++i) EXPECT_FALSE(history.add(100.0 + 0.1 * i, poseAt(i, 0.0)));
+  EXPECT_FALSE(history.add(100.05, poseAt(0.5, 0.0))) << "a late message is no jump";
+  EXPECT_TRUE(history.add(10.0, poseAt(7.0, 0.0)));
+  EXPECT_EQ(history.size(), 1u);
+  EXPECT_FALSE(history.add(10.1, poseAt(8.0, 0.0)));
+  const OdometryLookup lookup = history.at(10.05, 0.2);
+  ASSERT_EQ(lookup.status, OdometryAt::kFound);
+  EXPECT_NEAR(lookup.pose.position.x(), 7.5, 1e-9);
+
+  OdometryHistory whole_bag(5);  // jump_back_s 0: never.
+  for (int i = 0; i < 5; ++i) whole_bag.add(100.0 + 0.1 * i, poseAt(i, 0.0));
+  EXPECT_FALSE(whole_bag.add(10.0, poseAt(7.0, 0.0)));
+  EXPECT_EQ(whole_bag.at(10.0, 0.2).status, OdometryAt::kBeforeHistory);
+}

@@ -26,15 +26,21 @@ struct OdometryLookup {
 /// The recent odometry messages by stamp, so that an image's pose is the odometry interpolated
 /// to the image's own stamp (position linearly, orientation by slerp) rather than the nearest
 /// message's, which can be half a message period away. Out-of-order messages are inserted in
-/// place; a message at a stamp already held replaces it.
+/// place; a message at a stamp already held replaces it. A message more than `jump_back_s` older
+/// than the newest starts a new timeline (a bag played again, a simulator's clock reset): what is
+/// held is forgotten, or a full history would refuse every message of the new timeline as older
+/// than all it holds.
 class OdometryHistory {
  public:
   /// Messages stamped within this of an image's stamp are taken as at it.
   static constexpr double kSameStamp = 1e-6;
 
-  explicit OdometryHistory(size_t capacity = 2000) : capacity_(capacity == 0 ? 1 : capacity) {}
+  /// `jump_back_s` 0: never a new timeline (an offline reader holding a whole bag).
+  explicit OdometryHistory(size_t capacity = 2000, double jump_back_s = 0.0)
+      : capacity_(capacity == 0 ? 1 : capacity), jump_back_s_(jump_back_s) {}
 
-  void add(double stamp, const Pose& pose);
+  /// True when the message started a new timeline (everything held before was forgotten).
+  bool add(double stamp, const Pose& pose);
   /// The pose at `stamp` when the messages around it are at most `max_interval` s apart.
   OdometryLookup at(double stamp, double max_interval) const;
   void clear() { messages_.clear(); }
@@ -47,6 +53,7 @@ class OdometryHistory {
     Pose pose;
   };
   size_t capacity_;
+  double jump_back_s_;
   std::deque<Message> messages_;  ///< Oldest first.
 };
 
