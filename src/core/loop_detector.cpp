@@ -317,6 +317,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   decide(&result, descriptor, query, keyframe, intrinsics);
   previous_global_ = descriptor.global;
   if (result.loop) {
+    result.loop->map_id = mapId();
     result.loop->query_id = keyframe_id;
     result.loop->query_session = session_;
     result.loop->query_stamp = stamp;

@@ -163,6 +163,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   map_unsearched_ = 0;
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
+  memory_map_id_ = KeyframeStore::drawMapId();
   consistency_.reset();
   sequence_.reset();
   last_keyframe_.reset();

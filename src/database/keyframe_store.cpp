@@ -15,7 +15,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <optional>
+#include <random>
 #include <stdexcept>
 
 namespace landmark_loop_closure {
@@ -163,6 +165,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
     connection->setMeta("format_version", std::to_string(kFormatVersion));
     connection->setMeta("descriptor_identity", *descriptor_identity);
     connection->setMeta("global_dimension", std::to_string(global_dimension));
+    connection->setMeta("map_id", std::to_string(drawMapId()));
   } else {
     int stored_version = 0;
     try {
@@ -194,6 +197,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
     }
   }
   connection->execute("COMMIT", "cannot be written");
+  const std::optional<uint64_t> map_id = connection->metaNumber("map_id");
 
   connection->countKeyframes();
   connection->insert = connection->prepare(
@@ -209,12 +213,20 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   std::unique_ptr<KeyframeStore> store(new KeyframeStore(path, std::move(connection)));
   store->descriptor_identity_ = identity;
   store->global_dimension_ = global_dimension;
+  store->map_id_ = map_id.value_or(drawMapId());
+  store->map_id_unsaved_ = !map_id;
   if (existed) {
     store->check_ = std::make_unique<IntegrityCheck>();
     store->check_->map_path = path;
   }
   store->openRows();
   return store;
+}
+
+uint64_t KeyframeStore::drawMapId() {
+  std::random_device device;
+  std::uniform_int_distribution<uint64_t> bits(1, std::numeric_limits<uint64_t>::max());
+  return bits(device);
 }
 
 KeyframeStore::KeyframeStore(std::string path, std::unique_ptr<Connection> connection)
@@ -325,6 +337,7 @@ uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
   if (!insertRow(c.insert) || !insertRow(c.insert_record)) {
     c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
   }
+  if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
   return checksum;
 }
 
@@ -360,6 +373,7 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
   try {
     checksum = insert(keyframe);
     c.execute("COMMIT", not_stored);
+    map_id_unsaved_ = false;
   } catch (...) {
     // A failed COMMIT (disk full) leaves the transaction open: closed here, so the next keyframe
     // is stored once there is room again.
@@ -403,6 +417,7 @@ void KeyframeStore::insertInOneTransaction(
       ++c.count;
     }
     c.execute("COMMIT", "cannot be written");
+    map_id_unsaved_ = false;
   } catch (...) {
     sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
     c.last_id = last_id;
@@ -456,6 +471,12 @@ void KeyframeStore::copyTo(const std::string& target) {
   const int status = sqlite3_backup_step(backup, -1);
   sqlite3_backup_finish(backup);
   if (status != SQLITE_DONE) fail("cannot be written");
+  // A copy is a map of its own: the two grow apart from here, so keyframe ids repeat between them.
+  const std::string copy_id = "INSERT OR REPLACE INTO meta (key, value) VALUES ('map_id', '" +
+                              std::to_string(drawMapId()) + "')";
+  if (sqlite3_exec(copy, copy_id.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) {
+    fail("cannot be written");
+  }
   sqlite3_close(copy);
   try {
     // The copy's search rows: the entries of its keyframes (the file may hold one more, written

@@ -155,6 +155,7 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   LoopClosure msg;
   msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
+  msg.map_id = loop.map_id;
   msg.query_id = loop.query_id;
   msg.query_session = loop.query_session;
   msg.match_session = loop.match_session;
@@ -224,11 +225,12 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info, bool rectif
   return intrinsics;
 }
 
-Keyframe toKeyframeMsg(uint64_t id, uint32_t session, const ros::Time& stamp, const Pose& pose,
-                       const std::string& frame_id) {
+Keyframe toKeyframeMsg(uint64_t id, uint32_t session, uint64_t map_id, const ros::Time& stamp,
+                       const Pose& pose, const std::string& frame_id) {
   Keyframe msg;
   msg.header.stamp = stamp;
   msg.header.frame_id = frame_id;
+  msg.map_id = map_id;
   msg.id = id;
   msg.session = session;
   msg.pose = toRos(pose);

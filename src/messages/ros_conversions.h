@@ -53,8 +53,8 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info, bool rectif
 LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
                       const ros::Time& match_stamp, const std::string& frame_id,
                       const std::string& relative_pose_frame);
-Keyframe toKeyframeMsg(uint64_t id, uint32_t session, const ros::Time& stamp, const Pose& pose,
-                       const std::string& frame_id);
+Keyframe toKeyframeMsg(uint64_t id, uint32_t session, uint64_t map_id, const ros::Time& stamp,
+                       const Pose& pose, const std::string& frame_id);
 /// `stamp_of(id)` returns a keyframe's original stamp.
 LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time& stamp,
                                    const std::string& frame_id,

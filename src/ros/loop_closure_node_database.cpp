@@ -168,7 +168,7 @@ void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const Keyfra
   for (const ReleasedKeyframe& keyframe : held) {
     const KeyframeSummary* record = detector_.database().findSummary(keyframe.id);
     if (!record) continue;
-    keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session,
+    keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session, detector_.mapId(),
                                               keyframe_stamps_.at(keyframe.id), record->pose,
                                               job.frame_id));
     markers_.addKeyframe(record->pose);

@@ -104,8 +104,8 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
                                      const cv::Mat& grey) {
   // Stored, but ROS is gone: nobody can receive it. Counted, and said at shutdown.
   if (!ros::ok()) ++keyframes_unpublished_at_shutdown_;
-  keyframe_publisher_.publish(
-      toKeyframeMsg(job.id, detector_.session(), job.stamp, job.pose, job.frame_id));
+  keyframe_publisher_.publish(toKeyframeMsg(job.id, detector_.session(), detector_.mapId(),
+                                            job.stamp, job.pose, job.frame_id));
   if (result.loop) {
     AcceptedLoop loop = *result.loop;
     const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);

@@ -314,6 +314,62 @@ TEST_F(KeyframeStoreTest, CopiesAndBatchesAreWholeAndToolsOpenAnyMap) {
   EXPECT_THROW(KeyframeStore::openExisting((folder_ / "none.db").string()), std::runtime_error);
 }
 
+// A map's identity: kept across reopens, drawn anew by a copy; a map from before map ids draws
+// one at open, writes it with its next commit only, and keeps it from then on.
+TEST_F(KeyframeStoreTest, EveryMapHasItsOwnIdentityAndKeepsIt) {
+  uint64_t original = 0;
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    original = store->mapId();
+    EXPECT_NE(original, 0u);
+    store->add(makeKeyframe(1, 0));
+    const std::string copy = (folder_ / "copy.db").string();
+    store->copyTo(copy);
+    auto copied = KeyframeStore::openExisting(copy);
+    EXPECT_NE(copied->mapId(), original) << "a copy grows apart from its original";
+    EXPECT_EQ(copied->size(), 1u);
+  }
+  EXPECT_EQ(KeyframeStore::open(path_, kIdentity, kDimension)->mapId(), original);
+  const std::string other = (folder_ / "other.db").string();
+  EXPECT_NE(KeyframeStore::open(other, kIdentity, kDimension)->mapId(), original);
+
+  // A map written before map ids.
+  const auto storedId = [this]() -> std::string {
+    sqlite3* db = nullptr;
+    EXPECT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* select = nullptr;
+    sqlite3_prepare_v2(db, "SELECT value FROM meta WHERE key = 'map_id'", -1, &select, nullptr);
+    std::string value;
+    if (sqlite3_step(select) == SQLITE_ROW) {
+      value = reinterpret_cast<const char*>(sqlite3_column_text(select, 0));
+    }
+    sqlite3_finalize(select);
+    sqlite3_close(db);
+    return value;
+  };
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "DELETE FROM meta WHERE key = 'map_id'", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  uint64_t drawn = 0;
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    drawn = store->mapId();
+    EXPECT_NE(drawn, 0u);
+  }
+  EXPECT_EQ(storedId(), "") << "opened and closed without a commit: nothing written";
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    drawn = store->mapId();
+    store->add(makeKeyframe(2, 1));
+  }
+  EXPECT_EQ(storedId(), std::to_string(drawn));
+  EXPECT_EQ(KeyframeStore::open(path_, kIdentity, kDimension)->mapId(), drawn);
+}
+
 TEST_F(KeyframeStoreTest, AMapOfTheEarlierFormatIsNamedWithItsConversion) {
   std::ofstream(path_, std::ios::binary) << "LLCKFDB\n" << std::string(64, '\0');
   EXPECT_TRUE(KeyframeStore::isOldMapFile(path_));

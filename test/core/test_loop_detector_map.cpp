@@ -75,6 +75,49 @@ TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
   removeMap(path);
 }
 
+// A backend keys its graph on (map id, keyframe id): a map loaded mid-run keeps ids that were
+// published before (it was stored with them), so the map id must change with the map.
+TEST(LoopDetector, AMapLoadedMidRunKeepsItsIdsUnderItsOwnMapId) {
+  const std::string path = temporaryPath("mid_run_map.lcdb");
+  removeMap(path);
+  uint64_t saved_map = 0;
+  {
+    LoopDetector earlier(smallOptions(), std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(earlier.openMap(path), "");
+    for (int i = 0; i < 10; ++i) feed(&earlier, i, 100 + i);  // Ids 0-9, places 100-109.
+    saved_map = earlier.mapId();
+  }
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  const uint64_t first_map = detector.mapId();
+  for (int i = 0; i < 20; ++i) feed(&detector, i, i);  // Ids 0-19 published in memory.
+  EXPECT_EQ(detector.mapId(), first_map);
+  ASSERT_EQ(detector.loadDatabase(path), "");
+  EXPECT_EQ(detector.mapId(), saved_map);
+  EXPECT_NE(detector.mapId(), first_map);
+  EXPECT_EQ(detector.database().summary(0).id, 0u) << "the loaded map keeps its own ids";
+
+  // A revisit of the loaded map: its loop names the loaded map, new ids go on after 19.
+  std::optional<AcceptedLoop> loop;
+  for (int i = 0; i < 4 && !loop; ++i) {
+    const FrameResult result = feed(&detector, 20 + i, 103 + i);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_GE(result.keyframe->keyframe_id, 20u);
+    loop = result.keyframe->loop;
+  }
+  ASSERT_TRUE(loop);
+  EXPECT_EQ(loop->map_id, saved_map);
+  EXPECT_LT(loop->match_id, 10u);
+
+  detector.reset();
+  EXPECT_NE(detector.mapId(), saved_map) << "a reset starts a new map";
+  EXPECT_NE(detector.mapId(), 0u);
+  removeMap(path);
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
+    if (entry.path().string().rfind(path + ".reset-", 0) == 0) removeMap(entry.path().string());
+  }
+}
+
 TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 12; ++i) feed(&detector, i, i);

@@ -179,6 +179,8 @@ class NodeHarness {
   }
 
   const std::map<uint64_t, ros::Time>& keyframes() const { return keyframes_; }
+  /// Every keyframe message, in the order received (keyframes() keeps one per id).
+  const std::vector<Keyframe>& publishedKeyframes() const { return published_keyframes_; }
   /// Session of each keyframe published, by id.
   const std::map<uint64_t, uint32_t>& keyframeSessions() const { return keyframe_sessions_; }
   const std::vector<LoopClosure>& loops() const { return loops_; }
@@ -231,6 +233,7 @@ class NodeHarness {
   }
 
   void onKeyframe(const KeyframeConstPtr& keyframe) {
+    published_keyframes_.push_back(*keyframe);
     keyframes_[keyframe->id] = keyframe->header.stamp;
     keyframe_sessions_[keyframe->id] = keyframe->session;
     last_output_ = ros::WallTime::now();
@@ -261,6 +264,7 @@ class NodeHarness {
   ros::Subscriber log_subscriber_;
   std::vector<std::string> log_lines_;
   std::map<uint64_t, ros::Time> keyframes_;
+  std::vector<Keyframe> published_keyframes_;
   std::map<uint64_t, uint32_t> keyframe_sessions_;
   std::vector<LoopClosure> loops_;
   std::map<std::string, std::string> diagnostics_;

@@ -128,6 +128,7 @@ struct CandidateReport {
 };
 
 struct AcceptedLoop {
+  uint64_t map_id = 0;  ///< The map both keyframes belong to (LoopDetector::mapId()).
   uint64_t query_id = 0;
   uint32_t query_session = 0;
   double query_stamp = 0.0;
@@ -299,6 +300,10 @@ class LoopDetector {
   /// Receiving thread: stamp of the last admitted keyframe, if any.
   std::optional<double> lastKeyframeStamp() const;
   uint32_t session() const { return session_; }
+  /// Worker thread: the identity of the map keyframes are stored in (KeyframeStore::mapId, or one
+  /// drawn for a map in memory only). Keyframe ids repeat between maps (a loaded map keeps its
+  /// own); (mapId(), keyframe id) never does. A reset starts a map with a new identity.
+  uint64_t mapId() const { return store_ ? store_->mapId() : memory_map_id_; }
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
@@ -410,6 +415,7 @@ class LoopDetector {
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
   uint32_t session_ = 0;
+  uint64_t memory_map_id_ = KeyframeStore::drawMapId();  ///< mapId() without a map file.
   std::string descriptor_identity_;
   std::optional<Pose> camera_mount_;
   struct PathEnd {

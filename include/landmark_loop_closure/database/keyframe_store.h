@@ -25,7 +25,8 @@ class Writer;
 /// summaries in one piece (PATH-summaries, 92 bytes each): both are used only while the map says
 /// they are its own, and opening without them reads the rows file instead. The database is
 /// inspectable with the sqlite3 tool:
-///   meta(key, value): format_version, descriptor_identity, global_dimension; graph_identity,
+///   meta(key, value): format_version, descriptor_identity, global_dimension, map_id;
+///     graph_identity,
 ///     graph_keyframes, graph_checksum (CRC-32C) of PATH-graph; summaries_keyframes,
 ///     summaries_checksum of PATH-summaries; and the rows file's seal vectors_rows,
 ///     vectors_checksum, vectors_last_id (its first vectors_rows entries and their CRC-32C), all
@@ -159,6 +160,13 @@ class KeyframeStore {
   /// Keyframes of the map, held ones included.
   size_t size() const;
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
+  /// This map's identity: a random number drawn when the map was created (a copy by copyTo()
+  /// draws its own), so that (map id, keyframe id) names one keyframe for ever while keyframe ids
+  /// repeat between maps. A map from before map ids draws one at open and keeps it with its next
+  /// commit (a map never committed to again keeps none: it is never written to).
+  uint64_t mapId() const { return map_id_; }
+  /// A new map identity: 64 random bits, never 0.
+  static uint64_t drawMapId();
   int globalDimension() const { return global_dimension_; }
   /// The sessions stored, ascending.
   std::vector<uint32_t> sessions() const;
@@ -196,6 +204,8 @@ class KeyframeStore {
   std::string path_;
   std::string descriptor_identity_;
   int global_dimension_ = 0;
+  uint64_t map_id_ = 0;
+  bool map_id_unsaved_ = false;  ///< Drawn at this open, written with the next commit.
   std::unique_ptr<Connection> connection_;
   std::unique_ptr<vector_file::Writer> rows_;
   /// Commits the held keyframes in one transaction (the check passed, or was given up at close).
