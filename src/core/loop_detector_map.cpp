@@ -37,65 +37,83 @@ std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
   return "";
 }
 
+std::string LoopDetector::beginSave(const std::string& path, bool overwrite, std::string* kept_as) {
+  save_.reset();
+  save_abandoned_ = false;
+  if (!store_ || training_ || path == store_->path()) {
+    return saveDatabase(path, overwrite, kept_as);  // At once: nothing to copy page by page.
+  }
+  const std::string problem = saveTargetProblem(path, mapPath(), overwrite);
+  if (!problem.empty()) return problem;
+  std::string kept;
+  try {
+    // saveTargetProblem let an existing file through only as a map to overwrite.
+    std::error_code absent;
+    if (std::filesystem::exists(path, absent)) kept = moveMapAside(path, "replaced");
+  } catch (const std::exception& error) {
+    return error.what();
+  }
+  save_ = store_->startCopy(path);
+  if (kept_as) *kept_as = kept;
+  return "";
+}
+
+bool LoopDetector::continueSave(int pages) {
+  if (save_abandoned_) {
+    save_abandoned_ = false;
+    throw std::runtime_error(
+        "the map was replaced (a load or a reset) while it was being copied: "
+        "nothing was written");
+  }
+  return !save_ || save_->step(pages);
+}
+
+void LoopDetector::abandonSave() {
+  if (!save_) return;
+  save_.reset();
+  save_abandoned_ = true;
+}
+
 std::string LoopDetector::openMap(const std::string& path) {
   if (training_) {
     // The map's descriptor identity is known once training has made the descriptor.
     pending_map_path_ = path;
     return "";
   }
-  std::unique_ptr<KeyframeStore> store;
-  const IndexOptions index = database_.indexOptions();
-  IndexOptions exact = index;
-  exact.type = "exact";  // The graph is read, or built once, after every keyframe is in.
-  KeyframeDatabase loaded(database_.globalDimension(), exact);
-  bool graph_reused = false;
-  uint32_t last_session = 0;
-  uint64_t last_id = 0;
-  size_t map_keyframes = 0;
   try {
-    store = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    map_keyframes = store->size();
-    // Only what search needs is read; records come from the file for each query's candidates.
-    // Past the memory budget the map's later keyframes stay on disk, not searched.
-    size_t searched = keyframesWithinBudget(store->rowStride(), map_keyframes);
-    if (index.buildsGraph() && searched < map_keyframes) {
-      // A graph saved over more (the budget was lowered since) is used whole: building one over
-      // fewer would hold the start for minutes (~2 ms per keyframe).
-      searched = std::max(
-          searched, std::min(map_keyframes, store->savedGraphKeyframes(index.graphIdentity())));
-    }
-    store->loadSearch(&loaded, searched);
-    // Keyframes are appended in id order, each run's session after the last: the map's last
-    // keyframe (searched or not) has both the highest id and the highest session.
-    if (const std::optional<KeyframeSummary> last = store->lastSummary()) {
-      last_id = last->id;
-      last_session = last->session;
-    }
-    readRecordsFromStore(&loaded, store.get());
-    std::unique_ptr<ApproximateIndex> graph;
-    if (index.buildsGraph()) {
-      // A graph saved before a crash lacks the last keyframes; setIndex links them in.
-      graph = store->loadGraph(index.graphIdentity(), loaded.vectors(), index.neighbors);
-    }
-    graph_reused = graph != nullptr;
-    loaded.setIndex(index, std::move(graph));
-    // Reading the whole map would hold search back for seconds: it is checked meanwhile, and
-    // keyframes are held from it until it passes.
-    store->startIntegrityCheck();
+    return adoptMap(readMap(path, mapReadSettings()));
   } catch (const std::exception& error) {
     return error.what();
   }
-  map_graph_reused_ = graph_reused;
-  map_leftovers_removed_ = store->leftoversRemoved();
-  map_repairs_ = store->repairs();
+}
+
+MapReadSettings LoopDetector::mapReadSettings() const {
+  MapReadSettings settings;
+  settings.index = database_.indexOptions();
+  settings.global_dimension = database_.globalDimension();
+  settings.descriptor_identity = descriptor_identity_;
+  settings.memory_budget_mb = options_.database.memory_budget_mb;
+  settings.cached_records = cachedRecords();
+  return settings;
+}
+
+std::string LoopDetector::adoptMap(ReadMap map) {
+  if (training_ || map.descriptor_identity != descriptor_identity_) {
+    return "map " + map.store->path() +
+           ": not switched to, the descriptor changed while it was read (online training)";
+  }
+  abandonSave();  // It copies the map replaced here.
+  map_graph_reused_ = map.graph_reused;
+  map_leftovers_removed_ = map.store->leftoversRemoved();
+  map_repairs_ = map.store->repairs();
   map_damage_.clear();
-  map_unsearched_ = map_keyframes - loaded.size();
-  database_ = std::move(loaded);
-  store_ = std::move(store);
-  session_ = map_keyframes == 0 ? 0 : last_session + 1;
+  map_unsearched_ = map.keyframes - map.database.size();
+  database_ = std::move(map.database);
+  store_ = std::move(map.store);
+  session_ = map.keyframes == 0 ? 0 : map.last_session + 1;
   uint64_t next = next_keyframe_id_.load();
-  while (map_keyframes > 0 && next <= last_id &&
-         !next_keyframe_id_.compare_exchange_weak(next, last_id + 1)) {
+  while (map.keyframes > 0 && next <= map.last_id &&
+         !next_keyframe_id_.compare_exchange_weak(next, map.last_id + 1)) {
   }
   consistency_.reset();
   sequence_.reset();
@@ -103,29 +121,11 @@ std::string LoopDetector::openMap(const std::string& path) {
   return "";
 }
 
-size_t LoopDetector::keyframesWithinBudget(size_t row_stride, size_t keyframes) const {
-  const double budget = options_.database.memory_budget_mb;
-  if (budget <= 0.0) return keyframes;
-  const auto fit = static_cast<size_t>(budget * 1e6 /
-                                       static_cast<double>(database_.bytesPerKeyframe(row_stride)));
-  return std::min(keyframes, fit);
-}
-
-void LoopDetector::readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store) {
+size_t LoopDetector::cachedRecords() const {
   // The newest keyframes (triangulation, the consistency chain) and a few queries' candidates.
-  const size_t cached =
-      static_cast<size_t>(4 * options_.database.top_k + options_.triangulation_keyframes +
-                          options_.acceptance.sequence.length) +
-      16;
-  database->readRecordsFrom(
-      [store](uint64_t id) -> std::optional<KeyframeRecord> {
-        try {
-          return store->get(id);
-        } catch (const std::exception&) {
-          return std::nullopt;  // A damaged record: its candidate is reported unreadable.
-        }
-      },
-      cached);
+  return static_cast<size_t>(4 * options_.database.top_k + options_.triangulation_keyframes +
+                             options_.acceptance.sequence.length) +
+         16;
 }
 
 std::string LoopDetector::saveMapGraph() {
@@ -158,6 +158,7 @@ std::string LoopDetector::mapCheck() const {
 }
 
 LoopDetector::ResetOutcome LoopDetector::reset() {
+  abandonSave();
   if (training_) training_->clear();
   map_damage_.clear();
   map_unsearched_ = 0;
@@ -188,7 +189,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   }
   try {
     store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    readRecordsFromStore(&database_, store_.get());
+    readRecordsFrom(&database_, store_.get(), cachedRecords());
   } catch (const std::exception& open_error) {
     outcome.problem = "no fresh map could start at " + path + ": " + open_error.what() +
                       "; keyframes are kept in memory only";

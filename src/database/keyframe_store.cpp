@@ -448,53 +448,6 @@ void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) co
   if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
 }
 
-void KeyframeStore::copyTo(const std::string& target) {
-  if (awaitIntegrityCheck() == MapCheck::kFailed) {
-    throw storeError(target, "not written: " + integrityProblem());
-  }
-  commitHeld();
-  const std::string partial = target + ".partial";
-  std::filesystem::remove(partial);
-  sqlite3* copy = nullptr;
-  const auto fail = [&](const std::string& what) {
-    const std::string reason = copy != nullptr ? sqlite3_errmsg(copy) : "cannot be created";
-    if (copy != nullptr) sqlite3_close(copy);
-    std::filesystem::remove(partial);
-    throw storeError(target, what + ": " + reason);
-  };
-  if (sqlite3_open_v2(partial.c_str(), &copy, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE,
-                      nullptr) != SQLITE_OK) {
-    fail("cannot be created");
-  }
-  sqlite3_backup* backup = sqlite3_backup_init(copy, "main", connection_->db, "main");
-  if (backup == nullptr) fail("cannot be written");
-  const int status = sqlite3_backup_step(backup, -1);
-  sqlite3_backup_finish(backup);
-  if (status != SQLITE_DONE) fail("cannot be written");
-  // A copy is a map of its own: the two grow apart from here, so keyframe ids repeat between them.
-  const std::string copy_id = "INSERT OR REPLACE INTO meta (key, value) VALUES ('map_id', '" +
-                              std::to_string(drawMapId()) + "')";
-  if (sqlite3_exec(copy, copy_id.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) {
-    fail("cannot be written");
-  }
-  sqlite3_close(copy);
-  try {
-    // The copy's search rows: the entries of its keyframes (the file may hold one more, written
-    // for a keyframe whose commit failed; the copy's open cuts it).
-    std::filesystem::copy_file(vectorsPath(), partial + "-vectors",
-                               std::filesystem::copy_options::overwrite_existing);
-    replaceFile(partial, target);
-  } catch (const std::filesystem::filesystem_error& error) {
-    std::filesystem::remove(partial);
-    std::filesystem::remove(partial + "-vectors");
-    throw storeError(target, std::string("cannot be written: ") + error.code().message());
-  } catch (...) {
-    std::filesystem::remove(partial);
-    std::filesystem::remove(partial + "-vectors");
-    throw;
-  }
-}
-
 void KeyframeStore::readEarlierFormat(const std::string& path, std::string* descriptor_identity,
                                       int* global_dimension,
                                       const std::function<void(KeyframeRecord)>& visit) {

@@ -117,6 +117,8 @@ class LoopClosureNode {
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
+  /// SQLite pages (2 KB) a save copies per hold of the detector: ~4 MB, a few milliseconds.
+  static constexpr int kSavePagesPerStep = 2048;
 
   // Database file. Services run on their own thread and reach the detector through
   // DetectorRuntime::withDetector, so a save or load waits for the keyframe in hand and never
@@ -128,9 +130,6 @@ class LoopClosureNode {
   void noteDroppedAtMapSwitch(size_t dropped, const char* service, std::string* message);
   bool onLoadDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
-  /// Saves to `path` (or database_path); returns "" or why. Caller holds the detector (inside
-  /// withDetector or a runtime callback).
-  std::string saveDatabase(const std::string& path, bool overwrite, std::string* kept_as);
   /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
   ros::Time stampOf(uint64_t id) const;
 

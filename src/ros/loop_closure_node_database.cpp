@@ -2,7 +2,10 @@
 // keyframes online training held.
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <optional>
 #include <string>
+#include <thread>
 
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "loop_closure_node.h"
@@ -22,39 +25,66 @@ void LoopClosureNode::advertiseServices() {
   service_spinner_->start();
 }
 
-std::string LoopClosureNode::saveDatabase(const std::string& path, bool overwrite,
-                                          std::string* kept_as) {
-  const std::string target = path.empty() ? detector_.mapPath() : path;
-  if (target.empty()) return "no path given and no map open (the parameter database_path is empty)";
-  const std::string error = detector_.saveDatabase(target, overwrite, kept_as);
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  if (!error.empty()) database_status_ = error;
-  return error;
-}
-
 bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
   const std::string path = expandPath(request.path);
+  std::string error;
+  std::string kept;
+  std::string target;
+  bool own_map = false;
   runtime_->withDetector([&](LoopDetector& detector) {
-    std::string kept;
-    std::string error = saveDatabase(path, request.overwrite, &kept);
-    const bool own_map = path.empty() || path == detector.mapPath();
-    if (error.empty() && own_map) error = detector.saveMapGraph();  // A checkpoint.
-    response.success = error.empty();
-    response.keyframes = detector.database().size();
-    response.message =
-        !error.empty() ? error
-        : own_map ? "all " + std::to_string(response.keyframes) + " keyframes are committed to " +
-                        detector.mapPath()
-                  : "copied " + std::to_string(response.keyframes) + " keyframes to " + path +
-                        (kept.empty() ? "" : "; the map that was there is kept as " + kept);
-    if (error.empty()) {
-      ROS_INFO("%s", response.message.c_str());
+    target = path.empty() ? detector.mapPath() : path;
+    own_map = target == detector.mapPath();
+    if (target.empty()) {
+      error = "no path given and no map open (the parameter database_path is empty)";
+    } else if (own_map) {
+      error = detector.saveDatabase(target, request.overwrite, &kept);
+      if (error.empty()) error = detector.saveMapGraph();  // A checkpoint.
     } else {
-      ROS_ERROR("Could not save the map: %s", error.c_str());
+      error = detector.beginSave(target, request.overwrite, &kept);
     }
+    response.keyframes = detector.database().size();
     return false;
   });
+  // A copy goes page by page, the detector held a few milliseconds at a time, so the worker
+  // keeps describing keyframes meanwhile; the rows file is copied with the detector free.
+  std::unique_ptr<MapCopy> copy;
+  bool copied = own_map;
+  while (error.empty() && !copied) {
+    runtime_->withDetector([&](LoopDetector& detector) {
+      try {
+        copied = detector.continueSave(kSavePagesPerStep);
+        if (copied) copy = detector.takeSave();
+      } catch (const std::exception& step_error) {
+        error = step_error.what();
+      }
+      return false;
+    });
+    if (!copied) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (error.empty() && copy) {
+    try {
+      copy->finish();
+      response.keyframes = copy->keyframes();
+    } catch (const std::exception& finish_error) {
+      error = finish_error.what();
+    }
+  }
+  if (!error.empty() && !kept.empty()) error += "; the earlier map is kept as " + kept;
+  response.success = error.empty();
+  response.message =
+      !error.empty() ? error
+      : own_map
+          ? "all " + std::to_string(response.keyframes) + " keyframes are committed to " + target
+          : "copied " + std::to_string(response.keyframes) + " keyframes to " + target +
+                (kept.empty() ? "" : "; the map that was there is kept as " + kept);
+  if (error.empty()) {
+    ROS_INFO("%s", response.message.c_str());
+  } else {
+    ROS_ERROR("Could not save the map: %s", error.c_str());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    database_status_ = error;
+  }
   return true;
 }
 
@@ -71,18 +101,62 @@ void LoopClosureNode::noteDroppedAtMapSwitch(size_t dropped, const char* service
 
 bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
+  const auto load_start = std::chrono::steady_clock::now();
+  const std::string path = expandPath(request.path);
+  std::optional<MapReadSettings> settings;
+  bool waiting_for_training = false;
+  runtime_->withDetector([&](LoopDetector& detector) {
+    response.keyframes = detector.database().size();
+    if (path.empty()) {
+      // The open map is loaded already; reloading it through a second connection would only fail.
+      response.message =
+          "no path given: name the map to load" +
+          (detector.mapPath().empty() ? std::string()
+                                      : " (" + detector.mapPath() + " is the map open now)");
+    } else if (detector.trainingProgress().second > 0) {
+      // Nothing is replaced yet: the map opens once online training has made the descriptor.
+      response.message = detector.loadDatabase(path);
+      waiting_for_training = response.message.empty();
+    } else {
+      settings = detector.mapReadSettings();
+    }
+    return false;
+  });
+  // The map is opened and read beside the live one, which the worker goes on using meanwhile.
+  std::optional<ReadMap> read;
+  if (settings) {
+    std::error_code error_code;
+    if (!std::filesystem::exists(path, error_code)) {
+      response.message = "map " + path + ": does not exist";
+    } else {
+      try {
+        read = readMap(path, *settings);
+      } catch (const std::exception& error) {
+        response.message = error.what();
+      }
+    }
+  }
+  if (waiting_for_training) {
+    runtime_->withDetector([&](LoopDetector& detector) {
+      const auto [held, wanted] = detector.trainingProgress();
+      response.message = "not loaded yet: online training holds " + std::to_string(held) + " of " +
+                         std::to_string(wanted) + " keyframes; " + path +
+                         " is opened when it has made the descriptor";
+      return false;
+    });
+    response.success = true;
+    response.keyframes = 0;
+    ROS_WARN("%s", response.message.c_str());
+    return true;
+  }
+  if (!read) {
+    response.success = false;
+    ROS_ERROR("%s", response.message.c_str());
+    return true;
+  }
+  // Swapped in briefly; keyframes queued against the previous map are dropped.
   const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
-    const auto load_start = std::chrono::steady_clock::now();
-    const std::string path = expandPath(request.path);
-    // The open map is loaded already; reloading it through a second connection would only fail.
-    const std::string error =
-        path.empty()
-            ? "no path given: name the map to load" +
-                  (detector.mapPath().empty() ? std::string()
-                                              : " (" + detector.mapPath() + " is the map open now)")
-            : detector.loadDatabase(path);
-    const double load_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+    const std::string error = detector.adoptMap(std::move(*read));
     response.success = error.empty();
     response.keyframes = detector.database().size();
     if (!error.empty()) {
@@ -90,18 +164,10 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
       ROS_ERROR("%s", error.c_str());
       return false;
     }
-    if (detector.mapWaitingForTraining() == path) {
-      // Nothing is replaced yet: the map opens once online training has made the descriptor.
-      const auto [held, wanted] = detector.trainingProgress();
-      response.keyframes = 0;
-      response.message = "not loaded yet: online training holds " + std::to_string(held) + " of " +
-                         std::to_string(wanted) + " keyframes; " + path +
-                         " is opened when it has made the descriptor";
-      ROS_WARN("%s", response.message.c_str());
-      return false;
-    }
     keyframe_stamps_.clear();
     markers_.clear();
+    const double load_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     char seconds[32];
     std::snprintf(seconds, sizeof(seconds), "%.2f s", load_seconds);
     response.message = "loaded " + std::to_string(response.keyframes) + " keyframes from " + path +

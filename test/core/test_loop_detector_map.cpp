@@ -421,3 +421,49 @@ TEST(LoopDetector, KeyframesAddedWhileTheMapIsCheckedAreCommittedOnceItPasses) {
   EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 24u);
   removeMap(path);
 }
+
+// The node's save: the map copied a few pages at a time while keyframes go on between the steps;
+// a reset (or load) between steps abandons the copy and leaves no file behind.
+TEST(LoopDetector, ASaveInStepsTakesKeyframesAddedMeanwhileAndAResetAbandonsIt) {
+  const std::string path = temporaryPath("stepped_save.lcdb");
+  const std::string copy = temporaryPath("stepped_save_copy.lcdb");
+  removeMap(path);
+  removeMap(copy);
+  LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(detector.openMap(path), "");
+  int next = 0;
+  for (; next < 30; ++next) feed(&detector, next, next);
+  std::string kept;
+  ASSERT_EQ(detector.beginSave(copy, false, &kept), "");
+  EXPECT_FALSE(std::filesystem::exists(copy));
+  int steps = 0;
+  bool done = false;
+  while (!done && steps < 100000) {
+    done = detector.continueSave(1);  // One 2 KB page per step.
+    if (!done) feed(&detector, next, next), ++next, ++steps;
+    EXPECT_FALSE(std::filesystem::exists(copy)) << "the copy appears whole or not at all";
+  }
+  ASSERT_TRUE(done);
+  EXPECT_GT(next, 35) << "keyframes went on between the steps (" << steps << " steps)";
+  std::unique_ptr<MapCopy> finishing = detector.takeSave();
+  ASSERT_TRUE(finishing);
+  feed(&detector, next, next), ++next;  // The copy no longer needs the detector.
+  finishing->finish();
+  EXPECT_EQ(finishing->keyframes(), static_cast<size_t>(next - 1));
+  {
+    auto copied = KeyframeStore::openExisting(copy);
+    EXPECT_EQ(copied->size(), static_cast<size_t>(next - 1)) << "each keyframe stored meanwhile";
+    EXPECT_NE(copied->mapId(), detector.mapId());
+  }
+
+  removeMap(copy);
+  ASSERT_EQ(detector.beginSave(copy, false, nullptr), "");
+  EXPECT_FALSE(detector.continueSave(1));
+  const LoopDetector::ResetOutcome outcome = detector.reset();
+  EXPECT_THROW(detector.continueSave(1), std::runtime_error);
+  EXPECT_FALSE(std::filesystem::exists(copy));
+  EXPECT_FALSE(std::filesystem::exists(copy + ".partial"));
+  EXPECT_TRUE(detector.continueSave(1)) << "said once; nothing is being saved now";
+  removeMap(path);
+  removeMap(outcome.kept_as);
+}

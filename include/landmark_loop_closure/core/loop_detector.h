@@ -15,6 +15,7 @@
 #include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
+#include "landmark_loop_closure/core/map_reading.h"
 #include "landmark_loop_closure/core/odometry_gate.h"
 #include "landmark_loop_closure/core/online_training.h"
 #include "landmark_loop_closure/core/score_normalisation.h"
@@ -239,6 +240,12 @@ class LoopDetector {
   /// already handed out below the loaded ones are refused. While online training holds keyframes
   /// the map is opened when training ends (its result's store_error says if that failed).
   std::string openMap(const std::string& path);
+  /// Worker thread: what readMap() needs to read a map for this detector, so that it can run on
+  /// another thread while the worker goes on (a load), its result swapped in by adoptMap().
+  MapReadSettings mapReadSettings() const;
+  /// Worker thread: `map` (readMap() with mapReadSettings()) becomes the database, as openMap()
+  /// says. Refused ("" or why) when the descriptor changed since the settings were taken.
+  std::string adoptMap(ReadMap map);
   /// The map openMap() was asked for while online training held keyframes, opened when training
   /// ends; empty when none waits.
   const std::string& mapWaitingForTraining() const { return pending_map_path_; }
@@ -282,6 +289,18 @@ class LoopDetector {
   /// map, which is first kept aside under a unique name, given in `kept_as`). Returns "" or why.
   std::string saveDatabase(const std::string& path, bool overwrite = false,
                            std::string* kept_as = nullptr) const;
+  /// Worker thread: saveDatabase() in steps, so that keyframes go on between them (the node's
+  /// ~save_database): checks the target and keeps an existing map aside as saveDatabase() does,
+  /// then copies nothing yet. Returns "" or why. Without a map file the keyframes are written
+  /// at once.
+  std::string beginSave(const std::string& path, bool overwrite, std::string* kept_as);
+  /// Worker thread: copies up to `pages` more pages of the map (SQLite pages: 2 KB); true once the
+  /// copy is ready for takeSave(). Throws std::runtime_error: the copy failed, or a load or reset
+  /// replaced the map meanwhile (the copy is abandoned and removed).
+  bool continueSave(int pages);
+  /// Worker thread: the copy to finish (MapCopy::finish(): the rows file and the rename) on any
+  /// thread; null when beginSave() wrote the map at once.
+  std::unique_ptr<MapCopy> takeSave() { return std::move(save_); }
   /// Worker thread: openMap() on an existing file.
   std::string loadDatabase(const std::string& path);
   /// What reset() did with the open map's file.
@@ -307,14 +326,14 @@ class LoopDetector {
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
-  /// Makes `database` read the records of search's candidates from `store`, keeping the newest.
-  void readRecordsFromStore(KeyframeDatabase* database, const KeyframeStore* store);
+  /// Records kept in memory when search reads them from a map: the newest keyframes
+  /// (triangulation, the consistency chain) and a few queries' candidates.
+  size_t cachedRecords() const;
+  /// Drops a save in steps whose map is about to be replaced; its next step says so.
+  void abandonSave();
   /// Search holds database/memory_budget_mb: new keyframes are searched for loops and written to
   /// the map file, if one is open, but not added to search.
   bool overMemoryBudget() const;
-  /// How many of a map's first `keyframes` search can hold within database/memory_budget_mb,
-  /// their rows `row_stride` bytes apart.
-  size_t keyframesWithinBudget(size_t row_stride, size_t keyframes) const;
 
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);
@@ -401,6 +420,8 @@ class LoopDetector {
   // Search state (worker thread).
   KeyframeDatabase database_;
   std::unique_ptr<KeyframeStore> store_;  ///< The map on disk; null: memory only.
+  std::unique_ptr<MapCopy> save_;         ///< A save in steps (beginSave); before store_ dies.
+  bool save_abandoned_ = false;           ///< The map was replaced during that save.
   std::string pending_map_path_;          ///< Opened once online training has made the descriptor.
   bool map_graph_reused_ = false;
   std::vector<std::string> map_leftovers_removed_;

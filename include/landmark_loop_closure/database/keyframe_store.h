@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/map_copy.h"
 
 struct sqlite3_stmt;
 
@@ -47,6 +48,8 @@ class Writer;
 /// meanwhile are held in memory (get() finds them) and committed once it passes; a map found
 /// damaged is never written to again by this store.
 class KeyframeStore {
+  friend class MapCopy;
+
  public:
   static constexpr int kFormatVersion = 3;
 
@@ -137,6 +140,8 @@ class KeyframeStore {
   /// and renames them over whatever was there. The search graph is not copied. Waits for the
   /// integrity check and refuses a damaged map.
   void copyTo(const std::string& target);
+  /// copyTo() in steps (MapCopy): nothing is written before the first step.
+  std::unique_ptr<MapCopy> startCopy(const std::string& target);
   /// At a clean shutdown: flushes the rows file and seals it (its checksum so far in the map, so
   /// the next open checks it in one pass), and keeps `database`'s search graph and summaries for
   /// the next open in graphPath() and summariesPath() with their checksums in the map. `database`
