@@ -65,6 +65,11 @@ bool MapCopy::step(int pages) {
                         nullptr) != SQLITE_OK) {
       fail("cannot be created");
     }
+    // The copy's last step commits it whole: synced there it would hold the owner for as long as
+    // the disk takes to write the map (0.6 s at 100 000 keyframes); finish() syncs it instead.
+    if (sqlite3_exec(copy_, "PRAGMA synchronous = OFF", nullptr, nullptr, nullptr) != SQLITE_OK) {
+      fail("cannot be configured");
+    }
     backup_ = sqlite3_backup_init(copy_, "main", source_->connection_->db, "main");
     if (backup_ == nullptr) fail("cannot be written");
   }
@@ -116,6 +121,10 @@ void MapCopy::finish() {
     ::close(rows_fd_);
     rows_fd_ = -1;
   }
+  const int database = ::open(partial_.c_str(), O_RDONLY | O_CLOEXEC);
+  const bool synced = database >= 0 && ::fdatasync(database) == 0;
+  if (database >= 0) ::close(database);
+  if (!synced) fail("cannot be written to disk");
   try {
     KeyframeStore::replaceFile(partial_, target_);
   } catch (...) {

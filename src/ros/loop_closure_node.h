@@ -117,8 +117,6 @@ class LoopClosureNode {
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   static double wallNow();
   static constexpr double kWarningPeriod = 10.0;  ///< Seconds between repeats of a warning.
-  /// SQLite pages (2 KB) a save copies per hold of the detector: ~4 MB, a few milliseconds.
-  static constexpr int kSavePagesPerStep = 2048;
 
   // Database file. Services run on their own thread and reach the detector through
   // DetectorRuntime::withDetector, so a save or load waits for the keyframe in hand and never

@@ -5,7 +5,6 @@
 #include <filesystem>
 #include <optional>
 #include <string>
-#include <thread>
 
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "loop_closure_node.h"
@@ -27,63 +26,23 @@ void LoopClosureNode::advertiseServices() {
 
 bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
                                      DatabaseFile::Response& response) {
-  const std::string path = expandPath(request.path);
-  std::string error;
-  std::string kept;
-  std::string target;
-  bool own_map = false;
-  runtime_->withDetector([&](LoopDetector& detector) {
-    target = path.empty() ? detector.mapPath() : path;
-    own_map = target == detector.mapPath();
-    if (target.empty()) {
-      error = "no path given and no map open (the parameter database_path is empty)";
-    } else if (own_map) {
-      error = detector.saveDatabase(target, request.overwrite, &kept);
-      if (error.empty()) error = detector.saveMapGraph();  // A checkpoint.
-    } else {
-      error = detector.beginSave(target, request.overwrite, &kept);
-    }
-    response.keyframes = detector.database().size();
-    return false;
-  });
-  // A copy goes page by page, the detector held a few milliseconds at a time, so the worker
-  // keeps describing keyframes meanwhile; the rows file is copied with the detector free.
-  std::unique_ptr<MapCopy> copy;
-  bool copied = own_map;
-  while (error.empty() && !copied) {
-    runtime_->withDetector([&](LoopDetector& detector) {
-      try {
-        copied = detector.continueSave(kSavePagesPerStep);
-        if (copied) copy = detector.takeSave();
-      } catch (const std::exception& step_error) {
-        error = step_error.what();
-      }
-      return false;
-    });
-    if (!copied) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  if (error.empty() && copy) {
-    try {
-      copy->finish();
-      response.keyframes = copy->keyframes();
-    } catch (const std::exception& finish_error) {
-      error = finish_error.what();
-    }
-  }
-  if (!error.empty() && !kept.empty()) error += "; the earlier map is kept as " + kept;
-  response.success = error.empty();
+  const DetectorRuntime::SaveOutcome saved =
+      runtime_->saveMap(expandPath(request.path), request.overwrite);
+  response.success = saved.error.empty();
+  response.keyframes = saved.keyframes;
   response.message =
-      !error.empty() ? error
-      : own_map
-          ? "all " + std::to_string(response.keyframes) + " keyframes are committed to " + target
-          : "copied " + std::to_string(response.keyframes) + " keyframes to " + target +
-                (kept.empty() ? "" : "; the map that was there is kept as " + kept);
-  if (error.empty()) {
+      !saved.error.empty() ? saved.error
+      : saved.own_map
+          ? "all " + std::to_string(saved.keyframes) + " keyframes are committed to " + saved.target
+          : "copied " + std::to_string(saved.keyframes) + " keyframes to " + saved.target +
+                (saved.kept_as.empty() ? ""
+                                       : "; the map that was there is kept as " + saved.kept_as);
+  if (response.success) {
     ROS_INFO("%s", response.message.c_str());
   } else {
-    ROS_ERROR("Could not save the map: %s", error.c_str());
+    ROS_ERROR("Could not save the map: %s", saved.error.c_str());
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    database_status_ = error;
+    database_status_ = saved.error;
   }
   return true;
 }

@@ -100,6 +100,52 @@ bool DetectorRuntime::tryWithDetector(const std::function<bool(LoopDetector&)>& 
   return true;
 }
 
+DetectorRuntime::SaveOutcome DetectorRuntime::saveMap(const std::string& path, bool overwrite) {
+  constexpr int kPagesPerStep = 2048;
+  SaveOutcome outcome;
+  withDetector([&](LoopDetector& detector) {
+    outcome.target = path.empty() ? detector.mapPath() : path;
+    outcome.own_map = !outcome.target.empty() && outcome.target == detector.mapPath();
+    if (outcome.target.empty()) {
+      outcome.error = "no path given and no map open (the parameter database_path is empty)";
+    } else if (outcome.own_map) {
+      outcome.error = detector.saveDatabase(outcome.target, overwrite, &outcome.kept_as);
+      if (outcome.error.empty()) outcome.error = detector.saveMapGraph();  // A checkpoint.
+    } else {
+      outcome.error = detector.beginSave(outcome.target, overwrite, &outcome.kept_as);
+    }
+    outcome.keyframes = detector.database().size();
+    return false;
+  });
+  std::unique_ptr<MapCopy> copy;
+  bool copied = outcome.own_map;
+  while (outcome.error.empty() && !copied) {
+    withDetector([&](LoopDetector& detector) {
+      try {
+        copied = detector.continueSave(kPagesPerStep);
+        if (copied) copy = detector.takeSave();
+      } catch (const std::exception& error) {
+        outcome.error = error.what();
+      }
+      return false;
+    });
+    // The worker's turn: a mutex is not fair, and this thread would take it straight back.
+    if (!copied) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (outcome.error.empty() && copy) {
+    try {
+      copy->finish();
+      outcome.keyframes = copy->keyframes();
+    } catch (const std::exception& error) {
+      outcome.error = error.what();
+    }
+  }
+  if (!outcome.error.empty() && !outcome.kept_as.empty()) {
+    outcome.error += "; the earlier map is kept as " + outcome.kept_as;
+  }
+  return outcome;
+}
+
 size_t DetectorRuntime::runOnDetector(const std::function<bool(LoopDetector&)>& action) {
   if (!action(*detector_)) return 0;
   // The map was replaced: what was held or queued for the previous one is dropped.

@@ -20,6 +20,7 @@
 //                 [--reopen] [--ef 256,512] [--first-queries 20] [--ef-construction 64]
 //                 [--neighbors 16]
 //                 [--route measured|isotropic] [--measure-route DIR,DIR]
+//                 [--identity bench|detector]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,6 +38,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench_workload.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 #include "landmark_loop_closure/descriptors/registry.h"
@@ -83,7 +85,8 @@ struct Settings {
   bool reopen_only = false;
   IndexOptions index;  ///< The shipped graph settings unless --ef-construction / --neighbors.
   std::vector<int> ef_search = {IndexOptions().ef_search};
-  int first_queries = 20;  ///< Timed one by one straight after reopening.
+  int first_queries = 20;          ///< Timed one by one straight after reopening.
+  bool detector_identity = false;  ///< --identity detector: a map the node can open.
   bench::RouteShape route = bench::RouteShape::kMeasured;
 };
 
@@ -246,11 +249,13 @@ int main(int argc, char** argv) {
                    "              [--recall-queries N] [--dir FOLDER] [--image a.jpg,b.jpg]\n"
                    "              [--reopen] [--ef N,N,...] [--ef-construction N]\n"
                    "              [--neighbors N] [--route measured|isotropic]\n"
-                   "              [--measure-route DIR,DIR,...]\n";
+                   "              [--measure-route DIR,DIR,...] [--identity bench|detector]\n";
       return key == "--help" || key == "-h" ? 0 : 2;
     }
     const std::string value = argv[i + 1];
-    if (key == "--keyframes") {
+    if (key == "--identity") {
+      settings.detector_identity = value == "detector";
+    } else if (key == "--keyframes") {
       settings.keyframes = std::stoul(value);
     } else if (key == "--checkpoints") {
       settings.checkpoints.clear();
@@ -297,7 +302,12 @@ int main(int argc, char** argv) {
   fs::create_directories(settings.dir);
   const std::string path = (settings.dir / "bench.map").string();
   const IndexOptions& index = settings.index;
-  const std::string identity = "bench";
+  // "detector": the identity a detector with the shipped settings gives its map, so that the
+  // node (and lcd_bench_save) can open it.
+  const std::string identity =
+      settings.detector_identity
+          ? LoopDetector(LoopDetectorOptions{}, shippedExtractor()).descriptorIdentity()
+          : "bench";
   std::optional<Route> route;
   std::vector<std::vector<float>> places;  // A sample of stored vectors to revisit.
   if (!settings.reopen_only) {

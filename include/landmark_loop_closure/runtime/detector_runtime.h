@@ -140,6 +140,20 @@ class DetectorRuntime {
   /// holds it, so a timer never waits on the worker.
   bool tryWithDetector(const std::function<bool(LoopDetector&)>& action);
 
+  /// What saveMap() did.
+  struct SaveOutcome {
+    std::string error;     ///< "" on success.
+    std::string target;    ///< The file written (the open map's own path for "").
+    bool own_map = false;  ///< `target` is the open map: committed and checkpointed.
+    size_t keyframes = 0;  ///< In the saved map.
+    std::string kept_as;   ///< Where an overwritten map was kept.
+  };
+  /// Any thread but the worker's (map services): saves as LoopDetector::saveDatabase() says,
+  /// `path` "" meaning the open map. A copy goes step by step (LoopDetector::beginSave: 2048
+  /// SQLite pages, ~4 MB, per hold of the detector), the rows file and the rename with the
+  /// detector free, so the worker keeps describing keyframes meanwhile.
+  SaveOutcome saveMap(const std::string& path, bool overwrite);
+
   /// Stops the worker after the keyframe in hand; queued keyframes are dropped. Idempotent.
   void stop();
 
