@@ -160,15 +160,26 @@ void DetectorRuntime::work() {
 
 void DetectorRuntime::process(KeyframeJob& job) {
   const auto start = std::chrono::steady_clock::now();
+  const auto dropped = [&] {
+    if (job.generation < generation_.load()) {  // From before time jumped back.
+      ++stale_;
+      return true;
+    }
+    if (job.map_epoch < map_epoch_.load()) {  // Queued before a load or reset replaced the map.
+      ++dropped_at_map_switch_;
+      return true;
+    }
+    return false;
+  };
+  if (dropped()) return;
+  // The images are prepared with the detector free, so a depth wait (bounded, 0.2 s) or an image
+  // conversion never holds a service back. Only this thread changes the extractor (training).
+  PreparedKeyframe prepared;
+  InputError error{InputErrorCode::kUnsupportedImageType, "the frame could not be prepared"};
+  const bool colour = detector_->extractor() && detector_->extractor()->wantsColour();
+  const bool ready = !listener_.prepare || listener_.prepare(job, colour, &prepared, &error);
   const std::lock_guard<std::mutex> lock(detector_mutex_);
-  if (job.generation < generation_.load()) {  // From before time jumped back.
-    ++stale_;
-    return;
-  }
-  if (job.map_epoch < map_epoch_.load()) {  // Queued before a load or reset replaced the map.
-    ++dropped_at_map_switch_;
-    return;
-  }
+  if (dropped()) return;  // A service switched maps while the images were prepared.
   if (job.generation > worker_generation_) {
     worker_generation_ = job.generation;
     detector_->reset();
@@ -178,10 +189,7 @@ void DetectorRuntime::process(KeyframeJob& job) {
   const auto reject = [this](const InputError& error) {
     if (listener_.rejected) listener_.rejected(error);
   };
-  PreparedKeyframe prepared;
-  InputError error{InputErrorCode::kUnsupportedImageType, "the frame could not be prepared"};
-  const bool colour = detector_->extractor() && detector_->extractor()->wantsColour();
-  if (listener_.prepare && !listener_.prepare(job, colour, &prepared, &error)) {
+  if (!ready) {
     reject(error);
     return;
   }

@@ -96,7 +96,8 @@ struct ReleasedKeyframe {
   double stamp = 0.0;
 };
 
-/// What the runtime calls back, all on the worker thread, with the detector locked.
+/// What the runtime calls back, all on the worker thread: prepare() with the detector free (a
+/// service may run meanwhile), the others with the detector locked.
 struct RuntimeListener {
   /// The images of a job: false (and `error` set) refuses it.
   std::function<bool(const KeyframeJob&, bool wants_colour, PreparedKeyframe*, InputError*)>
