@@ -10,6 +10,26 @@
 
 namespace landmark_loop_closure {
 
+namespace {
+
+// What every save does before it writes: the target's checks (saveTargetProblem), then an
+// existing map there (let through only with `overwrite`) kept aside under a unique name, given in
+// `kept`. Returns "" or why not.
+std::string clearSaveTarget(const std::string& path, const std::string& open_map, bool overwrite,
+                            std::string* kept) {
+  const std::string problem = saveTargetProblem(path, open_map, overwrite);
+  if (!problem.empty()) return problem;
+  try {
+    std::error_code absent;
+    if (std::filesystem::exists(path, absent)) *kept = moveMapAside(path, "replaced");
+  } catch (const std::exception& error) {
+    return error.what();
+  }
+  return "";
+}
+
+}  // namespace
+
 std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
                                        std::string* kept_as) const {
   if (training_) {
@@ -18,13 +38,10 @@ std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
            " keyframes held)";
   }
   if (store_ && path == store_->path()) return "";  // Every keyframe is committed already.
-  const std::string problem = saveTargetProblem(path, mapPath(), overwrite);
-  if (!problem.empty()) return problem;
   std::string kept;
+  const std::string refused = clearSaveTarget(path, mapPath(), overwrite, &kept);
+  if (!refused.empty()) return refused;
   try {
-    // saveTargetProblem let an existing file through only as a map to overwrite.
-    std::error_code absent;
-    if (std::filesystem::exists(path, absent)) kept = moveMapAside(path, "replaced");
     if (store_) {
       store_->copyTo(path);
     } else {
@@ -43,16 +60,9 @@ std::string LoopDetector::beginSave(const std::string& path, bool overwrite, std
   if (!store_ || training_ || path == store_->path()) {
     return saveDatabase(path, overwrite, kept_as);  // At once: nothing to copy page by page.
   }
-  const std::string problem = saveTargetProblem(path, mapPath(), overwrite);
-  if (!problem.empty()) return problem;
   std::string kept;
-  try {
-    // saveTargetProblem let an existing file through only as a map to overwrite.
-    std::error_code absent;
-    if (std::filesystem::exists(path, absent)) kept = moveMapAside(path, "replaced");
-  } catch (const std::exception& error) {
-    return error.what();
-  }
+  const std::string refused = clearSaveTarget(path, mapPath(), overwrite, &kept);
+  if (!refused.empty()) return refused;
   save_ = store_->startCopy(path);
   if (kept_as) *kept_as = kept;
   return "";
