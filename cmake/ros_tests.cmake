@@ -27,6 +27,8 @@ roslaunch_add_file_check(test/ros)
 add_rostest(test/ros/node_revisit_tf.test DEPENDENCIES test_node_revisit)
 # Again with depth images, the camera mount from tf and metric poses in the base frame.
 add_rostest(test/ros/node_revisit_depth.test DEPENDENCIES test_node_revisit)
+# Again through a distorted lens named in camera_info.
+add_rostest(test/ros/node_revisit_distorted.test DEPENDENCIES test_node_revisit)
 # Again with the broad autoencoder trained online on the first keyframes (descriptor/type broad).
 add_rostest(test/ros/node_revisit_broad.test DEPENDENCIES test_node_revisit)
 # The running node publishes exactly the loops lcd_evaluate --detector reports for the same bag.

@@ -41,6 +41,7 @@
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/ground_truth.h"
 #include "landmark_loop_closure/eval/true_loop.h"
+#include "landmark_loop_closure/sim/distorted_view.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace {
@@ -82,27 +83,10 @@ class CorridorSource : public FrameSource {
  public:
   CorridorSource(double laps, const CameraMount& mount, const CorridorLens& lens = {})
       : sequence_(world_, camera_, optionsFor(laps)),
-        wide_sequence_(world_, wideCamera(), optionsFor(laps)),
         mount_(mount.toPose().toIsometry()),
         lens_(lens) {
-    if (lens_.coefficients.empty()) return;
-    // Each pixel of the distorted image looks along its undistorted ray: sample a wider pinhole
-    // render there (the ray of a corner lies outside the undistorted 320x240 image).
-    CameraIntrinsics distorted = camera_.intrinsics();
-    distorted.setLens("plumb_bob", lens_.coefficients);
-    std::vector<cv::Point2f> pixels;
-    for (int v = 0; v < camera_.height; ++v) {
-      for (int u = 0; u < camera_.width; ++u) pixels.emplace_back(u, v);
-    }
-    const std::vector<cv::Point2f> ideal = distorted.idealPixels(pixels);
-    const CameraIntrinsics wide = wideCamera().intrinsics();
-    map_x_.create(camera_.height, camera_.width, CV_32FC1);
-    map_y_.create(camera_.height, camera_.width, CV_32FC1);
-    for (size_t i = 0; i < ideal.size(); ++i) {
-      const int v = static_cast<int>(i) / camera_.width;
-      const int u = static_cast<int>(i) % camera_.width;
-      map_x_.at<float>(v, u) = static_cast<float>(ideal[i].x - distorted.cx + wide.cx);
-      map_y_.at<float>(v, u) = static_cast<float>(ideal[i].y - distorted.cy + wide.cy);
+    if (!lens_.coefficients.empty()) {
+      view_.emplace(world_, camera_, optionsFor(laps), lens_.coefficients);
     }
   }
 
@@ -117,26 +101,14 @@ class CorridorSource : public FrameSource {
     return true;
   }
   cv::Mat image(const BenchFrame& frame) const override {
-    if (lens_.coefficients.empty()) return sequence_.render(frames_.at(frame.index));
-    cv::Mat distorted;
-    cv::remap(wide_sequence_.render(frames_.at(frame.index)), distorted, map_x_, map_y_,
-              cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    return distorted;
+    return view_ ? view_->render(frames_.at(frame.index))
+                 : sequence_.render(frames_.at(frame.index));
   }
   CameraIntrinsics intrinsics() const override {
-    CameraIntrinsics k = camera_.intrinsics();
-    if (!lens_.coefficients.empty() && !lens_.ignored) k.setLens("plumb_bob", lens_.coefficients);
-    return k;
+    return view_ && !lens_.ignored ? view_->intrinsics() : camera_.intrinsics();
   }
 
  private:
-  static sim::CameraModel wideCamera() {
-    sim::CameraModel wide;
-    wide.width = 480;
-    wide.height = 360;
-    return wide;
-  }
-
   static sim::SequenceOptions optionsFor(double laps) {
     sim::SequenceOptions options;
     options.laps = laps;
@@ -146,11 +118,9 @@ class CorridorSource : public FrameSource {
   const sim::CorridorWorld world_;
   const sim::CameraModel camera_;
   sim::SequenceGenerator sequence_;
-  sim::SequenceGenerator wide_sequence_;
   Eigen::Isometry3d mount_;
   CorridorLens lens_;
-  cv::Mat map_x_;
-  cv::Mat map_y_;
+  std::optional<sim::DistortedView> view_;  ///< The lens, when there is one.
   sim::SequenceFrame current_;
   std::vector<sim::SequenceFrame> frames_;
 };

@@ -95,6 +95,8 @@ class NodeHarness {
   }
   /// From now on camera_info carries `k` (K all zeros: an uncalibrated driver).
   void setCameraMatrix(const sensor_msgs::CameraInfo::_K_type& k) { camera_matrix_ = k; }
+  /// From now on camera_info names a plumb_bob lens with these coefficients (k1 k2 p1 p2 k3).
+  void setLens(const std::vector<double>& plumb_bob) { lens_ = plumb_bob; }
 
   /// Publishes an image and its odometry (as nav_msgs/Odometry and as tf odom -> base_link) with
   /// the same stamp, or the odometry `odometry_offset` seconds later; `corrupt_pose` puts NaN in x.
@@ -132,6 +134,10 @@ class NodeHarness {
     info.width = static_cast<uint32_t>(camera.width);
     info.height = static_cast<uint32_t>(camera.height);
     info.K = camera_matrix_;
+    if (!lens_.empty()) {
+      info.distortion_model = "plumb_bob";
+      info.D = lens_;
+    }
     camera_info_publisher_.publish(info);
   }
 
@@ -256,6 +262,7 @@ class NodeHarness {
   ros::Publisher tf_publisher_;
   ros::Publisher camera_info_publisher_;
   sensor_msgs::CameraInfo::_K_type camera_matrix_ = calibratedK();
+  std::vector<double> lens_;
   ros::Publisher depth_publisher_;
   ros::Publisher static_tf_publisher_;
   ros::Subscriber keyframe_subscriber_;
