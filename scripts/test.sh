@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs every test (gtest and rostest) with ctest.
+# Installs what is missing, builds, and runs every test (gtest and rostest) with ctest, then the
+# threaded core tests under ThreadSanitizer (scripts/tsan.sh).
 # Exits non-zero when any test fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,3 +16,6 @@ set -u
 cd _build
 ctest --output-on-failure
 catkin_test_results test_results
+cd ..
+# The threads of the core and runtime, under ThreadSanitizer.
+scripts/tsan.sh
