@@ -259,12 +259,13 @@ uint8_t toMsgVerdict(CandidateVerdict verdict) {
   return LoopCandidate::BELOW_THRESHOLD;
 }
 
-LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time& stamp,
-                                   const std::string& frame_id,
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id,
+                                   const ros::Time& stamp, const std::string& frame_id,
                                    const std::function<ros::Time(uint64_t)>& stamp_of) {
   LoopCandidateArray msg;
   msg.header.stamp = stamp;
   msg.header.frame_id = frame_id;
+  msg.map_id = map_id;
   msg.query_id = result.keyframe_id;
   msg.query_status = toString(result.query_status);
   for (const CandidateReport& report : result.candidates) {

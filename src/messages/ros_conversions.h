@@ -56,8 +56,8 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
 Keyframe toKeyframeMsg(uint64_t id, uint32_t session, uint64_t map_id, const ros::Time& stamp,
                        const Pose& pose, const std::string& frame_id);
 /// `stamp_of(id)` returns a keyframe's original stamp.
-LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, const ros::Time& stamp,
-                                   const std::string& frame_id,
+LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id,
+                                   const ros::Time& stamp, const std::string& frame_id,
                                    const std::function<ros::Time(uint64_t)>& stamp_of);
 uint8_t toMsgVerdict(CandidateVerdict verdict);
 

@@ -125,7 +125,8 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
              result.loop->consistent_keyframes, how.c_str());
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
-    candidates_publisher_.publish(toCandidatesMsg(result, job.stamp, job.frame_id,
+    candidates_publisher_.publish(toCandidatesMsg(result, detector_.mapId(), job.stamp,
+                                                  job.frame_id,
                                                   [this](uint64_t id) { return stampOf(id); }));
   }
 

@@ -479,8 +479,9 @@ TEST(RosConversions, CandidatesCarryVerdictConstants) {
   report.inliers = 12;
   result.candidates.push_back(report);
   const LoopCandidateArray message =
-      toCandidatesMsg(result, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
+      toCandidatesMsg(result, 7, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
   EXPECT_EQ(message.query_status, "searched");
+  EXPECT_EQ(message.map_id, 7u);
   ASSERT_EQ(message.candidates.size(), 2u);
   EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::AWAITING_CONSISTENCY);
   EXPECT_EQ(message.candidates[0].reason, "awaiting_consistency");
@@ -498,7 +499,7 @@ TEST(RosConversions, OdometryRejectionsCarryTheirNumbersInTheReason) {
   report.detail = "odometry: needs a 26.0 m correction, drift allows 4.0 m";
   result.candidates.push_back(report);
   const LoopCandidateArray message =
-      toCandidatesMsg(result, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
+      toCandidatesMsg(result, 7, ros::Time(1.0), "odom", [](uint64_t id) { return ros::Time(id); });
   ASSERT_EQ(message.candidates.size(), 1u);
   EXPECT_EQ(message.candidates[0].verdict, LoopCandidate::ODOMETRY_REJECTED);
   EXPECT_EQ(message.candidates[0].reason,
@@ -547,4 +548,20 @@ TEST(RosParameterSource, IntegersAreStrictAndNumbersTakeIntegers) {
   std::string text;
   EXPECT_EQ(fromXmlRpc(eight, &text), ParameterLookup::kWrongType);
   EXPECT_EQ(fromXmlRpc(word, &text), ParameterLookup::kFound);
+}
+
+// (map_id, id) names a keyframe: every message that carries an id carries its map.
+TEST(RosConversions, KeyframesAndLoopsCarryTheirMap) {
+  const Keyframe keyframe =
+      toKeyframeMsg(12, 1, 0xFEDCBA9876543210ull, ros::Time(3.0), Pose(), "odom");
+  EXPECT_EQ(keyframe.map_id, 0xFEDCBA9876543210ull);
+  EXPECT_EQ(keyframe.id, 12u);
+  EXPECT_EQ(keyframe.session, 1u);
+  AcceptedLoop loop;
+  loop.map_id = 0xFEDCBA9876543210ull;
+  loop.query_id = 12;
+  loop.match_id = 3;
+  const LoopClosure message = toLoopMsg(loop, ros::Time(3.0), ros::Time(1.0), "odom", "camera");
+  EXPECT_EQ(message.map_id, 0xFEDCBA9876543210ull);
+  EXPECT_EQ(message.match_id, 3u);
 }
