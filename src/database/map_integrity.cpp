@@ -83,16 +83,14 @@ void KeyframeStore::IntegrityCheck::run() {
     const std::optional<uint32_t> crc = rows->checksum(entries, stop);
     if (!crc) return;
     if (*crc != expected) {
-      problem = rows_damaged;
-      state = MapCheck::kFailed;
+      fail(rows_damaged);
       return;
     }
   }
   const std::optional<std::string> pages = pagesProblem(map_path, stop);
   if (!pages) return;
   if (!pages->empty()) {
-    problem = storeError(map_path, *pages).what();
-    state = MapCheck::kFailed;
+    fail(storeError(map_path, *pages).what());
     return;
   }
   state = MapCheck::kPassed;
@@ -110,7 +108,7 @@ void KeyframeStore::checkIntegrity() {
     beginIntegrityCheck();
     check_->run();
   }
-  if (awaitIntegrityCheck() == MapCheck::kFailed) throw std::runtime_error(check_->problem);
+  if (awaitIntegrityCheck() == MapCheck::kFailed) throw std::runtime_error(check_->problem());
 }
 
 void KeyframeStore::startIntegrityCheck() {
@@ -133,7 +131,7 @@ KeyframeStore::MapCheck KeyframeStore::awaitIntegrityCheck() {
 }
 
 std::string KeyframeStore::integrityProblem() const {
-  return integrityCheck() == MapCheck::kFailed ? check_->problem : "";
+  return integrityCheck() == MapCheck::kFailed ? check_->problem() : "";
 }
 
 void KeyframeStore::commitHeld() {

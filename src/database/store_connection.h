@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -139,13 +140,29 @@ struct KeyframeStore::IntegrityCheck {
   uint64_t entries = 0;
   uint32_t expected = 0;
   std::string rows_damaged;  ///< The message should the rows not match their seal.
-  std::string problem;       ///< Set before state becomes kFailed.
   std::atomic<MapCheck> state{MapCheck::kPending};
   std::atomic<bool> stop{false};
   std::thread thread;
 
   /// Reads the rows and pages and sets `state`; leaves it when stopped first.
   void run();
+  /// Why it failed (any thread); "" unless it did.
+  std::string problem() const {
+    const std::lock_guard<std::mutex> lock(problem_mutex);
+    return problem_text;
+  }
+  /// The check's thread: it failed, for `why`.
+  void fail(const std::string& why) {
+    {
+      const std::lock_guard<std::mutex> lock(problem_mutex);
+      problem_text = why;
+    }
+    state = MapCheck::kFailed;
+  }
+  // Under a lock of its own, so that no reader depends on the order of `state`'s writes.
+  mutable std::mutex problem_mutex;
+  std::string problem_text;
+
   /// Stops a running check and waits for its thread.
   void halt() {
     stop = true;
