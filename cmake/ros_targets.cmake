@@ -29,7 +29,8 @@ add_dependencies(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_generate_messages_cpp)
 # The markers' cost per keyframe as the map grows (bench/README.md).
 add_executable(lcd_bench_markers src/tools/lcd_bench_markers.cpp)
 target_include_directories(lcd_bench_markers SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(lcd_bench_markers ${PROJECT_NAME}_nodelet ${catkin_LIBRARIES})
+target_link_libraries(lcd_bench_markers ${PROJECT_NAME}_nodelet ${PROJECT_NAME}_eval
+  ${catkin_LIBRARIES})
 
 add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
 target_include_directories(loop_closure_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

@@ -90,17 +90,17 @@ void playBagFrames(const BagSourceOptions& options, bool colour, const BagFrameS
     const OdometryLookup lookup =
         odometry.at(toSeconds(image->header.stamp), options.odometry_max_interval);
     if (lookup.status != OdometryAt::kFound || checkImageMessage(*image)) continue;
-    const Pose* pose = &lookup.pose;
+    const Pose& pose = lookup.pose;
     eval::DetectorFrame frame;
     frame.stamp = toSeconds(image->header.stamp);
-    frame.pose = *pose;
+    frame.pose = pose;
     frame.image = colour ? toBgr(*image) : toGrey(*image);
     const auto info = infos.upper_bound(image->header.stamp);
     if (info != infos.begin()) frame.intrinsics = std::prev(info)->second;
     const Pose* true_pose = options.truth_topic.empty()
                                 ? nullptr
                                 : nearest(truth, image->header.stamp, options.sync_slop);
-    sink(index++, frame, true_pose ? *true_pose : *pose);
+    sink(index++, frame, true_pose ? *true_pose : pose);
   }
   if (images == 0) {
     throw std::runtime_error(options.path + " has no sensor_msgs/Image on " + options.image_topic);
@@ -128,23 +128,23 @@ BagKeyframes readBagKeyframes(const BagSourceOptions& options) {
       ++keyframes.images_without_odometry;
       continue;
     }
-    const Pose* pose = &lookup.pose;
+    const Pose& pose = lookup.pose;
     const double stamp = toSeconds(image->header.stamp);
-    if (checkImageMessage(*image) || checkPose(*pose, limits) ||
+    if (checkImageMessage(*image) || checkPose(pose, limits) ||
         (selector.hasKeyframe() && stamp <= selector.lastKeyframeStamp())) {
       ++keyframes.images_rejected;
       continue;
     }
-    if (selector.select(stamp, normalisedPose(*pose)).verdict != SelectionVerdict::kKeyframe) {
+    if (selector.select(stamp, normalisedPose(pose)).verdict != SelectionVerdict::kKeyframe) {
       continue;
     }
     keyframes.images.push_back(toGrey(*image));
     keyframes.stamps.push_back(stamp);
-    keyframes.odometry.push_back(normalisedPose(*pose));
+    keyframes.odometry.push_back(normalisedPose(pose));
     if (!options.truth_topic.empty()) {
       const Pose* true_pose = nearest(truth, image->header.stamp, options.sync_slop);
       keyframes.keyframes_without_truth += true_pose ? 0 : 1;
-      keyframes.truth.push_back(normalisedPose(true_pose ? *true_pose : *pose));
+      keyframes.truth.push_back(normalisedPose(true_pose ? *true_pose : pose));
     }
   }
   if (keyframes.images_read == 0) {

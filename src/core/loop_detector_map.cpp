@@ -149,8 +149,8 @@ std::string LoopDetector::saveMapGraph() {
 }
 
 std::string LoopDetector::loadDatabase(const std::string& path) {
-  if (!std::filesystem::exists(path)) return "map " + path + ": does not exist";
-  return openMap(path);
+  const std::string missing = missingMapProblem(path);
+  return missing.empty() ? openMap(path) : missing;
 }
 
 std::string LoopDetector::mapCheck() const {

@@ -4,6 +4,7 @@
 #include "landmark_loop_closure/database/approximate_index.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <optional>
 
 namespace landmark_loop_closure {
@@ -23,6 +24,11 @@ size_t keyframesWithinBudget(const KeyframeDatabase& database, const IndexOption
 }
 
 }  // namespace
+
+std::string missingMapProblem(const std::string& path) {
+  std::error_code error;
+  return std::filesystem::exists(path, error) ? "" : "map " + path + ": does not exist";
+}
 
 void readRecordsFrom(KeyframeDatabase* database, const KeyframeStore* store, size_t cached) {
   database->readRecordsFrom(

@@ -19,10 +19,15 @@ namespace landmark_loop_closure {
 MapCopy::MapCopy(KeyframeStore* source, std::string target)
     : source_(source), target_(std::move(target)), partial_(target_ + ".partial") {}
 
-MapCopy::~MapCopy() {
+MapCopy::~MapCopy() { discard(); }
+
+void MapCopy::discard() {
   if (backup_ != nullptr) sqlite3_backup_finish(backup_);
+  backup_ = nullptr;
   if (copy_ != nullptr) sqlite3_close(copy_);
+  copy_ = nullptr;
   if (rows_fd_ >= 0) ::close(rows_fd_);
+  rows_fd_ = -1;
   if (!finished_) {
     std::error_code ignored;
     std::filesystem::remove(partial_, ignored);
@@ -32,13 +37,7 @@ MapCopy::~MapCopy() {
 
 void MapCopy::fail(const std::string& what) {
   const std::string reason = copy_ != nullptr ? sqlite3_errmsg(copy_) : std::strerror(errno);
-  if (backup_ != nullptr) sqlite3_backup_finish(backup_);
-  backup_ = nullptr;
-  if (copy_ != nullptr) sqlite3_close(copy_);
-  copy_ = nullptr;
-  std::error_code ignored;
-  std::filesystem::remove(partial_, ignored);
-  std::filesystem::remove(partial_ + "-vectors", ignored);
+  discard();
   throw storeError(target_, what + ": " + reason);
 }
 
@@ -128,9 +127,7 @@ void MapCopy::finish() {
   try {
     KeyframeStore::replaceFile(partial_, target_);
   } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(partial_, ignored);
-    std::filesystem::remove(partial_ + "-vectors", ignored);
+    discard();
     throw;
   }
   finished_ = true;

@@ -143,7 +143,7 @@ class LoopClosureNode {
   // odom mode, callback thread only: recent odometry and the images waiting for it.
   OdometryHistory odometry_history_;
   std::string odometry_frame_;  ///< frame_id of the latest odometry message.
-  std::deque<PendingImage> pending_odometry_;
+  std::deque<sensor_msgs::ImageConstPtr> pending_odometry_;
   ros::Subscriber camera_info_subscriber_;
   image_transport::Subscriber depth_subscriber_;
   InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.

@@ -2,7 +2,6 @@
 // keyframes online training held.
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -72,10 +71,15 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
           "no path given: name the map to load" +
           (detector.mapPath().empty() ? std::string()
                                       : " (" + detector.mapPath() + " is the map open now)");
-    } else if (detector.trainingProgress().second > 0) {
+    } else if (const auto [held, wanted] = detector.trainingProgress(); wanted > 0) {
       // Nothing is replaced yet: the map opens once online training has made the descriptor.
       response.message = detector.loadDatabase(path);
       waiting_for_training = response.message.empty();
+      if (waiting_for_training) {
+        response.message = "not loaded yet: online training holds " + std::to_string(held) +
+                           " of " + std::to_string(wanted) + " keyframes; " + path +
+                           " is opened when it has made the descriptor";
+      }
     } else {
       settings = detector.mapReadSettings();
     }
@@ -84,10 +88,8 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
   // The map is opened and read beside the live one, which the worker goes on using meanwhile.
   std::optional<ReadMap> read;
   if (settings) {
-    std::error_code error_code;
-    if (!std::filesystem::exists(path, error_code)) {
-      response.message = "map " + path + ": does not exist";
-    } else {
+    response.message = missingMapProblem(path);
+    if (response.message.empty()) {
       try {
         read = readMap(path, *settings);
       } catch (const std::exception& error) {
@@ -96,13 +98,6 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     }
   }
   if (waiting_for_training) {
-    runtime_->withDetector([&](LoopDetector& detector) {
-      const auto [held, wanted] = detector.trainingProgress();
-      response.message = "not loaded yet: online training holds " + std::to_string(held) + " of " +
-                         std::to_string(wanted) + " keyframes; " + path +
-                         " is opened when it has made the descriptor";
-      return false;
-    });
     response.success = true;
     response.keyframes = 0;
     ROS_WARN("%s", response.message.c_str());

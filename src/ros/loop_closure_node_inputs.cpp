@@ -20,13 +20,13 @@ constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the s
 
 void LoopClosureNode::onImageForOdometry(const sensor_msgs::ImageConstPtr& image) {
   inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
-  pending_odometry_.push_back({image, ros::WallTime::now()});
+  pending_odometry_.push_back(image);
   if (pending_odometry_.size() > static_cast<size_t>(options_.sync_queue_size)) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Dropped image at %.3f: %d images wait for odometry after their stamps "
                       "(sync_queue_size), the newest odometry is at %.3f",
-                      pending_odometry_.front().image->header.stamp.toSec(),
-                      options_.sync_queue_size, odometry_history_.newest());
+                      pending_odometry_.front()->header.stamp.toSec(), options_.sync_queue_size,
+                      odometry_history_.newest());
     pending_odometry_.pop_front();
   }
   pairPendingWithOdometry();
@@ -40,16 +40,17 @@ std::optional<Pose> LoopClosureNode::bodyPose(const nav_msgs::Odometry& odometry
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
   }
-  std::string error;
-  if (!tf_buffer_->canTransform(child, options_.base_frame, ros::Time(0), &error)) {
+  Eigen::Isometry3d child_from_base;
+  try {
+    child_from_base = tf2::transformToEigen(
+        tf_buffer_->lookupTransform(child, options_.base_frame, ros::Time(0)));
+  } catch (const tf2::TransformException& error) {
     ROS_ERROR_THROTTLE(kWarningPeriod,
                        "Odometry is of child_frame_id '%s', not base_frame '%s', and tf has no "
                        "transform between them yet (%s): odometry dropped until it has",
-                       child.c_str(), options_.base_frame.c_str(), error.c_str());
+                       child.c_str(), options_.base_frame.c_str(), error.what());
     return std::nullopt;
   }
-  const Eigen::Isometry3d child_from_base =
-      tf2::transformToEigen(tf_buffer_->lookupTransform(child, options_.base_frame, ros::Time(0)));
   ROS_INFO_ONCE("Odometry is of child_frame_id '%s': turned into base_frame '%s' through tf",
                 child.c_str(), options_.base_frame.c_str());
   return Pose::fromIsometry(pose.toIsometry() * child_from_base);
@@ -66,8 +67,8 @@ void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
   if (odometry_history_.add(stamp, *pose)) {
     // Images of the old timeline would wait for odometry that never comes.
     const size_t held = pending_odometry_.size();
-    while (!pending_odometry_.empty() && pending_odometry_.front().image->header.stamp.toSec() >
-                                             stamp + options_.time_jump_back_s) {
+    while (!pending_odometry_.empty() &&
+           pending_odometry_.front()->header.stamp.toSec() > stamp + options_.time_jump_back_s) {
       pending_odometry_.pop_front();
     }
     ROS_WARN("Odometry jumped back from %.3f to %.3f: the earlier odometry is forgotten%s",
@@ -79,7 +80,7 @@ void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
 
 void LoopClosureNode::pairPendingWithOdometry() {
   while (!pending_odometry_.empty()) {
-    const sensor_msgs::ImageConstPtr image = pending_odometry_.front().image;
+    const sensor_msgs::ImageConstPtr image = pending_odometry_.front();
     const double stamp = image->header.stamp.toSec();
     const OdometryLookup lookup = odometry_history_.at(stamp, options_.odometry_max_interval);
     if (lookup.status == OdometryAt::kNotYet || lookup.status == OdometryAt::kNoOdometry) return;

@@ -59,20 +59,4 @@ OdometryLookup OdometryHistory::at(double stamp, double max_interval) const {
   return lookup;
 }
 
-const char* toString(OdometryAt status) {
-  switch (status) {
-    case OdometryAt::kFound:
-      return "found";
-    case OdometryAt::kNotYet:
-      return "after the newest odometry";
-    case OdometryAt::kBeforeHistory:
-      return "before the oldest odometry held";
-    case OdometryAt::kGapTooLong:
-      return "odometry messages around it too far apart";
-    case OdometryAt::kNoOdometry:
-      return "no odometry yet";
-  }
-  return "unknown";
-}
-
 }  // namespace landmark_loop_closure

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "../ros/loop_markers.h"
+#include "landmark_loop_closure/eval/metrics.h"
 
 using namespace landmark_loop_closure;
 
@@ -49,13 +50,6 @@ size_t serialise(const visualization_msgs::MarkerArray& array, std::vector<uint8
   ros::serialization::OStream stream(buffer->data(), length);
   ros::serialization::serialize(stream, array);
   return length;
-}
-
-double percentile(std::vector<double> values, double p) {
-  std::sort(values.begin(), values.end());
-  const size_t index =
-      std::min(values.size() - 1, static_cast<size_t>(p * static_cast<double>(values.size())));
-  return values[index];
 }
 
 double mean(const std::vector<double>& values) {
@@ -114,10 +108,11 @@ int main(int argc, char** argv) {
   for (const size_t size : sizes) {
     const Row changes = measure(size, true);
     const Row everything = measure(size, false);
+    const eval::Percentiles changes_ms = eval::percentiles(changes.ms);
+    const eval::Percentiles everything_ms = eval::percentiles(everything.ms);
     std::printf("| %zu | %.4f / %.4f / %.4f | %.0f | %.3f / %.3f / %.3f | %.0f |\n", size,
-                percentile(changes.ms, 0.5), percentile(changes.ms, 0.99), mean(changes.ms),
-                changes.bytes, percentile(everything.ms, 0.5), percentile(everything.ms, 0.99),
-                mean(everything.ms), everything.bytes);
+                changes_ms.median, changes_ms.p99, mean(changes.ms), changes.bytes,
+                everything_ms.median, everything_ms.p99, mean(everything.ms), everything.bytes);
     std::fflush(stdout);
   }
   return 0;

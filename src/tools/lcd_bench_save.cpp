@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/descriptors/registry.h"
+#include "landmark_loop_closure/eval/metrics.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 #include "landmark_loop_closure/sim/sequence.h"
@@ -51,12 +52,6 @@ struct Done {
   double latency_ms = 0.0;
 };
 
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<size_t>(p * values.size()))];
-}
-
 void printWindow(const char* name, const std::vector<Done>& done, Clock::time_point from,
                  Clock::time_point to) {
   std::vector<double> worker, latency;
@@ -65,9 +60,14 @@ void printWindow(const char* name, const std::vector<Done>& done, Clock::time_po
     worker.push_back(keyframe.worker_ms);
     latency.push_back(keyframe.latency_ms);
   }
+  const auto largest = [](const std::vector<double>& values) {
+    return values.empty() ? 0.0 : *std::max_element(values.begin(), values.end());
+  };
+  const eval::Percentiles worker_ms = eval::percentiles(worker);
+  const eval::Percentiles latency_ms = eval::percentiles(latency);
   std::printf("| %s | %zu | %.1f / %.1f / %.1f | %.1f / %.1f / %.1f |\n", name, worker.size(),
-              percentile(worker, 0.5), percentile(worker, 0.99), percentile(worker, 1.0),
-              percentile(latency, 0.5), percentile(latency, 0.99), percentile(latency, 1.0));
+              worker_ms.median, worker_ms.p99, largest(worker), latency_ms.median, latency_ms.p99,
+              largest(latency));
 }
 
 bool parse(int argc, char** argv, Settings* settings) {

@@ -40,6 +40,10 @@ struct ReadMap {
 /// detector: any thread.
 ReadMap readMap(const std::string& path, const MapReadSettings& settings);
 
+/// Why `path` cannot be loaded as an existing map ("map PATH: does not exist"); "" when it is
+/// there (readMap() creates a missing map, which a load must not).
+std::string missingMapProblem(const std::string& path);
+
 /// Makes `database` read the records of search's candidates from `store`, keeping the newest
 /// `cached` in memory.
 void readRecordsFrom(KeyframeDatabase* database, const KeyframeStore* store, size_t cached);

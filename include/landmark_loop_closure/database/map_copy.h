@@ -40,6 +40,8 @@ class MapCopy {
  private:
   friend class KeyframeStore;
   MapCopy(KeyframeStore* source, std::string target);
+  /// Closes what is open and, unless finished, removes what was written.
+  void discard();
   [[noreturn]] void fail(const std::string& what);
 
   KeyframeStore* source_;  ///< Null once the database part is whole.

@@ -61,6 +61,4 @@ class OdometryHistory {
 /// slerp (the shorter way round).
 Pose interpolatePose(const Pose& a, const Pose& b, double t);
 
-const char* toString(OdometryAt status);
-
 }  // namespace landmark_loop_closure
