@@ -40,6 +40,7 @@ target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
 # config files, messages, and the models (found at run time through the package path).
 install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_nodelet
   ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${PROJECT_NAME}_messages ${PROJECT_NAME}_bag
+  ${PROJECT_NAME}_backend
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
 install(TARGETS loop_closure_node lcd_bench_markers lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification

@@ -57,6 +57,10 @@ foreach(name test_ground_truth test_evaluation test_baselines_regression test_lo
   target_compile_definitions(${name} PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
 
+# The pose-graph backend links Ceres; its test links the backend and the core only.
+catkin_add_gtest(test_pose_graph test/core/test_pose_graph.cpp)
+target_link_libraries(test_pose_graph ${PROJECT_NAME}_backend ${PROJECT_NAME}_core GTest::gtest_main)
+
 include(cmake/ros_tests.cmake OPTIONAL)
 
 # The verification benchmark on a sequence in KITTI's layout (the corridor exported that way).

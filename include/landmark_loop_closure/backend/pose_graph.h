@@ -1,0 +1,149 @@
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/geometry/pose.h"
+
+namespace landmark_loop_closure {
+
+/// The reference pose-graph backend: keyframe poses from odometry, odometry edges between
+/// consecutive keyframes, loop edges from the detector's metric relative poses. Optimised with
+/// Ceres (6 DoF, the first keyframe held fixed); wrong loops are screened before they enter and
+/// switched off when the optimised graph disagrees with them.
+struct PoseGraphOptions {
+  /// Odometry edge uncertainty (one standard deviation): a floor plus a share of the motion.
+  double odometry_translation_sd_m = 0.01;
+  double odometry_translation_sd_per_m = 0.05;
+  double odometry_rotation_sd_rad = 0.002;
+  double odometry_rotation_sd_per_m = 0.01;
+  double odometry_rotation_sd_per_rad = 0.05;
+  /// Loop screening and switching off: a loop whose error, in standard deviations of the
+  /// uncertainty between its two keyframes (odometry along the graph's most certain path plus the
+  /// loop's own), exceeds this is refused.
+  double max_loop_error_sd = 3.0;
+  /// Cauchy loss scale on loop residuals (in standard deviations): a wrong loop that passed the
+  /// screening pulls with bounded force.
+  double loop_loss_scale = 1.0;
+  int max_iterations = 50;
+
+  /// Keys under pose_graph/, documented in config/pose_graph.yaml.
+  static const ParameterTable<PoseGraphOptions>& parameters();
+  std::string validate() const;
+};
+
+/// A loop constraint: T_query_match (x_query = R x_match + t) in the robot's base frame, with
+/// its 6x6 covariance ordered (x, y, z, rotation about x, y, z) for the error t' = t + dt,
+/// R' = exp(w) R, both in the query's frame (LoopClosure.msg's convention).
+struct LoopConstraint {
+  uint64_t query_id = 0;
+  uint64_t match_id = 0;
+  Eigen::Isometry3d query_T_match = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+};
+
+/// Turns a loop expressed in the camera's optical frame into the base frame, given where the
+/// camera sits on the base (base_T_camera); the covariance follows to first order.
+LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
+                               const Eigen::Isometry3d& base_T_camera);
+
+enum class LoopDecision {
+  kAccepted,
+  kUnknownKeyframe,  ///< Query or match not in the graph (yet).
+  kBadCovariance,    ///< Not finite, not symmetric positive definite.
+  kInconsistent,     ///< Disagrees with the graph by more than max_loop_error_sd.
+  kSwitchedOff,      ///< Accepted, then contradicted by the optimised graph.
+};
+std::string toString(LoopDecision decision);
+
+struct LoopVerdict {
+  LoopDecision decision = LoopDecision::kAccepted;
+  double error_sd = 0.0;  ///< Its error in standard deviations when it was screened.
+  std::string detail;
+};
+
+struct OptimisationReport {
+  bool ran = false;
+  bool converged = false;
+  int iterations = 0;
+  double milliseconds = 0.0;
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  std::vector<uint64_t> switched_off;  ///< Loop indices switched off by this optimisation.
+};
+
+class PoseGraph {
+ public:
+  explicit PoseGraph(PoseGraphOptions options = {});
+  ~PoseGraph();
+  PoseGraph(const PoseGraph&) = delete;
+  PoseGraph& operator=(const PoseGraph&) = delete;
+
+  /// Adds a keyframe at its odometry pose; ids must increase. Its estimate starts at the last
+  /// keyframe's estimate moved by the odometry between them. Returns why it was refused, or "".
+  std::string addKeyframe(uint64_t id, const Pose& odometry_pose);
+
+  /// Screens a loop against the graph's current estimate and keeps it if consistent. Loops are
+  /// numbered in the order they are given (the index the report's switched_off uses).
+  LoopVerdict addLoop(const LoopConstraint& loop);
+
+  /// Optimises every keyframe pose; loops the result contradicts are switched off and the graph
+  /// optimised again without them (at most a few rounds).
+  OptimisationReport optimise();
+
+  size_t keyframes() const { return ids_.size(); }
+  size_t loops() const { return loops_.size(); }
+  size_t activeLoops() const;
+  const std::vector<LoopVerdict>& loopVerdicts() const { return verdicts_; }
+
+  const std::vector<uint64_t>& ids() const { return ids_; }
+  std::optional<Pose> odometryPose(uint64_t id) const;
+  std::optional<Pose> optimisedPose(uint64_t id) const;
+  /// map_T_odom: the correction that takes the odometry frame onto the optimised one at the
+  /// newest keyframe (identity before any keyframe).
+  Eigen::Isometry3d mapFromOdometry() const;
+
+ private:
+  struct Node {
+    Pose odometry;
+    double position[3];
+    double orientation[4];  ///< x, y, z, w (Eigen's storage order).
+  };
+  struct LoopEdge {
+    LoopConstraint constraint;
+    Eigen::Matrix<double, 6, 6> sqrt_information;
+    bool active = true;
+  };
+
+  std::optional<size_t> indexOf(uint64_t id) const;
+  Eigen::Isometry3d estimate(size_t index) const;
+  Eigen::Matrix<double, 6, 1> odometrySd(size_t from, size_t to) const;
+  /// Variance per axis (translation m^2, rotation rad^2) of the relative pose between two
+  /// keyframes along the graph's most certain path: odometry edges and active loops, `excluded`
+  /// left out; the rotation's variance also moves the far end by the path's length.
+  Eigen::Vector2d pathVariance(size_t from, size_t to, std::optional<size_t> excluded) const;
+  struct LoopCheck {
+    double error_sd = 0.0;
+    std::string detail;
+  };
+  /// A loop's error against the current estimate, in standard deviations of the path's and its
+  /// own uncertainty; nullopt when a keyframe is not in the graph.
+  std::optional<LoopCheck> check(const LoopConstraint& loop, std::optional<size_t> excluded) const;
+  bool solve(OptimisationReport* report);
+
+  PoseGraphOptions options_;
+  std::vector<uint64_t> ids_;
+  std::vector<Node> nodes_;
+  std::vector<LoopEdge> loops_;
+  std::vector<LoopVerdict> verdicts_;
+};
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,369 @@
+#include "landmark_loop_closure/backend/pose_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <ceres/ceres.h>
+
+#include "landmark_loop_closure/common/stopwatch.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+/// Error of an estimated relative pose i -> j against a measured one, in the measurement's
+/// convention (translation difference, then the rotation w with R_est = exp(w) R_meas, both in
+/// frame i), weighted by the square root of the measurement's information.
+class RelativePoseResidual {
+ public:
+  RelativePoseResidual(const Eigen::Isometry3d& i_T_j,
+                       const Eigen::Matrix<double, 6, 6>& sqrt_information)
+      : translation_(i_T_j.translation()),
+        rotation_(Eigen::Quaterniond(i_T_j.rotation())),
+        sqrt_information_(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* position_i, const T* orientation_i, const T* position_j,
+                  const T* orientation_j, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_i(position_i);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_i(orientation_i);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_j(position_j);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_j(orientation_j);
+    const Eigen::Quaternion<T> q_i_inverse = q_i.conjugate();
+    const Eigen::Matrix<T, 3, 1> t_estimate = q_i_inverse * (p_j - p_i);
+    const Eigen::Quaternion<T> q_estimate = q_i_inverse * q_j;
+    const Eigen::Quaternion<T> difference = q_estimate * rotation_.template cast<T>().conjugate();
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> error(residual);
+    error.template head<3>() = t_estimate - translation_.template cast<T>();
+    error.template tail<3>() = T(2.0) * difference.vec();
+    error.applyOnTheLeft(sqrt_information_.template cast<T>());
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Isometry3d& i_T_j,
+                                     const Eigen::Matrix<double, 6, 6>& sqrt_information) {
+    return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 3, 4, 3, 4>(
+        new RelativePoseResidual(i_T_j, sqrt_information));
+  }
+
+ private:
+  Eigen::Vector3d translation_;
+  Eigen::Quaterniond rotation_;
+  Eigen::Matrix<double, 6, 6> sqrt_information_;
+};
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// Upper-triangular S with S^T S = covariance^-1; nullopt when the covariance is unusable.
+std::optional<Eigen::Matrix<double, 6, 6>> sqrtInformation(
+    const Eigen::Matrix<double, 6, 6>& covariance) {
+  if (!covariance.allFinite()) return std::nullopt;
+  if ((covariance - covariance.transpose()).cwiseAbs().maxCoeff() >
+      1e-9 * std::max(1.0, covariance.cwiseAbs().maxCoeff())) {
+    return std::nullopt;
+  }
+  const Eigen::LLT<Eigen::Matrix<double, 6, 6>> covariance_llt(covariance);
+  if (covariance_llt.info() != Eigen::Success) return std::nullopt;
+  const Eigen::Matrix<double, 6, 6> information =
+      covariance_llt.solve(Eigen::Matrix<double, 6, 6>::Identity());
+  const Eigen::LLT<Eigen::Matrix<double, 6, 6>> information_llt(
+      0.5 * (information + information.transpose()));
+  if (information_llt.info() != Eigen::Success) return std::nullopt;
+  return Eigen::Matrix<double, 6, 6>(information_llt.matrixL().transpose());
+}
+
+double rotationAngle(const Eigen::Matrix3d& rotation) {
+  return Eigen::AngleAxisd(rotation).angle();
+}
+
+}  // namespace
+
+const ParameterTable<PoseGraphOptions>& PoseGraphOptions::parameters() {
+  using O = PoseGraphOptions;
+  static const auto table =
+      ParameterTable<O>("pose_graph/", "the reference pose-graph backend (Ceres, 6 DoF).")
+          .number("odometry_translation_sd_m", &O::odometry_translation_sd_m, above(0),
+                  "odometry edge: translation standard deviation per axis, floor (m) ...")
+          .number("odometry_translation_sd_per_m", &O::odometry_translation_sd_per_m, atLeast(0),
+                  "... plus this share of the distance between the two keyframes;")
+          .number("odometry_rotation_sd_rad", &O::odometry_rotation_sd_rad, above(0),
+                  "rotation standard deviation per axis, floor (rad) ...")
+          .number("odometry_rotation_sd_per_m", &O::odometry_rotation_sd_per_m, atLeast(0),
+                  "... plus this many radians per metre travelled ...")
+          .number("odometry_rotation_sd_per_rad", &O::odometry_rotation_sd_per_rad, atLeast(0),
+                  "... and per radian turned.")
+          .number("max_loop_error_sd", &O::max_loop_error_sd, above(0),
+                  "a loop whose error exceeds this many standard deviations of the uncertainty "
+                  "between its keyframes (the odometry along the graph's most certain path plus "
+                  "the loop's own covariance) is refused before it enters, or switched off when "
+                  "the optimised graph contradicts it.")
+          .number("loop_loss_scale", &O::loop_loss_scale, above(0),
+                  "Cauchy loss scale of loop residuals, in standard deviations: a wrong loop "
+                  "that passed the screening pulls with bounded force.")
+          .integer("max_iterations", &O::max_iterations, between(1, 1000),
+                   "solver iterations per optimisation.");
+  return table;
+}
+
+std::string PoseGraphOptions::validate() const { return parameters().check(*this); }
+
+std::string toString(LoopDecision decision) {
+  switch (decision) {
+    case LoopDecision::kAccepted:
+      return "accepted";
+    case LoopDecision::kUnknownKeyframe:
+      return "unknown_keyframe";
+    case LoopDecision::kBadCovariance:
+      return "bad_covariance";
+    case LoopDecision::kInconsistent:
+      return "inconsistent";
+    case LoopDecision::kSwitchedOff:
+      return "switched_off";
+  }
+  return "unknown";
+}
+
+LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
+                               const Eigen::Isometry3d& base_T_camera) {
+  LoopConstraint loop = camera_loop;
+  loop.query_T_match = base_T_camera * camera_loop.query_T_match * base_T_camera.inverse();
+  // R_b = M R M^T, t_b = M_R t + p_M - R_b p_M: a left rotation w becomes M_R w, and turning
+  // p_M with it moves the translation by (R_b p_M) x w_b.
+  const Eigen::Matrix3d mount = base_T_camera.rotation();
+  const Eigen::Vector3d lever = loop.query_T_match.rotation() * base_T_camera.translation();
+  Eigen::Matrix<double, 6, 6> jacobian = Eigen::Matrix<double, 6, 6>::Zero();
+  jacobian.block<3, 3>(0, 0) = mount;
+  jacobian.block<3, 3>(0, 3) = skew(lever) * mount;
+  jacobian.block<3, 3>(3, 3) = mount;
+  loop.covariance = jacobian * camera_loop.covariance * jacobian.transpose();
+  loop.covariance = 0.5 * (loop.covariance + loop.covariance.transpose());
+  return loop;
+}
+
+PoseGraph::PoseGraph(PoseGraphOptions options) : options_(options) {
+  const std::string problems = options_.validate();
+  if (!problems.empty()) throw std::invalid_argument(problems);
+}
+
+PoseGraph::~PoseGraph() = default;
+
+std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
+  if (!ids_.empty() && id <= ids_.back()) {
+    return "keyframe id " + std::to_string(id) + " is not after the last one (" +
+           std::to_string(ids_.back()) + ")";
+  }
+  if (!odometry_pose.position.allFinite() || !odometry_pose.orientation.coeffs().allFinite() ||
+      std::abs(odometry_pose.orientation.norm() - 1.0) > 1e-3) {
+    return "keyframe " + std::to_string(id) + ": pose not finite or orientation not unit length";
+  }
+  Node node;
+  node.odometry = odometry_pose;
+  node.odometry.orientation.normalize();
+  Eigen::Isometry3d start = node.odometry.toIsometry();
+  if (!nodes_.empty()) {
+    const Node& last = nodes_.back();
+    start = estimate(nodes_.size() - 1) * last.odometry.toIsometry().inverse() * start;
+  }
+  const Eigen::Quaterniond orientation(start.rotation());
+  for (int k = 0; k < 3; ++k) node.position[k] = start.translation()[k];
+  for (int k = 0; k < 4; ++k) node.orientation[k] = orientation.normalized().coeffs()[k];
+  ids_.push_back(id);
+  nodes_.push_back(node);
+  return "";
+}
+
+std::optional<size_t> PoseGraph::indexOf(uint64_t id) const {
+  const auto found = std::lower_bound(ids_.begin(), ids_.end(), id);
+  if (found == ids_.end() || *found != id) return std::nullopt;
+  return static_cast<size_t>(found - ids_.begin());
+}
+
+Eigen::Isometry3d PoseGraph::estimate(size_t index) const {
+  const Node& node = nodes_[index];
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(node.position[0], node.position[1], node.position[2]));
+  pose.rotate(Eigen::Quaterniond(node.orientation[3], node.orientation[0], node.orientation[1],
+                                 node.orientation[2])
+                  .normalized());
+  return pose;
+}
+
+Eigen::Matrix<double, 6, 1> PoseGraph::odometrySd(size_t from, size_t to) const {
+  const Eigen::Isometry3d motion =
+      nodes_[from].odometry.toIsometry().inverse() * nodes_[to].odometry.toIsometry();
+  const double metres = motion.translation().norm();
+  const double radians = rotationAngle(motion.rotation());
+  Eigen::Matrix<double, 6, 1> sd;
+  sd.head<3>().setConstant(options_.odometry_translation_sd_m +
+                           options_.odometry_translation_sd_per_m * metres);
+  sd.tail<3>().setConstant(options_.odometry_rotation_sd_rad +
+                           options_.odometry_rotation_sd_per_m * metres +
+                           options_.odometry_rotation_sd_per_rad * radians);
+  return sd;
+}
+
+std::optional<PoseGraph::LoopCheck> PoseGraph::check(const LoopConstraint& loop,
+                                                     std::optional<size_t> excluded) const {
+  const std::optional<size_t> query = indexOf(loop.query_id);
+  const std::optional<size_t> match = indexOf(loop.match_id);
+  if (!query || !match) return std::nullopt;
+  const Eigen::Vector2d path = pathVariance(*match, *query, excluded);
+  const Eigen::Isometry3d estimated = estimate(*query).inverse() * estimate(*match);
+  const double translation_error =
+      (estimated.translation() - loop.query_T_match.translation()).norm();
+  const double rotation_error =
+      rotationAngle(estimated.rotation() * loop.query_T_match.rotation().transpose());
+  const double loop_translation_variance = loop.covariance.block<3, 3>(0, 0).trace() / 3.0;
+  const double loop_rotation_variance = loop.covariance.block<3, 3>(3, 3).trace() / 3.0;
+  LoopCheck result;
+  result.error_sd = std::max(translation_error / std::sqrt(path.x() + loop_translation_variance),
+                             rotation_error / std::sqrt(path.y() + loop_rotation_variance));
+  std::ostringstream detail;
+  detail.precision(2);
+  detail << std::fixed << translation_error << " m and " << rotation_error * 180.0 / M_PI
+         << " deg from the graph, " << result.error_sd << " sd (translation sd "
+         << std::sqrt(path.x() + loop_translation_variance) << " m)";
+  result.detail = detail.str();
+  return result;
+}
+
+LoopVerdict PoseGraph::addLoop(const LoopConstraint& loop) {
+  LoopVerdict verdict;
+  const std::optional<Eigen::Matrix<double, 6, 6>> sqrt_information =
+      sqrtInformation(loop.covariance);
+  const std::optional<LoopCheck> checked = check(loop, std::nullopt);
+  if (!checked) {
+    verdict.decision = LoopDecision::kUnknownKeyframe;
+    verdict.detail = "keyframe " +
+                     std::to_string(indexOf(loop.query_id) ? loop.match_id : loop.query_id) +
+                     " is not in the graph";
+  } else if (!sqrt_information || !loop.query_T_match.matrix().allFinite()) {
+    verdict.decision = LoopDecision::kBadCovariance;
+    verdict.detail = "covariance or pose not finite, or covariance not positive definite";
+  } else {
+    verdict.error_sd = checked->error_sd;
+    verdict.detail = checked->detail;
+    if (checked->error_sd > options_.max_loop_error_sd) {
+      verdict.decision = LoopDecision::kInconsistent;
+    }
+  }
+  LoopEdge edge;
+  edge.constraint = loop;
+  edge.active = verdict.decision == LoopDecision::kAccepted;
+  if (edge.active) edge.sqrt_information = *sqrt_information;
+  loops_.push_back(edge);
+  verdicts_.push_back(verdict);
+  return verdict;
+}
+
+size_t PoseGraph::activeLoops() const {
+  return static_cast<size_t>(std::count_if(loops_.begin(), loops_.end(),
+                                           [](const LoopEdge& edge) { return edge.active; }));
+}
+
+bool PoseGraph::solve(OptimisationReport* report) {
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion;
+  ceres::CauchyLoss loop_loss(options_.loop_loss_scale);
+  for (size_t i = 0; i + 1 < nodes_.size(); ++i) {
+    const Eigen::Isometry3d motion =
+        nodes_[i].odometry.toIsometry().inverse() * nodes_[i + 1].odometry.toIsometry();
+    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
+    const Eigen::Matrix<double, 6, 6> sqrt_information = sd.cwiseInverse().asDiagonal();
+    problem.AddResidualBlock(RelativePoseResidual::create(motion, sqrt_information), nullptr,
+                             nodes_[i].position, nodes_[i].orientation, nodes_[i + 1].position,
+                             nodes_[i + 1].orientation);
+  }
+  size_t active = 0;
+  for (LoopEdge& edge : loops_) {
+    if (!edge.active) continue;
+    const size_t query = *indexOf(edge.constraint.query_id);
+    const size_t match = *indexOf(edge.constraint.match_id);
+    if (query == match) continue;
+    problem.AddResidualBlock(
+        RelativePoseResidual::create(edge.constraint.query_T_match, edge.sqrt_information),
+        &loop_loss, nodes_[query].position, nodes_[query].orientation, nodes_[match].position,
+        nodes_[match].orientation);
+    ++active;
+  }
+  if (active == 0 || nodes_.size() < 2) return false;
+  for (Node& node : nodes_) problem.SetManifold(node.orientation, &quaternion);
+  problem.SetParameterBlockConstant(nodes_.front().position);
+  problem.SetParameterBlockConstant(nodes_.front().orientation);
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options_.max_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  report->ran = true;
+  report->converged = report->converged || summary.termination_type == ceres::CONVERGENCE;
+  report->iterations += static_cast<int>(summary.iterations.size());
+  if (report->initial_cost == 0.0) report->initial_cost = summary.initial_cost;
+  report->final_cost = summary.final_cost;
+  return summary.IsSolutionUsable();
+}
+
+OptimisationReport PoseGraph::optimise() {
+  OptimisationReport report;
+  const auto start = Clock::now();
+  constexpr int kRounds = 3;
+  for (int round = 0; round < kRounds; ++round) {
+    if (!solve(&report)) break;
+    // The loop the optimised graph agrees with least, checked against the uncertainty of the
+    // graph without it: a wrong loop is switched off, one at a time.
+    std::optional<size_t> worst;
+    double worst_error = options_.max_loop_error_sd;
+    for (size_t k = 0; k < loops_.size(); ++k) {
+      if (!loops_[k].active) continue;
+      const LoopConstraint& loop = loops_[k].constraint;
+      const Eigen::Isometry3d estimated =
+          estimate(*indexOf(loop.query_id)).inverse() * estimate(*indexOf(loop.match_id));
+      const double translation_error =
+          (estimated.translation() - loop.query_T_match.translation()).norm();
+      // Cheap filter first: within its own covariance, a loop is not a suspect.
+      const double own_sd = std::sqrt(loop.covariance.block<3, 3>(0, 0).trace() / 3.0);
+      if (translation_error <= worst_error * own_sd) continue;
+      const std::optional<LoopCheck> checked = check(loop, k);
+      if (checked && checked->error_sd > worst_error) {
+        worst_error = checked->error_sd;
+        worst = k;
+      }
+    }
+    if (!worst) break;
+    loops_[*worst].active = false;
+    verdicts_[*worst].decision = LoopDecision::kSwitchedOff;
+    verdicts_[*worst].error_sd = worst_error;
+    report.switched_off.push_back(*worst);
+  }
+  report.milliseconds = millisecondsSince(start);
+  return report;
+}
+
+std::optional<Pose> PoseGraph::odometryPose(uint64_t id) const {
+  const std::optional<size_t> index = indexOf(id);
+  if (!index) return std::nullopt;
+  return nodes_[*index].odometry;
+}
+
+std::optional<Pose> PoseGraph::optimisedPose(uint64_t id) const {
+  const std::optional<size_t> index = indexOf(id);
+  if (!index) return std::nullopt;
+  return Pose::fromIsometry(estimate(*index));
+}
+
+Eigen::Isometry3d PoseGraph::mapFromOdometry() const {
+  if (nodes_.empty()) return Eigen::Isometry3d::Identity();
+  return estimate(nodes_.size() - 1) * nodes_.back().odometry.toIsometry().inverse();
+}
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,222 @@
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/backend/pose_graph.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+/// Two laps of a 10 m x 6 m rectangle, a keyframe every 0.5 m, true poses and odometry that
+/// overestimates every turn by 3 %, so the second lap is drawn well beside the first.
+struct Drive {
+  std::vector<Pose> truth;
+  std::vector<Pose> odometry;
+};
+
+Drive driveLaps(int laps) {
+  Drive drive;
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d odometry = Eigen::Isometry3d::Identity();
+  const double sides[4] = {10.0, 6.0, 10.0, 6.0};
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  const auto keep = [&] {
+    drive.truth.push_back(Pose::fromIsometry(truth));
+    drive.odometry.push_back(Pose::fromIsometry(odometry));
+  };
+  keep();
+  for (int lap = 0; lap < laps; ++lap) {
+    for (double side : sides) {
+      for (int step = 0; step < static_cast<int>(side / 0.5); ++step) {
+        Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+        motion.translate(Eigen::Vector3d(0.5, 0.0, 0.0));
+        truth = truth * motion;
+        motion.translation().x() += noise(random);
+        odometry = odometry * motion;
+        keep();
+      }
+      Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+      turn.rotate(Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ()));
+      truth = truth * turn;
+      turn = Eigen::Isometry3d::Identity();
+      turn.rotate(Eigen::AngleAxisd(M_PI / 2.0 * 1.03, Eigen::Vector3d::UnitZ()));
+      odometry = odometry * turn;
+    }
+  }
+  return drive;
+}
+
+LoopConstraint trueLoop(const Drive& drive, size_t query, size_t match) {
+  LoopConstraint loop;
+  loop.query_id = query;
+  loop.match_id = match;
+  loop.query_T_match = drive.truth[query].toIsometry().inverse() * drive.truth[match].toIsometry();
+  loop.covariance.setZero();
+  loop.covariance.diagonal() << 0.03 * 0.03, 0.03 * 0.03, 0.03 * 0.03, 0.01 * 0.01, 0.01 * 0.01,
+      0.01 * 0.01;
+  return loop;
+}
+
+double positionRmse(const std::vector<Pose>& truth, const std::vector<Pose>& estimate) {
+  double sum = 0.0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    sum += (truth[i].position - estimate[i].position).squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(truth.size()));
+}
+
+std::vector<Pose> optimisedPoses(const PoseGraph& graph) {
+  std::vector<Pose> poses;
+  for (uint64_t id : graph.ids()) poses.push_back(*graph.optimisedPose(id));
+  return poses;
+}
+
+/// Feeds the drive keyframe by keyframe, a loop (optimised at once) wherever the second lap is
+/// within 0.3 m of a first-lap keyframe; every `wrong_every`-th loop names a random first-lap
+/// keyframe instead, with the relative pose the right one would have had.
+struct FeedCounts {
+  size_t loops = 0;
+  size_t wrong = 0;
+  size_t wrong_refused = 0;
+  size_t right_refused = 0;
+};
+
+FeedCounts feed(PoseGraph* graph, const Drive& drive, int wrong_every) {
+  FeedCounts run;
+  const size_t lap = drive.truth.size() / 2;
+  std::mt19937 random(11);
+  std::uniform_int_distribution<size_t> any_first_lap(0, lap - 40);
+  for (size_t i = 0; i < drive.truth.size(); ++i) {
+    EXPECT_EQ(graph->addKeyframe(i, drive.odometry[i]), "");
+    if (i < lap + 5) continue;
+    const size_t match = i - lap;
+    if ((drive.truth[i].position - drive.truth[match].position).norm() > 0.3) continue;
+    ++run.loops;
+    LoopConstraint loop = trueLoop(drive, i, match);
+    const bool wrong = wrong_every > 0 && run.loops % wrong_every == 0;
+    if (wrong) {
+      size_t other = any_first_lap(random);
+      while ((drive.truth[other].position - drive.truth[match].position).norm() < 2.0) {
+        other = any_first_lap(random);
+      }
+      loop.match_id = other;
+      ++run.wrong;
+    }
+    graph->addLoop(loop);
+    graph->optimise();
+  }
+  // Refused when they came, or switched off by a later optimisation.
+  size_t index = 0;
+  for (const LoopVerdict& verdict : graph->loopVerdicts()) {
+    const bool wrong = wrong_every > 0 && (index + 1) % wrong_every == 0;
+    const bool refused = verdict.decision != LoopDecision::kAccepted;
+    if (wrong && refused) ++run.wrong_refused;
+    if (!wrong && refused) ++run.right_refused;
+    ++index;
+  }
+  return run;
+}
+
+TEST(PoseGraph, LoopsBringADriftingSecondLapOntoTheFirst) {
+  const Drive drive = driveLaps(2);
+  PoseGraph graph;
+  const FeedCounts run = feed(&graph, drive, 0);
+  const double odometry_rmse = positionRmse(drive.truth, drive.odometry);
+  const double corrected_rmse = positionRmse(drive.truth, optimisedPoses(graph));
+  EXPECT_GT(run.loops, 30u);
+  EXPECT_EQ(run.right_refused, 0u);
+  EXPECT_GT(odometry_rmse, 0.5);
+  EXPECT_LT(corrected_rmse, 0.10) << "odometry " << odometry_rmse;
+}
+
+TEST(PoseGraph, WrongLoopsAreRefusedAndTheMapHolds) {
+  const Drive drive = driveLaps(2);
+  PoseGraph graph;
+  const FeedCounts run = feed(&graph, drive, 5);
+  const double corrected_rmse = positionRmse(drive.truth, optimisedPoses(graph));
+  EXPECT_GE(run.wrong, 6u);
+  EXPECT_EQ(run.wrong_refused, run.wrong);
+  EXPECT_LE(run.right_refused, run.loops / 10);
+  EXPECT_LT(corrected_rmse, 0.20);
+}
+
+TEST(PoseGraph, AWrongFirstLoopIsRefusedByTheOdometry) {
+  const Drive drive = driveLaps(2);
+  PoseGraph graph;
+  for (size_t i = 0; i < drive.truth.size(); ++i) graph.addKeyframe(i, drive.odometry[i]);
+  const size_t last = drive.truth.size() - 1;
+  LoopConstraint loop = trueLoop(drive, last, 40);  // 40 is across the rectangle from the end.
+  loop.query_T_match = Eigen::Isometry3d::Identity();
+  const LoopVerdict verdict = graph.addLoop(loop);
+  EXPECT_EQ(verdict.decision, LoopDecision::kInconsistent) << verdict.detail;
+  EXPECT_FALSE(graph.optimise().ran);  // Nothing to optimise: no loop entered.
+}
+
+TEST(PoseGraph, BadInputIsRefusedAndNamed) {
+  PoseGraph graph;
+  EXPECT_EQ(graph.addKeyframe(3, planarPose(0, 0, 0)), "");
+  EXPECT_NE(graph.addKeyframe(3, planarPose(1, 0, 0)), "");
+  Pose broken = planarPose(1, 0, 0);
+  broken.position.x() = std::nan("");
+  EXPECT_NE(graph.addKeyframe(4, broken), "");
+  EXPECT_EQ(graph.addKeyframe(5, planarPose(1, 0, 0)), "");
+  EXPECT_EQ(graph.keyframes(), 2u);
+
+  LoopConstraint unknown;
+  unknown.query_id = 5;
+  unknown.match_id = 4;
+  EXPECT_EQ(graph.addLoop(unknown).decision, LoopDecision::kUnknownKeyframe);
+  LoopConstraint singular;
+  singular.query_id = 5;
+  singular.match_id = 3;
+  singular.covariance.setZero();
+  EXPECT_EQ(graph.addLoop(singular).decision, LoopDecision::kBadCovariance);
+  EXPECT_EQ(graph.activeLoops(), 0u);
+
+  PoseGraphOptions options;
+  options.max_loop_error_sd = -1.0;
+  EXPECT_NE(options.validate().find("pose_graph/max_loop_error_sd"), std::string::npos);
+  EXPECT_THROW(PoseGraph{options}, std::invalid_argument);
+}
+
+TEST(PoseGraph, ACameraFrameLoopTurnsIntoTheBaseFrameWithItsCovariance) {
+  Eigen::Isometry3d base_T_camera = Eigen::Isometry3d::Identity();
+  base_T_camera.translate(Eigen::Vector3d(0.3, -0.1, 0.5));
+  base_T_camera.rotate(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) *
+                       Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitX()));
+  LoopConstraint camera;
+  camera.query_T_match.translate(Eigen::Vector3d(0.2, 0.1, 1.0));
+  camera.query_T_match.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, 0.1).normalized()));
+  const LoopConstraint base = loopInBaseFrame(camera, base_T_camera);
+  // The same motion of the robot, seen from either frame.
+  const Eigen::Isometry3d expected = base_T_camera * camera.query_T_match * base_T_camera.inverse();
+  EXPECT_TRUE(base.query_T_match.isApprox(expected, 1e-12));
+  // The covariance's first-order map checked against finite differences of the frame change.
+  Eigen::Matrix<double, 6, 6> numeric;
+  const double h = 1e-6;
+  for (int k = 0; k < 6; ++k) {
+    Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+    delta[k] = h;
+    Eigen::Isometry3d moved = camera.query_T_match;
+    moved.translation() += delta.head<3>();
+    moved.linear() = Eigen::AngleAxisd(delta.tail<3>().norm(), delta.tail<3>().norm() > 0
+                                                                   ? delta.tail<3>().normalized()
+                                                                   : Eigen::Vector3d::UnitX())
+                         .toRotationMatrix() *
+                     camera.query_T_match.linear();
+    const Eigen::Isometry3d moved_base = base_T_camera * moved * base_T_camera.inverse();
+    numeric.block<3, 1>(0, k) = (moved_base.translation() - expected.translation()) / h;
+    const Eigen::AngleAxisd turn(moved_base.linear() * expected.linear().transpose());
+    numeric.block<3, 1>(3, k) = turn.axis() * turn.angle() / h;
+  }
+  camera.covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  const LoopConstraint unit = loopInBaseFrame(camera, base_T_camera);
+  EXPECT_TRUE(unit.covariance.isApprox(numeric * numeric.transpose(), 1e-4))
+      << unit.covariance << "\n\n"
+      << numeric * numeric.transpose();
+}
+
+}  // namespace
+}  // namespace landmark_loop_closure
