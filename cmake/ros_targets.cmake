@@ -2,7 +2,8 @@
 add_library(${PROJECT_NAME}_messages src/messages/ros_conversions.cpp)
 target_include_directories(${PROJECT_NAME}_messages SYSTEM PUBLIC ${catkin_INCLUDE_DIRS})
 target_include_directories(${PROJECT_NAME}_messages PUBLIC src)
-target_link_libraries(${PROJECT_NAME}_messages ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_link_libraries(${PROJECT_NAME}_messages ${PROJECT_NAME}_core ${PROJECT_NAME}_backend
+  ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_messages ${PROJECT_NAME}_generate_messages_cpp)
 
 # Bag reading for the offline tools: frames with their odometry and camera_info, as the node
@@ -11,9 +12,13 @@ add_library(${PROJECT_NAME}_bag src/bag/bag_source.cpp)
 target_link_libraries(${PROJECT_NAME}_bag ${PROJECT_NAME}_messages ${PROJECT_NAME}_eval
   ${catkin_LIBRARIES})
 
+# Parameters from the parameter server, for both nodelets.
+add_library(${PROJECT_NAME}_ros_parameters src/ros/ros_parameter_source.cpp)
+target_include_directories(${PROJECT_NAME}_ros_parameters SYSTEM PUBLIC ${catkin_INCLUDE_DIRS})
+target_link_libraries(${PROJECT_NAME}_ros_parameters ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+
 # ROS wrapper: the nodelet, its standalone node, and the demo tools.
 add_library(${PROJECT_NAME}_nodelet
-  src/ros/ros_parameter_source.cpp
   src/ros/loop_markers.cpp
   src/ros/loop_closure_node.cpp
   src/ros/loop_closure_node_inputs.cpp
@@ -23,7 +28,7 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_messages ${PROJECT_NAME}_config
-  ${catkin_LIBRARIES})
+  ${PROJECT_NAME}_ros_parameters ${catkin_LIBRARIES})
 add_dependencies(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_generate_messages_cpp)
 
 # The markers' cost per keyframe as the map grows (bench/README.md).
@@ -32,18 +37,34 @@ target_include_directories(lcd_bench_markers SYSTEM PRIVATE ${catkin_INCLUDE_DIR
 target_link_libraries(lcd_bench_markers ${PROJECT_NAME}_nodelet ${PROJECT_NAME}_eval
   ${catkin_LIBRARIES})
 
-add_executable(loop_closure_node src/ros/loop_closure_node_main.cpp)
+add_executable(loop_closure_node src/ros/nodelet_main.cpp)
 target_include_directories(loop_closure_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(loop_closure_node ${catkin_LIBRARIES})
+target_compile_definitions(loop_closure_node PRIVATE NODE_NAME="loop_closure"
+  NODELET_TYPE="landmark_loop_closure/LoopClosureNodelet")
+
+# The reference pose-graph backend: its nodelet and standalone node.
+add_library(${PROJECT_NAME}_pose_graph_nodelet src/ros/pose_graph_node.cpp)
+target_include_directories(${PROJECT_NAME}_pose_graph_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_include_directories(${PROJECT_NAME}_pose_graph_nodelet PRIVATE src/ros)
+target_link_libraries(${PROJECT_NAME}_pose_graph_nodelet ${PROJECT_NAME}_messages
+  ${PROJECT_NAME}_backend ${PROJECT_NAME}_ros_parameters ${catkin_LIBRARIES})
+add_dependencies(${PROJECT_NAME}_pose_graph_nodelet ${PROJECT_NAME}_generate_messages_cpp)
+add_executable(pose_graph_node src/ros/nodelet_main.cpp)
+target_include_directories(pose_graph_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(pose_graph_node ${catkin_LIBRARIES})
+target_compile_definitions(pose_graph_node PRIVATE NODE_NAME="pose_graph"
+  NODELET_TYPE="landmark_loop_closure/PoseGraphNodelet")
 
 # Installed (catkin_make install, catkin build --install): libraries, every program, launch and
 # config files, messages, and the models (found at run time through the package path).
 install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_nodelet
+  ${PROJECT_NAME}_pose_graph_nodelet ${PROJECT_NAME}_ros_parameters
   ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${PROJECT_NAME}_messages ${PROJECT_NAME}_bag
   ${PROJECT_NAME}_backend
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
-install(TARGETS loop_closure_node lcd_bench_markers lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
+install(TARGETS loop_closure_node pose_graph_node lcd_bench_markers lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
 install(DIRECTORY launch config msg srv DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})

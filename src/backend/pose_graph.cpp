@@ -367,3 +367,41 @@ Eigen::Isometry3d PoseGraph::mapFromOdometry() const {
 }
 
 }  // namespace landmark_loop_closure
+
+namespace landmark_loop_closure {
+
+const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
+  using O = PoseGraphNodeOptions;
+  static const auto table =
+      ParameterTable<O>("", "")
+          .text("map_frame", &O::map_frame,
+                "frame of the corrected path; map_frame -> the keyframes' odometry frame is "
+                "published on tf.")
+          .text("base_frame", &O::base_frame,
+                "the robot's body frame, as the detector's base_frame: loops whose "
+                "relative_pose_frame is another frame are taken as the camera's and turned into "
+                "it with camera_mount.")
+          .flag("publish_tf", &O::publish_tf, "publish that correction on tf.")
+          .group(&O::camera_mount, CameraMount::parameters())
+          .group(&O::graph, PoseGraphOptions::parameters());
+  return table;
+}
+
+std::string PoseGraphNodeOptions::validate() const {
+  std::string problems = parameters().check(*this);
+  if (map_frame.empty()) problems += "map_frame must not be empty\n";
+  if (base_frame.empty()) problems += "base_frame must not be empty\n";
+  return problems + camera_mount.validate() + graph.validate();
+}
+
+std::string poseGraphDefaultsYaml() {
+  std::vector<DocumentedParameter> parameters;
+  PoseGraphNodeOptions::parameters().document(PoseGraphNodeOptions{}, &parameters);
+  return renderParameterYaml(
+      parameters,
+      "landmark_loop_closure pose_graph: every parameter of the reference pose-graph backend, "
+      "with its default. Written by `lcd_config pose_graph_defaults` from the declarations in "
+      "src/backend/pose_graph.cpp; a test fails when the two differ.");
+}
+
+}  // namespace landmark_loop_closure

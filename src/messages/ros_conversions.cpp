@@ -285,4 +285,14 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id
   return msg;
 }
 
+LoopConstraint loopConstraintFromMsg(const LoopClosure& loop) {
+  LoopConstraint constraint;
+  constraint.query_id = loop.query_id;
+  constraint.match_id = loop.match_id;
+  constraint.query_T_match = fromRos(loop.relative_pose.pose).toIsometry();
+  constraint.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(
+      loop.relative_pose.covariance.data());
+  return constraint;
+}
+
 }  // namespace landmark_loop_closure

@@ -14,6 +14,7 @@
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 
@@ -60,5 +61,9 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id
                                    const ros::Time& stamp, const std::string& frame_id,
                                    const std::function<ros::Time(uint64_t)>& stamp_of);
 uint8_t toMsgVerdict(CandidateVerdict verdict);
+
+/// A published loop as the pose graph takes it: ids, T_query_match and its covariance as the
+/// message carries them (relative_pose_frame's frame; loopInBaseFrame turns a camera one).
+LoopConstraint loopConstraintFromMsg(const LoopClosure& loop);
 
 }  // namespace landmark_loop_closure

@@ -1,7 +1,9 @@
 // Prints every loop closure the detector publishes as TRUE or FALSE against ground truth, the
 // error of its metric relative pose, and a summary at shutdown. Ground truth: nav_msgs/Odometry
 // on `ground_truth`; a loop is true by eval::TrueLoopRule: the true positions at its two stamps
-// within true_loop_distance metres, the stamps revisit_min_seconds apart.
+// within true_loop_distance metres, the stamps revisit_min_seconds apart. With the pose_graph
+// node running, the summary adds the keyframe positions' RMSE against ground truth, for the
+// odometry and for the corrected path, each aligned on its first keyframe.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <Eigen/Geometry>
 
@@ -43,6 +46,8 @@ class DemoReport {
     truth_subscriber_ = node.subscribe("ground_truth", 1000, &DemoReport::onTruth, this);
     loop_subscriber_ = node.subscribe("loop_closures", 100, &DemoReport::onLoop, this);
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &DemoReport::onKeyframe, this);
+    corrected_subscriber_ =
+        node.subscribe("pose_graph/corrected_path", 2, &DemoReport::onCorrectedPath, this);
   }
 
   void printSummary() const {
@@ -68,6 +73,7 @@ class DemoReport {
                   percentile(translation_errors_, 0.5), percentile(rotation_errors_, 0.5),
                   percentile(translation_errors_, 0.9), percentile(rotation_errors_, 0.9));
     }
+    printTrajectoryError();
     std::fflush(stdout);
   }
 
@@ -106,12 +112,47 @@ class DemoReport {
     return true;
   }
 
+  void onCorrectedPath(const nav_msgs::PathConstPtr& path) { corrected_path_ = path; }
+
+  /// RMSE of keyframe positions against ground truth at their stamps, the path moved so that
+  /// its first pose lies on the truth's; -1 without truth.
+  double trajectoryRmse(const std::vector<std::pair<ros::Time, geometry_msgs::Pose>>& path) const {
+    double sum = 0.0;
+    size_t count = 0;
+    Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
+    for (const auto& [stamp, pose] : path) {
+      geometry_msgs::Pose truth;
+      if (!truthAt(stamp, &truth)) continue;
+      if (count == 0) align = toIsometry(truth) * toIsometry(pose).inverse();
+      sum += ((align * toIsometry(pose)).translation() - toIsometry(truth).translation())
+                 .squaredNorm();
+      ++count;
+    }
+    return count == 0 ? -1.0 : std::sqrt(sum / static_cast<double>(count));
+  }
+
+  void printTrajectoryError() const {
+    if (!corrected_path_) {
+      std::printf("trajectory RMSE:      no corrected path (is the pose_graph node running?)\n");
+      return;
+    }
+    std::vector<std::pair<ros::Time, geometry_msgs::Pose>> corrected;
+    for (const auto& pose : corrected_path_->poses) {
+      corrected.emplace_back(pose.header.stamp, pose.pose);
+    }
+    std::printf(
+        "trajectory RMSE:      odometry %.3f m, corrected by the pose graph %.3f m "
+        "(%zu keyframes)\n",
+        trajectoryRmse(keyframe_odometry_), trajectoryRmse(corrected), corrected.size());
+  }
+
   void onTruth(const nav_msgs::OdometryConstPtr& truth) {
     truth_[truth->header.stamp] = truth->pose.pose;
   }
 
   void onKeyframe(const landmark_loop_closure::KeyframeConstPtr& keyframe) {
     ++keyframes_;
+    keyframe_odometry_.emplace_back(keyframe->header.stamp, keyframe->pose);
     geometry_msgs::Pose here_pose;
     if (!truthAt(keyframe->header.stamp, &here_pose)) return;
     const geometry_msgs::Point& here = here_pose.position;
@@ -167,6 +208,9 @@ class DemoReport {
   ros::Subscriber truth_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber keyframe_subscriber_;
+  ros::Subscriber corrected_subscriber_;
+  nav_msgs::PathConstPtr corrected_path_;
+  std::vector<std::pair<ros::Time, geometry_msgs::Pose>> keyframe_odometry_;
   Eigen::Isometry3d camera_in_base_ = Eigen::Isometry3d::Identity();
   std::map<ros::Time, geometry_msgs::Pose> truth_;
   std::map<ros::Time, geometry_msgs::Point> keyframe_truth_;

@@ -1,10 +1,12 @@
 // lcd_config: the nodelet's parameters offline.
 //   lcd_config defaults          print config/default.yaml (every key, default, description)
+//   lcd_config pose_graph_defaults   print config/pose_graph.yaml (the pose_graph node's)
 //   lcd_config check FILE...     report unknown keys, wrong types and invalid values in
 //                                parameter files, as the node would at start; exit 1 on any
 #include <iostream>
 #include <string>
 
+#include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 
@@ -13,7 +15,8 @@ using namespace landmark_loop_closure;
 namespace {
 
 int usage() {
-  std::cerr << "usage: lcd_config defaults | lcd_config check FILE...\n"
+  std::cerr << "usage: lcd_config defaults | lcd_config pose_graph_defaults | lcd_config check "
+               "FILE...\n"
                "  defaults: print every parameter with its default and description\n"
                "  check: read each file as the node would and report its problems\n";
   return 2;
@@ -54,6 +57,10 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   if (command == "defaults" && argc == 2) {
     std::cout << documentedDefaultsYaml();
+    return 0;
+  }
+  if (command == "pose_graph_defaults" && argc == 2) {
+    std::cout << poseGraphDefaultsYaml();
     return 0;
   }
   if (command == "check" && argc > 2) return check(argc, argv);

@@ -1,9 +1,13 @@
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/config/yaml_parameter_source.h"
 
 namespace landmark_loop_closure {
 namespace {
@@ -216,6 +220,30 @@ TEST(PoseGraph, ACameraFrameLoopTurnsIntoTheBaseFrameWithItsCovariance) {
   EXPECT_TRUE(unit.covariance.isApprox(numeric * numeric.transpose(), 1e-4))
       << unit.covariance << "\n\n"
       << numeric * numeric.transpose();
+}
+
+TEST(PoseGraphConfig, ShippedFilesLoadAndTheDefaultsAreWhatTheDeclarationsRender) {
+  namespace fs = std::filesystem;
+  size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(PACKAGE_SOURCE_DIR) / "config")) {
+    if (entry.path().filename().string().rfind("pose_graph", 0) != 0) continue;
+    SCOPED_TRACE(entry.path().string());
+    ++files;
+    const YamlParameterSource source = YamlParameterSource::fromFile(entry.path().string());
+    OptionReader reader(source);
+    PoseGraphNodeOptions options;
+    PoseGraphNodeOptions::parameters().read(&reader, &options);
+    EXPECT_EQ(reader.errors(), "");
+    EXPECT_EQ(options.validate(), "");
+    for (const std::string& key : source.keys()) EXPECT_TRUE(reader.isKnown(key)) << key;
+  }
+  EXPECT_GE(files, 1u);
+  std::ifstream file(std::string(PACKAGE_SOURCE_DIR) + "/config/pose_graph.yaml");
+  const std::string shipped((std::istreambuf_iterator<char>(file)),
+                            std::istreambuf_iterator<char>());
+  EXPECT_EQ(shipped, poseGraphDefaultsYaml())
+      << "config/pose_graph.yaml differs from the declarations; regenerate it with\n"
+         "  rosrun landmark_loop_closure lcd_config pose_graph_defaults > config/pose_graph.yaml";
 }
 
 }  // namespace

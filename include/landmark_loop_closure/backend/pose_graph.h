@@ -100,6 +100,7 @@ class PoseGraph {
   OptimisationReport optimise();
 
   size_t keyframes() const { return ids_.size(); }
+  bool hasKeyframe(uint64_t id) const { return indexOf(id).has_value(); }
   size_t loops() const { return loops_.size(); }
   size_t activeLoops() const;
   const std::vector<LoopVerdict>& loopVerdicts() const { return verdicts_; }
@@ -145,5 +146,26 @@ class PoseGraph {
   std::vector<LoopEdge> loops_;
   std::vector<LoopVerdict> verdicts_;
 };
+
+}  // namespace landmark_loop_closure
+
+namespace landmark_loop_closure {
+
+/// Everything the pose_graph node reads, documented in config/pose_graph.yaml.
+struct PoseGraphNodeOptions {
+  std::string map_frame = "map";
+  std::string base_frame = "base_link";
+  bool publish_tf = true;
+  /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
+  /// turned into the base frame with the mount; set it as for the detector.
+  CameraMount camera_mount;
+  PoseGraphOptions graph;
+
+  static const ParameterTable<PoseGraphNodeOptions>& parameters();
+  std::string validate() const;
+};
+
+/// config/pose_graph.yaml as the declarations render it (a test compares the two).
+std::string poseGraphDefaultsYaml();
 
 }  // namespace landmark_loop_closure

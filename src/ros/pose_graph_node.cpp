@@ -1,0 +1,309 @@
+// The pose_graph nodelet: keyframes and loops from the detector into the ROS-free PoseGraph, which
+// its own thread optimises whenever loops arrive; publishes the corrected keyframe path, the raw
+// odometry path, map -> odom on tf and a marker of the loops it refused.
+#include <algorithm>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <variant>
+
+#include <nav_msgs/Path.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/Marker.h>
+#include <pluginlib/class_list_macros.hpp>
+
+#include "landmark_loop_closure/backend/pose_graph.h"
+#include "messages/ros_conversions.h"
+#include "ros_parameter_source.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+PoseGraphNodeOptions loadPoseGraphOptions(const ros::NodeHandle& private_node) {
+  const RosParameterSource source(private_node);
+  OptionReader reader(source);
+  PoseGraphNodeOptions options;
+  PoseGraphNodeOptions::parameters().read(&reader, &options);
+  for (const std::string& key : source.keys()) {
+    if (!reader.isKnown(key)) {
+      ROS_WARN("Unknown parameter %s/%s is ignored (misspelt? see config/pose_graph.yaml)",
+               private_node.getNamespace().c_str(), key.c_str());
+    }
+  }
+  const std::string problems = reader.errors() + options.validate();
+  if (!problems.empty()) throw std::invalid_argument(problems);
+  return options;
+}
+
+geometry_msgs::PoseStamped stampedPose(const Pose& pose, const std::string& frame,
+                                       const ros::Time& stamp) {
+  geometry_msgs::PoseStamped stamped;
+  stamped.header.frame_id = frame;
+  stamped.header.stamp = stamp;
+  stamped.pose = toRos(pose);
+  return stamped;
+}
+
+}  // namespace
+
+class PoseGraphNode {
+ public:
+  PoseGraphNode(ros::NodeHandle node, ros::NodeHandle private_node, PoseGraphNodeOptions options)
+      : options_(std::move(options)), graph_(options_.graph) {
+    corrected_publisher_ = private_node.advertise<nav_msgs::Path>("corrected_path", 1, true);
+    odometry_publisher_ = private_node.advertise<nav_msgs::Path>("odometry_path", 1, true);
+    rejected_publisher_ =
+        private_node.advertise<visualization_msgs::Marker>("rejected_loops", 1, true);
+    keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
+    loop_subscriber_ = node.subscribe("loop_closures", 100, &PoseGraphNode::onLoop, this);
+    worker_ = std::thread([this] { work(); });
+  }
+
+  ~PoseGraphNode() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    if (worker_.joinable()) worker_.join();
+    summarise();
+  }
+
+ private:
+  using Input = std::variant<Keyframe, LoopClosure>;
+
+  void onKeyframe(const Keyframe& keyframe) { push(keyframe); }
+  void onLoop(const LoopClosure& loop) { push(loop); }
+  void push(Input input) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      inputs_.push_back(std::move(input));
+    }
+    wake_.notify_one();
+  }
+
+  void work() {
+    for (;;) {
+      std::deque<Input> batch;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stopping_ || !inputs_.empty(); });
+        if (stopping_) return;
+        batch.swap(inputs_);
+      }
+      // Everything that came meanwhile enters first; one optimisation then serves every loop.
+      bool new_loops = false;
+      bool new_keyframes = false;
+      for (const Input& input : batch) {
+        if (const auto* keyframe = std::get_if<Keyframe>(&input)) {
+          new_keyframes |= addKeyframe(*keyframe);
+        } else {
+          waiting_loops_.push_back(std::get<LoopClosure>(input));
+        }
+      }
+      // A loop is published before its query keyframe: it waits for it (a few keyframes at most).
+      std::vector<LoopClosure> still_waiting;
+      for (const LoopClosure& loop : waiting_loops_) {
+        if (graph_.hasKeyframe(loop.query_id) || graph_.keyframes() == 0 ||
+            graph_.ids().back() > loop.query_id + kLoopWaitKeyframes) {
+          new_loops |= addLoop(loop);
+        } else {
+          still_waiting.push_back(loop);
+        }
+      }
+      waiting_loops_.swap(still_waiting);
+      if (new_loops) {
+        const OptimisationReport report = graph_.optimise();
+        if (report.ran) optimisation_ms_.push_back(report.milliseconds);
+        for (const uint64_t index : report.switched_off) {
+          ROS_WARN("Pose graph: loop %lu -> %lu switched off: %s",
+                   static_cast<unsigned long>(loop_ids_[index].first),
+                   static_cast<unsigned long>(loop_ids_[index].second),
+                   graph_.loopVerdicts()[index].detail.c_str());
+        }
+      }
+      if (new_loops || new_keyframes) publish(new_loops);
+    }
+  }
+
+  bool addKeyframe(const Keyframe& keyframe) {
+    if (map_id_ && *map_id_ != keyframe.map_id) {
+      ROS_WARN_THROTTLE(10.0,
+                        "Pose graph: keyframe %lu of map %lu dropped: the graph holds map %lu "
+                        "(restart it for another map)",
+                        static_cast<unsigned long>(keyframe.id),
+                        static_cast<unsigned long>(keyframe.map_id),
+                        static_cast<unsigned long>(*map_id_));
+      return false;
+    }
+    const std::string problem = graph_.addKeyframe(keyframe.id, fromRos(keyframe.pose));
+    if (!problem.empty()) {
+      ROS_WARN_THROTTLE(10.0, "Pose graph: keyframe dropped: %s", problem.c_str());
+      return false;
+    }
+    map_id_ = keyframe.map_id;
+    odometry_frame_ = keyframe.header.frame_id;
+    stamps_.push_back(keyframe.header.stamp);
+    return true;
+  }
+
+  bool addLoop(const LoopClosure& loop) {
+    const char* left_out = nullptr;
+    if (!loop.has_relative_pose) {
+      left_out = "no relative pose (verified by appearance, or the pose was ambiguous)";
+    } else if (!loop.relative_pose_metric) {
+      left_out = "scale-free relative pose (a metric graph takes metric loops only)";
+    } else if (loop.query_session != loop.match_session) {
+      left_out = "it joins another run's map, whose odometry frame is not this one";
+    } else if (map_id_ && loop.map_id != *map_id_) {
+      left_out = "another map than the keyframes'";
+    }
+    if (left_out) {
+      ++left_out_[left_out];
+      return false;
+    }
+    LoopConstraint constraint = loopConstraintFromMsg(loop);
+    if (loop.relative_pose_frame != options_.base_frame) {
+      constraint = loopInBaseFrame(constraint, options_.camera_mount.toPose().toIsometry());
+    }
+    loop_ids_.push_back({loop.query_id, loop.match_id});
+    const LoopVerdict verdict = graph_.addLoop(constraint);
+    if (verdict.decision != LoopDecision::kAccepted) {
+      ROS_WARN("Pose graph: loop %lu -> %lu refused (%s): %s",
+               static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
+               toString(verdict.decision).c_str(), verdict.detail.c_str());
+      return false;
+    }
+    return true;
+  }
+
+  void publish(bool optimised) {
+    const ros::Time stamp = stamps_.empty() ? ros::Time::now() : stamps_.back();
+    // The whole corrected path after an optimisation, else every 10 keyframes (it grows).
+    if (optimised || graph_.keyframes() % 10 == 0) {
+      nav_msgs::Path corrected;
+      nav_msgs::Path odometry;
+      corrected.header.frame_id = options_.map_frame;
+      odometry.header.frame_id = odometry_frame_;
+      corrected.header.stamp = odometry.header.stamp = stamp;
+      const std::vector<uint64_t>& ids = graph_.ids();
+      for (size_t i = 0; i < ids.size(); ++i) {
+        corrected.poses.push_back(
+            stampedPose(*graph_.optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
+        odometry.poses.push_back(
+            stampedPose(*graph_.odometryPose(ids[i]), odometry_frame_, stamps_[i]));
+      }
+      corrected_publisher_.publish(corrected);
+      odometry_publisher_.publish(odometry);
+      publishRejected(stamp);
+    }
+    if (options_.publish_tf && !odometry_frame_.empty()) {
+      const Pose correction = Pose::fromIsometry(graph_.mapFromOdometry());
+      geometry_msgs::TransformStamped transform;
+      transform.header.stamp = stamp;
+      transform.header.frame_id = options_.map_frame;
+      transform.child_frame_id = odometry_frame_;
+      transform.transform.translation.x = correction.position.x();
+      transform.transform.translation.y = correction.position.y();
+      transform.transform.translation.z = correction.position.z();
+      transform.transform.rotation = toRos(correction).orientation;
+      broadcaster_.sendTransform(transform);
+    }
+  }
+
+  void publishRejected(const ros::Time& stamp) {
+    visualization_msgs::Marker marker;
+    marker.header.frame_id = options_.map_frame;
+    marker.header.stamp = stamp;
+    marker.ns = "rejected_loops";
+    marker.type = visualization_msgs::Marker::LINE_LIST;
+    marker.action = visualization_msgs::Marker::ADD;
+    marker.pose.orientation.w = 1.0;
+    marker.scale.x = 0.03;
+    marker.color.r = 1.0;
+    marker.color.a = 1.0;
+    const std::vector<LoopVerdict>& verdicts = graph_.loopVerdicts();
+    for (size_t k = 0; k < verdicts.size(); ++k) {
+      if (verdicts[k].decision == LoopDecision::kAccepted) continue;
+      const std::optional<Pose> query = graph_.optimisedPose(loop_ids_[k].first);
+      const std::optional<Pose> match = graph_.optimisedPose(loop_ids_[k].second);
+      if (!query || !match) continue;
+      for (const Pose* end : {&*query, &*match}) {
+        geometry_msgs::Point point;
+        point.x = end->position.x();
+        point.y = end->position.y();
+        point.z = end->position.z();
+        marker.points.push_back(point);
+      }
+    }
+    rejected_publisher_.publish(marker);
+  }
+
+  void summarise() const {
+    std::map<std::string, size_t> decisions;
+    for (const LoopVerdict& verdict : graph_.loopVerdicts())
+      ++decisions[toString(verdict.decision)];
+    std::string text;
+    for (const auto& [decision, count] : decisions) {
+      text += " " + decision + " " + std::to_string(count);
+    }
+    for (const auto& [reason, count] : left_out_) {
+      text += "; left out " + std::to_string(count) + ": " + reason;
+    }
+    std::vector<double> times = optimisation_ms_;
+    std::sort(times.begin(), times.end());
+    const double median = times.empty() ? 0.0 : times[times.size() / 2];
+    ROS_INFO("Pose graph: %zu keyframes, loops:%s; %zu optimisations, median %.1f ms",
+             graph_.keyframes(), text.c_str(), times.size(), median);
+  }
+
+  static constexpr uint64_t kLoopWaitKeyframes = 10;
+
+  PoseGraphNodeOptions options_;
+  PoseGraph graph_;
+  std::vector<LoopClosure> waiting_loops_;
+  std::optional<uint64_t> map_id_;
+  std::string odometry_frame_;
+  std::vector<ros::Time> stamps_;
+  std::vector<std::pair<uint64_t, uint64_t>> loop_ids_;
+  std::map<std::string, size_t> left_out_;
+  std::vector<double> optimisation_ms_;
+
+  ros::Publisher corrected_publisher_;
+  ros::Publisher odometry_publisher_;
+  ros::Publisher rejected_publisher_;
+  ros::Subscriber keyframe_subscriber_;
+  ros::Subscriber loop_subscriber_;
+  tf2_ros::TransformBroadcaster broadcaster_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Input> inputs_;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+class PoseGraphNodelet : public nodelet::Nodelet {
+ private:
+  void onInit() override {
+    PoseGraphNodeOptions options;
+    try {
+      options = loadPoseGraphOptions(getPrivateNodeHandle());
+    } catch (const std::invalid_argument& problems) {
+      NODELET_FATAL("Refusing to start, fix these parameters:\n%s", problems.what());
+      throw;
+    }
+    node_ = std::make_unique<PoseGraphNode>(getNodeHandle(), getPrivateNodeHandle(), options);
+  }
+
+  std::unique_ptr<PoseGraphNode> node_;
+};
+
+}  // namespace landmark_loop_closure
+
+PLUGINLIB_EXPORT_CLASS(landmark_loop_closure::PoseGraphNodelet, nodelet::Nodelet)
