@@ -3,6 +3,7 @@
 // odometry path, map -> odom on tf and a marker of the loops it refused.
 #include <algorithm>
 #include <condition_variable>
+#include <cstdio>
 #include <deque>
 #include <map>
 #include <memory>
@@ -258,8 +259,16 @@ class PoseGraphNode {
     std::vector<double> times = optimisation_ms_;
     std::sort(times.begin(), times.end());
     const double median = times.empty() ? 0.0 : times[times.size() / 2];
-    ROS_INFO("Pose graph: %zu keyframes, loops:%s; %zu optimisations, median %.1f ms",
-             graph_.keyframes(), text.c_str(), times.size(), median);
+    char line[160];
+    std::snprintf(line, sizeof(line),
+                  "Pose graph: %zu keyframes; %zu optimisations, median %.1f ms;",
+                  graph_.keyframes(), times.size(), median);
+    // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
+    if (ros::ok()) {
+      ROS_INFO("%s loops:%s", line, text.c_str());
+    } else {
+      std::fprintf(stderr, "%s loops:%s\n", line, text.c_str());
+    }
   }
 
   static constexpr uint64_t kLoopWaitKeyframes = 10;
