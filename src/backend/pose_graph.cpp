@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <sstream>
 
 #include <ceres/ceres.h>
@@ -265,38 +266,51 @@ size_t PoseGraph::activeLoops() const {
                                            [](const LoopEdge& edge) { return edge.active; }));
 }
 
-bool PoseGraph::solve(OptimisationReport* report) {
+bool PoseGraph::solve(size_t first_free, OptimisationReport* report) {
+  // Incremental where it pays: keyframes before the earliest one a new loop touches are held
+  // where they are (as VINS-Fusion's loop fusion does), so a loop between the last two laps of
+  // a long run moves one lap, not the whole run. Edges between held keyframes are left out.
+  first_free = std::max<size_t>(first_free, 1);
+  if (first_free >= nodes_.size()) return false;
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   ceres::EigenQuaternionManifold quaternion;
   ceres::CauchyLoss loop_loss(options_.loop_loss_scale);
-  for (size_t i = 0; i + 1 < nodes_.size(); ++i) {
+  std::vector<bool> present(nodes_.size(), false);
+  const auto add = [&](size_t a, size_t b, ceres::CostFunction* cost, ceres::LossFunction* loss) {
+    problem.AddResidualBlock(cost, loss, nodes_[a].position, nodes_[a].orientation,
+                             nodes_[b].position, nodes_[b].orientation);
+    present[a] = present[b] = true;
+  };
+  for (size_t i = first_free - 1; i + 1 < nodes_.size(); ++i) {
     const Eigen::Isometry3d motion =
         nodes_[i].odometry.toIsometry().inverse() * nodes_[i + 1].odometry.toIsometry();
     const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
     const Eigen::Matrix<double, 6, 6> sqrt_information = sd.cwiseInverse().asDiagonal();
-    problem.AddResidualBlock(RelativePoseResidual::create(motion, sqrt_information), nullptr,
-                             nodes_[i].position, nodes_[i].orientation, nodes_[i + 1].position,
-                             nodes_[i + 1].orientation);
+    add(i, i + 1, RelativePoseResidual::create(motion, sqrt_information), nullptr);
   }
   size_t active = 0;
   for (LoopEdge& edge : loops_) {
     if (!edge.active) continue;
     const size_t query = *indexOf(edge.constraint.query_id);
     const size_t match = *indexOf(edge.constraint.match_id);
-    if (query == match) continue;
-    problem.AddResidualBlock(
+    if (query == match || std::max(query, match) < first_free) continue;
+    add(query, match,
         RelativePoseResidual::create(edge.constraint.query_T_match, edge.sqrt_information),
-        &loop_loss, nodes_[query].position, nodes_[query].orientation, nodes_[match].position,
-        nodes_[match].orientation);
+        &loop_loss);
     ++active;
   }
   if (active == 0 || nodes_.size() < 2) return false;
-  for (Node& node : nodes_) problem.SetManifold(node.orientation, &quaternion);
-  problem.SetParameterBlockConstant(nodes_.front().position);
-  problem.SetParameterBlockConstant(nodes_.front().orientation);
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (!present[i]) continue;
+    problem.SetManifold(nodes_[i].orientation, &quaternion);
+    if (i < first_free) {
+      problem.SetParameterBlockConstant(nodes_[i].position);
+      problem.SetParameterBlockConstant(nodes_[i].orientation);
+    }
+  }
 
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -310,37 +324,56 @@ bool PoseGraph::solve(OptimisationReport* report) {
   report->iterations += static_cast<int>(summary.iterations.size());
   if (report->initial_cost == 0.0) report->initial_cost = summary.initial_cost;
   report->final_cost = summary.final_cost;
-  return summary.IsSolutionUsable();
+  if (!summary.IsSolutionUsable()) return false;
+  for (LoopEdge& edge : loops_) edge.optimised = edge.active;
+  return true;
 }
 
 OptimisationReport PoseGraph::optimise() {
   OptimisationReport report;
   const auto start = Clock::now();
   constexpr int kRounds = 3;
+  // The earliest keyframe a loop the estimate has not seen yet touches.
+  size_t first_free = nodes_.size();
+  for (const LoopEdge& edge : loops_) {
+    if (!edge.active || edge.optimised) continue;
+    first_free = std::min(
+        {first_free, *indexOf(edge.constraint.query_id), *indexOf(edge.constraint.match_id)});
+  }
   for (int round = 0; round < kRounds; ++round) {
-    if (!solve(&report)) break;
-    // The loop the optimised graph agrees with least, checked against the uncertainty of the
-    // graph without it: a wrong loop is switched off, one at a time.
-    std::optional<size_t> worst;
-    double worst_error = options_.max_loop_error_sd;
+    if (!solve(first_free, &report)) break;
+    // The loops the optimised graph agrees with least (in their own covariance's terms), each
+    // checked against the uncertainty of the graph without it: the worst one that fails is
+    // switched off, one per round. Only a few are checked: each check walks the graph.
+    std::vector<std::pair<double, size_t>> suspects;
     for (size_t k = 0; k < loops_.size(); ++k) {
       if (!loops_[k].active) continue;
       const LoopConstraint& loop = loops_[k].constraint;
       const Eigen::Isometry3d estimated =
           estimate(*indexOf(loop.query_id)).inverse() * estimate(*indexOf(loop.match_id));
-      const double translation_error =
-          (estimated.translation() - loop.query_T_match.translation()).norm();
-      // Cheap filter first: within its own covariance, a loop is not a suspect.
       const double own_sd = std::sqrt(loop.covariance.block<3, 3>(0, 0).trace() / 3.0);
-      if (translation_error <= worst_error * own_sd) continue;
-      const std::optional<LoopCheck> checked = check(loop, k);
+      const double own_error =
+          (estimated.translation() - loop.query_T_match.translation()).norm() / own_sd;
+      if (own_error > options_.max_loop_error_sd) suspects.push_back({own_error, k});
+    }
+    constexpr size_t kChecksPerRound = 3;
+    const size_t checks = std::min(kChecksPerRound, suspects.size());
+    std::partial_sort(suspects.begin(), suspects.begin() + static_cast<std::ptrdiff_t>(checks),
+                      suspects.end(), std::greater<>());
+    std::optional<size_t> worst;
+    double worst_error = options_.max_loop_error_sd;
+    for (size_t s = 0; s < checks; ++s) {
+      const std::optional<LoopCheck> checked =
+          check(loops_[suspects[s].second].constraint, suspects[s].second);
       if (checked && checked->error_sd > worst_error) {
         worst_error = checked->error_sd;
-        worst = k;
+        worst = suspects[s].second;
       }
     }
     if (!worst) break;
     loops_[*worst].active = false;
+    const LoopConstraint& off = loops_[*worst].constraint;
+    first_free = std::min({first_free, *indexOf(off.query_id), *indexOf(off.match_id)});
     verdicts_[*worst].decision = LoopDecision::kSwitchedOff;
     verdicts_[*worst].error_sd = worst_error;
     report.switched_off.push_back(*worst);

@@ -27,7 +27,7 @@ Eigen::Vector2d PoseGraph::pathVariance(size_t from, size_t to,
     steps[i + 1].push_back({i, translation, rotation, metres});
   }
   for (size_t k = 0; k < loops_.size(); ++k) {
-    if (!loops_[k].active || (excluded && *excluded == k)) continue;
+    if (!loops_[k].active || !loops_[k].optimised || (excluded && *excluded == k)) continue;
     const LoopConstraint& loop = loops_[k].constraint;
     const size_t a = *indexOf(loop.query_id);
     const size_t b = *indexOf(loop.match_id);

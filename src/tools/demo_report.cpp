@@ -16,6 +16,7 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 
 #include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/geometry/pose.h"
@@ -114,21 +115,44 @@ class DemoReport {
 
   void onCorrectedPath(const nav_msgs::PathConstPtr& path) { corrected_path_ = path; }
 
-  /// RMSE of keyframe positions against ground truth at their stamps, the path moved so that
-  /// its first pose lies on the truth's; -1 without truth.
-  double trajectoryRmse(const std::vector<std::pair<ros::Time, geometry_msgs::Pose>>& path) const {
-    double sum = 0.0;
-    size_t count = 0;
+  /// RMSE of keyframe positions against ground truth at their stamps: the path moved so that
+  /// its first pose lies on the truth's, and moved by the similarity transform that fits it
+  /// best, scale included (Umeyama, as evo's -as); -1 without truth.
+  struct TrajectoryError {
+    double first_pose = -1.0;
+    double similarity = -1.0;
+    double scale = 1.0;
+  };
+  TrajectoryError trajectoryError(
+      const std::vector<std::pair<ros::Time, geometry_msgs::Pose>>& path) const {
+    std::vector<Eigen::Vector3d> estimated;
+    std::vector<Eigen::Vector3d> true_positions;
     Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
     for (const auto& [stamp, pose] : path) {
       geometry_msgs::Pose truth;
       if (!truthAt(stamp, &truth)) continue;
-      if (count == 0) align = toIsometry(truth) * toIsometry(pose).inverse();
-      sum += ((align * toIsometry(pose)).translation() - toIsometry(truth).translation())
-                 .squaredNorm();
-      ++count;
+      if (estimated.empty()) align = toIsometry(truth) * toIsometry(pose).inverse();
+      estimated.push_back(toIsometry(pose).translation());
+      true_positions.push_back(toIsometry(truth).translation());
     }
-    return count == 0 ? -1.0 : std::sqrt(sum / static_cast<double>(count));
+    TrajectoryError error;
+    if (estimated.size() < 3) return error;
+    Eigen::Matrix3Xd from(3, estimated.size());
+    Eigen::Matrix3Xd to(3, estimated.size());
+    double first = 0.0;
+    for (size_t i = 0; i < estimated.size(); ++i) {
+      from.col(static_cast<Eigen::Index>(i)) = estimated[i];
+      to.col(static_cast<Eigen::Index>(i)) = true_positions[i];
+      first += (align * estimated[i] - true_positions[i]).squaredNorm();
+    }
+    const Eigen::Matrix4d similarity = Eigen::umeyama(from, to, true);
+    const Eigen::Matrix3Xd moved =
+        (similarity.topLeftCorner<3, 3>() * from).colwise() + similarity.topRightCorner<3, 1>();
+    const double count = static_cast<double>(estimated.size());
+    error.first_pose = std::sqrt(first / count);
+    error.similarity = std::sqrt((moved - to).colwise().squaredNorm().sum() / count);
+    error.scale = similarity.topLeftCorner<3, 3>().col(0).norm();
+    return error;
   }
 
   void printTrajectoryError() const {
@@ -140,10 +164,14 @@ class DemoReport {
     for (const auto& pose : corrected_path_->poses) {
       corrected.emplace_back(pose.header.stamp, pose.pose);
     }
+    const TrajectoryError odometry = trajectoryError(keyframe_odometry_);
+    const TrajectoryError optimised = trajectoryError(corrected);
     std::printf(
         "trajectory RMSE:      odometry %.3f m, corrected by the pose graph %.3f m "
-        "(%zu keyframes)\n",
-        trajectoryRmse(keyframe_odometry_), trajectoryRmse(corrected), corrected.size());
+        "(%zu keyframes, first pose aligned); best similarity fit: %.3f m and %.3f m "
+        "(scale %.3f and %.3f)\n",
+        odometry.first_pose, optimised.first_pose, corrected.size(), odometry.similarity,
+        optimised.similarity, odometry.scale, optimised.scale);
   }
 
   void onTruth(const nav_msgs::OdometryConstPtr& truth) {

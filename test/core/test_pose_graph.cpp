@@ -8,48 +8,17 @@
 
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/sim/driven_laps.h"
 
 namespace landmark_loop_closure {
 namespace {
 
-/// Two laps of a 10 m x 6 m rectangle, a keyframe every 0.5 m, true poses and odometry that
-/// overestimates every turn by 3 %, so the second lap is drawn well beside the first.
-struct Drive {
-  std::vector<Pose> truth;
-  std::vector<Pose> odometry;
-};
+using Drive = sim::DrivenLaps;
 
 Drive driveLaps(int laps) {
-  Drive drive;
-  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
-  Eigen::Isometry3d odometry = Eigen::Isometry3d::Identity();
-  const double sides[4] = {10.0, 6.0, 10.0, 6.0};
-  std::mt19937 random(7);
-  std::normal_distribution<double> noise(0.0, 0.005);
-  const auto keep = [&] {
-    drive.truth.push_back(Pose::fromIsometry(truth));
-    drive.odometry.push_back(Pose::fromIsometry(odometry));
-  };
-  keep();
-  for (int lap = 0; lap < laps; ++lap) {
-    for (double side : sides) {
-      for (int step = 0; step < static_cast<int>(side / 0.5); ++step) {
-        Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-        motion.translate(Eigen::Vector3d(0.5, 0.0, 0.0));
-        truth = truth * motion;
-        motion.translation().x() += noise(random);
-        odometry = odometry * motion;
-        keep();
-      }
-      Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-      turn.rotate(Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ()));
-      truth = truth * turn;
-      turn = Eigen::Isometry3d::Identity();
-      turn.rotate(Eigen::AngleAxisd(M_PI / 2.0 * 1.03, Eigen::Vector3d::UnitZ()));
-      odometry = odometry * turn;
-    }
-  }
-  return drive;
+  sim::DrivenLapsOptions options;
+  options.laps = laps;
+  return sim::driveLaps(options);
 }
 
 LoopConstraint trueLoop(const Drive& drive, size_t query, size_t match) {

@@ -122,14 +122,17 @@ class PoseGraph {
     LoopConstraint constraint;
     Eigen::Matrix<double, 6, 6> sqrt_information;
     bool active = true;
+    /// The estimate has been optimised with it: only then does it shorten the paths that
+    /// screen later loops (the estimate does not agree with a loop it has not seen).
+    bool optimised = false;
   };
 
   std::optional<size_t> indexOf(uint64_t id) const;
   Eigen::Isometry3d estimate(size_t index) const;
   Eigen::Matrix<double, 6, 1> odometrySd(size_t from, size_t to) const;
   /// Variance per axis (translation m^2, rotation rad^2) of the relative pose between two
-  /// keyframes along the graph's most certain path: odometry edges and active loops, `excluded`
-  /// left out; the rotation's variance also moves the far end by the path's length.
+  /// keyframes along the graph's most certain path: odometry edges and active, optimised loops,
+  /// `excluded` left out; the rotation's variance also moves the far end by the path's length.
   Eigen::Vector2d pathVariance(size_t from, size_t to, std::optional<size_t> excluded) const;
   struct LoopCheck {
     double error_sd = 0.0;
@@ -138,7 +141,8 @@ class PoseGraph {
   /// A loop's error against the current estimate, in standard deviations of the path's and its
   /// own uncertainty; nullopt when a keyframe is not in the graph.
   std::optional<LoopCheck> check(const LoopConstraint& loop, std::optional<size_t> excluded) const;
-  bool solve(OptimisationReport* report);
+  /// One Ceres solve; keyframes before `first_free` are held. False when nothing was solved.
+  bool solve(size_t first_free, OptimisationReport* report);
 
   PoseGraphOptions options_;
   std::vector<uint64_t> ids_;
