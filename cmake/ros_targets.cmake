@@ -78,11 +78,17 @@ add_executable(make_demo_bag src/tools/make_demo_bag.cpp)
 target_include_directories(make_demo_bag SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(make_demo_bag ${PROJECT_NAME}_sim ${catkin_LIBRARIES})
 
+# Wrong loops on purpose, for the backend's robustness check (demo.sh --wrong-loops, rostest).
+add_executable(loop_injector src/tools/loop_injector.cpp)
+target_include_directories(loop_injector SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(loop_injector ${catkin_LIBRARIES})
+add_dependencies(loop_injector ${PROJECT_NAME}_generate_messages_cpp)
+
 add_executable(demo_report src/tools/demo_report.cpp)
 target_include_directories(demo_report SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(demo_report ${PROJECT_NAME}_eval ${catkin_LIBRARIES})
 add_dependencies(demo_report ${PROJECT_NAME}_generate_messages_cpp)
-install(TARGETS make_demo_bag demo_report RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(TARGETS make_demo_bag demo_report loop_injector RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # Offline evaluation tool: image folders, the generated corridor, and bags (hence ROS).
 add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/evaluate_support.cpp

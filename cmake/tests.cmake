@@ -60,7 +60,7 @@ endforeach()
 # The pose-graph backend links Ceres; its test links the backend and the core only.
 catkin_add_gtest(test_pose_graph test/core/test_pose_graph.cpp)
 target_link_libraries(test_pose_graph ${PROJECT_NAME}_backend ${PROJECT_NAME}_config ${PROJECT_NAME}_sim
-  GTest::gtest_main)
+  ${PROJECT_NAME}_eval GTest::gtest_main)
 target_compile_definitions(test_pose_graph PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
 include(cmake/ros_tests.cmake OPTIONAL)

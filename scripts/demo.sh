@@ -3,8 +3,10 @@
 # demo bag (a camera driven twice around a textured corridor, drifting odometry, ground truth)
 # and plays it into the detector, printing one line per loop (TRUE or FALSE against ground truth)
 # and a summary at the end. The detector's own log goes to _demo/roslaunch.log.
-#   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--no-setup]
+#   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--no-setup]
 # --rviz keeps rviz open after the bag, to look at the map, until it is closed or Ctrl-C.
+# --wrong-loops F replaces that share of loops by wrong ones before the pose graph (loop_injector),
+# to see it refuse them: the summary counts them.
 # --no-setup skips installing and building (what the demo's test does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,13 +14,15 @@ RVIZ=false
 LAPS=2
 RATE=2.0
 SETUP=true
+WRONG_LOOPS=0.0
 while [ $# -gt 0 ]; do
   case "$1" in
     --rviz) RVIZ=true ;;
     --laps) LAPS="$2"; shift ;;
     --rate) RATE="$2"; shift ;;
+    --wrong-loops) WRONG_LOOPS="$2"; shift ;;
     --no-setup) SETUP=false ;;
-    *) echo "usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--no-setup]" >&2; exit 2 ;;
+    *) echo "usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--no-setup]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -52,7 +56,7 @@ finish() {
 trap finish EXIT INT TERM
 # The detector (and rviz) under roslaunch, its output in the log; the report and the bag from here,
 # so the console shows the loops and the summary only.
-roslaunch landmark_loop_closure demo.launch rviz:="$RVIZ" > "$LOG" 2>&1 &
+roslaunch landmark_loop_closure demo.launch rviz:="$RVIZ" wrong_loops:="$WRONG_LOOPS" > "$LOG" 2>&1 &
 launch_pid=$!
 for _ in $(seq 1 120); do
   if rosservice list 2> /dev/null | grep -q "^/loop_closure/reset"; then break; fi

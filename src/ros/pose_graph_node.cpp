@@ -18,6 +18,7 @@
 #include <visualization_msgs/Marker.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "landmark_loop_closure/PoseGraphLoop.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
@@ -58,6 +59,7 @@ class PoseGraphNode {
       : options_(std::move(options)), graph_(options_.graph) {
     corrected_publisher_ = private_node.advertise<nav_msgs::Path>("corrected_path", 1, true);
     odometry_publisher_ = private_node.advertise<nav_msgs::Path>("odometry_path", 1, true);
+    verdict_publisher_ = private_node.advertise<PoseGraphLoop>("loop_verdicts", 100);
     rejected_publisher_ =
         private_node.advertise<visualization_msgs::Marker>("rejected_loops", 1, true);
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
@@ -122,10 +124,13 @@ class PoseGraphNode {
         const OptimisationReport report = graph_.optimise();
         if (report.ran) optimisation_ms_.push_back(report.milliseconds);
         for (const uint64_t index : report.switched_off) {
+          const LoopVerdict& verdict = graph_.loopVerdicts()[index];
           ROS_WARN("Pose graph: loop %lu -> %lu switched off: %s",
-                   static_cast<unsigned long>(loop_ids_[index].first),
-                   static_cast<unsigned long>(loop_ids_[index].second),
-                   graph_.loopVerdicts()[index].detail.c_str());
+                   static_cast<unsigned long>(graph_loops_[index].query_id),
+                   static_cast<unsigned long>(graph_loops_[index].match_id),
+                   verdict.detail.c_str());
+          publishVerdict(graph_loops_[index], toString(verdict.decision), verdict.error_sd,
+                         verdict.detail);
         }
       }
       if (new_loops || new_keyframes) publish(new_loops);
@@ -166,14 +171,16 @@ class PoseGraphNode {
     }
     if (left_out) {
       ++left_out_[left_out];
+      publishVerdict(loop, "left_out", 0.0, left_out);
       return false;
     }
     LoopConstraint constraint = loopConstraintFromMsg(loop);
     if (loop.relative_pose_frame != options_.base_frame) {
       constraint = loopInBaseFrame(constraint, options_.camera_mount.toPose().toIsometry());
     }
-    loop_ids_.push_back({loop.query_id, loop.match_id});
+    graph_loops_.push_back(loop);
     const LoopVerdict verdict = graph_.addLoop(constraint);
+    publishVerdict(loop, toString(verdict.decision), verdict.error_sd, verdict.detail);
     if (verdict.decision != LoopDecision::kAccepted) {
       ROS_WARN("Pose graph: loop %lu -> %lu refused (%s): %s",
                static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
@@ -181,6 +188,22 @@ class PoseGraphNode {
       return false;
     }
     return true;
+  }
+
+  void publishVerdict(const LoopClosure& loop, const std::string& decision, double error_sd,
+                      const std::string& detail) {
+    PoseGraphLoop verdict;
+    verdict.header.stamp = loop.query_stamp;
+    verdict.header.frame_id = options_.map_frame;
+    verdict.map_id = loop.map_id;
+    verdict.query_id = loop.query_id;
+    verdict.match_id = loop.match_id;
+    verdict.query_stamp = loop.query_stamp;
+    verdict.match_stamp = loop.match_stamp;
+    verdict.decision = decision;
+    verdict.error_sd = error_sd;
+    verdict.detail = detail;
+    verdict_publisher_.publish(verdict);
   }
 
   void publish(bool optimised) {
@@ -231,8 +254,8 @@ class PoseGraphNode {
     const std::vector<LoopVerdict>& verdicts = graph_.loopVerdicts();
     for (size_t k = 0; k < verdicts.size(); ++k) {
       if (verdicts[k].decision == LoopDecision::kAccepted) continue;
-      const std::optional<Pose> query = graph_.optimisedPose(loop_ids_[k].first);
-      const std::optional<Pose> match = graph_.optimisedPose(loop_ids_[k].second);
+      const std::optional<Pose> query = graph_.optimisedPose(graph_loops_[k].query_id);
+      const std::optional<Pose> match = graph_.optimisedPose(graph_loops_[k].match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;
@@ -279,13 +302,14 @@ class PoseGraphNode {
   std::optional<uint64_t> map_id_;
   std::string odometry_frame_;
   std::vector<ros::Time> stamps_;
-  std::vector<std::pair<uint64_t, uint64_t>> loop_ids_;
+  std::vector<LoopClosure> graph_loops_;  ///< As given to the graph, in its loop order.
   std::map<std::string, size_t> left_out_;
   std::vector<double> optimisation_ms_;
 
   ros::Publisher corrected_publisher_;
   ros::Publisher odometry_publisher_;
   ros::Publisher rejected_publisher_;
+  ros::Publisher verdict_publisher_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   tf2_ros::TransformBroadcaster broadcaster_;

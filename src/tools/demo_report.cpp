@@ -16,13 +16,14 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 
+#include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/PoseGraphLoop.h"
 
 namespace {
 
@@ -49,6 +50,8 @@ class DemoReport {
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &DemoReport::onKeyframe, this);
     corrected_subscriber_ =
         node.subscribe("pose_graph/corrected_path", 2, &DemoReport::onCorrectedPath, this);
+    verdict_subscriber_ =
+        node.subscribe("pose_graph/loop_verdicts", 1000, &DemoReport::onVerdict, this);
   }
 
   void printSummary() const {
@@ -75,6 +78,7 @@ class DemoReport {
                   percentile(translation_errors_, 0.9), percentile(rotation_errors_, 0.9));
     }
     printTrajectoryError();
+    printGraphVerdicts();
     std::fflush(stdout);
   }
 
@@ -115,44 +119,43 @@ class DemoReport {
 
   void onCorrectedPath(const nav_msgs::PathConstPtr& path) { corrected_path_ = path; }
 
-  /// RMSE of keyframe positions against ground truth at their stamps: the path moved so that
-  /// its first pose lies on the truth's, and moved by the similarity transform that fits it
-  /// best, scale included (Umeyama, as evo's -as); -1 without truth.
-  struct TrajectoryError {
-    double first_pose = -1.0;
-    double similarity = -1.0;
-    double scale = 1.0;
-  };
-  TrajectoryError trajectoryError(
+  /// The pose graph's decisions, judged by ground truth: a decision is final once given, except
+  /// that an accepted loop may be switched off later (the last word counts).
+  void onVerdict(const landmark_loop_closure::PoseGraphLoopConstPtr& verdict) {
+    if (verdict->decision == "left_out") return;
+    geometry_msgs::Pose query;
+    geometry_msgs::Pose match;
+    if (!truthAt(verdict->query_stamp, &query) || !truthAt(verdict->match_stamp, &match)) return;
+    const bool is_true = rule_.isTrueLoop(toVector(query.position), verdict->query_stamp.toSec(),
+                                          toVector(match.position), verdict->match_stamp.toSec());
+    graph_verdicts_[{verdict->query_id, verdict->match_id}] = {is_true,
+                                                               verdict->decision == "accepted"};
+  }
+
+  void printGraphVerdicts() const {
+    if (graph_verdicts_.empty()) return;
+    int wrong = 0, wrong_refused = 0, right = 0, right_refused = 0;
+    for (const auto& [ids, verdict] : graph_verdicts_) {
+      const auto [is_true, accepted] = verdict;
+      (is_true ? right : wrong) += 1;
+      if (!accepted) (is_true ? right_refused : wrong_refused) += 1;
+    }
+    std::printf("pose graph loops:     %d true (%d refused), %d false (%d refused)\n", right,
+                right_refused, wrong, wrong_refused);
+  }
+
+  /// The path's keyframes against ground truth at their stamps (those without truth skipped).
+  landmark_loop_closure::eval::TrajectoryError trajectoryError(
       const std::vector<std::pair<ros::Time, geometry_msgs::Pose>>& path) const {
-    std::vector<Eigen::Vector3d> estimated;
-    std::vector<Eigen::Vector3d> true_positions;
-    Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
+    std::vector<landmark_loop_closure::Pose> estimated;
+    std::vector<landmark_loop_closure::Pose> true_poses;
     for (const auto& [stamp, pose] : path) {
       geometry_msgs::Pose truth;
       if (!truthAt(stamp, &truth)) continue;
-      if (estimated.empty()) align = toIsometry(truth) * toIsometry(pose).inverse();
-      estimated.push_back(toIsometry(pose).translation());
-      true_positions.push_back(toIsometry(truth).translation());
+      estimated.push_back(landmark_loop_closure::Pose::fromIsometry(toIsometry(pose)));
+      true_poses.push_back(landmark_loop_closure::Pose::fromIsometry(toIsometry(truth)));
     }
-    TrajectoryError error;
-    if (estimated.size() < 3) return error;
-    Eigen::Matrix3Xd from(3, estimated.size());
-    Eigen::Matrix3Xd to(3, estimated.size());
-    double first = 0.0;
-    for (size_t i = 0; i < estimated.size(); ++i) {
-      from.col(static_cast<Eigen::Index>(i)) = estimated[i];
-      to.col(static_cast<Eigen::Index>(i)) = true_positions[i];
-      first += (align * estimated[i] - true_positions[i]).squaredNorm();
-    }
-    const Eigen::Matrix4d similarity = Eigen::umeyama(from, to, true);
-    const Eigen::Matrix3Xd moved =
-        (similarity.topLeftCorner<3, 3>() * from).colwise() + similarity.topRightCorner<3, 1>();
-    const double count = static_cast<double>(estimated.size());
-    error.first_pose = std::sqrt(first / count);
-    error.similarity = std::sqrt((moved - to).colwise().squaredNorm().sum() / count);
-    error.scale = similarity.topLeftCorner<3, 3>().col(0).norm();
-    return error;
+    return landmark_loop_closure::eval::trajectoryError(estimated, true_poses);
   }
 
   void printTrajectoryError() const {
@@ -164,14 +167,14 @@ class DemoReport {
     for (const auto& pose : corrected_path_->poses) {
       corrected.emplace_back(pose.header.stamp, pose.pose);
     }
-    const TrajectoryError odometry = trajectoryError(keyframe_odometry_);
-    const TrajectoryError optimised = trajectoryError(corrected);
+    const auto odometry = trajectoryError(keyframe_odometry_);
+    const auto optimised = trajectoryError(corrected);
     std::printf(
         "trajectory RMSE:      odometry %.3f m, corrected by the pose graph %.3f m "
         "(%zu keyframes, first pose aligned); best similarity fit: %.3f m and %.3f m "
         "(scale %.3f and %.3f)\n",
-        odometry.first_pose, optimised.first_pose, corrected.size(), odometry.similarity,
-        optimised.similarity, odometry.scale, optimised.scale);
+        odometry.first_pose_rmse, optimised.first_pose_rmse, corrected.size(),
+        odometry.similarity_rmse, optimised.similarity_rmse, odometry.scale, optimised.scale);
   }
 
   void onTruth(const nav_msgs::OdometryConstPtr& truth) {
@@ -237,6 +240,8 @@ class DemoReport {
   ros::Subscriber loop_subscriber_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber corrected_subscriber_;
+  ros::Subscriber verdict_subscriber_;
+  std::map<std::pair<uint64_t, uint64_t>, std::pair<bool, bool>> graph_verdicts_;
   nav_msgs::PathConstPtr corrected_path_;
   std::vector<std::pair<ros::Time, geometry_msgs::Pose>> keyframe_odometry_;
   Eigen::Isometry3d camera_in_base_ = Eigen::Isometry3d::Identity();

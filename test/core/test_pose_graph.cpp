@@ -8,6 +8,7 @@
 
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/sim/driven_laps.h"
 
 namespace landmark_loop_closure {
@@ -213,6 +214,24 @@ TEST(PoseGraphConfig, ShippedFilesLoadAndTheDefaultsAreWhatTheDeclarationsRender
   EXPECT_EQ(shipped, poseGraphDefaultsYaml())
       << "config/pose_graph.yaml differs from the declarations; regenerate it with\n"
          "  rosrun landmark_loop_closure lcd_config pose_graph_defaults > config/pose_graph.yaml";
+}
+
+TEST(TrajectoryError, AScaleDriftShowsInTheFirstPoseFitOnly) {
+  const Drive drive = driveLaps(1);
+  std::vector<Pose> scaled = drive.truth;
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.translate(Eigen::Vector3d(2.0, -1.0, 0.5));
+  offset.rotate(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()));
+  for (Pose& pose : scaled) {
+    pose.position *= 1.02;
+    pose = Pose::fromIsometry(offset * pose.toIsometry());
+  }
+  const eval::TrajectoryError error = eval::trajectoryError(scaled, drive.truth);
+  EXPECT_GT(error.first_pose_rmse, 0.05);  // 2 % of a 10 m x 6 m rectangle.
+  EXPECT_LT(error.similarity_rmse, 1e-9);
+  EXPECT_NEAR(error.scale, 1.0 / 1.02, 1e-9);
+  EXPECT_LT(eval::trajectoryError(drive.truth, drive.truth).first_pose_rmse, 1e-12);
+  EXPECT_EQ(eval::trajectoryError({}, {}).first_pose_rmse, -1.0);
 }
 
 }  // namespace

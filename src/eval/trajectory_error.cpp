@@ -1,0 +1,40 @@
+#include "landmark_loop_closure/eval/trajectory_error.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+namespace landmark_loop_closure {
+namespace eval {
+
+TrajectoryError trajectoryError(const std::vector<Pose>& estimated,
+                                const std::vector<Pose>& truth) {
+  TrajectoryError error;
+  const size_t count = std::min(estimated.size(), truth.size());
+  if (count < 3) {
+    error.first_pose_rmse = error.similarity_rmse = -1.0;
+    return error;
+  }
+  const Eigen::Isometry3d align = truth[0].toIsometry() * estimated[0].toIsometry().inverse();
+  Eigen::Matrix3Xd from(3, count);
+  Eigen::Matrix3Xd to(3, count);
+  double first = 0.0;
+  for (size_t i = 0; i < count; ++i) {
+    const auto column = static_cast<Eigen::Index>(i);
+    from.col(column) = estimated[i].position;
+    to.col(column) = truth[i].position;
+    first += (align * estimated[i].position - truth[i].position).squaredNorm();
+  }
+  const Eigen::Matrix4d similarity = Eigen::umeyama(from, to, true);
+  const Eigen::Matrix3Xd moved =
+      (similarity.topLeftCorner<3, 3>() * from).colwise() + similarity.topRightCorner<3, 1>();
+  error.first_pose_rmse = std::sqrt(first / static_cast<double>(count));
+  error.similarity_rmse =
+      std::sqrt((moved - to).colwise().squaredNorm().sum() / static_cast<double>(count));
+  error.scale = similarity.topLeftCorner<3, 3>().col(0).norm();
+  return error;
+}
+
+}  // namespace eval
+}  // namespace landmark_loop_closure
