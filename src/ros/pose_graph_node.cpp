@@ -208,6 +208,19 @@ class PoseGraphNode {
 
   void publish(bool optimised) {
     const ros::Time stamp = stamps_.empty() ? ros::Time::now() : stamps_.back();
+    // The correction first: a viewer looking the path up at its stamp then finds it.
+    if (options_.publish_tf && !odometry_frame_.empty()) {
+      const Pose correction = Pose::fromIsometry(graph_.mapFromOdometry());
+      geometry_msgs::TransformStamped transform;
+      transform.header.stamp = stamp;
+      transform.header.frame_id = options_.map_frame;
+      transform.child_frame_id = odometry_frame_;
+      transform.transform.translation.x = correction.position.x();
+      transform.transform.translation.y = correction.position.y();
+      transform.transform.translation.z = correction.position.z();
+      transform.transform.rotation = toRos(correction).orientation;
+      broadcaster_.sendTransform(transform);
+    }
     // The whole corrected path after an optimisation, else every 10 keyframes (it grows).
     if (optimised || graph_.keyframes() % 10 == 0) {
       nav_msgs::Path corrected;
@@ -225,18 +238,6 @@ class PoseGraphNode {
       corrected_publisher_.publish(corrected);
       odometry_publisher_.publish(odometry);
       publishRejected(stamp);
-    }
-    if (options_.publish_tf && !odometry_frame_.empty()) {
-      const Pose correction = Pose::fromIsometry(graph_.mapFromOdometry());
-      geometry_msgs::TransformStamped transform;
-      transform.header.stamp = stamp;
-      transform.header.frame_id = options_.map_frame;
-      transform.child_frame_id = odometry_frame_;
-      transform.transform.translation.x = correction.position.x();
-      transform.transform.translation.y = correction.position.y();
-      transform.transform.translation.z = correction.position.z();
-      transform.transform.rotation = toRos(correction).orientation;
-      broadcaster_.sendTransform(transform);
     }
   }
 
@@ -265,7 +266,8 @@ class PoseGraphNode {
         marker.points.push_back(point);
       }
     }
-    rejected_publisher_.publish(marker);
+    // Refusals only accumulate; rviz calls an empty line list an error, so none is sent.
+    if (!marker.points.empty()) rejected_publisher_.publish(marker);
   }
 
   void summarise() const {
