@@ -105,6 +105,7 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
   DetectorPass pass;
   pass.min_score = min_score;
   std::vector<size_t> keyframe_frames;
+  std::vector<Pose> keyframe_poses;
   size_t frames = 0;
   size_t refused_frames = 0;
   (*input.play)([&](size_t index, const DetectorFrame& frame) {
@@ -125,6 +126,10 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
       keyframe_frames.resize(keyframe.keyframe_id + 1, 0);
     }
     keyframe_frames[keyframe.keyframe_id] = index;
+    if (keyframe_poses.size() <= keyframe.keyframe_id) {
+      keyframe_poses.resize(keyframe.keyframe_id + 1);
+    }
+    keyframe_poses[keyframe.keyframe_id] = frame.pose;
     if (record_keyframes) {
       for (const CandidateReport& candidate : keyframe.candidates) {
         CandidateRow row;
@@ -148,6 +153,16 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
       loop.score = keyframe.loop->score;
       loop.verified = keyframe.loop->verification.has_value();
       loop.correct = (*input.same_place)(loop.query_frame, loop.match_frame);
+      const std::optional<RelativePose>& relative = keyframe.loop->relative_pose;
+      if (relative && relative->metric) {
+        LoopConstraint camera;
+        camera.query_id = loop.query_id;
+        camera.match_id = loop.match_id;
+        camera.query_T_match.linear() = relative->rotation;
+        camera.query_T_match.translation() = relative->translation;
+        camera.covariance = relative->covariance;
+        loop.metric_pose = loopInBaseFrame(camera, options.camera_mount.toPose().toIsometry());
+      }
       pass.true_loops += loop.correct ? 1 : 0;
       pass.loops.push_back(loop);
     } else if (keyframe.query_status != QueryStatus::kSearched) {
@@ -165,6 +180,7 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
     evaluation->refused_frames = refused_frames;
     evaluation->keyframes = pass.keyframe_ms.size();
     evaluation->keyframe_frames = keyframe_frames;
+    evaluation->keyframe_poses = keyframe_poses;
   }
   return pass;
 }
@@ -219,7 +235,7 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   for (int i = 0; i + 1 < steps; ++i) {
     grid.push_back(std::max(lowest, highest - (highest - lowest) * i / (steps - 1)));
   }
-  grid.push_back(lowest);  // Exactly: rounding must not take it below 0.
+  grid.push_back(lowest);                 // Exactly: rounding must not take it below 0.
   std::map<double, DetectorPass> passes;  // By threshold.
   passes[options.acceptance.min_score] = evaluation.configured;
   const auto run = [&](double threshold) {

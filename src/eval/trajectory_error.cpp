@@ -36,5 +36,36 @@ TrajectoryError trajectoryError(const std::vector<Pose>& estimated,
   return error;
 }
 
+PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
+                                    const PoseGraphOptions& options) {
+  PoseGraphReplay replay;
+  PoseGraph graph(options);
+  std::vector<const PublishedLoop*> loops;
+  for (const PublishedLoop& loop : evaluation.configured.loops) {
+    if (loop.metric_pose) loops.push_back(&loop);
+  }
+  size_t next = 0;
+  for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
+    graph.addKeyframe(id, evaluation.keyframe_poses[id]);
+    bool added = false;
+    for (; next < loops.size() && loops[next]->query_id == id; ++next) {
+      graph.addLoop(*loops[next]->metric_pose);
+      ++replay.metric_loops;
+      added = true;
+    }
+    if (added) graph.optimise();
+  }
+  const std::vector<LoopVerdict>& verdicts = graph.loopVerdicts();
+  for (size_t k = 0; k < verdicts.size(); ++k) {
+    if (verdicts[k].decision == LoopDecision::kAccepted) continue;
+    ++replay.refused_loops;
+    replay.refused_true_loops += loops[k]->correct ? 1 : 0;
+  }
+  for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
+    replay.corrected.push_back(graph.optimisedPose(id).value_or(evaluation.keyframe_poses[id]));
+  }
+  return replay;
+}
+
 }  // namespace eval
 }  // namespace landmark_loop_closure

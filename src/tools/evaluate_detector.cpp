@@ -12,6 +12,7 @@
 #include "bag/bag_source.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
@@ -172,24 +173,24 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
 
 namespace {
 
-// Truth positions and stamps by frame index, filled as the frames are played.
+// True poses and stamps by frame index, filled as the frames are played.
 struct FrameTruth {
-  std::vector<Eigen::Vector3d> positions;
+  std::vector<Pose> poses;
   std::vector<double> stamps;
-  void set(size_t index, const Eigen::Vector3d& position, double stamp) {
-    if (positions.size() <= index) {
-      positions.resize(index + 1);
+  void set(size_t index, const Pose& pose, double stamp) {
+    if (poses.size() <= index) {
+      poses.resize(index + 1);
       stamps.resize(index + 1);
     }
-    positions[index] = position;
+    poses[index] = pose;
     stamps[index] = stamp;
   }
 };
 
 eval::SamePlace trueLoops(std::shared_ptr<FrameTruth> truth, const eval::TrueLoopRule& rule) {
   return [truth, rule](size_t query, size_t match) {
-    return rule.isTrueLoop(truth->positions[query], truth->stamps[query], truth->positions[match],
-                           truth->stamps[match]);
+    return rule.isTrueLoop(truth->poses[query].position, truth->stamps[query],
+                           truth->poses[match].position, truth->stamps[match]);
   };
 }
 
@@ -212,7 +213,8 @@ DetectorSource corridorSource(double laps) {
     sim::SequenceGenerator sequence(world, camera, options);
     sim::SequenceFrame frame;
     while (sequence.next(&frame)) {
-      truth->set(frame.index, Eigen::Vector3d(frame.truth.x, frame.truth.y, 0.0), frame.stamp);
+      truth->set(frame.index, planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw),
+                 frame.stamp);
       eval::DetectorFrame played;
       played.stamp = frame.stamp;
       played.pose = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
@@ -226,6 +228,7 @@ DetectorSource corridorSource(double laps) {
     }
   };
   source.same_place = trueLoops(truth, eval::TrueLoopRule{});
+  source.true_pose = [truth](size_t frame) { return truth->poses.at(frame); };
   return source;
 }
 
@@ -253,12 +256,33 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
                     const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
     playBagFrames(options, colour,
                   [&](size_t index, const eval::DetectorFrame& frame, const Pose& true_pose) {
-                    truth->set(index, true_pose.position, frame.stamp);
+                    truth->set(index, true_pose, frame.stamp);
                     sink(index, frame);
                   });
   };
   source.same_place = trueLoops(truth, rule);
+  // Without a truth topic the "truth" is the odometry itself: no trajectory error to report.
+  if (!truth_topic.empty())
+    source.true_pose = [truth](size_t frame) { return truth->poses.at(frame); };
   return source;
+}
+
+// The keyframes' odometry, and the same corrected by the reference pose graph with the metric
+// loops of the configured pass, against the truth (what the demo's summary reports).
+void printTrajectoryError(const eval::DetectorEvaluation& result,
+                          const std::function<Pose(size_t frame)>& true_pose) {
+  std::vector<Pose> truth;
+  for (const size_t frame : result.keyframe_frames) truth.push_back(true_pose(frame));
+  const eval::PoseGraphReplay replay = eval::replayIntoPoseGraph(result);
+  const eval::TrajectoryError odometry = eval::trajectoryError(result.keyframe_poses, truth);
+  const eval::TrajectoryError corrected = eval::trajectoryError(replay.corrected, truth);
+  std::printf(
+      "  trajectory RMSE: odometry %.3f m, corrected by the pose graph %.3f m (first pose "
+      "aligned); best similarity fit %.3f m and %.3f m (scale %.3f and %.3f); %zu metric loops "
+      "given to the graph, %zu refused (%zu of them true)\n",
+      odometry.first_pose_rmse, corrected.first_pose_rmse, odometry.similarity_rmse,
+      corrected.similarity_rmse, odometry.scale, corrected.scale, replay.metric_loops,
+      replay.refused_loops, replay.refused_true_loops);
 }
 
 int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
@@ -329,6 +353,7 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
     }
     std::printf("\n");
     for (const eval::DetectorPass& pass : result.sweep) printPass("sweep", pass);
+    if (source.true_pose) printTrajectoryError(result, source.true_pose);
     const std::string path = eval::writeDetectorReport(
         output_folder, label,
         source.description + "; config " + (config.empty() ? "defaults" : config), result);

@@ -19,6 +19,9 @@ struct DetectorSource {
   eval::SamePlace same_place;
   bool has_intrinsics = false;  ///< False: the geometric check is switched off (said so).
   bool has_odometry = false;    ///< False: the odometry gate is switched off (said so).
+  /// The true pose at a frame, where the source has one besides its odometry (the corridor, a
+  /// bag with a truth topic): the keyframes' trajectory error is then reported.
+  std::function<Pose(size_t frame)> true_pose;
 };
 
 /// An image sequence. Without poses: images 1 s apart, each 1 m further on a straight path

@@ -57,6 +57,9 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   Image folders have no odometry: images are 1 s and 1 m apart (standing still, see
   --still-threshold, adds no keyframe), the odometry gate is off. The corridor plays its drifting odometry and camera intrinsics; a bag plays every image
   with its odometry and camera_info, as the node receives them.
+  Where true poses are known besides the odometry (the corridor, a bag with --truth-topic), the
+  keyframes' trajectory RMSE is reported too: the odometry's, and after the reference pose graph
+  (pose_graph node, default config/pose_graph.yaml) took the published metric loops.
 
 GROUND TRUTH, one of:
   --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)

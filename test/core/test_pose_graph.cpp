@@ -234,5 +234,33 @@ TEST(TrajectoryError, AScaleDriftShowsInTheFirstPoseFitOnly) {
   EXPECT_EQ(eval::trajectoryError({}, {}).first_pose_rmse, -1.0);
 }
 
+TEST(PoseGraphReplay, TheDetectorsMetricLoopsCorrectItsKeyframesAndWrongOnesAreCounted) {
+  const Drive drive = driveLaps(2);
+  eval::DetectorEvaluation evaluation;
+  evaluation.keyframe_poses = drive.odometry;
+  const size_t lap = drive.keyframes_per_lap;
+  for (size_t i = lap + 5; i < drive.truth.size(); i += 3) {
+    eval::PublishedLoop loop;
+    loop.query_id = i;
+    loop.match_id = i - lap;
+    loop.correct = true;
+    loop.metric_pose = trueLoop(drive, i, i - lap);
+    if (i == lap + 35) {  // A wrong one: another place, the pose of the right one.
+      loop.match_id = 40;
+      loop.metric_pose->match_id = 40;
+      loop.correct = false;
+    }
+    evaluation.configured.loops.push_back(loop);
+  }
+  evaluation.configured.loops.push_back(eval::PublishedLoop{});  // No pose: not given.
+  const eval::PoseGraphReplay replay = eval::replayIntoPoseGraph(evaluation);
+  EXPECT_EQ(replay.metric_loops, evaluation.configured.loops.size() - 1);
+  EXPECT_EQ(replay.refused_loops, 1u);
+  EXPECT_EQ(replay.refused_true_loops, 0u);
+  ASSERT_EQ(replay.corrected.size(), drive.truth.size());
+  EXPECT_LT(eval::trajectoryError(replay.corrected, drive.truth).first_pose_rmse, 0.10);
+  EXPECT_GT(eval::trajectoryError(drive.odometry, drive.truth).first_pose_rmse, 0.5);
+}
+
 }  // namespace
 }  // namespace landmark_loop_closure

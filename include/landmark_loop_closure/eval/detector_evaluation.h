@@ -5,11 +5,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 
@@ -40,6 +42,9 @@ struct PublishedLoop {
   double score = 0.0;
   bool verified = false;  ///< The geometric check confirmed it.
   bool correct = false;
+  /// Its metric relative pose in the robot's base frame (turned with options.camera_mount), the
+  /// edge a pose graph takes; absent for appearance-only and scale-free loops.
+  std::optional<LoopConstraint> metric_pose;
 };
 
 /// One shortlisted candidate of a keyframe and what became of it (the configured pass only).
@@ -75,6 +80,7 @@ struct DetectorEvaluation {
   size_t refused_frames = 0;  ///< Frames the detector refused as bad input.
   size_t revisits = 0;        ///< Keyframes with a true place among the earlier keyframes.
   std::vector<size_t> keyframe_frames;  ///< Frame index of each keyframe, by keyframe id.
+  std::vector<Pose> keyframe_poses;     ///< Odometry pose of each keyframe, by keyframe id.
   DetectorPass configured;          ///< At the configuration's min_score: what the node publishes.
   std::vector<DetectorPass> sweep;  ///< Other thresholds, high to low.
   double recall_at_100_precision = 0.0;  ///< Best recall of a pass without a false loop.

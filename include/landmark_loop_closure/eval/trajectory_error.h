@@ -2,6 +2,8 @@
 
 #include <vector>
 
+#include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/eval/detector_evaluation.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
 namespace landmark_loop_closure {
@@ -16,8 +18,18 @@ struct TrajectoryError {
   double similarity_rmse = -1.0;
   double scale = 1.0;  ///< Of that similarity transform.
 };
-TrajectoryError trajectoryError(const std::vector<Pose>& estimated,
-                                const std::vector<Pose>& truth);
+TrajectoryError trajectoryError(const std::vector<Pose>& estimated, const std::vector<Pose>& truth);
+
+/// The configured pass replayed into the reference pose graph as the pose_graph node receives it:
+/// keyframes in order, each metric loop after its query keyframe, optimised on arrival.
+struct PoseGraphReplay {
+  std::vector<Pose> corrected;  ///< By keyframe id, like DetectorEvaluation::keyframe_poses.
+  size_t metric_loops = 0;      ///< Loops given to the graph.
+  size_t refused_loops = 0;     ///< Of those, refused or switched off.
+  size_t refused_true_loops = 0;
+};
+PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
+                                    const PoseGraphOptions& options = {});
 
 }  // namespace eval
 }  // namespace landmark_loop_closure
