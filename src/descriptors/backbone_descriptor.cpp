@@ -119,6 +119,27 @@ FeatureMaps BackboneDescriptor::appearanceMaps(const cv::Mat& image) const {
   return forward(image)[0];
 }
 
+std::string BackboneDescriptor::describesAs(cv::Size image) const {
+  std::ostringstream text;
+  text << "backbone: " << image.width << "x" << image.height << " images ";
+  if (hogDimension() > 0 && image.width < options_.min_network_width) {
+    text << "are narrower than descriptor/backbone/min_network_width ("
+         << options_.min_network_width << " px): the HOG alone describes them ("
+         << options_.hog_size.width << "x" << options_.hog_size.height
+         << " window), the network does not run; set "
+         << "min_network_width to 0 to run it anyway";
+    return text.str();
+  }
+  text << "go through the network (" << options_.layer << " at " << options_.input_size.width << "x"
+       << options_.input_size.height << ", " << options_.grid_rows << "x" << options_.grid_cols
+       << " grid)";
+  if (hogDimension() > 0 && options_.hog_weight > 0.0) {
+    text << " with a whole-image HOG at weight " << options_.hog_weight;
+  }
+  if (options_.max_landmarks > 0) text << ", up to " << options_.max_landmarks << " landmarks";
+  return text.str();
+}
+
 ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
   ImageDescriptor descriptor;
   if (image.empty() || image.depth() != CV_8U) return descriptor;

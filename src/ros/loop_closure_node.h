@@ -84,6 +84,8 @@ class LoopClosureNode {
   void reportRejected(const InputError& error);
   /// Records (and warns once per period and cause) whether camera_info suits an accepted frame.
   void noteCalibration(const std::optional<CalibrationProblem>& problem);
+  /// Logs once which path the descriptor takes for images of this size (and why).
+  void sayDescriptorPath(cv::Size image_size);
 
   // DetectorRuntime callbacks, on its worker thread with the detector locked.
   static NodeKeyframe nodeKeyframe(const KeyframeJob& job);
@@ -180,6 +182,9 @@ class LoopClosureNode {
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;
   std::atomic<uint64_t> frames_admitted_{0};
+  /// Which path the descriptor takes for these images has been logged (once, at the first
+  /// image the detector was free for; again never).
+  std::atomic<bool> descriptor_path_said_{false};
   std::atomic<uint64_t> map_keyframes_{0};  ///< The database's size, set wherever it changes.
   std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};

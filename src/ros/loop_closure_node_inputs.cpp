@@ -200,6 +200,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     return;
   }
   ++frames_admitted_;
+  if (!descriptor_path_said_) sayDescriptorPath(cv::Size(image->width, image->height));
   noteCalibration(calibration_problem);
   const Selection& selection = admission.selection;
   if (selection.verdict == SelectionVerdict::kOdometryJump) {
@@ -223,6 +224,21 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
                       "far); raise worker_queue_size or keyframe/min_motion",
                       static_cast<unsigned long>(runtime_->keyframesDropped()));
   }
+}
+
+void LoopClosureNode::sayDescriptorPath(cv::Size image_size) {
+  // Only when the detector is free (never waits on the worker); online training has no
+  // descriptor yet, so the first image after it says it.
+  std::string text;
+  if (!runtime_->tryWithDetector([&](LoopDetector& detector) {
+        if (detector.extractor()) text = detector.extractor()->describesAs(image_size);
+        return false;
+      }) ||
+      text.empty()) {
+    return;
+  }
+  if (descriptor_path_said_.exchange(true)) return;  // Another callback said it meanwhile.
+  ROS_INFO("Descriptor %s", text.c_str());
 }
 
 void LoopClosureNode::noteCalibration(const std::optional<CalibrationProblem>& problem) {

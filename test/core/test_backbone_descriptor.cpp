@@ -174,6 +174,13 @@ TEST_F(BackboneDescriptorTest, SmallImagesAreDescribedByHogAloneAndWideOnesFuseI
   double norm = 0.0;
   for (const float v : wide.global) norm += v * v;
   EXPECT_NEAR(norm, 1.0, 1e-4);
+  // What the node logs at its first image says which path and why.
+  const std::string small_path = descriptor.describesAs(cv::Size(64, 32));
+  EXPECT_NE(small_path.find("HOG alone"), std::string::npos) << small_path;
+  EXPECT_NE(small_path.find("min_network_width (100 px)"), std::string::npos) << small_path;
+  const std::string wide_path = descriptor.describesAs(cv::Size(320, 240));
+  EXPECT_NE(wide_path.find("go through the network"), std::string::npos) << wide_path;
+  EXPECT_NE(wide_path.find("HOG at weight 0.25"), std::string::npos) << wide_path;
 }
 
 TEST_F(BackboneDescriptorTest, ImagesItCannotReadGiveAnEmptyDescriptor) {

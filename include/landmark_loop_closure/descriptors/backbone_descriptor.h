@@ -67,6 +67,7 @@ class BackboneDescriptor : public DescriptorExtractor {
   explicit BackboneDescriptor(const BackboneOptions& options);
 
   std::string name() const override { return "backbone"; }
+  std::string describesAs(cv::Size image) const override;
   int globalDimension() const override { return global_dimension_; }
   /// `image`: 8-bit grey, BGR or BGRA, any size.
   ImageDescriptor describe(const cv::Mat& image) const override;

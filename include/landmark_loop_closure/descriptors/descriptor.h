@@ -53,6 +53,12 @@ class DescriptorExtractor {
   virtual bool reranks() const { return false; }
   /// True when describe() wants the camera's colour (8-bit BGR) rather than grey.
   virtual bool wantsColour() const { return false; }
+  /// One line saying how images of this size are described (which path, and why when a size
+  /// rule picks it), for the node to log once at its first image.
+  virtual std::string describesAs(cv::Size image) const {
+    return name() + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+           " images, " + std::to_string(globalDimension()) + " values per global vector";
+  }
   /// The feature maps the appearance check compares cell by cell, for an 8-bit grey or BGR
   /// image; empty when the descriptor has none (only the backbone has).
   virtual FeatureMaps appearanceMaps(const cv::Mat& /*image*/) const { return {}; }
