@@ -320,10 +320,6 @@ bool PoseGraph::solve(size_t first_free, OptimisationReport* report) {
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   report->ran = true;
-  report->converged = report->converged || summary.termination_type == ceres::CONVERGENCE;
-  report->iterations += static_cast<int>(summary.iterations.size());
-  if (report->initial_cost == 0.0) report->initial_cost = summary.initial_cost;
-  report->final_cost = summary.final_cost;
   if (!summary.IsSolutionUsable()) return false;
   for (LoopEdge& edge : loops_) edge.optimised = edge.active;
   return true;

@@ -64,12 +64,7 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
-  for (const std::string& key : source.keys()) {
-    if (!reader.isKnown(key)) {
-      ROS_WARN("Unknown parameter %s/%s is ignored (misspelt? see config/default.yaml)",
-               private_node.getNamespace().c_str(), key.c_str());
-    }
-  }
+  warnUnknownParameters(source, reader, private_node, "config/default.yaml");
   const std::string problems = reader.errors() + options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   return options;

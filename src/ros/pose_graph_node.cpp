@@ -31,12 +31,7 @@ PoseGraphNodeOptions loadPoseGraphOptions(const ros::NodeHandle& private_node) {
   OptionReader reader(source);
   PoseGraphNodeOptions options;
   PoseGraphNodeOptions::parameters().read(&reader, &options);
-  for (const std::string& key : source.keys()) {
-    if (!reader.isKnown(key)) {
-      ROS_WARN("Unknown parameter %s/%s is ignored (misspelt? see config/pose_graph.yaml)",
-               private_node.getNamespace().c_str(), key.c_str());
-    }
-  }
+  warnUnknownParameters(source, reader, private_node, "config/pose_graph.yaml");
   const std::string problems = reader.errors() + options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   return options;

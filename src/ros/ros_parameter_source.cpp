@@ -1,5 +1,7 @@
 #include "ros_parameter_source.h"
 
+#include <ros/console.h>
+
 namespace landmark_loop_closure {
 
 ParameterLookup fromXmlRpc(XmlRpc::XmlRpcValue& value, double* out) {
@@ -53,6 +55,16 @@ std::vector<std::string> RosParameterSource::keys() const {
     if (name.compare(0, prefix.size(), prefix) == 0) result.push_back(name.substr(prefix.size()));
   }
   return result;
+}
+
+void warnUnknownParameters(const RosParameterSource& source, const OptionReader& reader,
+                           const ros::NodeHandle& private_node, const std::string& documented_in) {
+  for (const std::string& key : source.keys()) {
+    if (!reader.isKnown(key)) {
+      ROS_WARN("Unknown parameter %s/%s is ignored (misspelt? see %s)",
+               private_node.getNamespace().c_str(), key.c_str(), documented_in.c_str());
+    }
+  }
 }
 
 }  // namespace landmark_loop_closure

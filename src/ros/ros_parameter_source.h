@@ -40,4 +40,9 @@ class RosParameterSource : public ParameterSource {
   ros::NodeHandle node_;
 };
 
+/// One WARN per key set under the node's namespace that `reader` did not read (misspelt?),
+/// pointing at `documented_in`, the file that lists every key.
+void warnUnknownParameters(const RosParameterSource& source, const OptionReader& reader,
+                           const ros::NodeHandle& private_node, const std::string& documented_in);
+
 }  // namespace landmark_loop_closure

@@ -71,12 +71,8 @@ struct LoopVerdict {
 };
 
 struct OptimisationReport {
-  bool ran = false;
-  bool converged = false;
-  int iterations = 0;
+  bool ran = false;  ///< False when there was nothing new to solve.
   double milliseconds = 0.0;
-  double initial_cost = 0.0;
-  double final_cost = 0.0;
   std::vector<uint64_t> switched_off;  ///< Loop indices switched off by this optimisation.
 };
 
