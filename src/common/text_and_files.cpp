@@ -6,8 +6,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace landmark_loop_closure {
 
@@ -76,6 +80,37 @@ std::string expandPath(const std::string& path) {
     i = end + (braced ? 1 : 0) - 1;
   }
   return expanded;
+}
+
+std::string keyValueDifferences(const std::string& first, const std::string& second,
+                                const std::string& first_name, const std::string& second_name) {
+  // Keys in first-seen order, so the message follows the identity's own order.
+  std::vector<std::string> keys;
+  std::map<std::string, std::pair<std::string, std::string>> values;
+  const auto read = [&](const std::string& text, bool is_first) {
+    std::istringstream words(text);
+    std::string word;
+    while (words >> word) {
+      const size_t equals = word.find('=');
+      const std::string key = equals == std::string::npos ? word : word.substr(0, equals);
+      const std::string value = equals == std::string::npos ? "" : word.substr(equals + 1);
+      if (values.find(key) == values.end()) {
+        keys.push_back(key);
+        values[key] = {"(unset)", "(unset)"};
+      }
+      (is_first ? values[key].first : values[key].second) = value;
+    }
+  };
+  read(first, true);
+  read(second, false);
+  std::string differences;
+  for (const std::string& key : keys) {
+    const auto& [a, b] = values[key];
+    if (a == b) continue;
+    if (!differences.empty()) differences += "; ";
+    differences += key + " is " + a + " in " + first_name + ", " + b + " in " + second_name;
+  }
+  return differences;
 }
 
 }  // namespace landmark_loop_closure

@@ -4,6 +4,7 @@
 #include "database/keyframe_codec.h"
 #include "database/store_connection.h"
 #include "database/vector_file.h"
+#include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/database/map_file_safety.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
@@ -185,8 +186,15 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
     }
     const std::string stored_identity = connection->meta("descriptor_identity").value_or("");
     if (descriptor_identity != nullptr && stored_identity != *descriptor_identity) {
-      throw storeError(path, "holds keyframes of other descriptors (" + stored_identity +
-                                 "; this node uses " + *descriptor_identity + ")");
+      // Name the settings that differ, so a changed default or setting is found at a glance.
+      const std::string differences =
+          keyValueDifferences(stored_identity, *descriptor_identity, "the map", "this node");
+      throw storeError(
+          path,
+          "holds keyframes of other descriptors (" +
+              (differences.empty() ? stored_identity + "; this node uses " + *descriptor_identity
+                                   : differences) +
+              "): set them as the map has them to open it, or name another map file");
     }
     const std::string stored_dimension = connection->meta("global_dimension").value_or("");
     if (descriptor_identity == nullptr) {

@@ -244,8 +244,9 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
           .number("hog_weight", &O::hog_weight, between(0, 1),
                   "share of a whole-image HOG's cosine in the global score.")
           .integer("min_network_width", &O::min_network_width, between(0, 4096),
-                   "images narrower than this (px) are described by the HOG alone: the network "
-                   "fails on tiny images (Nordland's 64x32), HOG does not.")
+                   "images narrower than this (px) are described by the HOG alone: at 64 px "
+                   "wide the network loses to the HOG (Nordland's 64x32), from 96 px it wins "
+                   "(Gardens Point scaled down; bench/README).")
           .integer("hog_width", &O::hog_width, between(16, 512),
                    "the HOG's window: the image is resized to it (multiples of 8); ...")
           .integer("hog_height", &O::hog_height, between(16, 512),

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <numeric>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
@@ -250,13 +252,24 @@ DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)
   return result;
 }
 
+cv::Mat readImage(const std::string& path, bool colour, int width) {
+  cv::Mat image = cv::imread(path, colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+  if (image.empty() || width <= 0 || width == image.cols) return image;
+  const int height = std::max(
+      1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
+  cv::Mat scaled;
+  cv::resize(image, scaled, cv::Size(width, height), 0.0, 0.0,
+             width < image.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
+  return scaled;
+}
+
 DescribedImages describeImageFiles(const std::vector<std::string>& paths,
-                                   const DescriptorExtractor& extractor, const Progress& progress) {
+                                   const DescriptorExtractor& extractor, const Progress& progress,
+                                   int width) {
   DescribedImages result = describeImages(
       paths.size(),
-      [&paths, &extractor](size_t i) {
-        return cv::imread(paths[i],
-                          extractor.wantsColour() ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+      [&paths, &extractor, width](size_t i) {
+        return readImage(paths[i], extractor.wantsColour(), width);
       },
       extractor, progress);
   for (std::string& entry : result.undecodable) entry = paths[std::stoul(entry)];

@@ -112,7 +112,8 @@ std::vector<bool> jointStops(const std::vector<std::string>& first,
 DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const eval::GroundTruth& truth, const std::vector<Pose>& poses,
                                    const std::vector<double>& stamps,
-                                   const CameraIntrinsics& intrinsics, double still_threshold) {
+                                   const CameraIntrinsics& intrinsics, double still_threshold,
+                                   int image_width) {
   DetectorSource source;
   source.has_intrinsics = intrinsics.valid();
   if (!poses.empty() && (poses.size() != paths.size() || stamps.size() != paths.size())) {
@@ -138,7 +139,10 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
            << intrinsics.image_size.height;
     source.description += camera.str();
   }
-  source.play = [paths, poses, stamps, intrinsics, still_threshold](
+  if (image_width > 0) {
+    source.description += "; every image scaled to " + std::to_string(image_width) + " px wide";
+  }
+  source.play = [paths, poses, stamps, intrinsics, still_threshold, image_width](
                     bool colour,
                     const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
     cv::Size size;
@@ -147,7 +151,7 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
     for (size_t i = 0; i < paths.size(); ++i) {
       eval::DetectorFrame frame;
       frame.stamp = stamps.empty() ? 1.0 + static_cast<double>(i) : stamps[i];
-      frame.image = cv::imread(paths[i], colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+      frame.image = eval::readImage(paths[i], colour, image_width);
       if (frame.image.empty()) {
         std::fprintf(stderr, "lcd_evaluate: skipped an image that does not decode: %s\n",
                      paths[i].c_str());
@@ -322,9 +326,14 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
         makeVariantExtractor(&variant, name, none, output_folder);
     run_options.descriptor = variant.options;
     const bool colour = extractor->wantsColour();
+    cv::Size first_image;  // What the node would log at its first image.
     const eval::FramePlayer play =
-        [&source, colour](const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
-          source.play(colour, sink);
+        [&source, colour,
+         &first_image](const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
+          source.play(colour, [&](size_t index, const eval::DetectorFrame& frame) {
+            if (first_image.empty()) first_image = frame.image.size();
+            sink(index, frame);
+          });
         };
     const auto progress = [name](size_t done, size_t total) {
       if (total == 0) {
@@ -341,6 +350,9 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
                                   : name + arguments.get("--name-suffix");
     std::printf("%s: %zu frames, %zu keyframes (%zu refused), %zu revisit a place\n", label.c_str(),
                 result.frames, result.keyframes, result.refused_frames, result.revisits);
+    if (!first_image.empty()) {
+      std::printf("  descriptor %s\n", extractor->describesAs(first_image).c_str());
+    }
     printPass("configured", result.configured);
     std::printf(
         "  R@100P %.3f (min_score %.3f)  keyframe %.2f/%.2f ms (median/p99, whole "

@@ -35,7 +35,7 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const std::vector<Pose>& poses = {},
                                    const std::vector<double>& stamps = {},
                                    const CameraIntrinsics& intrinsics = {},
-                                   double still_threshold = 0.0);
+                                   double still_threshold = 0.0, int image_width = 0);
 
 /// Frames at which two aligned traversals both stand still: frame i's grey picture (64 px wide)
 /// differs from frame i - 1's by less than `threshold` grey levels on average in each traversal

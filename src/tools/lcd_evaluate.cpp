@@ -109,6 +109,8 @@ OPTIONS:
   --contact-sheet N    also draw the N best-scoring pairs (green right, red wrong)
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
+  --image-width W      scale every image to W px wide first (aspect kept, area averaging):
+                       how a smaller camera sees the same route
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -151,6 +153,10 @@ struct MemorySequence {
 int run(const Arguments& arguments) {
   const std::string output_folder = arguments.get("--output", "lcd_results");
   const double gt_distance = arguments.number("--gt-distance", 5.0);
+  const int image_width = static_cast<int>(arguments.number("--image-width", 0));
+  if (image_width < 0 || image_width > 8192) {
+    throw std::invalid_argument("--image-width must be between 1 and 8192 px (0: as read)");
+  }
   const double gt_gap = arguments.number("--gt-gap", 30.0);
   if (arguments.has("--detector") && arguments.has("--corridor")) {
     return runDetectorMode(arguments, corridorSource(arguments.number("--corridor", 2.0)),
@@ -346,10 +352,11 @@ int run(const Arguments& arguments) {
     if (arguments.has("--camera-info")) {
       intrinsics = readCameraInfoFile(arguments.get("--camera-info"));
     }
-    return runDetectorMode(arguments,
-                           imageSequenceSource(database_paths, truth, poses, stamps, intrinsics,
-                                               arguments.number("--still-threshold", 5.0)),
-                           run.dataset, output_folder);
+    return runDetectorMode(
+        arguments,
+        imageSequenceSource(database_paths, truth, poses, stamps, intrinsics,
+                            arguments.number("--still-threshold", 5.0), image_width),
+        run.dataset, output_folder);
   }
 
   // Training images of the learned descriptors: --train-images, or with --train-on-eval the
@@ -359,17 +366,19 @@ int run(const Arguments& arguments) {
   if (arguments.has("--train-images")) {
     auto paths =
         std::make_shared<std::vector<std::string>>(listImages(arguments.get("--train-images")));
-    training = {paths->size(),
-                [paths](size_t i) { return cv::imread((*paths)[i], cv::IMREAD_COLOR); },
-                arguments.get("--train-images")};
+    training = {
+        paths->size(),
+        [paths, image_width](size_t i) { return readImage((*paths)[i], true, image_width); },
+        arguments.get("--train-images")};
   } else if (arguments.has("--train-on-eval") && !memory.images.empty()) {
     training = {memory.images.size(), [&memory](size_t i) { return memory.images[i]; },
                 "the evaluated sequence itself (--train-on-eval)"};
   } else if (arguments.has("--train-on-eval")) {
-    training = {
-        database_paths.size(),
-        [&database_paths](size_t i) { return cv::imread(database_paths[i], cv::IMREAD_COLOR); },
-        "the evaluated database images themselves (--train-on-eval)"};
+    training = {database_paths.size(),
+                [&database_paths, image_width](size_t i) {
+                  return readImage(database_paths[i], true, image_width);
+                },
+                "the evaluated database images themselves (--train-on-eval)"};
   }
 
   std::vector<Evaluation> evaluations;
@@ -384,16 +393,25 @@ int run(const Arguments& arguments) {
           memory.images.size(), [&](size_t i) { return memory.images[i]; }, *extractor,
           progressPrinter("describing (" + name + ")"));
     } else {
-      database = describeImageFiles(database_paths, *extractor,
-                                    progressPrinter("describing database (" + name + ")"));
+      database =
+          describeImageFiles(database_paths, *extractor,
+                             progressPrinter("describing database (" + name + ")"), image_width);
     }
     for (const std::string& path : database.undecodable) {
       std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
     }
+    const cv::Mat first_image = !memory.images.empty() ? memory.images.front()
+                                : database_paths.empty()
+                                    ? cv::Mat()
+                                    : readImage(database_paths.front(), false, image_width);
+    if (!first_image.empty()) {
+      std::printf("%-10s %s\n", name.c_str(), extractor->describesAs(first_image.size()).c_str());
+    }
     Evaluation evaluation;
     if (traversal) {
-      const DescribedImages queries = describeImageFiles(
-          query_paths, *extractor, progressPrinter("describing queries (" + name + ")"));
+      const DescribedImages queries =
+          describeImageFiles(query_paths, *extractor,
+                             progressPrinter("describing queries (" + name + ")"), image_width);
       for (const std::string& path : queries.undecodable) {
         std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
       }
@@ -427,7 +445,7 @@ int run(const Arguments& arguments) {
           if (!memory.images.empty()) return memory.images[i];
           const std::vector<std::string>& paths =
               query_side && traversal ? query_paths : database_paths;
-          return cv::imread(paths[i], cv::IMREAD_COLOR);
+          return readImage(paths[i], true, image_width);
         };
       };
       const std::string sheet = output_folder + "/contact_" + name + ".png";

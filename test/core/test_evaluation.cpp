@@ -66,6 +66,19 @@ TEST(Metrics, VprBenchConventionDividesByTheCorrectlyMatchedQueries) {
   EXPECT_NEAR(m.vprbench.auc, 1.0 / 3.0 + 1.0 / 3.0 + (2.0 / 3.0 + 0.75) / 2.0 / 3.0, 1e-12);
 }
 
+TEST(Metrics, VprBenchFiguresMatchScikitLearnsOnTiedScores) {
+  // scripts/vprbench_reference.py computes these with scikit-learn's precision_recall_curve and
+  // auc, as VPR-Bench does, for the same generated outcomes (60 queries, 23 score levels).
+  std::vector<QueryOutcome> outcomes;
+  for (size_t i = 0; i < 60; ++i) {
+    outcomes.push_back(outcome(i, static_cast<double>((i * 37) % 23) / 22.0, (i * 11) % 7 < 4));
+  }
+  const Metrics m = computeMetrics(outcomes);
+  EXPECT_EQ(m.vprbench.correct_matches, 34u);
+  EXPECT_NEAR(m.vprbench.auc, 0.55471818353560931, 1e-12);
+  EXPECT_NEAR(m.vprbench.recall_at_100_precision, 0.058823529411764705, 1e-12);
+}
+
 TEST(Metrics, PerfectAndEmpty) {
   const Metrics perfect = computeMetrics({outcome(0, 0.9, true), outcome(1, 0.5, true)});
   EXPECT_DOUBLE_EQ(perfect.recall_at_100_precision, 1.0);

@@ -247,6 +247,18 @@ TEST(NodeOptions, PathsExpandHomeAndVariablesAsAShellWould) {
 
 // Without the fetched backbone the node falls back to the package's encoder, which re-ranks:
 // a score normalisation and its standardised threshold are replaced, and the warning says so.
+TEST(KeyValueDifferences, NamesEachSettingThatDiffersInTheFirstTextsOrder) {
+  EXPECT_EQ(keyValueDifferences("type=backbone hog_weight=0.1 min_network_width=160",
+                                "type=backbone hog_weight=0.1 min_network_width=96", "the map",
+                                "this node"),
+            "min_network_width is 160 in the map, 96 in this node");
+  EXPECT_EQ(keyValueDifferences("type=hog b=1", "type=calc condition_window=10", "A", "B"),
+            "type is hog in A, calc in B; b is 1 in A, (unset) in B; condition_window is (unset) "
+            "in A, 10 in B");
+  EXPECT_EQ(keyValueDifferences("a=1 b=2", "a=1 b=2", "A", "B"), "");
+  EXPECT_EQ(keyValueDifferences("", "", "A", "B"), "");
+}
+
 TEST(NodeOptions, BackboneFallbackDropsTheScoreNormalisationItCannotUse) {
   const fs::path empty_models = fs::temp_directory_path() / "lcd_no_backbone_models";
   fs::create_directories(empty_models);

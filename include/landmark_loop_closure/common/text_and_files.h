@@ -16,4 +16,10 @@ std::vector<double> parseNumberList(const std::string& text);
 /// the variable's value. An unset variable is left as written, so the error that follows names it.
 std::string expandPath(const std::string& path);
 
+/// Two "key=value key=value" texts (a descriptor's identity) compared key by key: "key is A in
+/// the first, B in the second" for each key that differs, joined by "; " (a key one side lacks
+/// reads "(unset)"). "" when they agree key by key.
+std::string keyValueDifferences(const std::string& first, const std::string& second,
+                                const std::string& first_name, const std::string& second_name);
+
 }  // namespace landmark_loop_closure

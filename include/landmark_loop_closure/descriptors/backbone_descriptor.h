@@ -47,7 +47,7 @@ struct BackboneOptions {
   /// `min_network_width` pixels wide; narrower images (where the network sees too little) are
   /// described by the HOG alone. 0 and 0: the network alone, no HOG computed or stored.
   double hog_weight = 0.1;
-  int min_network_width = 160;
+  int min_network_width = 96;
   cv::Size hog_size{96, 72};     ///< HOG window (16x16 blocks, 8 px stride and cells, 9 bins).
   bool float16_features = true;  ///< Landmark features stored as float16.
 };

@@ -41,9 +41,15 @@ struct DescribedImages {
 /// `load(i)` returns image i (empty when it cannot be read).
 DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)>& load,
                                const DescriptorExtractor& extractor, const Progress& progress = {});
+/// With `width` > 0 every image is first scaled to that many pixels wide (readImage).
 DescribedImages describeImageFiles(const std::vector<std::string>& paths,
                                    const DescriptorExtractor& extractor,
-                                   const Progress& progress = {});
+                                   const Progress& progress = {}, int width = 0);
+
+/// Reads an image file, in colour or grey; with `width` > 0 scaled to that many pixels wide,
+/// aspect kept, by area averaging (what a smaller camera would see). Empty when it does not
+/// decode.
+cv::Mat readImage(const std::string& path, bool colour, int width = 0);
 
 struct MatchingOptions {
   /// Sequence mode (queries == database): image i is only matched against images j with
