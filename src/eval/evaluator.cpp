@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 
@@ -250,6 +251,16 @@ DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)
     if (progress) progress(i + 1, count);
   }
   return result;
+}
+
+void standardiseConditions(DescribedImages* images, int window) {
+  if (window <= 0) return;
+  ConditionStandardiser standardiser(window);
+  for (size_t i = 0; i < images->size(); ++i) {
+    if (images->valid[i]) {
+      images->descriptors[i].global = standardiser.apply(images->descriptors[i].global);
+    }
+  }
 }
 
 cv::Mat readImage(const std::string& path, bool colour, int width) {

@@ -111,6 +111,9 @@ OPTIONS:
   --exclude-recent N   sequence mode: the N images before a query are never matched (default 50)
   --image-width W      scale every image to W px wide first (aspect kept, area averaging):
                        how a smaller camera sees the same route
+  --condition-window N standardise each traversal's global vectors as the node does
+                       (descriptor/condition_window: less the mean of the last N, in list order);
+                       default 0, the descriptors as described (VPR-Bench's way)
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -154,6 +157,7 @@ int run(const Arguments& arguments) {
   const std::string output_folder = arguments.get("--output", "lcd_results");
   const double gt_distance = arguments.number("--gt-distance", 5.0);
   const int image_width = static_cast<int>(arguments.number("--image-width", 0));
+  const int condition_window = static_cast<int>(arguments.number("--condition-window", 0));
   if (image_width < 0 || image_width > 8192) {
     throw std::invalid_argument("--image-width must be between 1 and 8192 px (0: as read)");
   }
@@ -400,6 +404,7 @@ int run(const Arguments& arguments) {
     for (const std::string& path : database.undecodable) {
       std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
     }
+    standardiseConditions(&database, condition_window);
     const cv::Mat first_image = !memory.images.empty() ? memory.images.front()
                                 : database_paths.empty()
                                     ? cv::Mat()
@@ -409,12 +414,13 @@ int run(const Arguments& arguments) {
     }
     Evaluation evaluation;
     if (traversal) {
-      const DescribedImages queries =
+      DescribedImages queries =
           describeImageFiles(query_paths, *extractor,
                              progressPrinter("describing queries (" + name + ")"), image_width);
       for (const std::string& path : queries.undecodable) {
         std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
       }
+      standardiseConditions(&queries, condition_window);
       evaluation = evaluateTraversals(database, queries, truth, *extractor, matching,
                                       progressPrinter("matching (" + name + ")"));
     } else {

@@ -79,6 +79,24 @@ TEST(Metrics, VprBenchFiguresMatchScikitLearnsOnTiedScores) {
   EXPECT_NEAR(m.vprbench.recall_at_100_precision, 0.058823529411764705, 1e-12);
 }
 
+TEST(Evaluation, ConditionStandardisationRunsInListOrderAndSkipsUndecodedImages) {
+  DescribedImages images;
+  images.descriptors.resize(3);
+  images.descriptors[0].global = {1.0f, 0.0f};
+  images.descriptors[1].global = {5.0f, 5.0f};  // Did not decode: neither changed nor averaged.
+  images.descriptors[2].global = {0.0f, 1.0f};
+  images.valid = {true, false, true};
+  standardiseConditions(&images, 0);
+  EXPECT_EQ(images.descriptors[0].global, (std::vector<float>{1.0f, 0.0f})) << "0: as described";
+  standardiseConditions(&images, 2);
+  EXPECT_EQ(images.descriptors[0].global, (std::vector<float>{0.0f, 0.0f}))
+      << "alone in its window";
+  EXPECT_EQ(images.descriptors[1].global, (std::vector<float>{5.0f, 5.0f}));
+  // (0, 1) less the mean of (1, 0) and (0, 1), normalised.
+  EXPECT_NEAR(images.descriptors[2].global[0], -std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(images.descriptors[2].global[1], std::sqrt(0.5), 1e-6);
+}
+
 TEST(Metrics, PerfectAndEmpty) {
   const Metrics perfect = computeMetrics({outcome(0, 0.9, true), outcome(1, 0.5, true)});
   EXPECT_DOUBLE_EQ(perfect.recall_at_100_precision, 1.0);

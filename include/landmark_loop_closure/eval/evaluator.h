@@ -46,6 +46,11 @@ DescribedImages describeImageFiles(const std::vector<std::string>& paths,
                                    const DescriptorExtractor& extractor,
                                    const Progress& progress = {}, int width = 0);
 
+/// Each valid image's global vector standardised as the detector standardises a camera's
+/// keyframes (ConditionStandardiser, `window` images, in list order): one traversal, one
+/// condition. 0 leaves them as described.
+void standardiseConditions(DescribedImages* images, int window);
+
 /// Reads an image file, in colour or grey; with `width` > 0 scaled to that many pixels wide,
 /// aspect kept, by area averaging (what a smaller camera would see). Empty when it does not
 /// decode.
