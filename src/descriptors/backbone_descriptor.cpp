@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "landmark_loop_closure/common/image_helpers.h"
+#include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "landmark_loop_closure/descriptors/registry.h"
@@ -102,14 +103,19 @@ int BackboneDescriptor::hogDimension() const {
   return uses_hog ? static_cast<int>(hog_.getDescriptorSize()) : 0;
 }
 
-std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image) const {
+std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image,
+                                                     BackboneStageTimes* times) const {
+  Clock::time_point start = Clock::now();
   const cv::Mat blob =
       networkInputBlob(image, options_.input_size, options_.colour, options_.mean, options_.std);
+  if (times) times->network_input = millisecondsSince(start);
   std::vector<cv::Mat> outputs;
   {
     std::lock_guard<std::mutex> lock(net_mutex_);
+    start = Clock::now();
     net_.setInput(blob);
     net_.forward(outputs, std::vector<cv::String>{options_.layer, options_.proposal_layer});
+    if (times) times->network = millisecondsSince(start);
   }
   return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
 }
@@ -141,6 +147,11 @@ std::string BackboneDescriptor::describesAs(cv::Size image) const {
 }
 
 ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
+  return describe(image, nullptr);
+}
+
+ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image,
+                                             BackboneStageTimes* times) const {
   ImageDescriptor descriptor;
   if (image.empty() || image.depth() != CV_8U) return descriptor;
   const int hog_dimension = hogDimension();
@@ -152,11 +163,13 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
   double network_weight = 1.0 - (hog_dimension > 0 ? options_.hog_weight : 0.0);
   if (hog_dimension > 0 && !network_sees_enough) network_weight = 0.0;
   if (network_weight > 0.0) {
-    const std::vector<FeatureMaps> maps = forward(image);
+    const std::vector<FeatureMaps> maps = forward(image, times);
+    Clock::time_point start = Clock::now();
     std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
     normaliseGrid(&grid, channels_, options_.normalisation);
     std::copy(grid.begin(), grid.end(), grid_begin);
     weightPart(grid_begin, hog_begin, network_weight);
+    if (times) times->grid = millisecondsSince(start);
 
     if (options_.max_landmarks > 0) {
       const cv::Size box_frame(kBoxFrameWidth, kBoxFrameHeight);
@@ -164,10 +177,13 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
       proposal_options.max_landmarks = options_.max_landmarks;
       proposal_options.max_area_fraction = options_.max_landmark_area;
       proposal_options.min_side_cells = 1;  // Backbone cells are coarse (16 px of the input).
+      start = Clock::now();
       for (const LandmarkProposal& proposal :
            proposeLandmarks(maps[1], box_frame, proposal_options)) {
         descriptor.landmark_boxes.push_back(proposal.box);
       }
+      if (times) times->landmark_proposals = millisecondsSince(start);
+      start = Clock::now();
       cv::Mat features = options_.hog_landmarks
                              ? describeLandmarksByHog(toWorkingImage(image, 320, 240), box_frame,
                                                       descriptor.landmark_boxes, 32)
@@ -175,9 +191,11 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
                                                  options_.landmark_grid);
       if (options_.float16_features && !features.empty()) features.convertTo(features, CV_16F);
       descriptor.landmark_features = features;
+      if (times) times->landmark_features = millisecondsSince(start);
     }
   }
   if (hog_dimension > 0 && network_weight < 1.0) {
+    const Clock::time_point start = Clock::now();
     const cv::Mat working =
         toWorkingImage(image, options_.hog_size.width, options_.hog_size.height);
     std::vector<float> hog;
@@ -185,6 +203,7 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image) const {
     normaliseL2(&hog);
     std::copy(hog.begin(), hog.end(), hog_begin);
     weightPart(hog_begin, hog_begin + hog_dimension, 1.0 - network_weight);
+    if (times) times->hog = millisecondsSince(start);
   }
   normaliseL2(&descriptor.global);
   return descriptor;

@@ -54,32 +54,33 @@ std::string validateNetworkInput(const std::string& prefix, const std::string& c
 
 cv::Mat networkInputBlob(const cv::Mat& image, cv::Size size, const std::string& colour,
                          const std::vector<double>& mean, const std::vector<double>& deviation) {
-  cv::Mat converted;
+  // Resized first, colour-converted after: both act on each channel alone (resizing) or on each
+  // pixel alone (channel order, grey to BGR), so the order changes nothing but the time - a
+  // camera frame is many times the network's input. Grey from colour is the exception: it rounds
+  // to 8 bits, so it stays first.
   const bool grey_input = image.channels() == 1;
-  if (colour == "grey") {
-    if (grey_input) {
-      converted = image;
-    } else {
-      cv::cvtColor(image, converted,
-                   image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    }
+  cv::Mat source;  // Never the caller's buffer as an output.
+  if (colour == "grey" && !grey_input) {
+    cv::cvtColor(image, source, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
   } else {
-    const bool rgb = colour == "rgb";
-    if (grey_input) {
-      cv::cvtColor(image, converted, cv::COLOR_GRAY2BGR);  // Equal channels: order is moot.
-    } else if (image.channels() == 4) {
-      cv::cvtColor(image, converted, rgb ? cv::COLOR_BGRA2RGB : cv::COLOR_BGRA2BGR);
-    } else if (rgb) {
-      cv::cvtColor(image, converted, cv::COLOR_BGR2RGB);  // A new buffer: never the caller's.
-    } else {
-      converted = image;
-    }
+    source = image;
   }
   cv::Mat resized;
-  const bool shrinking = converted.cols > size.width || converted.rows > size.height;
-  cv::resize(converted, resized, size, 0, 0, shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
+  const bool shrinking = source.cols > size.width || source.rows > size.height;
+  cv::resize(source, resized, size, 0, 0, shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
+  cv::Mat converted;  // Its own buffer: converting in place is not what cvtColor promises.
+  const bool rgb = colour == "rgb";
+  if (colour == "grey" || (!grey_input && resized.channels() == 3 && !rgb)) {
+    converted = resized;
+  } else if (grey_input) {
+    cv::cvtColor(resized, converted, cv::COLOR_GRAY2BGR);  // Equal channels: order is moot.
+  } else if (resized.channels() == 4) {
+    cv::cvtColor(resized, converted, rgb ? cv::COLOR_BGRA2RGB : cv::COLOR_BGRA2BGR);
+  } else {
+    cv::cvtColor(resized, converted, cv::COLOR_BGR2RGB);
+  }
   cv::Mat scaled;
-  resized.convertTo(scaled, CV_32F, 1.0 / 255.0);
+  converted.convertTo(scaled, CV_32F, 1.0 / 255.0);
   std::vector<cv::Mat> planes;
   cv::split(scaled, planes);
   for (size_t c = 0; c < planes.size(); ++c) {

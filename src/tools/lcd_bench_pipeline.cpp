@@ -8,11 +8,13 @@
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
 // Without folders, views of the generated corridor are used.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -23,6 +25,7 @@
 #include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/metrics.h"
@@ -50,9 +53,15 @@ std::vector<cv::Mat> loadImages(const std::string& folder, double corridor_offse
   return images;
 }
 
+// Stage times in the order the stages were first added (the order they run).
 struct Stages {
-  std::map<std::string, std::vector<double>> times;
-  void add(const std::string& stage, double milliseconds) { times[stage].push_back(milliseconds); }
+  std::vector<std::pair<std::string, std::vector<double>>> times;
+  void add(const std::string& stage, double milliseconds) {
+    auto found = std::find_if(times.begin(), times.end(),
+                              [&stage](const auto& entry) { return entry.first == stage; });
+    if (found == times.end()) found = times.insert(times.end(), {stage, {}});
+    found->second.push_back(milliseconds);
+  }
 };
 
 }  // namespace
@@ -83,6 +92,7 @@ int main(int argc, char** argv) {
   }
   const auto extractor = makeDescriptorExtractor(descriptor_options);
   const auto* convnet = dynamic_cast<const ConvNetDescriptor*>(extractor.get());
+  const auto* backbone = dynamic_cast<const BackboneDescriptor*>(extractor.get());
 
   std::vector<cv::Mat> database_images = loadImages(arguments["--database"], 0.0);
   const std::vector<cv::Mat> query_images = loadImages(arguments["--queries"], 0.6);
@@ -122,9 +132,13 @@ int main(int argc, char** argv) {
     for (const cv::Mat& image : query_images) {
       const Clock::time_point start = Clock::now();
       DescribeStageTimes describe_times;
-      ImageDescriptor query =
-          convnet ? convnet->describe(image, &describe_times) : extractor->describe(image);
+      BackboneStageTimes backbone_times;
+      ImageDescriptor query = convnet    ? convnet->describe(image, &describe_times)
+                              : backbone ? backbone->describe(image, &backbone_times)
+                                         : extractor->describe(image);
+      const Clock::time_point standardise_start = Clock::now();
       query.global = standardiser.apply(query.global);
+      const double standardise_ms = millisecondsSince(standardise_start);
       const double describe_ms = millisecondsSince(start);
       const Clock::time_point shortlist_start = Clock::now();
       const QueryResult result = database.query(query.global, 1e12, database_options);
@@ -153,19 +167,29 @@ int main(int argc, char** argv) {
       const double appearance_ms = millisecondsSince(appearance_start);
       if (appearance.inliers < 0) return 1;
       if (convnet) {
-        stages.add("1 prepare (grey, resize)", describe_times.prepare);
-        stages.add("2 network pass", describe_times.network);
-        stages.add("3 landmark proposals", describe_times.proposals);
-        stages.add("4 landmark descriptors", describe_times.landmark_features);
+        stages.add("prepare (grey, resize)", describe_times.prepare);
+        stages.add("network pass", describe_times.network);
+        stages.add("landmark proposals", describe_times.proposals);
+        stages.add("landmark descriptors", describe_times.landmark_features);
       }
-      stages.add(convnet ? "5 describe (1-4)"
-                         : "5 describe (resize, network, grid, landmarks, HOG, standardise)",
+      if (backbone) {
+        stages.add("describe: network input (resize, colour, normalise)",
+                   backbone_times.network_input);
+        stages.add("describe: network pass", backbone_times.network);
+        stages.add("describe: grid pooling", backbone_times.grid);
+        stages.add("describe: landmark proposals", backbone_times.landmark_proposals);
+        stages.add("describe: landmark descriptors", backbone_times.landmark_features);
+        stages.add("describe: whole-image HOG", backbone_times.hog);
+        stages.add("describe: condition standardisation", standardise_ms);
+      }
+      stages.add(convnet ? "describe (the above)"
+                         : "describe (resize, network, grid, landmarks, HOG, standardise)",
                  describe_ms);
-      stages.add("6 shortlist (exact search)", shortlist_ms);
-      stages.add("7 re-rank top-K", rerank_ms);
-      stages.add("8 thumbnail (WebP)", thumbnail_ms);
-      stages.add("9 total per keyframe", total_ms);
-      stages.add("a appearance check, when a candidate reaches it", appearance_ms);
+      stages.add("shortlist (exact search)", shortlist_ms);
+      stages.add("re-rank top-K", rerank_ms);
+      stages.add("thumbnail (WebP)", thumbnail_ms);
+      stages.add("total per keyframe", total_ms);
+      stages.add("appearance check, when a candidate reaches it", appearance_ms);
     }
   }
   std::printf(
@@ -175,7 +199,7 @@ int main(int argc, char** argv) {
   std::printf("| stage | median (ms) | p99 (ms) |\n|---|---|---|\n");
   for (const auto& [stage, times] : stages.times) {
     const eval::Percentiles p = eval::percentiles(times);
-    std::printf("| %s | %.2f | %.2f |\n", stage.substr(2).c_str(), p.median, p.p99);
+    std::printf("| %s | %.2f | %.2f |\n", stage.c_str(), p.median, p.p99);
   }
   std::printf(
       "\nbytes per keyframe: %.0f (database accounting), peak RSS %.0f MB (the process, query "

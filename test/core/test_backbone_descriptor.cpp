@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
+#include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "onnx_test_model.h"
 
 namespace landmark_loop_closure {
@@ -54,6 +55,46 @@ cv::Mat texturedImage(int seed, cv::Size size = cv::Size(320, 240)) {
                   cv::Scalar(shade(random), shade(random), shade(random)), cv::FILLED);
   }
   return image;
+}
+
+TEST(NetworkInputBlob, ResizingBeforeTheColourOrderGivesTheSameBlobAsAfter) {
+  // The blob is made from the resized image; converting the whole camera frame first (slower)
+  // must give the very same values for every input kind and channel order.
+  cv::Mat bgr(540, 960, CV_8UC3);
+  cv::randu(bgr, 0, 256);
+  cv::Mat bgra;
+  cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
+  cv::Mat grey;
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  const cv::Size size(256, 144);
+  const std::vector<double> mean = {0.485, 0.456, 0.406};
+  const std::vector<double> deviation = {0.229, 0.224, 0.225};
+  const auto reference = [&](const cv::Mat& image, int code) {
+    cv::Mat converted;  // Never image's buffer: cvtColor would convert the input in place.
+    if (code >= 0) {
+      cv::cvtColor(image, converted, code);
+    } else {
+      converted = image;
+    }
+    cv::Mat resized;
+    cv::resize(converted, resized, size, 0, 0, cv::INTER_AREA);
+    return networkInputBlob(resized, size, "bgr", mean, deviation);  // Nothing left to convert.
+  };
+  const auto same = [](const cv::Mat& a, const cv::Mat& b) {
+    return a.size == b.size && cv::norm(a, b, cv::NORM_INF) == 0.0;
+  };
+  EXPECT_TRUE(
+      same(networkInputBlob(bgr, size, "rgb", mean, deviation), reference(bgr, cv::COLOR_BGR2RGB)));
+  EXPECT_TRUE(same(networkInputBlob(bgr, size, "bgr", mean, deviation), reference(bgr, -1)));
+  EXPECT_TRUE(same(networkInputBlob(bgra, size, "rgb", mean, deviation),
+                   reference(bgra, cv::COLOR_BGRA2RGB)));
+  EXPECT_TRUE(same(networkInputBlob(grey, size, "rgb", mean, deviation),
+                   reference(grey, cv::COLOR_GRAY2BGR)));
+  const cv::Mat grey_blob = networkInputBlob(bgr, size, "grey", {0.5}, {0.25});
+  cv::Mat grey_resized;
+  cv::resize(grey, grey_resized, size, 0, 0, cv::INTER_AREA);
+  EXPECT_TRUE(same(grey_blob, networkInputBlob(grey_resized, size, "grey", {0.5}, {0.25})))
+      << "grey from colour is taken before resizing, as before";
 }
 
 TEST(GridPool, AveragesEachCellOfEveryChannel) {

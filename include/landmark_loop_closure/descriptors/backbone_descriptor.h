@@ -58,6 +58,16 @@ struct BackboneOptions {
 /// mean activation), each described by the same pass's maps inside its box. Landmarks are matched
 /// mutually by cosine with box-shape weighting. Landmark boxes are in a 160x120 frame, the
 /// keyframe thumbnails' size.
+/// Where one describe() spends its time (ms), for lcd_bench_pipeline.
+struct BackboneStageTimes {
+  double network_input = 0.0;  ///< Resize, colour order and normalisation into the blob.
+  double network = 0.0;        ///< The forward pass to both named outputs.
+  double grid = 0.0;           ///< Cell pooling and normalisation.
+  double landmark_proposals = 0.0;
+  double landmark_features = 0.0;
+  double hog = 0.0;  ///< Whole-image HOG (resize included).
+};
+
 class BackboneDescriptor : public DescriptorExtractor {
  public:
   static constexpr int kBoxFrameWidth = 160;
@@ -71,6 +81,8 @@ class BackboneDescriptor : public DescriptorExtractor {
   int globalDimension() const override { return global_dimension_; }
   /// `image`: 8-bit grey, BGR or BGRA, any size.
   ImageDescriptor describe(const cv::Mat& image) const override;
+  /// The same, with each stage's time written to `times` when given.
+  ImageDescriptor describe(const cv::Mat& image, BackboneStageTimes* times) const;
   double similarity(const ImageDescriptor& query, const ImageDescriptor& candidate) const override;
   bool reranks() const override { return options_.rerank_weight > 0.0; }
   bool wantsColour() const override { return options_.colour != "grey"; }
@@ -78,7 +90,7 @@ class BackboneDescriptor : public DescriptorExtractor {
   FeatureMaps appearanceMaps(const cv::Mat& image) const override;
 
   /// The named outputs (layer, then proposal layer) for an image.
-  std::vector<FeatureMaps> forward(const cv::Mat& image) const;
+  std::vector<FeatureMaps> forward(const cv::Mat& image, BackboneStageTimes* times = nullptr) const;
 
  private:
   int gridDimension() const;
