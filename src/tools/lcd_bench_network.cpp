@@ -1,0 +1,90 @@
+// The backbone's network pass alone, OpenCV dnn on one thread: time per pass (median, p99) on a
+// fixed input, and that input and the output written as raw float32, so that another engine
+// (bench/engine_libtorch.py) runs the same model on the same numbers and is compared with it.
+//   lcd_bench_network [--model FILE] [--layer block_12_add] [--width 256] [--height 144]
+//                     [--repeat 200] [--write-input FILE] [--write-output FILE]
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/dnn.hpp>
+
+#include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/eval/metrics.h"
+
+namespace {
+
+using namespace landmark_loop_closure;
+
+bool writeFloats(const std::string& path, const cv::Mat& values) {
+  std::ofstream file(path, std::ios::binary);
+  file.write(reinterpret_cast<const char*>(values.ptr<float>()),
+             static_cast<std::streamsize>(values.total() * sizeof(float)));
+  return static_cast<bool>(file);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::map<std::string, std::string> arguments = {
+      {"--model", backboneModelPath(DescriptorOptions::Backbone())},
+      {"--layer", "block_12_add"},
+      {"--width", "256"},
+      {"--height", "144"},
+      {"--repeat", "200"},
+      {"--write-input", ""},
+      {"--write-output", ""}};
+  for (int i = 1; i < argc; i += 2) {
+    if (arguments.count(argv[i]) == 0 || i + 1 >= argc) {
+      std::fprintf(stderr, "lcd_bench_network: unknown option or missing value: %s\n", argv[i]);
+      return 2;
+    }
+    arguments[argv[i]] = argv[i + 1];
+  }
+  cv::setNumThreads(1);
+  cv::dnn::Net net;
+  try {
+    net = cv::dnn::readNetFromONNX(arguments["--model"]);
+  } catch (const cv::Exception& error) {
+    std::fprintf(stderr, "lcd_bench_network: cannot read %s (%s)\n", arguments["--model"].c_str(),
+                 error.what());
+    return 1;
+  }
+  const int shape[] = {1, 3, std::stoi(arguments["--height"]), std::stoi(arguments["--width"])};
+  cv::Mat input(4, shape, CV_32F);
+  // A fixed pattern in [0, 1), the same on every machine: the network's input range.
+  float* values = input.ptr<float>();
+  for (size_t i = 0; i < input.total(); ++i) {
+    values[i] = static_cast<float>((i * 7919 % 1000) / 1000.0);
+  }
+  const int repeat = std::stoi(arguments["--repeat"]);
+  std::vector<double> times;
+  cv::Mat output;
+  for (int r = 0; r < repeat + 20; ++r) {  // The first 20 warm up (allocation, caches).
+    const Clock::time_point start = Clock::now();
+    net.setInput(input);
+    output = net.forward(arguments["--layer"]);
+    if (r >= 20) times.push_back(millisecondsSince(start));
+  }
+  const eval::Percentiles time = eval::percentiles(times);
+  std::printf(
+      "OpenCV %s dnn, %s to %s at %dx%d, one thread: median %.2f ms, p99 %.2f ms (%d passes)\n",
+      CV_VERSION, arguments["--model"].c_str(), arguments["--layer"].c_str(), shape[3], shape[2],
+      time.median, time.p99, repeat);
+  if (!arguments["--write-input"].empty() && !writeFloats(arguments["--write-input"], input)) {
+    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n",
+                 arguments["--write-input"].c_str());
+    return 1;
+  }
+  if (!arguments["--write-output"].empty() && !writeFloats(arguments["--write-output"], output)) {
+    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n",
+                 arguments["--write-output"].c_str());
+    return 1;
+  }
+  return 0;
+}
