@@ -13,7 +13,7 @@ PACKAGES=(
   libdiagnostic-updater-dev libdiagnostic-msgs-dev ros-diagnostic-msgs
   ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
-  libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev libceres-dev
+  libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev libceres-dev libdnnl-dev
   python3-onnx python3-numpy python3-matplotlib
   rviz xvfb libx11-dev
 )

@@ -252,6 +252,79 @@ TEST_F(BackboneDescriptorTest, AMissingModelOrLayerIsNamed) {
   }
 }
 
+TEST_F(BackboneDescriptorTest, ANetworkThatIsNotMobileNetV2StaysWithOpenCvAndSaysWhy) {
+  const BackboneOptions options = identityNet();
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(options.model_path);
+  std::string why;
+  EXPECT_EQ(OneDnnMobileNet::create(net, options.input_size, {"features"}, &why), nullptr);
+  EXPECT_FALSE(why.empty());
+  const BackboneDescriptor descriptor(options);
+  EXPECT_NE(descriptor.describesAs(cv::Size(320, 240)).find("on OpenCV's dnn"), std::string::npos)
+      << descriptor.describesAs(cv::Size(320, 240));
+}
+
+// The package's backbone, where scripts/fetch_backbone.sh has fetched it.
+std::string packageBackbone() {
+  const std::string model = backboneModelPath(DescriptorOptions::Backbone());
+  return std::filesystem::exists(model) ? model : "";
+}
+
+TEST(OneDnnMobileNet, GivesOpenCvsOutputsForThePackagesBackbone) {
+  const std::string model = packageBackbone();
+  if (model.empty()) GTEST_SKIP() << "the backbone was not fetched";
+  if (!OneDnnMobileNet::available()) GTEST_SKIP() << "built without oneDNN";
+  const cv::Size input(256, 144);
+  cv::dnn::Net net = cv::dnn::readNetFromONNX(model);
+  std::string why;
+  std::unique_ptr<OneDnnMobileNet> fast =
+      OneDnnMobileNet::create(net, input, {"block_12_add", "block_5_add"}, &why);
+  ASSERT_NE(fast, nullptr) << why;
+  // Another input than create()'s own check, against a network OpenCV alone has run.
+  cv::dnn::Net reference = cv::dnn::readNetFromONNX(model);
+  const int shape[] = {1, 3, input.height, input.width};
+  cv::Mat blob(4, shape, CV_32F);
+  cv::randu(blob, -1.0, 2.0);
+  std::vector<cv::Mat> expected;
+  reference.setInput(blob);
+  reference.forward(expected, std::vector<cv::String>{"block_12_add", "block_5_add"});
+  const std::vector<cv::Mat> got = fast->forward(blob);
+  ASSERT_EQ(got.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    ASSERT_EQ(got[k].size, expected[k].size) << k;
+    const double largest = cv::norm(expected[k], cv::NORM_INF);
+    EXPECT_LE(cv::norm(got[k].reshape(1, 1), expected[k].reshape(1, 1), cv::NORM_INF),
+              1e-4 * largest)
+        << k;
+  }
+  // An output the network does not have is refused by name, not guessed.
+  EXPECT_EQ(OneDnnMobileNet::create(net, input, {"block_99_add"}, &why), nullptr);
+  EXPECT_FALSE(why.empty());
+  // The wrong input size is refused.
+  EXPECT_THROW(fast->forward(cv::Mat(4, std::vector<int>{1, 3, 10, 10}.data(), CV_32F)),
+               std::invalid_argument);
+}
+
+TEST(OneDnnMobileNet, TheDescriptorIsTheSameOnEitherEngine) {
+  const std::string model = packageBackbone();
+  if (model.empty()) GTEST_SKIP() << "the backbone was not fetched";
+  BackboneOptions options;
+  options.model_path = model;
+  const BackboneDescriptor automatic(options);
+  options.engine = "opencv";
+  const BackboneDescriptor opencv(options);
+  EXPECT_NE(opencv.describesAs(cv::Size(640, 480)).find("engine opencv"), std::string::npos);
+  if (OneDnnMobileNet::available()) {
+    EXPECT_NE(automatic.describesAs(cv::Size(640, 480)).find("on oneDNN"), std::string::npos);
+  }
+  for (int seed = 0; seed < 3; ++seed) {
+    const cv::Mat image = texturedImage(seed, cv::Size(640, 480));
+    const ImageDescriptor a = automatic.describe(image);
+    const ImageDescriptor b = opencv.describe(image);
+    EXPECT_GT(cosineSimilarity(a.global, b.global), 0.99999) << seed;
+    EXPECT_EQ(a.landmark_boxes.size(), b.landmark_boxes.size()) << seed;
+  }
+}
+
 TEST(BackboneOptions, ValidateNamesEveryBadValue) {
   DescriptorOptions options;
   options.type = "backbone";

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
+#include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
 
 namespace landmark_loop_closure {
 
@@ -48,6 +50,9 @@ struct BackboneOptions {
   /// described by the HOG alone. 0 and 0: the network alone, no HOG computed or stored.
   double hog_weight = 0.1;
   int min_network_width = 96;
+  /// "auto": oneDNN runs the network where it can (a Keras MobileNetV2 whose output agrees with
+  /// OpenCV's), OpenCV's dnn elsewhere; "opencv": OpenCV's dnn always.
+  std::string engine = "auto";
   cv::Size hog_size{96, 72};     ///< HOG window (16x16 blocks, 8 px stride and cells, 9 bins).
   bool float16_features = true;  ///< Landmark features stored as float16.
 };
@@ -100,8 +105,11 @@ class BackboneDescriptor : public DescriptorExtractor {
   int channels_ = 0;
   int global_dimension_ = 0;
   cv::HOGDescriptor hog_;
-  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable std::mutex net_mutex_;  // Neither engine's forward is safe to call concurrently.
   mutable cv::dnn::Net net_;
+  std::unique_ptr<OneDnnMobileNet> fast_net_;  ///< Null: OpenCV's dnn runs the network.
+  std::string engine_note_;                    ///< Which engine runs it, and why.
+  std::vector<std::string> fast_outputs_;      ///< The distinct outputs fast_net_ gives.
 };
 
 /// Mean of each channel over grid_rows x grid_cols cells of the maps (cell borders split the map

@@ -125,10 +125,11 @@ struct DescriptorOptions {
     int max_landmarks = 20;               ///< Landmarks per image; 0 = none.
     int landmark_grid = 1;                ///< Cells per side a landmark's box is resampled to.
     std::string landmark_features = "backbone";  ///< "backbone" (the layer's maps) or "hog".
-    double rerank_weight = 0;    ///< Share of the landmark similarity in the final score.
-    double hog_weight = 0.1;     ///< Share of a whole-image HOG's cosine in the global score.
-    int min_network_width = 96;  ///< Narrower images are described by the HOG alone.
-    int hog_width = 96;          ///< The HOG window the image is resized to.
+    double rerank_weight = 0;     ///< Share of the landmark similarity in the final score.
+    double hog_weight = 0.1;      ///< Share of a whole-image HOG's cosine in the global score.
+    int min_network_width = 96;   ///< Narrower images are described by the HOG alone.
+    std::string engine = "auto";  ///< auto: oneDNN where it runs the network, else OpenCV.
+    int hog_width = 96;           ///< The HOG window the image is resized to.
     int hog_height = 72;
 
     static const ParameterTable<Backbone>& parameters();  ///< Keys under descriptor/backbone/.
