@@ -1,12 +1,15 @@
-// The backbone's network pass alone, OpenCV dnn on one thread: time per pass (median, p99) on a
-// fixed input, and that input and the output written as raw float32, so that another engine
-// (bench/engine_libtorch.py) runs the same model on the same numbers and is compared with it.
+// The backbone's network pass alone on one thread: OpenCV's dnn, and oneDNN where this build has
+// it (descriptors/onednn_mobilenet.h), time per pass (median, p99) on a fixed input and the
+// largest difference between their outputs; the input and OpenCV's output written as raw
+// float32, so that another engine (bench/engine_libtorch.py) is compared on the same numbers.
 //   lcd_bench_network [--model FILE] [--layer block_12_add] [--width 256] [--height 144]
 //                     [--repeat 200] [--write-input FILE] [--write-output FILE]
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,6 +18,7 @@
 
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
 #include "landmark_loop_closure/eval/metrics.h"
 
 namespace {
@@ -63,19 +67,43 @@ int main(int argc, char** argv) {
     values[i] = static_cast<float>((i * 7919 % 1000) / 1000.0);
   }
   const int repeat = std::stoi(arguments["--repeat"]);
-  std::vector<double> times;
+  // Built from its own parse, before OpenCV's first pass rewrites the weights it fuses.
+  cv::dnn::Net fast_source = cv::dnn::readNetFromONNX(arguments["--model"]);
+  std::string why;
+  std::unique_ptr<OneDnnMobileNet> fast = OneDnnMobileNet::create(
+      fast_source, cv::Size(shape[3], shape[2]), {arguments["--layer"]}, &why);
+  const auto timed = [&](const std::function<cv::Mat()>& pass, cv::Mat* output) {
+    std::vector<double> times;
+    for (int r = 0; r < repeat + 20; ++r) {  // The first 20 warm up (allocation, caches).
+      const Clock::time_point start = Clock::now();
+      *output = pass();
+      if (r >= 20) times.push_back(millisecondsSince(start));
+    }
+    return eval::percentiles(times);
+  };
   cv::Mat output;
-  for (int r = 0; r < repeat + 20; ++r) {  // The first 20 warm up (allocation, caches).
-    const Clock::time_point start = Clock::now();
-    net.setInput(input);
-    output = net.forward(arguments["--layer"]);
-    if (r >= 20) times.push_back(millisecondsSince(start));
+  const eval::Percentiles time = timed(
+      [&] {
+        net.setInput(input);
+        return net.forward(arguments["--layer"]);
+      },
+      &output);
+  std::printf("%s to %s at %dx%d, one thread, %d passes\n", arguments["--model"].c_str(),
+              arguments["--layer"].c_str(), shape[3], shape[2], repeat);
+  std::printf("  OpenCV %s dnn: median %.2f ms, p99 %.2f ms\n", CV_VERSION, time.median, time.p99);
+  if (fast) {
+    cv::Mat fast_output;
+    const eval::Percentiles fast_time =
+        timed([&] { return fast->forward(input).front(); }, &fast_output);
+    std::printf(
+        "  oneDNN: median %.2f ms, p99 %.2f ms (%.2fx), largest difference to OpenCV's "
+        "output %.1e (its largest value %.1f)\n",
+        fast_time.median, fast_time.p99, time.median / fast_time.median,
+        cv::norm(fast_output.reshape(1, 1), output.reshape(1, 1), cv::NORM_INF),
+        cv::norm(output, cv::NORM_INF));
+  } else {
+    std::printf("  oneDNN: not run (%s)\n", why.c_str());
   }
-  const eval::Percentiles time = eval::percentiles(times);
-  std::printf(
-      "OpenCV %s dnn, %s to %s at %dx%d, one thread: median %.2f ms, p99 %.2f ms (%d passes)\n",
-      CV_VERSION, arguments["--model"].c_str(), arguments["--layer"].c_str(), shape[3], shape[2],
-      time.median, time.p99, repeat);
   if (!arguments["--write-input"].empty() && !writeFloats(arguments["--write-input"], input)) {
     std::fprintf(stderr, "lcd_bench_network: cannot write %s\n",
                  arguments["--write-input"].c_str());
