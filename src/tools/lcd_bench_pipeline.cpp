@@ -4,6 +4,7 @@
 // that a loop candidate ORB cannot confirm costs (two network passes over thumbnails).
 //   lcd_bench_pipeline [--database DIR] [--queries DIR] [--keyframes 10000] [--top-k 10]
 //                      [--repeat 2] [--descriptor backbone|landmarks|landmarks_conv]
+//                      [--engine auto|opencv]  (the backbone's network: oneDNN where it can run it)
 // The landmark descriptors' describe time is split into its stages; the backbone's is one.
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
@@ -68,8 +69,9 @@ struct Stages {
 
 int main(int argc, char** argv) {
   std::map<std::string, std::string> arguments = {
-      {"--database", ""}, {"--queries", ""}, {"--keyframes", "10000"},
-      {"--top-k", "10"},  {"--repeat", "2"}, {"--descriptor", "backbone"}};
+      {"--database", ""},  {"--queries", ""}, {"--keyframes", "10000"},
+      {"--top-k", "10"},   {"--repeat", "2"}, {"--descriptor", "backbone"},
+      {"--engine", "auto"}};
   for (int i = 1; i + 1 < argc; i += 2) {
     if (arguments.count(argv[i]) == 0) {
       std::fprintf(stderr, "lcd_bench_pipeline: unknown option %s (see the file's header)\n",
@@ -82,6 +84,7 @@ int main(int argc, char** argv) {
   DescriptorOptions descriptor_options;
   const std::string variant = arguments["--descriptor"];
   descriptor_options.type = variant == "backbone" ? "backbone" : "landmarks";
+  descriptor_options.backbone.engine = arguments["--engine"];  // auto (oneDNN) or opencv
   if (variant == "landmarks_conv") {
     descriptor_options.landmark_features = "conv";
   } else if (variant != "landmarks" && variant != "backbone") {
@@ -196,6 +199,7 @@ int main(int argc, char** argv) {
       "descriptor %s (%s), input %dx%d, %zu keyframes, top-K %d, %zu queries, one thread\n\n",
       variant.c_str(), extractor->reranks() ? "re-ranked" : "no re-ranking", input.width,
       input.height, database.size(), database_options.top_k, stages.times.begin()->second.size());
+  std::printf("%s\n\n", extractor->describesAs(input).c_str());
   std::printf("| stage | median (ms) | p99 (ms) |\n|---|---|---|\n");
   for (const auto& [stage, times] : stages.times) {
     const eval::Percentiles p = eval::percentiles(times);
