@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 #include <set>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 
 using namespace landmark_loop_closure;
 
@@ -32,6 +34,33 @@ DatabaseOptions noExclusion() {
 }
 
 }  // namespace
+
+TEST(QuantizedVectors, TheProductIsTheExactIntegerSumAtEveryLength) {
+  // Lengths around the 32-value steps of the vector product, and the backbone's 4320.
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> value(-1.0f, 1.0f);
+  for (const int dimension : {1, 7, 31, 32, 33, 64, 95, 1152, 4320}) {
+    std::vector<float> a(static_cast<size_t>(dimension)), b(a.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      a[i] = value(random);
+      b[i] = i % 5 == 0 ? -value(random) : value(random);
+    }
+    a[0] = -1.0f;  // -127 after encoding: the extremes are in.
+    b[0] = 1.0f;
+    const std::vector<uint8_t> x = QuantizedVectors::encode(a);
+    const std::vector<uint8_t> y = QuantizedVectors::encode(b);
+    float scale_x = 0.0f, scale_y = 0.0f;
+    std::memcpy(&scale_x, x.data(), sizeof(float));
+    std::memcpy(&scale_y, y.data(), sizeof(float));
+    int64_t sum = 0;
+    for (int i = 0; i < dimension; ++i) {
+      sum += static_cast<int8_t>(x[sizeof(float) + i]) * static_cast<int8_t>(y[sizeof(float) + i]);
+    }
+    EXPECT_EQ(QuantizedVectors::dot(x.data(), y.data(), dimension),
+              scale_x * scale_y * static_cast<float>(sum))
+        << dimension;
+  }
+}
 
 TEST(KeyframeDatabase, ReturnsTopKBestFirst) {
   KeyframeDatabase database(2);
