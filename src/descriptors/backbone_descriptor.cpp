@@ -83,10 +83,10 @@ BackboneDescriptor::BackboneDescriptor(const BackboneOptions& options)
   net_ = loadOnnxNetwork(options.model_path);
   if (options_.engine == "auto") {
     // Before OpenCV's first pass: its layer fusion may rewrite the weights oneDNN reads.
-    fast_outputs_ = {options_.layer};
-    if (options_.proposal_layer != options_.layer) fast_outputs_.push_back(options_.proposal_layer);
+    std::vector<std::string> wanted = {options_.layer};
+    if (options_.proposal_layer != options_.layer) wanted.push_back(options_.proposal_layer);
     std::string why;
-    fast_net_ = OneDnnMobileNet::create(net_, options_.input_size, fast_outputs_, &why);
+    fast_net_ = OneDnnMobileNet::create(net_, options_.input_size, wanted, &why);
     engine_note_ = fast_net_ ? "oneDNN" : "OpenCV's dnn (oneDNN cannot: " + why + ")";
   } else {
     engine_note_ = "OpenCV's dnn (engine opencv)";

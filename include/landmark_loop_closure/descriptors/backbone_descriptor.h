@@ -109,7 +109,6 @@ class BackboneDescriptor : public DescriptorExtractor {
   mutable cv::dnn::Net net_;
   std::unique_ptr<OneDnnMobileNet> fast_net_;  ///< Null: OpenCV's dnn runs the network.
   std::string engine_note_;                    ///< Which engine runs it, and why.
-  std::vector<std::string> fast_outputs_;      ///< The distinct outputs fast_net_ gives.
 };
 
 /// Mean of each channel over grid_rows x grid_cols cells of the maps (cell borders split the map
