@@ -126,24 +126,32 @@ FULL_NORDLAND=()
 /usr/bin/python3 bench/make_table.py --matrix "$OUT"/gardens_point_viewpoint_backbone \
   "$OUT"/gardens_point_day_night_backbone "$OUT"/gardens_point_both_backbone \
   "$OUT"/corridor_backbone "$OUT"/nordland_backbone > "$OUT/table_backbone.md"
-echo "== the whole detector (bench/README.md \"The whole detector\"): chain and sequence matching"
-detector() {  # name, then lcd_evaluate arguments; both acceptance rules
-  for rule in chain sequence; do
+echo "== the whole detector (bench/README.md \"Precision first\"): both halves, two rules"
+detector() {  # name, frames per half (0: one run), then lcd_evaluate arguments
+  local halves=("--limit $2" "--skip $2")
+  [ "$2" = 0 ] && halves=("")
+  for rule in defaults single_image; do
     local config=()
-    [ "$rule" = sequence ] && config=(--config config/sequence_matching.yaml)
-    "$EVALUATE" --detector "${config[@]}" --output "$OUT/detector_$1_$rule" "${@:2}" \
-      2> /dev/null | grep -v "^  sweep" | tee "$OUT/detector_$1_$rule.txt"
+    [ "$rule" = single_image ] && config=(--config config/single_image.yaml)
+    for half in 0 1; do
+      [ -z "${halves[$half]+set}" ] && continue
+      # shellcheck disable=SC2086  # The half's two words.
+      "$EVALUATE" --detector "${config[@]}" ${halves[$half]} --sweep-steps 24 \
+        --output "$OUT/detector_$1_${rule}_$half" "${@:3}" \
+        2> /dev/null | grep -v "^  sweep" | tee "$OUT/detector_$1_${rule}_$half.txt"
+    done
   done
 }
-detector gardens_point_day_night --database "$GP/day_right" --queries "$GP/night_right" \
-  --as-sequence --gt-aligned 3
-detector gardens_point_both --database "$GP/day_left" --queries "$GP/night_right" \
-  --as-sequence --gt-aligned 3
-detector gardens_point_viewpoint --database "$GP/day_left" --queries "$GP/day_right" \
-  --as-sequence --gt-aligned 3
-detector nordland --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" \
-  --as-sequence --gt-aligned 2
-detector corridor --corridor 2
+CAMERA=(--camera-info bench/cameras/gardens_point.yaml --still-threshold 0)
+detector gardens_point_day_night 50 --database "$GP/day_right" --queries "$GP/night_right" \
+  --as-sequence --gt-aligned 3 "${CAMERA[@]}"
+detector gardens_point_both 50 --database "$GP/day_left" --queries "$GP/night_right" \
+  --as-sequence --gt-aligned 3 "${CAMERA[@]}"
+detector gardens_point_viewpoint 50 --database "$GP/day_left" --queries "$GP/day_right" \
+  --as-sequence --gt-aligned 3 "${CAMERA[@]}"
+detector nordland 1788 --database "$DATA/nordland/summer" --queries "$DATA/nordland/winter" \
+  --as-sequence --gt-aligned 2 --gt-stops 5 --still-threshold 0
+detector corridor 0 --corridor 2
 echo "== geometric check and odometry gate (generated corridor)"
 VERIFY=_build/devel/lib/landmark_loop_closure/lcd_bench_verification
 { "$VERIFY" --config config/demo.yaml; echo; "$VERIFY" --config config/demo.yaml --min-score 0.15; } \

@@ -181,6 +181,12 @@ void readNodeOptions(OptionReader* reader, NodeOptions* options) {
       if (normalised) warning += ", and no score_normalisation, which it cannot use";
       warning += ")";
     }
+    // Its threshold was tuned on single-image scores, and re-ranking every step of every path
+    // would cost a landmark match each.
+    if (acceptance.sequence.length == SequenceMatchingOptions().length) {
+      acceptance.sequence.length = 1;
+      warning += " (acceptance/sequence_length 1: its threshold is for single images)";
+    }
     acceptance.score_normalisation = ScoreNormalisation::kNone;
     options->fallback_warning = warning;
   }

@@ -22,16 +22,19 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   using O = AcceptanceOptions;
   static const auto table =
       ParameterTable<O>("acceptance/", "precision first.")
-          .number("min_score", &O::min_score, between(0, 100),
-                  "final similarity a candidate needs; its scale depends on descriptor/type and on "
-                  "descriptor/condition_window. backbone with the window (default): chosen on "
-                  "Gardens Point's first half, whose highest wrong loop scored 0.21, plus how far "
-                  "the halves' own choices disagree (0.09: the second half's was 0.12), as "
-                  "precision comes first; right loops score 0.2-0.5 there. Without the window "
-                  "(condition_window 0) use 0.6. Set "
-                  "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
-                  "for calc (those three measured without the window). At most 1, except with "
-                  "score_normalisation local_contrast or z_score (standard deviations).")
+          .number(
+              "min_score", &O::min_score, between(0, 100),
+              "final similarity a candidate needs (with sequence matching, the best path's mean); "
+              "its scale depends on descriptor/type, descriptor/condition_window and "
+              "sequence_length. backbone with the window and L = 5 (default): chosen on the "
+              "first halves of Gardens Point's three pairs and Nordland, whose highest wrong "
+              "loop scored 0.33 (two stations of one traversal), rounded up; right loops "
+              "score 0.2-0.6 there (bench/README.md). L = 1 with the window: 0.3; without "
+              "the window (condition_window 0): 0.6. Set "
+              "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
+              "for calc (those three measured without the window, L = 1). At most 1, except "
+              "with "
+              "score_normalisation local_contrast or z_score (standard deviations).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "

@@ -249,11 +249,19 @@ bool KeyframeDatabase::eligible(size_t index, double stamp, const DatabaseOption
 }
 
 double KeyframeDatabase::similarity(const std::vector<float>& global, size_t index) const {
+  return similarity(encode(global), index);
+}
+
+KeyframeDatabase::EncodedQuery KeyframeDatabase::encode(const std::vector<float>& global) const {
   if (static_cast<int>(global.size()) != globalDimension()) {
     throw std::invalid_argument("query descriptor has " + std::to_string(global.size()) +
                                 " values, the database holds " + std::to_string(globalDimension()));
   }
-  return vectors_->dot(QuantizedVectors::encode(global).data(), index);
+  return EncodedQuery{QuantizedVectors::encode(global)};
+}
+
+double KeyframeDatabase::similarity(const EncodedQuery& query, size_t index) const {
+  return vectors_->dot(query.row.data(), index);
 }
 
 std::vector<double> KeyframeDatabase::similarities(const std::vector<float>& global,

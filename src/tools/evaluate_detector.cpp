@@ -113,7 +113,7 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const eval::GroundTruth& truth, const std::vector<Pose>& poses,
                                    const std::vector<double>& stamps,
                                    const CameraIntrinsics& intrinsics, double still_threshold,
-                                   int image_width) {
+                                   int image_width, const std::vector<bool>& standing) {
   DetectorSource source;
   source.has_intrinsics = intrinsics.valid();
   if (!poses.empty() && (poses.size() != paths.size() || stamps.size() != paths.size())) {
@@ -127,11 +127,14 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
           ? "image sequence with poses and stamps as odometry (keyframe rule and odometry gate "
             "on), "
             "resized to the first image's size"
-          : "image-only sequence: images 1 s apart, each 1 m further on a straight path unless it "
-            "barely differs from the last moving one (mean grey difference under " +
-                std::to_string(still_threshold).substr(0, 4) +
-                " at 64 px wide: standing still, no keyframe, as odometry would add none); no "
-                "odometry, so the odometry gate is off; resized to the first image's size";
+          : "image-only sequence: images 1 s apart, each 1 m further on a straight path unless " +
+                (standing.empty()
+                     ? "it barely differs from the last moving one (mean grey difference under " +
+                           std::to_string(still_threshold).substr(0, 4) + " at 64 px wide)"
+                     : std::string("both traversals stand there (a joint stop, as --gt-stops "
+                                   "finds them)")) +
+                ": standing still, no keyframe, as odometry would add none; no odometry, so the "
+                "odometry gate is off; resized to the first image's size";
   if (source.has_intrinsics) {
     std::ostringstream camera;
     camera << "; pinhole fx " << intrinsics.fx << " fy " << intrinsics.fy << " cx " << intrinsics.cx
@@ -142,7 +145,7 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
   if (image_width > 0) {
     source.description += "; every image scaled to " + std::to_string(image_width) + " px wide";
   }
-  source.play = [paths, poses, stamps, intrinsics, still_threshold, image_width](
+  source.play = [paths, poses, stamps, intrinsics, still_threshold, image_width, standing](
                     bool colour,
                     const std::function<void(size_t, const eval::DetectorFrame&)>& sink) {
     cv::Size size;
@@ -158,7 +161,9 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
         continue;
       }
       if (poses.empty()) {
-        if (standstill.moved(frame.image)) travelled += 1.0;
+        const bool moved = standing.empty() ? standstill.moved(frame.image)
+                                            : !(i < standing.size() && standing[i]);
+        if (moved) travelled += 1.0;
         frame.pose.position = Eigen::Vector3d(travelled, 0.0, 0.0);
       } else {
         frame.pose = poses[i];

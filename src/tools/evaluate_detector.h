@@ -27,15 +27,17 @@ struct DetectorSource {
 /// An image sequence. Without poses: images 1 s apart, each 1 m further on a straight path
 /// unless its grey image differs from the last moving one's by less than `still_threshold` grey
 /// levels on average (standing still: no keyframe, as odometry would add none; 0 = every image
-/// moves), odometry gate off. With poses and stamps (KITTI's, one per image): they drive the
-/// keyframe rule and the odometry gate as odometry would. Valid `intrinsics` (of the camera at
-/// its own image size, scaled to the played size) switch the geometric check on.
+/// moves; `standing`, when given, says instead which frames stand), odometry gate off. With poses
+/// and stamps (KITTI's, one per image): they drive the keyframe rule and the odometry gate as
+/// odometry would. Valid `intrinsics` (of the camera at its own image size, scaled to the played
+/// size) switch the geometric check on.
 DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                    const eval::GroundTruth& truth,
                                    const std::vector<Pose>& poses = {},
                                    const std::vector<double>& stamps = {},
                                    const CameraIntrinsics& intrinsics = {},
-                                   double still_threshold = 0.0, int image_width = 0);
+                                   double still_threshold = 0.0, int image_width = 0,
+                                   const std::vector<bool>& standing = {});
 
 /// Frames at which two aligned traversals both stand still: frame i's grey picture (64 px wide)
 /// differs from frame i - 1's by less than `threshold` grey levels on average in each traversal

@@ -1,7 +1,8 @@
 // Pipeline benchmark: the time one keyframe costs the worker thread (describe and standardise,
-// shortlist from the database, re-rank, the thumbnail kept), stage by stage, on one core, with a
-// database of N keyframes, and the database's bytes per keyframe; and apart, the appearance check
-// that a loop candidate ORB cannot confirm costs (two network passes over thumbnails).
+// shortlist from the database, re-rank, sequence scoring, the thumbnail kept), stage by stage, on
+// one core, with a database of N keyframes, and the database's bytes per keyframe; and apart, the
+// appearance check that a loop candidate ORB cannot confirm costs (two network passes over
+// thumbnails).
 //   lcd_bench_pipeline [--database DIR] [--queries DIR] [--keyframes 10000] [--top-k 10]
 //                      [--repeat 2] [--descriptor backbone|landmarks|landmarks_conv]
 //                      [--engine auto|opencv]  (the backbone's network: oneDNN where it can run it)
@@ -25,6 +26,7 @@
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/core/condition_standardiser.h"
+#include "landmark_loop_closure/core/sequence_matching.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/convnet_descriptor.h"
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
 
   Stages stages;
   ConditionStandardiser standardiser(descriptor_options.condition_window);
+  SequenceMatcher sequences{SequenceMatchingOptions{}};
   const AppearanceCheckOptions appearance_options;
   const int repeat = std::stoi(arguments["--repeat"]);
   for (int r = 0; r < repeat; ++r) {
@@ -154,6 +157,18 @@ int main(int argc, char** argv) {
       }
       const double rerank_ms = millisecondsSince(rerank_start);
       if (best < -1.0) return 1;  // Keeps the re-rank from being optimised away.
+      const Clock::time_point sequence_start = Clock::now();
+      sequences.push(query);
+      std::vector<SequenceCandidate> sequence_candidates;
+      for (const Candidate& candidate : result.candidates) {
+        SequenceCandidate scored;
+        scored.index = candidate.index;
+        scored.image_score = extractor->globalScore(candidate.global_score);
+        sequence_candidates.push_back(scored);
+      }
+      sequences.score(
+          database, *extractor, [](size_t) { return true; }, &sequence_candidates);
+      const double sequence_ms = millisecondsSince(sequence_start);
       const Clock::time_point thumbnail_start = Clock::now();
       const std::vector<uint8_t> thumbnail = encodeThumbnail(toWorkingImage(image, 160, 120));
       const double thumbnail_ms = millisecondsSince(thumbnail_start);
@@ -190,6 +205,7 @@ int main(int argc, char** argv) {
                  describe_ms);
       stages.add("shortlist (exact search)", shortlist_ms);
       stages.add("re-rank top-K", rerank_ms);
+      stages.add("sequence scoring (acceptance/sequence_length)", sequence_ms);
       stages.add("thumbnail (WebP)", thumbnail_ms);
       stages.add("total per keyframe", total_ms);
       stages.add("appearance check, when a candidate reaches it", appearance_ms);

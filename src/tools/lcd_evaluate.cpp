@@ -51,6 +51,10 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   --still-threshold G  image folders without poses: an image whose grey picture (64 px wide)
                        differs from the last moving one's by less than G levels on average
                        stands still and adds no keyframe (default 5; 0 = every image moves)
+  --still-joint        --as-sequence with --gt-aligned and --gt-stops G: the traversals show the
+                       same place at the same frame, so a frame stands still exactly where both
+                       stand (the stops --gt-stops finds), instead of where each one's own
+                       picture barely changes (--still-threshold); one step per frame elsewhere
   --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
                        (image_width, image_height, camera_matrix), scaled to the played size;
                        the geometric check then runs (bench/cameras/ has Gardens Point's)
@@ -133,7 +137,8 @@ Arguments parse(int argc, char** argv) {
       std::exit(0);
     }
     if (key == "--as-sequence" || key == "--detector" || key == "--no-ground-truth" ||
-        key == "--train-on-eval" || key == "--dry-run") {  // Flags without a value.
+        key == "--train-on-eval" || key == "--dry-run" ||
+        key == "--still-joint") {  // Flags without a value.
       arguments.values[key] = "true";
       continue;
     }
@@ -195,7 +200,8 @@ int run(const Arguments& arguments) {
   // Sources.
   std::vector<std::string> database_paths;
   std::vector<std::string> query_paths;
-  size_t first_traversal = 0;  // --as-sequence: images of the first traversal.
+  size_t first_traversal = 0;     // --as-sequence: images of the first traversal.
+  std::vector<bool> joint_stops;  // --gt-stops: frames where both traversals stand.
   MemorySequence memory;
   const auto list = [&arguments](const std::string& key) {
     std::vector<std::string> paths = listImages(arguments.get(key));
@@ -286,7 +292,7 @@ int run(const Arguments& arguments) {
     } else if (first_traversal > 0) {
       // Image first_traversal + i of the second traversal is image i of the first, +- tolerance.
       const double stop_threshold = arguments.number("--gt-stops", 0.0);
-      std::vector<bool> stops;
+      std::vector<bool>& stops = joint_stops;
       if (stop_threshold > 0.0) {
         stops =
             tools::jointStops(std::vector<std::string>(database_paths.begin(),
@@ -356,10 +362,19 @@ int run(const Arguments& arguments) {
     if (arguments.has("--camera-info")) {
       intrinsics = readCameraInfoFile(arguments.get("--camera-info"));
     }
+    // Aligned traversals stand where both stand: each frame of one is the other's place.
+    std::vector<bool> standing;
+    if (arguments.has("--still-joint")) {
+      if (joint_stops.empty()) throw std::invalid_argument("--still-joint needs --gt-stops G");
+      for (size_t i = 0; i < database_paths.size(); ++i) {
+        const size_t place = i < first_traversal ? i : i - first_traversal;
+        standing.push_back(place < joint_stops.size() && joint_stops[place]);
+      }
+    }
     return runDetectorMode(
         arguments,
         imageSequenceSource(database_paths, truth, poses, stamps, intrinsics,
-                            arguments.number("--still-threshold", 5.0), image_width),
+                            arguments.number("--still-threshold", 5.0), image_width, standing),
         run.dataset, output_folder);
   }
 

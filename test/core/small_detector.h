@@ -25,6 +25,8 @@ inline LoopDetectorOptions smallOptions() {
   // PlaceExtractor's places score exactly 1 or 0 against each other, which these tests rely on;
   // standardisation has its own tests (and test_loop_detector turns it on once).
   options.descriptor.condition_window = 0;
+  // Single-image scores and the k-keyframe chain; sequence matching has its own tests.
+  options.acceptance.sequence.length = 1;
   return options;
 }
 

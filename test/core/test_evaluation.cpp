@@ -296,6 +296,7 @@ LoopDetectorOptions smallDetector() {
   options.acceptance.min_score = 0.5;
   options.odometry_gate.enabled = false;
   options.verification.enabled = false;
+  options.acceptance.sequence.length = 1;  // The k-keyframe chain's counts below.
   return options;
 }
 

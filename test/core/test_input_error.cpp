@@ -64,6 +64,36 @@ TEST(CheckTexture, RefusesUniformImagesOfEveryKind) {
   EXPECT_NE(error->message.find("input/min_image_contrast"), std::string::npos) << error->message;
 }
 
+TEST(CheckTexture, RefusesADarkFrameWhateverALampOrALogoAddsToIt) {
+  // A tunnel: black, with a lamp and a broadcaster's logo covering 4 % of the frame. Their
+  // brightness alone gives a standard deviation of ~40 grey levels; the middle 90 % spreads 0.
+  cv::Mat tunnel(480, 640, CV_8UC3, cv::Scalar(6, 6, 6));
+  tunnel(cv::Rect(300, 200, 40, 200)).setTo(cv::Scalar(255, 255, 255));
+  tunnel(cv::Rect(560, 10, 56, 20)).setTo(cv::Scalar(200, 200, 200));
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(tunnel, mean, deviation);
+  ASSERT_GT(deviation[0], 30.0);
+  const auto error = checkTexture(tunnel, InputLimits{});
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kNoTexture);
+  EXPECT_NE(error->message.find("spread 0 between the 5th and 95th percentiles"), std::string::npos)
+      << error->message;
+  // The same frame lit up (the tunnel's walls show, 20-60 grey levels) has a place to recognise.
+  cv::Mat walls(480, 640, CV_8UC3);
+  cv::randu(walls, 20, 60);
+  walls(cv::Rect(300, 200, 40, 200)).setTo(cv::Scalar(255, 255, 255));
+  EXPECT_FALSE(checkTexture(walls, InputLimits{}));
+}
+
+TEST(CheckTexture, MeasuresSixteenBitImagesOnTheEightBitScale) {
+  cv::Mat dim(120, 160, CV_16UC1);
+  cv::randu(dim, 0, 10 * 257);  // Spreads ~9 levels of 255: no texture.
+  EXPECT_TRUE(checkTexture(dim, InputLimits{}));
+  cv::Mat textured(120, 160, CV_16UC1);
+  cv::randu(textured, 0, 40 * 257);  // ~36 levels.
+  EXPECT_FALSE(checkTexture(textured, InputLimits{}));
+}
+
 TEST(CheckTexture, AcceptsTexturedImagesAndCanBeTurnedOff) {
   cv::Mat textured(480, 640, CV_8UC1);
   cv::randu(textured, 0, 256);

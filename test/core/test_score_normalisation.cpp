@@ -44,10 +44,11 @@ TEST(StandardisedScore, NoSpreadOrTooFewValuesGiveZero) {
   EXPECT_DOUBLE_EQ(standardisedScore(0.9, {0.3, 0.3, 0.3}), 0.0);
 }
 
-TEST(ScoreNormalisationOptions, EveryNormalisationIsValidWithTheOtherDefaults) {
+TEST(ScoreNormalisationOptions, EveryNormalisationIsValidWithSingleImageScores) {
   ASSERT_EQ(scoreNormalisationNames().size(), 4u);
   for (const auto& [name, value] : scoreNormalisationNames()) {
     AcceptanceOptions options;
+    options.sequence.length = 1;
     options.score_normalisation = value;
     EXPECT_TRUE(options.validate().empty()) << name << ": " << options.validate();
   }
@@ -78,6 +79,7 @@ TEST(Standardisation, IdentityByDefaultAndZeroWithoutSpread) {
 
 TEST(ScoreNormalisationOptions, MinScoreAboveOneOnlyForStandardisedScores) {
   AcceptanceOptions options;
+  options.sequence.length = 1;
   options.min_score = 3.0;
   EXPECT_NE(options.validate().find("acceptance/min_score 3 is above 1"), std::string::npos)
       << options.validate();

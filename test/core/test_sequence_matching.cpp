@@ -123,7 +123,8 @@ TEST(SequenceMatching, ResetForgetsTheHistory) {
 TEST(SequenceMatching, OptionsAreValidated) {
   SequenceMatchingOptions options;
   EXPECT_EQ(options.validate(), "");
-  EXPECT_FALSE(options.enabled());
+  EXPECT_TRUE(options.enabled()) << "sequences of 5 keyframes by default";
+  EXPECT_EQ(options.length, 5);
   EXPECT_EQ(options.speeds().size(), 7u);  // 0.5, 0.75, ..., 2.0.
   options.length = 0;
   EXPECT_NE(options.validate().find("sequence_length"), std::string::npos);

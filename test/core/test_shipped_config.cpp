@@ -281,6 +281,10 @@ TEST(NodeOptions, BackboneFallbackDropsTheScoreNormalisationItCannotUse) {
   EXPECT_DOUBLE_EQ(options.detector.acceptance.min_score, kLandmarksMinScore);
   EXPECT_NE(options.fallback_warning.find("no score_normalisation"), std::string::npos)
       << options.fallback_warning;
+  // Its threshold is for single images: the default sequences go too.
+  EXPECT_EQ(options.detector.acceptance.sequence.length, 1);
+  EXPECT_NE(options.fallback_warning.find("sequence_length 1"), std::string::npos)
+      << options.fallback_warning;
   EXPECT_EQ(options.validate(), "");
 }
 

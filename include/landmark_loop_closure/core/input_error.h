@@ -40,9 +40,9 @@ struct InputLimits {
   int max_image_pixels = 7680 * 4320;  ///< 8K; larger frames are almost surely corrupt.
   double quaternion_norm_tolerance =
       1e-2;  ///< |‖q‖ - 1| above this is refused, below renormalised.
-  /// Grey-level standard deviation (0-255 scale) below which an image has no texture to
-  /// recognise a place by; 0 turns the check off.
-  double min_image_contrast = 2.0;
+  /// Grey levels (0-255 scale) between the 5th and 95th percentiles below which an image has no
+  /// texture to recognise a place by; 0 turns the check off.
+  double min_image_contrast = 16.0;
 
   /// Keys under input/, documented in config/default.yaml; validated with the detector's options.
   static const ParameterTable<InputLimits>& parameters();
@@ -51,8 +51,9 @@ struct InputLimits {
 /// Checks image dimensions and type (8- or 16-bit, 1, 3 or 4 channels).
 std::optional<InputError> checkImage(int width, int height, int cv_type, const InputLimits& limits);
 
-/// Checks that an image has texture: its grey-level spread (any channel count, 8 or 16 bit, scaled
-/// to 0-255) reaches limits.min_image_contrast.
+/// Checks that an image has texture: the spread of its grey levels between the 5th and 95th
+/// percentiles (the widest channel's; 8 or 16 bit, scaled to 0-255) reaches
+/// limits.min_image_contrast.
 std::optional<InputError> checkTexture(const cv::Mat& image, const InputLimits& limits);
 
 /// Checks that a pose is finite and its quaternion close to unit norm.

@@ -33,7 +33,7 @@ namespace landmark_loop_closure {
 constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
-  double min_score = 0.3;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  double min_score = 0.34;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
   /// kKeyframes: a loop needs consistent_keyframes consecutive keyframes whose matches agree
   /// within index_window ids; kMetres: the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).

@@ -18,7 +18,7 @@ namespace landmark_loop_closure {
 /// against database keyframes ending at the candidate, over a range of relative speeds.
 /// Keyframes are spaced by motion, so a revisit at any driving speed runs near speed 1.
 struct SequenceMatchingOptions {
-  int length = 1;            ///< L keyframes per path; 1 = single-image scores (off).
+  int length = 5;            ///< L keyframes per path; 1 = single-image scores (off).
   double min_speed = 0.5;    ///< Database keyframes per query keyframe, slowest path ...
   double max_speed = 2.0;    ///< ... and fastest.
   double speed_step = 0.25;  ///< Speeds tried: min_speed, min_speed + step, ..., max_speed.
@@ -69,6 +69,7 @@ class SequenceMatcher {
     ImageDescriptor descriptor;
     std::vector<size_t> candidates;                 ///< Its database positions, for projection.
     std::unordered_map<size_t, double> similarity;  ///< Similarities already computed, by position.
+    KeyframeDatabase::EncodedQuery encoded;         ///< The descriptor as search compares it.
     Standardisation standardisation;                ///< Identity unless standardiseCurrent.
   };
   /// The slot's similarity to a database keyframe, not standardised.

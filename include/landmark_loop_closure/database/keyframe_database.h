@@ -131,6 +131,13 @@ class KeyframeDatabase {
                 uint32_t session = 0) const;
   /// Cosine of `global` with keyframe `index`'s descriptor, as query() scores it.
   double similarity(const std::vector<float>& global, size_t index) const;
+  /// A descriptor encoded as the search compares it, for many similarity() calls (sequence
+  /// matching scores each query keyframe against hundreds of keyframes).
+  struct EncodedQuery {
+    std::vector<uint8_t> row;
+  };
+  EncodedQuery encode(const std::vector<float>& global) const;
+  double similarity(const EncodedQuery& query, size_t index) const;
   /// The same for several keyframes, the query encoded once.
   std::vector<double> similarities(const std::vector<float>& global,
                                    const std::vector<size_t>& indices) const;
