@@ -28,13 +28,12 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
               "its scale depends on descriptor/type, descriptor/condition_window and "
               "sequence_length. backbone with the window and L = 5 (default): chosen on the "
               "first halves of Gardens Point's three pairs and Nordland, whose highest wrong "
-              "loop scored 0.33 (two stations of one traversal), rounded up; right loops "
-              "score 0.2-0.6 there (bench/README.md). L = 1 with the window: 0.3; without "
-              "the window (condition_window 0): 0.6. Set "
-              "0.25 for landmarks (the node does when it falls back to it), 0.7 for hog, 0.97 "
-              "for calc (those three measured without the window, L = 1). At most 1, except "
-              "with "
-              "score_normalisation local_contrast or z_score (standard deviations).")
+              "loop scored 0.33 (two stations of one traversal), rounded up "
+              "(bench/README.md). L = 1 with the window: 0.3; without the window "
+              "(condition_window 0): 0.6. Set 0.25 for landmarks (the node does when it falls "
+              "back to it), 0.7 for hog, 0.97 for calc (those three measured without the "
+              "window, L = 1). At most 1, except with score_normalisation local_contrast or "
+              "z_score (standard deviations).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
