@@ -25,6 +25,7 @@ set(CORE_TESTS
   test_landmarks
   test_convnet_descriptor
   test_pca_whitening
+  test_vlad
   test_cnn_global_descriptor
   test_backbone_descriptor
   test_broad_autoencoder

@@ -101,11 +101,28 @@ BackboneDescriptor::BackboneDescriptor(const BackboneOptions& options)
                              std::to_string(options.input_size.height) + " input: " + error.what());
   }
   channels_ = outputs[0].channels;
+  std::ostringstream identity;
+  identity << "model_fnv1a=" << fileHash(options.model_path) << " layer=" << options_.layer
+           << " input=" << options.input_size.width << "x" << options.input_size.height
+           << " colour=" << options.colour << " channels=" << channels_
+           << " local=" << (options.vlad.unit_features ? "unit" : "raw");
+  feature_identity_ = identity.str();
+  if (!options_.vocabulary.empty() && options_.vocabulary.identity() != feature_identity_) {
+    throw std::runtime_error("the VLAD vocabulary was learnt on other features (" +
+                             options_.vocabulary.identity() + "), not this network's (" +
+                             feature_identity_ + "): learn one with lcd_train vocabulary");
+  }
   global_dimension_ = gridDimension() + hogDimension();
 }
 
+int BackboneDescriptor::cellsDimension() const {
+  const bool keeps_grid = options_.vocabulary.empty() || options_.vlad_weight < 1.0;
+  return keeps_grid ? options_.grid_rows * options_.grid_cols * channels_ : 0;
+}
+
 int BackboneDescriptor::gridDimension() const {
-  return options_.grid_rows * options_.grid_cols * channels_;
+  const int vlad = options_.vocabulary.empty() ? 0 : options_.vocabulary.clusters() * channels_;
+  return cellsDimension() + vlad;
 }
 
 int BackboneDescriptor::hogDimension() const {
@@ -135,6 +152,11 @@ std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image,
   return {featureMapsFromBlob(outputs[0]), featureMapsFromBlob(outputs[1])};
 }
 
+cv::Mat BackboneDescriptor::vladFeatures(const cv::Mat& image) const {
+  if (image.empty() || image.depth() != CV_8U) return {};
+  return localFeatures(forward(image)[0], options_.vlad.unit_features);
+}
+
 FeatureMaps BackboneDescriptor::appearanceMaps(const cv::Mat& image) const {
   if (image.empty() || image.depth() != CV_8U) return {};
   return forward(image)[0];
@@ -152,8 +174,15 @@ std::string BackboneDescriptor::describesAs(cv::Size image) const {
     return text.str();
   }
   text << "go through the network (" << options_.layer << " at " << options_.input_size.width << "x"
-       << options_.input_size.height << " on " << engine_note_ << ", " << options_.grid_rows << "x"
-       << options_.grid_cols << " grid)";
+       << options_.input_size.height << " on " << engine_note_ << ", ";
+  if (options_.vocabulary.empty()) {
+    text << options_.grid_rows << "x" << options_.grid_cols << " grid)";
+  } else {
+    if (cellsDimension() > 0) {
+      text << options_.grid_rows << "x" << options_.grid_cols << " grid and ";
+    }
+    text << "VLAD over " << options_.vocabulary.clusters() << " centres)";
+  }
   if (hogDimension() > 0 && options_.hog_weight > 0.0) {
     text << " with a whole-image HOG at weight " << options_.hog_weight;
   }
@@ -180,9 +209,21 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image,
   if (network_weight > 0.0) {
     const std::vector<FeatureMaps> maps = forward(image, times);
     Clock::time_point start = Clock::now();
-    std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
-    normaliseGrid(&grid, channels_, options_.normalisation);
-    std::copy(grid.begin(), grid.end(), grid_begin);
+    float* const vlad_begin = grid_begin + cellsDimension();
+    if (vlad_begin != grid_begin) {
+      std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
+      normaliseGrid(&grid, channels_, options_.normalisation);
+      std::copy(grid.begin(), grid.end(), grid_begin);
+    }
+    if (!options_.vocabulary.empty()) {
+      const std::vector<float> vlad = vladAggregate(
+          localFeatures(maps[0], options_.vlad.unit_features), options_.vocabulary, options_.vlad);
+      std::copy(vlad.begin(), vlad.end(), vlad_begin);
+      if (vlad_begin != grid_begin) {
+        weightPart(grid_begin, vlad_begin, 1.0 - options_.vlad_weight);
+        weightPart(vlad_begin, hog_begin, options_.vlad_weight);
+      }
+    }
     weightPart(grid_begin, hog_begin, network_weight);
     if (times) times->grid = millisecondsSince(start);
 
@@ -264,6 +305,19 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
                 "\"cells\": each cell L2-normalised, then the whole (won on Gardens Point); "
                 "\"whole\": the whole vector only; \"centred\": each channel's mean over the cells "
                 "removed first (bench/README.md has all three).")
+          .text("vocabulary", &O::vocabulary,
+                "VLAD instead of the grid: a vocabulary file written by `lcd_train vocabulary` "
+                "(k-means of the layer's local features on unlabelled images); each local feature "
+                "is assigned to its nearest centres and the residuals summed per centre (centres "
+                "x channels values). \"\" = the grid.")
+          .integer("vlad_assignments", &O::vlad_assignments, between(1, 16),
+                   "nearest centres a local feature is shared between (1 = hard assignment).")
+          .word(
+              "vlad_features", &O::vlad_features, {"unit", "raw"},
+              "local features L2-normalised before assignment (\"unit\") or as the layer gives "
+              "them (\"raw\": weak cells weigh less); the vocabulary must be learnt the same way.")
+          .number("vlad_weight", &O::vlad_weight, between(0, 1),
+                  "VLAD's share of the network's part; below 1 the grid is kept beside it.")
           .integer("max_landmarks", &O::max_landmarks, between(0, 500),
                    "landmark boxes from the activations (8-connected components, energy = mean "
                    "activation), for ~match_image and re-ranking; 0 = none.")
@@ -327,6 +381,12 @@ bool applyBackboneVariantPart(const std::string& part, DescriptorOptions* option
     options->shape_weighting = "paper";
   } else if (part == "hoglm") {
     backbone.landmark_features = "hog";
+  } else if (part.rfind("soft", 0) == 0 && part.size() > 4) {
+    backbone.vlad_assignments = std::stoi(part.substr(4));
+  } else if (part == "vraw") {
+    backbone.vlad_features = "raw";
+  } else if (part.rfind("vw", 0) == 0 && part.size() > 2) {
+    backbone.vlad_weight = std::stoi(part.substr(2)) / 100.0;
   } else if (part == "whole" || part == "centred") {
     backbone.normalisation = part;
   } else if (part.rfind("hog", 0) == 0 && part.size() > 3) {
@@ -372,8 +432,14 @@ DescriptorType backboneDescriptorType() {
              << " proposal_layer=" << b.proposal_layer << " input=" << b.input_width << "x"
              << b.input_height << " colour=" << b.colour << " mean=" << b.mean << " std=" << b.std
              << " grid=" << b.grid_rows << "x" << b.grid_cols
-             << " normalisation=" << b.normalisation << " max_landmarks=" << b.max_landmarks
-             << " landmark_grid=" << b.landmark_grid << " landmark_features=" << b.landmark_features
+             << " normalisation=" << b.normalisation;
+    if (!b.vocabulary.empty()) {
+      identity << " vocabulary_fnv1a=" << fileHash(b.vocabulary)
+               << " vlad_assignments=" << b.vlad_assignments << " vlad_features=" << b.vlad_features
+               << " vlad_weight=" << b.vlad_weight;
+    }
+    identity << " max_landmarks=" << b.max_landmarks << " landmark_grid=" << b.landmark_grid
+             << " landmark_features=" << b.landmark_features
              << " max_landmark_area=" << options.max_landmark_area
              << " shape_weighting=" << options.shape_weighting
              << " landmark_storage=" << options.landmark_storage << " hog_weight=" << b.hog_weight
@@ -396,6 +462,10 @@ DescriptorType backboneDescriptorType() {
     backbone.normalisation = b.normalisation == "whole"     ? GridNormalisation::kWhole
                              : b.normalisation == "centred" ? GridNormalisation::kCentred
                                                             : GridNormalisation::kCells;
+    if (!b.vocabulary.empty()) backbone.vocabulary = VladVocabulary::load(b.vocabulary);
+    backbone.vlad.assignments = b.vlad_assignments;
+    backbone.vlad.unit_features = b.vlad_features == "unit";
+    backbone.vlad_weight = b.vlad_weight;
     backbone.max_landmarks = b.max_landmarks;
     backbone.landmark_grid = b.landmark_grid;
     backbone.hog_landmarks = b.landmark_features == "hog";

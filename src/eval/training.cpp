@@ -78,6 +78,22 @@ PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, cons
   return PcaWhitening::fit(features, components, regularisation);
 }
 
+VladVocabulary learnVocabulary(const BackboneDescriptor& network, size_t count,
+                               const ImageLoader& load, int clusters, int samples_per_image,
+                               const Progress& progress) {
+  cv::Mat samples;
+  for (size_t i = 0; i < count; ++i) {
+    const cv::Mat image = load(i);
+    if (!image.empty() && image.depth() == CV_8U) {
+      const cv::Mat features = network.vladFeatures(image);
+      const int step = std::max(1, features.rows / std::max(1, samples_per_image));
+      for (int row = 0; row < features.rows; row += step) samples.push_back(features.row(row));
+    }
+    if (progress) progress(i + 1, count);
+  }
+  return VladVocabulary::learn(samples, clusters, network.featureIdentity());
+}
+
 BroadModel trainBroad(const BroadOptions& options, size_t count, const ImageLoader& load,
                       double* training_error, const Progress& progress) {
   BroadTrainer trainer(options);

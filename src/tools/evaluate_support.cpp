@@ -96,6 +96,7 @@ Variant descriptorVariant(const std::string& name, const Arguments& arguments,
   options.cnn.whitening = arguments.get("--cnn-whitening", options.cnn.whitening);
   options.broad.model = arguments.get("--broad-model", options.broad.model);
   options.backbone.model = arguments.get("--backbone-model", options.backbone.model);
+  options.backbone.vocabulary = arguments.get("--vocabulary", options.backbone.vocabulary);
   // Training settings are this tool's, not the descriptor's: "_pcaN" whitens any global vector,
   // "cnn_pca_cN" keeps N whitened dimensions, "broad_eN" trains N enhancement nodes.
   const DescriptorType* type = descriptorTypeOfVariant(name);
@@ -111,6 +112,8 @@ Variant descriptorVariant(const std::string& name, const Arguments& arguments,
     if (part.empty()) continue;
     if (numbered(part, "pca")) {
       variant.whiten_components = std::stoi(part.substr(3));
+    } else if (type->name == "backbone" && numbered(part, "vlad")) {
+      variant.vocabulary_clusters = std::stoi(part.substr(4));
     } else if (type->name == "cnn_pca" && numbered(part, "c")) {
       variant.components = std::stoi(part.substr(1));
     } else if (type->name == "broad" && numbered(part, "e")) {
@@ -126,7 +129,9 @@ Variant descriptorVariant(const std::string& name, const Arguments& arguments,
 bool needsTraining(const Variant& variant) {
   const DescriptorOptions& options = variant.options;
   return (options.type == "cnn_pca" && options.cnn.whitening.empty()) ||
-         (options.type == "broad" && options.broad.model.empty()) || variant.whiten_components > 0;
+         (options.type == "broad" && options.broad.model.empty()) ||
+         variant.whiten_components > 0 ||
+         (variant.vocabulary_clusters > 0 && options.backbone.vocabulary.empty());
 }
 
 void trainWhereNeeded(Variant* variant, const std::string& name, const Training& training,
@@ -134,12 +139,26 @@ void trainWhereNeeded(Variant* variant, const std::string& name, const Training&
   DescriptorOptions& options = variant->options;
   const bool fit = options.type == "cnn_pca" && options.cnn.whitening.empty();
   const bool train = options.type == "broad" && options.broad.model.empty();
-  if (!fit && !train) return;
+  const bool cluster = variant->vocabulary_clusters > 0 && options.backbone.vocabulary.empty();
+  if (!fit && !train && !cluster) return;
   std::filesystem::create_directories(output_folder);
   const auto start = std::chrono::steady_clock::now();
-  std::string file = output_folder + "/" + name + (fit ? ".whitening" : ".broad");
+  std::string file = output_folder + "/" + name +
+                     (fit       ? ".whitening"
+                      : cluster ? ".vocabulary"
+                                : ".broad");
   std::string summary;
-  if (fit) {
+  if (cluster) {
+    const auto network =
+        std::dynamic_pointer_cast<const BackboneDescriptor>(makeDescriptorExtractor(options));
+    if (!network) throw std::invalid_argument(name + ": only the backbone takes a vocabulary");
+    const VladVocabulary vocabulary =
+        learnVocabulary(*network, training.count, training.load, variant->vocabulary_clusters, 64,
+                        progressPrinter("learning the vocabulary (" + name + ")"));
+    vocabulary.save(file);
+    options.backbone.vocabulary = file;
+    summary = std::to_string(vocabulary.clusters()) + " centres";
+  } else if (fit) {
     DescriptorOptions::Cnn raw = options.cnn;
     raw.whitening = "none";
     const CnnGlobalDescriptor network(cnnGlobalOptions(raw));

@@ -53,8 +53,9 @@ CameraIntrinsics readCameraInfoFile(const std::string& path);
 /// A descriptor to evaluate, and how to train it when it learns from images.
 struct Variant {
   DescriptorOptions options;
-  int components = 256;       ///< cnn_pca: whitened dimensions.
-  int whiten_components = 0;  ///< backbone_..._pcaN: the global vector whitened to N dimensions.
+  int components = 256;         ///< cnn_pca: whitened dimensions.
+  int whiten_components = 0;    ///< backbone_..._pcaN: the global vector whitened to N dimensions.
+  int vocabulary_clusters = 0;  ///< backbone_vladK: a VLAD vocabulary of K centres learnt first.
   BroadOptions broad;
 };
 

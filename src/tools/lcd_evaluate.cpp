@@ -101,14 +101,19 @@ OPTIONS:
                        (landmark grid), _hoglm (landmarks described by HOG), _pcaN (the global
                        vector PCA-whitened to N dimensions, fitted on the training images), _whole
                        / _centred
-                       (grid normalisation), _paper (the paper's shape weighting)
+                       (grid normalisation), _paper (the paper's shape weighting), _vladK (VLAD
+                       over a vocabulary of K centres learnt on the training images instead of
+                       the grid), _softN (each local feature shared by its N nearest centres),
+                       _vraw (local features not normalised), _vwP (the grid kept beside VLAD,
+                       VLAD's share P %)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
+  --vocabulary FILE    backbone's VLAD vocabulary (lcd_train vocabulary; default: none, the grid)
   --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (descriptor/cnn defaults otherwise)
                        and whitening; without a whitening file it is fitted on the training
                        images and written to the output folder
   --broad-model FILE   broad's model; without one it is trained on the training images
-  --train-images DIR   training images of cnn_pca, broad and _pcaN variants (no labels used)
+  --train-images DIR   training images of cnn_pca, broad, _pcaN and _vladK variants (no labels)
   --train-on-eval      train them on the evaluation images themselves instead (flatters them)
   --contact-sheet N    also draw the N best-scoring pairs (green right, red wrong)
   --top-k N            candidates a re-ranking descriptor re-scores (default 10)

@@ -2,6 +2,7 @@
 // a CNN layer (descriptor type cnn_pca) and the broad autoencoder (descriptor type broad).
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <map>
 
@@ -10,17 +11,21 @@
 #include "bag/bag_source.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
+#include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/eval/training.h"
 
 namespace {
 
 using namespace landmark_loop_closure;
 
-constexpr char kUsage[] = R"(usage: lcd_train whitening|broad SOURCE [OPTIONS]
+constexpr char kUsage[] = R"(usage: lcd_train whitening|broad|vocabulary SOURCE [OPTIONS]
 
 whitening   PCA whitening of descriptor/cnn's layer (type cnn_pca), written beside the model
             (MODEL.whitening, where the node looks by default) or to --output
 broad       a broad autoencoder (type broad) written to --output (default broad.model)
+vocabulary  a VLAD vocabulary of descriptor/backbone's layer (k-means of its local features; no
+            labels) written to --output (required; an existing file is not replaced); the node
+            uses it with descriptor/backbone/vocabulary
 
 SOURCE, one of:
   --images DIR         every image of a folder (png, jpg, ...)
@@ -41,6 +46,9 @@ broad:
   --enhancement N      enhancement nodes (default 2000; the paper: 10000)
   --alpha A            output nodes = A * (mapped + enhancement) (default 0.667)
   --lasso L --ridge R  regularisers (defaults 1e-3, 1e-2)   --seed S   (default 1)
+vocabulary:
+  --clusters K         centres (default 16): the descriptor has K x the layer's channels values
+  --samples N          local features taken from each image (default 64)
 )";
 
 std::map<std::string, std::string> parse(int argc, char** argv) {
@@ -109,7 +117,7 @@ Images images(const std::map<std::string, std::string>& values, bool colour) {
   return source;
 }
 
-int fitWhitening(const std::map<std::string, std::string>& values) {
+NodeOptions nodeOptions(const std::map<std::string, std::string>& values) {
   const std::string config = values.count("--config") ? values.at("--config")
                                                       : std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR
                                                                     "/config/default.yaml");
@@ -117,10 +125,16 @@ int fitWhitening(const std::map<std::string, std::string>& values) {
   OptionReader reader(source);
   NodeOptions node;
   readNodeOptions(&reader, &node);
-  DescriptorOptions descriptor = node.detector.descriptor;
+  const std::string problem = reader.errors();
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  return node;
+}
+
+int fitWhitening(const std::map<std::string, std::string>& values) {
+  DescriptorOptions descriptor = nodeOptions(values).detector.descriptor;
   descriptor.type = "cnn_pca";
   descriptor.cnn.whitening = "none";
-  const std::string problem = descriptor.validate() + reader.errors();
+  const std::string problem = descriptor.validate();
   if (!problem.empty()) throw std::invalid_argument(problem);
   const CnnGlobalDescriptor network(cnnGlobalOptions(descriptor.cnn));
   const Images training = images(values, descriptor.cnn.colour != "grey");
@@ -137,6 +151,32 @@ int fitWhitening(const std::map<std::string, std::string>& values) {
   std::printf("whitening: %d -> %d dimensions, %.1f %% of the variance, fitted in %.1f s\n%s\n",
               whitening.inputDimension(), whitening.outputDimension(),
               100.0 * whitening.explainedVariance(), seconds, output.c_str());
+  return 0;
+}
+
+int learnVocabulary(const std::map<std::string, std::string>& values) {
+  if (!values.count("--output")) throw std::invalid_argument("vocabulary needs --output FILE");
+  const std::string output = values.at("--output");
+  if (std::filesystem::exists(output)) {
+    throw std::invalid_argument(output + " exists; name a new file (it is not replaced)");
+  }
+  DescriptorOptions descriptor = nodeOptions(values).detector.descriptor;
+  descriptor.type = "backbone";
+  descriptor.backbone.vocabulary.clear();
+  const std::string problem = descriptor.validate();
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  const auto network =
+      std::dynamic_pointer_cast<const BackboneDescriptor>(makeDescriptorExtractor(descriptor));
+  const Images training = images(values, descriptor.backbone.colour != "grey");
+  const auto start = std::chrono::steady_clock::now();
+  const VladVocabulary vocabulary = eval::learnVocabulary(
+      *network, training.count, training.load, static_cast<int>(number(values, "--clusters", 16)),
+      static_cast<int>(number(values, "--samples", 64)), progress("describing"));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  vocabulary.save(output);
+  std::printf("vocabulary: %d centres of %d values, learnt in %.1f s\n%s\n", vocabulary.clusters(),
+              vocabulary.dimension(), seconds, output.c_str());
   return 0;
 }
 
@@ -189,7 +229,8 @@ int main(int argc, char** argv) {
     const auto values = parse(argc, argv);
     if (command == "whitening") return fitWhitening(values);
     if (command == "broad") return trainBroad(values);
-    throw std::invalid_argument("the first argument is 'whitening' or 'broad'");
+    if (command == "vocabulary") return learnVocabulary(values);
+    throw std::invalid_argument("the first argument is 'whitening', 'broad' or 'vocabulary'");
   } catch (const std::invalid_argument& error) {
     std::cerr << "lcd_train: " << error.what() << "\n\n" << kUsage;
     return 2;

@@ -11,6 +11,7 @@
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
 #include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
+#include "landmark_loop_closure/descriptors/vlad.h"
 
 namespace landmark_loop_closure {
 
@@ -34,6 +35,11 @@ struct BackboneOptions {
   int grid_rows = 3;  ///< The layer average-pooled into grid_rows x grid_cols cells.
   int grid_cols = 4;
   GridNormalisation normalisation = GridNormalisation::kCells;
+  /// Not empty: the layer's local features VLAD-aggregated against it instead of the grid.
+  VladVocabulary vocabulary;
+  VladOptions vlad;
+  /// With a vocabulary: VLAD's share of the network's part; below 1 the grid is kept beside it.
+  double vlad_weight = 1.0;
   /// Landmarks per image (0 = none): boxes from the proposal layer's activations, each
   /// described by `layer` resampled to landmark_grid x landmark_grid cells.
   int max_landmarks = 20;
@@ -67,7 +73,7 @@ struct BackboneOptions {
 struct BackboneStageTimes {
   double network_input = 0.0;  ///< Resize, colour order and normalisation into the blob.
   double network = 0.0;        ///< The forward pass to both named outputs.
-  double grid = 0.0;           ///< Cell pooling and normalisation.
+  double grid = 0.0;           ///< Cell pooling (or VLAD) and normalisation.
   double landmark_proposals = 0.0;
   double landmark_features = 0.0;
   double hog = 0.0;  ///< Whole-image HOG (resize included).
@@ -94,11 +100,18 @@ class BackboneDescriptor : public DescriptorExtractor {
   /// The layer the grid is pooled from.
   FeatureMaps appearanceMaps(const cv::Mat& image) const override;
 
+  /// Which features a VLAD vocabulary for this network must be learnt on (model, layer, input).
+  std::string featureIdentity() const { return feature_identity_; }
+  /// The local features a vocabulary is learnt from (localFeatures of the layer, as VLAD sees
+  /// them).
+  cv::Mat vladFeatures(const cv::Mat& image) const;
+
   /// The named outputs (layer, then proposal layer) for an image.
   std::vector<FeatureMaps> forward(const cv::Mat& image, BackboneStageTimes* times = nullptr) const;
 
  private:
-  int gridDimension() const;
+  int gridDimension() const;  ///< The network's part: the grid, VLAD, or both.
+  int cellsDimension() const;
   int hogDimension() const;
 
   BackboneOptions options_;
@@ -109,6 +122,7 @@ class BackboneDescriptor : public DescriptorExtractor {
   mutable cv::dnn::Net net_;
   std::unique_ptr<OneDnnMobileNet> fast_net_;  ///< Null: OpenCV's dnn runs the network.
   std::string engine_note_;                    ///< Which engine runs it, and why.
+  std::string feature_identity_;
 };
 
 /// Mean of each channel over grid_rows x grid_cols cells of the maps (cell borders split the map

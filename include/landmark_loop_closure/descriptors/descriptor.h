@@ -122,8 +122,12 @@ struct DescriptorOptions {
     int grid_rows = 3;  ///< Global descriptor: the layer average-pooled over rows x cols cells.
     int grid_cols = 4;
     std::string normalisation = "cells";  ///< "cells", "whole" or "centred" (see below).
-    int max_landmarks = 20;               ///< Landmarks per image; 0 = none.
-    int landmark_grid = 1;                ///< Cells per side a landmark's box is resampled to.
+    std::string vocabulary;    ///< VLAD vocabulary file (lcd_train vocabulary); "" = the grid.
+    int vlad_assignments = 1;  ///< Nearest centres a local feature is shared between (1 = hard).
+    std::string vlad_features = "unit";  ///< "unit" (normalised) or "raw" local features.
+    double vlad_weight = 1.0;            ///< VLAD's share; below 1 the grid is kept beside it.
+    int max_landmarks = 20;              ///< Landmarks per image; 0 = none.
+    int landmark_grid = 1;               ///< Cells per side a landmark's box is resampled to.
     std::string landmark_features = "backbone";  ///< "backbone" (the layer's maps) or "hog".
     double rerank_weight = 0;     ///< Share of the landmark similarity in the final score.
     double hog_weight = 0.1;      ///< Share of a whole-image HOG's cosine in the global score.

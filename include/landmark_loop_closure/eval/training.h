@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/broad_autoencoder.h"
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
@@ -28,6 +29,13 @@ PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, cons
 std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
     std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,
     int components, const Progress& progress = {});
+
+/// A VLAD vocabulary of `clusters` centres: k-means of the network layer's unit local features
+/// over the images (at most `samples_per_image` cells of each, spread evenly; no labels).
+/// Throws std::invalid_argument when fewer local features than clusters can be read.
+VladVocabulary learnVocabulary(const BackboneDescriptor& network, size_t count,
+                               const ImageLoader& load, int clusters, int samples_per_image = 64,
+                               const Progress& progress = {});
 
 /// A broad autoencoder trained on the images; `training_error` (when not null) receives the
 /// reconstruction's mean squared error. Throws std::invalid_argument when fewer than 2 images
