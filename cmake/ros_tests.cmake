@@ -21,14 +21,17 @@ foreach(name node_revisit node_bad_input node_restart node_time_jump node_tf_tim
     ${PROJECT_NAME}_nodelet)
 endforeach()
 
-# The detector and the pose-graph backend together, with wrong loops injected.
+# The detector and the pose-graph backend together on the demo's bag, with wrong loops injected.
 add_rostest_gtest(test_node_pose_graph test/ros/node_pose_graph.test
   test/ros/test_node_pose_graph.cpp)
 target_include_directories(test_node_pose_graph SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(test_node_pose_graph ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval
   ${catkin_LIBRARIES})
 add_dependencies(test_node_pose_graph ${PROJECT_NAME}_generate_messages_cpp loop_closure_node
-  ${PROJECT_NAME}_nodelet pose_graph_node ${PROJECT_NAME}_pose_graph_nodelet loop_injector)
+  ${PROJECT_NAME}_nodelet pose_graph_node ${PROJECT_NAME}_pose_graph_nodelet loop_injector
+  make_demo_bag)
+target_compile_definitions(test_node_pose_graph PRIVATE
+  MAKE_DEMO_BAG="$<TARGET_FILE:make_demo_bag>")
 
 roslaunch_add_file_check(launch IGNORE_UNSET_ARGS)
 roslaunch_add_file_check(test/ros)

@@ -1,11 +1,22 @@
-// The detector and the pose_graph node running together on two laps of the corridor, with one
-// loop in five replaced by a wrong one (loop_injector): the corrected path keeps the corridor's
-// shape, far closer to the truth than the drifting odometry, and the graph refuses every wrong
-// loop it is given.
+// The detector and the pose_graph node running together on the demo's bag (make_demo_bag: two
+// laps of the corridor, drifting odometry, ground truth), played message by message, with one loop
+// in five replaced by a wrong one (loop_injector): the corrected path keeps the corridor's shape,
+// far closer to the truth than the drifting odometry, and the graph refuses every wrong loop it is
+// given.
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <vector>
 
+#include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include "landmark_loop_closure/PoseGraphLoop.h"
 #include "landmark_loop_closure/eval/trajectory_error.h"
@@ -19,9 +30,38 @@ namespace {
 
 Pose bodyPose(const Pose2D& pose) { return planarPose(pose.x, pose.y, pose.yaw); }
 
+Pose2D planar(const nav_msgs::Odometry& odometry) {
+  const auto& q = odometry.pose.pose.orientation;
+  const double yaw = std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+  return {odometry.pose.pose.position.x, odometry.pose.pose.position.y, yaw};
+}
+
+// The demo's bag, written by the package's make_demo_bag into a folder removed afterwards.
+class DemoBag {
+ public:
+  DemoBag()
+      : folder_(std::filesystem::temp_directory_path() /
+                ("llc_pose_graph_" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(folder_);
+    path_ = (folder_ / "demo.bag").string();
+    const std::string command = std::string(MAKE_DEMO_BAG) + " " + path_ + " 2 > /dev/null";
+    written_ = std::system(command.c_str()) == 0;
+  }
+  ~DemoBag() { std::filesystem::remove_all(folder_); }
+  bool written() const { return written_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::filesystem::path folder_;
+  std::string path_;
+  bool written_ = false;
+};
+
 }  // namespace
 
-TEST(PoseGraphNode, CorrectsTheDriftAndRefusesWrongLoops) {
+TEST(PoseGraphNode, CorrectsTheDriftOfTheDemoBagAndRefusesWrongLoops) {
+  const DemoBag demo;
+  ASSERT_TRUE(demo.written()) << "make_demo_bag failed";
   test_support::NodeHarness harness;
   ros::NodeHandle node;
   nav_msgs::PathConstPtr corrected;
@@ -33,22 +73,41 @@ TEST(PoseGraphNode, CorrectsTheDriftAndRefusesWrongLoops) {
       "/pose_graph/loop_verdicts", 1000, [&](const PoseGraphLoopConstPtr& verdict) {
         verdicts[{verdict->query_id, verdict->match_id}] = *verdict;
       });
+  // The bag's topics, published as rosbag play would (faster: see kPublishRateHz).
+  std::map<std::string, ros::Publisher> publishers = {
+      {"/camera/image_raw", node.advertise<sensor_msgs::Image>("/camera/image_raw", 100)},
+      {"/camera/camera_info", node.advertise<sensor_msgs::CameraInfo>("/camera/camera_info", 100)},
+      {"/odom", node.advertise<nav_msgs::Odometry>("/odom", 100)},
+      {"/tf", node.advertise<tf2_msgs::TFMessage>("/tf", 100)}};
   ASSERT_TRUE(harness.waitForNode()) << "the detector did not subscribe";
-  const CorridorWorld world;
-  SequenceOptions options;
-  options.laps = 2.0;
-  SequenceGenerator sequence(world, CameraModel{}, options);
+
+  rosbag::Bag bag(demo.path(), rosbag::bagmode::Read);
   std::map<ros::Time, Pose2D> truth;
   std::map<ros::Time, Pose2D> odometry;
   ros::WallRate rate(test_support::kPublishRateHz);
-  SequenceFrame frame;
-  while (ros::ok() && sequence.next(&frame)) {
-    truth[ros::Time(frame.stamp)] = frame.truth;
-    odometry[ros::Time(frame.stamp)] = frame.odom;
-    harness.publish(frame.stamp, frame.odom, frame.image);
-    ros::spinOnce();
-    rate.sleep();
+  size_t images = 0;
+  for (const rosbag::MessageInstance& message : rosbag::View(bag)) {
+    if (!ros::ok()) break;
+    const std::string& topic = message.getTopic();
+    if (topic == "/ground_truth") {
+      const auto pose = message.instantiate<nav_msgs::Odometry>();
+      truth[pose->header.stamp] = planar(*pose);
+    } else if (topic == "/odom") {
+      const auto pose = message.instantiate<nav_msgs::Odometry>();
+      odometry[pose->header.stamp] = planar(*pose);
+      publishers.at(topic).publish(pose);
+    } else if (topic == "/camera/image_raw") {
+      publishers.at(topic).publish(message.instantiate<sensor_msgs::Image>());
+      ++images;
+      ros::spinOnce();
+      rate.sleep();
+    } else if (topic == "/camera/camera_info") {
+      publishers.at(topic).publish(message.instantiate<sensor_msgs::CameraInfo>());
+    } else if (topic == "/tf") {
+      publishers.at(topic).publish(message.instantiate<tf2_msgs::TFMessage>());
+    }
   }
+  ASSERT_GT(images, 900u) << "the demo bag holds too few images";
   harness.waitUntilQuiet();
   for (int i = 0; i < 20; ++i) {  // The last optimisation's path.
     ros::spinOnce();
@@ -59,7 +118,7 @@ TEST(PoseGraphNode, CorrectsTheDriftAndRefusesWrongLoops) {
   std::vector<Pose> estimated, odometry_poses, true_poses;
   for (const auto& stamped : corrected->poses) {
     const auto found = truth.find(stamped.header.stamp);
-    ASSERT_NE(found, truth.end()) << "a path pose whose stamp is no image's";
+    ASSERT_NE(found, truth.end()) << "a path pose whose stamp has no ground truth in the bag";
     estimated.push_back(
         Pose{{stamped.pose.position.x, stamped.pose.position.y, stamped.pose.position.z},
              Eigen::Quaterniond(stamped.pose.orientation.w, stamped.pose.orientation.x,
