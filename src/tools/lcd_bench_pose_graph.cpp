@@ -5,18 +5,91 @@
 // timed (median, p99); before them the graph is optimised every --every loops, as a backend that
 // keeps up would have left it. One thread, one run.
 //   lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E]
+// With --kitti POSES (KITTI odometry's ground truth, e.g. ../shared/data/kitti_poses/00.txt) the
+// route is a real one instead (tools/kitti_route.h): keyframes every 2 m, the demo's odometry
+// drift, every revisit a loop, --wrong-loops F of them wrong (default 0.05); every loop is
+// optimised on arrival. --max-loop-error-sd and --loop-loss-scale override the defaults, to
+// choose them on one sequence and check them on another.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
+#include <map>
+
+#include "kitti_route.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/eval/ground_truth.h"
 #include "landmark_loop_closure/eval/metrics.h"
+#include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/sim/driven_laps.h"
 
 using namespace landmark_loop_closure;
 
+namespace {
+
+int runKitti(const std::map<std::string, std::string>& values) {
+  const auto number = [&values](const std::string& key, double fallback) {
+    const auto it = values.find(key);
+    return it == values.end() ? fallback : std::strtod(it->second.c_str(), nullptr);
+  };
+  tools::KittiRouteOptions route_options;
+  route_options.wrong_fraction = number("--wrong-loops", route_options.wrong_fraction);
+  route_options.seed = static_cast<uint32_t>(number("--seed", route_options.seed));
+  route_options.scale_error = number("--scale-error", route_options.scale_error);
+  route_options.heading_error_per_m = number("--heading-error", route_options.heading_error_per_m);
+  const tools::KittiRoute route =
+      tools::kittiRoute(eval::readKittiPoses(values.at("--kitti")), route_options);
+  PoseGraphOptions options;
+  options.max_loop_error_sd = number("--max-loop-error-sd", options.max_loop_error_sd);
+  options.loop_loss_scale = number("--loop-loss-scale", options.loop_loss_scale);
+  const std::string problem = options.validate();
+  if (!problem.empty()) {
+    std::fprintf(stderr, "lcd_bench_pose_graph: %s\n", problem.c_str());
+    return 2;
+  }
+  PoseGraph graph(options);
+  std::vector<double> times;
+  size_t next_loop = 0;
+  for (size_t i = 0; i < route.truth.size(); ++i) {
+    graph.addKeyframe(i, route.odometry[i]);
+    bool new_loop = false;
+    while (next_loop < route.loops.size() && route.loops[next_loop].query_id == i) {
+      new_loop =
+          graph.addLoop(route.loops[next_loop]).decision == LoopDecision::kAccepted || new_loop;
+      ++next_loop;
+    }
+    if (new_loop) times.push_back(graph.optimise().milliseconds);
+  }
+  std::vector<Pose> corrected;
+  for (size_t i = 0; i < route.truth.size(); ++i) corrected.push_back(*graph.optimisedPose(i));
+  size_t wrong = 0, wrong_accepted = 0, right_refused = 0;
+  for (size_t k = 0; k < route.loops.size(); ++k) {
+    const bool accepted = graph.loopVerdicts()[k].decision == LoopDecision::kAccepted;
+    wrong += route.wrong[k] ? 1 : 0;
+    wrong_accepted += route.wrong[k] && accepted ? 1 : 0;
+    right_refused += !route.wrong[k] && !accepted ? 1 : 0;
+  }
+  const eval::TrajectoryError raw = eval::trajectoryError(route.odometry, route.truth);
+  const eval::TrajectoryError fixed = eval::trajectoryError(corrected, route.truth);
+  const eval::Percentiles time = eval::percentiles(times);
+  std::printf(
+      "%s: keyframes %zu, loops %zu (%zu wrong, %zu of them accepted; %zu true refused); "
+      "max_loop_error_sd %.2f loop_loss_scale %.2f; RMSE first pose aligned odometry %.3f m, "
+      "corrected %.3f m; similarity-aligned %.3f m, %.3f m; optimisation median %.2f ms, p99 "
+      "%.2f ms\n",
+      values.at("--kitti").c_str(), route.truth.size(), route.loops.size(), wrong, wrong_accepted,
+      right_refused, options.max_loop_error_sd, options.loop_loss_scale, raw.first_pose_rmse,
+      fixed.first_pose_rmse, raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99);
+  return 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  std::map<std::string, std::string> values;
+  for (int i = 1; i + 1 < argc; i += 2) values[argv[i]] = argv[i + 1];
+  if (values.count("--kitti")) return runKitti(values);
   size_t keyframes = 473;
   size_t timed = 100;
   size_t every = 10;
@@ -30,7 +103,10 @@ int main(int argc, char** argv) {
     } else if (key == "--every") {
       every = value;
     } else {
-      std::fprintf(stderr, "usage: lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E]\n");
+      std::fprintf(stderr,
+                   "usage: lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E] | "
+                   "--kitti POSES [--wrong-loops F] [--seed S] [--max-loop-error-sd X] "
+                   "[--loop-loss-scale Y]\n");
       return 2;
     }
   }
