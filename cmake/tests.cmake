@@ -71,6 +71,11 @@ add_test(NAME tool_bench_verification_kitti_layout
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/bench_verification_kitti.sh
     $<TARGET_FILE:lcd_bench_verification>)
 
+# The pose-graph benchmark on KITTI 06's real route, a fifth of the loops wrong.
+add_test(NAME tool_bench_pose_graph_kitti
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/bench_pose_graph_kitti.sh
+    $<TARGET_FILE:lcd_bench_pose_graph>)
+
 # lcd_train and lcd_evaluate with the learned descriptors (cnn_pca, broad) on a generated bag.
 add_test(NAME tool_train_learned_descriptors
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
