@@ -9,20 +9,14 @@
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "onnx_test_model.h"
+#include "temporary_folder.h"
 
 namespace landmark_loop_closure {
 namespace {
 
-class BackboneDescriptorTest : public ::testing::Test {
+class BackboneDescriptorTest : public test::TemporaryFolderTest {
  protected:
-  void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("llc_backbone_" + std::to_string(::getpid()) + "_" +
-                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(directory_);
-  }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+  BackboneDescriptorTest() : TemporaryFolderTest("llc_backbone_") {}
 
   // A network whose "features" are its RGB input itself (identity 1x1 convolution, ReLU), so
   // the grid cells are the mean colours of the image's regions.
@@ -40,8 +34,6 @@ class BackboneDescriptorTest : public ::testing::Test {
     options.min_network_width = 0;
     return options;
   }
-
-  std::filesystem::path directory_;
 };
 
 cv::Mat texturedImage(int seed, cv::Size size = cv::Size(320, 240)) {

@@ -9,20 +9,14 @@
 
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
 #include "onnx_test_model.h"
+#include "temporary_folder.h"
 
 namespace landmark_loop_closure {
 namespace {
 
-class CnnGlobalDescriptorTest : public ::testing::Test {
+class CnnGlobalDescriptorTest : public test::TemporaryFolderTest {
  protected:
-  void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("llc_cnn_" + std::to_string(::getpid()) + "_" +
-                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(directory_);
-  }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+  CnnGlobalDescriptorTest() : TemporaryFolderTest("llc_cnn_") {}
 
   // Three colour channels in, three out: output k = input channel k (identity 1x1 convolution).
   CnnGlobalOptions colourNet(const std::string& layer, FeaturePooling pooling) {
@@ -37,8 +31,6 @@ class CnnGlobalDescriptorTest : public ::testing::Test {
     options.pooling = pooling;
     return options;
   }
-
-  std::filesystem::path directory_;
 };
 
 Eigen::Vector3f unit(float a, float b, float c) { return Eigen::Vector3f(a, b, c).normalized(); }

@@ -11,22 +11,14 @@
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/vlad.h"
 #include "onnx_test_model.h"
+#include "temporary_folder.h"
 
 namespace landmark_loop_closure {
 namespace {
 
-class VladTest : public ::testing::Test {
+class VladTest : public test::TemporaryFolderTest {
  protected:
-  void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("llc_vlad_" + std::to_string(::getpid()) + "_" +
-                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(directory_);
-  }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
-
-  std::filesystem::path directory_;
+  VladTest() : TemporaryFolderTest("llc_vlad_") {}
 };
 
 cv::Mat rows(std::initializer_list<std::initializer_list<float>> values) {
