@@ -44,24 +44,30 @@ void normaliseGrid(std::vector<float>* grid, int channels, GridNormalisation nor
 
 }  // namespace
 
-std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols) {
+std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols, double power) {
   std::vector<float> pooled(static_cast<size_t>(grid_rows) * grid_cols * maps.channels, 0.0f);
   if (maps.empty()) return pooled;
+  const bool plain_mean = power == 1.0;
   for (int row = 0; row < grid_rows; ++row) {
     const int y0 = row * maps.height / grid_rows;
     const int y1 = std::max(y0 + 1, (row + 1) * maps.height / grid_rows);
     for (int col = 0; col < grid_cols; ++col) {
       const int x0 = col * maps.width / grid_cols;
       const int x1 = std::max(x0 + 1, (col + 1) * maps.width / grid_cols);
-      const float area = static_cast<float>((y1 - y0) * (x1 - x0));
+      const double area = static_cast<double>((y1 - y0) * (x1 - x0));
       float* cell = pooled.data() + (static_cast<size_t>(row) * grid_cols + col) * maps.channels;
       for (int c = 0; c < maps.channels; ++c) {
         const float* channel = maps.channel(c);
         double sum = 0.0;
         for (int y = y0; y < std::min(y1, maps.height); ++y) {
-          for (int x = x0; x < std::min(x1, maps.width); ++x) sum += channel[y * maps.width + x];
+          for (int x = x0; x < std::min(x1, maps.width); ++x) {
+            const double value = channel[y * maps.width + x];
+            sum += plain_mean ? value : std::copysign(std::pow(std::abs(value), power), value);
+          }
         }
-        cell[c] = static_cast<float>(sum) / area;
+        const double mean = sum / area;
+        cell[c] = static_cast<float>(
+            plain_mean ? mean : std::copysign(std::pow(std::abs(mean), 1.0 / power), mean));
       }
     }
   }
@@ -211,7 +217,8 @@ ImageDescriptor BackboneDescriptor::describe(const cv::Mat& image,
     Clock::time_point start = Clock::now();
     float* const vlad_begin = grid_begin + cellsDimension();
     if (vlad_begin != grid_begin) {
-      std::vector<float> grid = gridPool(maps[0], options_.grid_rows, options_.grid_cols);
+      std::vector<float> grid =
+          gridPool(maps[0], options_.grid_rows, options_.grid_cols, options_.cell_pooling_power);
       normaliseGrid(&grid, channels_, options_.normalisation);
       std::copy(grid.begin(), grid.end(), grid_begin);
     }
@@ -305,6 +312,10 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
                 "\"cells\": each cell L2-normalised, then the whole (won on Gardens Point); "
                 "\"whole\": the whole vector only; \"centred\": each channel's mean over the cells "
                 "removed first (bench/README.md has all three).")
+          .number("cell_pooling_power", &O::cell_pooling_power, between(1, 16),
+                  "how a cell pools its map cells: 1 = the mean; p > 1 = the signed generalised "
+                  "mean sign(m) |m|^(1/p), m = mean of sign(x) |x|^p (GeM that stays defined "
+                  "for the layer's negative values), towards the strongest activation as p grows.")
           .text("vocabulary", &O::vocabulary,
                 "VLAD instead of the grid: a vocabulary file written by `lcd_train vocabulary` "
                 "(k-means of the layer's local features on unlabelled images); each local feature "
@@ -387,6 +398,8 @@ bool applyBackboneVariantPart(const std::string& part, DescriptorOptions* option
     backbone.vlad_features = "raw";
   } else if (part.rfind("vw", 0) == 0 && part.size() > 2) {
     backbone.vlad_weight = std::stoi(part.substr(2)) / 100.0;
+  } else if (part.rfind("gem", 0) == 0 && part.size() > 3) {
+    backbone.cell_pooling_power = std::stoi(part.substr(3)) / 10.0;
   } else if (part == "whole" || part == "centred") {
     backbone.normalisation = part;
   } else if (part.rfind("hog", 0) == 0 && part.size() > 3) {
@@ -433,6 +446,7 @@ DescriptorType backboneDescriptorType() {
              << b.input_height << " colour=" << b.colour << " mean=" << b.mean << " std=" << b.std
              << " grid=" << b.grid_rows << "x" << b.grid_cols
              << " normalisation=" << b.normalisation;
+    if (b.cell_pooling_power != 1.0) identity << " cell_pooling_power=" << b.cell_pooling_power;
     if (!b.vocabulary.empty()) {
       identity << " vocabulary_fnv1a=" << fileHash(b.vocabulary)
                << " vlad_assignments=" << b.vlad_assignments << " vlad_features=" << b.vlad_features
@@ -462,6 +476,7 @@ DescriptorType backboneDescriptorType() {
     backbone.normalisation = b.normalisation == "whole"     ? GridNormalisation::kWhole
                              : b.normalisation == "centred" ? GridNormalisation::kCentred
                                                             : GridNormalisation::kCells;
+    backbone.cell_pooling_power = b.cell_pooling_power;
     if (!b.vocabulary.empty()) backbone.vocabulary = VladVocabulary::load(b.vocabulary);
     backbone.vlad.assignments = b.vlad_assignments;
     backbone.vlad.unit_features = b.vlad_features == "unit";

@@ -58,15 +58,15 @@ class WhitenedExtractor : public DescriptorExtractor {
 
 std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
     std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,
-    int components, const Progress& progress) {
+    int components, bool whiten, const Progress& progress) {
   const Eigen::MatrixXf globals =
       collectRows(count, load, progress, [&inner](const cv::Mat& image) {
         const std::vector<float> global = inner->describe(image).global;
         return Eigen::RowVectorXf(Eigen::Map<const Eigen::RowVectorXf>(
             global.data(), static_cast<Eigen::Index>(global.size())));
       });
-  return std::make_shared<WhitenedExtractor>(std::move(inner),
-                                             PcaWhitening::fit(globals, components, 1e-3));
+  return std::make_shared<WhitenedExtractor>(
+      std::move(inner), PcaWhitening::fit(globals, components, whiten ? 1e-3 : 1e9));
 }
 
 PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, const ImageLoader& load,

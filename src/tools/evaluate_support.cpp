@@ -112,6 +112,9 @@ Variant descriptorVariant(const std::string& name, const Arguments& arguments,
     if (part.empty()) continue;
     if (numbered(part, "pca")) {
       variant.whiten_components = std::stoi(part.substr(3));
+    } else if (numbered(part, "proj")) {
+      variant.whiten_components = std::stoi(part.substr(4));
+      variant.whiten = false;
     } else if (type->name == "backbone" && numbered(part, "vlad")) {
       variant.vocabulary_clusters = std::stoi(part.substr(4));
     } else if (type->name == "cnn_pca" && numbered(part, "c")) {
@@ -199,9 +202,9 @@ std::shared_ptr<const DescriptorExtractor> makeVariantExtractor(Variant* variant
   if (!problem.empty()) throw std::invalid_argument(problem);
   std::shared_ptr<const DescriptorExtractor> extractor = makeDescriptorExtractor(variant->options);
   if (variant->whiten_components > 0) {
-    extractor =
-        withFittedWhitening(extractor, training.count, training.load, variant->whiten_components,
-                            progressPrinter("fitting the whitening (" + name + ")"));
+    extractor = withFittedWhitening(extractor, training.count, training.load,
+                                    variant->whiten_components, variant->whiten,
+                                    progressPrinter("fitting the whitening (" + name + ")"));
   }
   return extractor;
 }

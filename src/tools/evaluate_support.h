@@ -55,6 +55,7 @@ struct Variant {
   DescriptorOptions options;
   int components = 256;         ///< cnn_pca: whitened dimensions.
   int whiten_components = 0;    ///< backbone_..._pcaN: the global vector whitened to N dimensions.
+  bool whiten = true;           ///< false (_projN): PCA projection only, every component alike.
   int vocabulary_clusters = 0;  ///< backbone_vladK: a VLAD vocabulary of K centres learnt first.
   BroadOptions broad;
 };

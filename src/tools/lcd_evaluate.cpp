@@ -99,13 +99,15 @@ OPTIONS:
                        (HOG weight P %), _nW (HOG alone below W px wide), _iWxH (input), _bN
                        (layer block_N_add), _pN (landmark boxes from block_N_add), _lgN
                        (landmark grid), _hoglm (landmarks described by HOG), _pcaN (the global
-                       vector PCA-whitened to N dimensions, fitted on the training images), _whole
+                       vector PCA-whitened to N dimensions, fitted on the training images), _projN
+                       (PCA projection to N dimensions, not whitened), _whole
                        / _centred
                        (grid normalisation), _paper (the paper's shape weighting), _vladK (VLAD
                        over a vocabulary of K centres learnt on the training images instead of
                        the grid), _softN (each local feature shared by its N nearest centres),
                        _vraw (local features not normalised), _vwP (the grid kept beside VLAD,
-                       VLAD's share P %)
+                       VLAD's share P %), _gemN (cells pooled by the signed generalised mean
+                       of power N/10; gem30 = p 3)
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
   --vocabulary FILE    backbone's VLAD vocabulary (lcd_train vocabulary; default: none, the grid)

@@ -110,6 +110,26 @@ TEST(GridPool, AveragesEachCellOfEveryChannel) {
   EXPECT_FLOAT_EQ(pooled[7], 25.0f);
 }
 
+// Signed GeM: p = 2 over {3, -4} is sign(m) sqrt(|m|) with m = (9 - 16) / 2; large p tends to
+// the value of largest magnitude, with its sign; p = 1 is the mean.
+TEST(GridPool, GeneralisedMeanKeepsTheSignAndTendsToTheStrongestValue) {
+  FeatureMaps maps;
+  maps.channels = 2;
+  maps.height = 1;
+  maps.width = 2;
+  maps.values = {3.0f, -4.0f, 1.0f, 2.0f};  // channel 0: 3, -4; channel 1: 1, 2
+  const std::vector<float> mean = gridPool(maps, 1, 1, 1.0);
+  EXPECT_FLOAT_EQ(mean[0], -0.5f);
+  EXPECT_FLOAT_EQ(mean[1], 1.5f);
+  const std::vector<float> gem2 = gridPool(maps, 1, 1, 2.0);
+  EXPECT_NEAR(gem2[0], -std::sqrt(3.5), 1e-5);
+  EXPECT_NEAR(gem2[1], std::sqrt(2.5), 1e-5);
+  const std::vector<float> gem16 = gridPool(maps, 1, 1, 16.0);
+  EXPECT_NEAR(gem16[0], -4.0 * std::pow(0.5 * (1.0 - std::pow(0.75, 16)), 1.0 / 16), 1e-4);
+  EXPECT_GT(gem16[1], 1.8f);
+  EXPECT_LT(gem16[1], 2.0f);
+}
+
 TEST(GridPool, MoreCellsThanTheMapHasStillGivesEveryCellAValue) {
   FeatureMaps maps;
   maps.channels = 1;

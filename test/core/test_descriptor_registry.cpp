@@ -169,6 +169,7 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
            [](DescriptorOptions::Backbone* b) { b->layer = "block_5_add"; },
            [](DescriptorOptions::Backbone* b) { b->grid_cols = 6; },
            [](DescriptorOptions::Backbone* b) { b->normalisation = "whole"; },
+           [](DescriptorOptions::Backbone* b) { b->cell_pooling_power = 3.0; },
            [](DescriptorOptions::Backbone* b) { b->input_width = 320; },
            [](DescriptorOptions::Backbone* b) { b->max_landmarks = 10; },
            [](DescriptorOptions::Backbone* b) { b->hog_weight = 0.2; },

@@ -376,3 +376,45 @@ TEST(Training, AFittedWhiteningWrapsAnyExtractor) {
                    makeDescriptorExtractor(options), 1, [&](size_t i) { return images[i]; }, 8),
                std::invalid_argument);
 }
+
+// Without whitening the projection keeps the training images' centred geometry: with every
+// component kept, two training images' cosine is that of their vectors minus the mean.
+TEST(Training, ProjectionWithoutWhiteningKeepsCentredCosines) {
+  // Mixtures of two textures, plus a little noise: pairs far from the average cosine.
+  cv::RNG random(11);
+  cv::Mat first(48, 64, CV_32FC1), second(48, 64, CV_32FC1);
+  random.fill(first, cv::RNG::UNIFORM, 0, 128);
+  random.fill(second, cv::RNG::UNIFORM, 0, 128);
+  std::vector<cv::Mat> images;
+  for (int i = 0; i < 12; ++i) {
+    cv::Mat noise(48, 64, CV_32FC1);
+    random.fill(noise, cv::RNG::UNIFORM, 0, 8);
+    const double share = i / 11.0;
+    cv::Mat image;
+    cv::Mat(share * first + (1.0 - share) * second + noise).convertTo(image, CV_8UC1);
+    images.push_back(image);
+  }
+  DescriptorOptions options;
+  options.type = "pixels";
+  const auto raw = makeDescriptorExtractor(options);
+  const auto load = [&](size_t i) { return images[i]; };
+  const auto projected = withFittedWhitening(raw, images.size(), load, 11, false);
+  const auto whitened = withFittedWhitening(raw, images.size(), load, 11, true);
+  std::vector<Eigen::VectorXd> centred;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(raw->globalDimension());
+  for (const cv::Mat& image : images) {
+    const std::vector<float> global = raw->describe(image).global;
+    centred.push_back(
+        Eigen::Map<const Eigen::VectorXf>(global.data(), global.size()).cast<double>());
+    mean += centred.back() / static_cast<double>(images.size());
+  }
+  for (Eigen::VectorXd& vector : centred) vector -= mean;
+  const double expected = centred[2].normalized().dot(centred[5].normalized());
+  EXPECT_NEAR(projected->similarity(projected->describe(images[2]), projected->describe(images[5])),
+              expected, 1e-3);
+  // Whitening makes the training images equidistant, so it does not keep that cosine.
+  EXPECT_GT(
+      std::abs(whitened->similarity(whitened->describe(images[2]), whitened->describe(images[5])) -
+               expected),
+      0.01);
+}

@@ -35,6 +35,8 @@ struct BackboneOptions {
   int grid_rows = 3;  ///< The layer average-pooled into grid_rows x grid_cols cells.
   int grid_cols = 4;
   GridNormalisation normalisation = GridNormalisation::kCells;
+  /// How a cell pools its map cells: 1 = mean, p > 1 = signed generalised mean (see gridPool).
+  double cell_pooling_power = 1.0;
   /// Not empty: the layer's local features VLAD-aggregated against it instead of the grid.
   VladVocabulary vocabulary;
   VladOptions vlad;
@@ -125,8 +127,12 @@ class BackboneDescriptor : public DescriptorExtractor {
   std::string feature_identity_;
 };
 
-/// Mean of each channel over grid_rows x grid_cols cells of the maps (cell borders split the map
-/// evenly, each cell at least one map cell), cell-major: rows * cols * channels values.
-std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols);
+/// Each channel pooled over grid_rows x grid_cols cells of the maps (cell borders split the map
+/// evenly, each cell at least one map cell), cell-major: rows * cols * channels values. `power`
+/// 1 is the mean; p > 1 the signed generalised mean (GeM), sign(m) |m|^(1/p) with m the mean of
+/// sign(x) |x|^p, which moves towards the strongest activation as p grows and, unlike GeM,
+/// stays defined for a layer's negative values.
+std::vector<float> gridPool(const FeatureMaps& maps, int grid_rows, int grid_cols,
+                            double power = 1.0);
 
 }  // namespace landmark_loop_closure

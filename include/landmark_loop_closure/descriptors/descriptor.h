@@ -122,6 +122,7 @@ struct DescriptorOptions {
     int grid_rows = 3;  ///< Global descriptor: the layer average-pooled over rows x cols cells.
     int grid_cols = 4;
     std::string normalisation = "cells";  ///< "cells", "whole" or "centred" (see below).
+    double cell_pooling_power = 1.0;      ///< 1 = mean; p > 1 = signed generalised mean.
     std::string vocabulary;    ///< VLAD vocabulary file (lcd_train vocabulary); "" = the grid.
     int vlad_assignments = 1;  ///< Nearest centres a local feature is shared between (1 = hard).
     std::string vlad_features = "unit";  ///< "unit" (normalised) or "raw" local features.

@@ -24,11 +24,11 @@ PcaWhitening fitWhitening(const CnnGlobalDescriptor& network, size_t count, cons
 
 /// Any extractor whose global vector is then PCA-whitened (fitted on the images' global vectors)
 /// and normalised again: methods.md section 2's step measured on other descriptors (lcd_evaluate's
-/// "_pcaN" variants). Landmarks are passed through. Throws std::invalid_argument when fewer than 2
-/// images can be read.
+/// "_pcaN" variants; `whiten` false: the centred projection alone, "_projN"). Landmarks are
+/// passed through. Throws std::invalid_argument when fewer than 2 images can be read.
 std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
     std::shared_ptr<const DescriptorExtractor> inner, size_t count, const ImageLoader& load,
-    int components, const Progress& progress = {});
+    int components, bool whiten = true, const Progress& progress = {});
 
 /// A VLAD vocabulary of `clusters` centres: k-means of the network layer's unit local features
 /// over the images (at most `samples_per_image` cells of each, spread evenly; no labels).
