@@ -35,12 +35,16 @@ void centreAndNormalise(std::vector<float>* values) {
   normaliseL2(values);
 }
 
-void normaliseL2(std::vector<float>* values) {
+void normaliseL2(float* begin, float* end) {
   double sum = 0.0;
-  for (const float v : *values) sum += static_cast<double>(v) * v;
-  if (sum <= 0.0) return;
+  for (const float* v = begin; v != end; ++v) sum += static_cast<double>(*v) * *v;
+  if (!(sum > 0.0) || !std::isfinite(sum)) return;
   const float scale = static_cast<float>(1.0 / std::sqrt(sum));
-  for (float& v : *values) v *= scale;
+  for (float* v = begin; v != end; ++v) *v *= scale;
+}
+
+void normaliseL2(std::vector<float>* values) {
+  normaliseL2(values->data(), values->data() + values->size());
 }
 
 }  // namespace landmark_loop_closure

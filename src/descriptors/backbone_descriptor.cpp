@@ -31,12 +31,8 @@ void normaliseGrid(std::vector<float>* grid, int channels, GridNormalisation nor
   }
   if (normalisation != GridNormalisation::kWhole) {
     for (size_t k = 0; k < cells; ++k) {
-      const auto begin = grid->begin() + static_cast<std::ptrdiff_t>(k * channels);
-      double norm = 0.0;
-      for (auto v = begin; v != begin + channels; ++v) norm += double(*v) * *v;
-      if (norm <= 0.0 || !std::isfinite(norm)) continue;
-      const float scale = static_cast<float>(1.0 / std::sqrt(norm));
-      for (auto v = begin; v != begin + channels; ++v) *v *= scale;
+      float* const cell = grid->data() + k * static_cast<size_t>(channels);
+      normaliseL2(cell, cell + channels);
     }
   }
   normaliseL2(grid);

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "common/checksummed_file.h"
+#include "landmark_loop_closure/common/image_helpers.h"
 
 namespace landmark_loop_closure {
 
@@ -15,14 +16,6 @@ constexpr char kMagic[8] = {'L', 'L', 'C', 'V', 'L', 'A', 'D', 'V'};
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kMaxClusters = 4096;
 constexpr uint32_t kMaxDimension = 8192;
-
-void normaliseRow(float* begin, int size) {
-  double norm = 0.0;
-  for (int i = 0; i < size; ++i) norm += double(begin[i]) * begin[i];
-  if (!(norm > 0.0) || !std::isfinite(norm)) return;
-  const float scale = static_cast<float>(1.0 / std::sqrt(norm));
-  for (int i = 0; i < size; ++i) begin[i] *= scale;
-}
 
 }  // namespace
 
@@ -97,7 +90,9 @@ cv::Mat localFeatures(const FeatureMaps& maps, bool unit) {
     for (int k = 0; k < cells; ++k) features.at<float>(k, c) = channel[k];
   }
   if (!unit) return features;
-  for (int k = 0; k < cells; ++k) normaliseRow(features.ptr<float>(k), maps.channels);
+  for (int k = 0; k < cells; ++k) {
+    normaliseL2(features.ptr<float>(k), features.ptr<float>(k) + maps.channels);
+  }
   return features;
 }
 
@@ -144,9 +139,11 @@ std::vector<float> vladAggregate(const cv::Mat& features, const VladVocabulary& 
     }
   }
   for (float& value : vlad) value = std::copysign(std::sqrt(std::fabs(value)), value);
-  for (int k = 0; k < clusters; ++k)
-    normaliseRow(vlad.data() + static_cast<size_t>(k) * dimension, dimension);
-  normaliseRow(vlad.data(), static_cast<int>(vlad.size()));
+  for (int k = 0; k < clusters; ++k) {  // Intra-normalisation: each centre's sum alike.
+    normaliseL2(vlad.data() + static_cast<size_t>(k) * dimension,
+                vlad.data() + static_cast<size_t>(k + 1) * dimension);
+  }
+  normaliseL2(&vlad);
   return vlad;
 }
 

@@ -10,8 +10,10 @@ namespace landmark_loop_closure {
 /// Resizes (bicubic) to width x height; converts to grey first if needed.
 cv::Mat toWorkingImage(const cv::Mat& image, int width, int height);
 
-/// Scales a vector to unit L2 norm; leaves an all-zero vector as it is.
+/// Scales a vector to unit L2 norm; leaves an all-zero (or non-finite) vector as it is.
 void normaliseL2(std::vector<float>* values);
+/// The same for the values [begin, end), e.g. one cell of a longer vector.
+void normaliseL2(float* begin, float* end);
 
 /// Subtracts the vector's own mean, then normalises to unit L2 norm, so that the cosine of two
 /// such vectors is their correlation. HOG values are all positive: without centring, every pair
