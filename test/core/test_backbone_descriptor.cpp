@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "identity_backbone.h"
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
-#include "onnx_test_model.h"
 #include "temporary_folder.h"
 
 namespace landmark_loop_closure {
@@ -18,20 +18,12 @@ class BackboneDescriptorTest : public test::TemporaryFolderTest {
  protected:
   BackboneDescriptorTest() : TemporaryFolderTest("llc_backbone_") {}
 
-  // A network whose "features" are its RGB input itself (identity 1x1 convolution, ReLU), so
-  // the grid cells are the mean colours of the image's regions.
+  // The grid cells are the mean colours of the image's regions.
   BackboneOptions identityNet() {
-    const std::string model = path("identity.onnx");
-    test::writeOneByOneConvNet(model, 3, 24, 32, {1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0});
-    BackboneOptions options;
-    options.model_path = model;
-    options.layer = "features";
-    options.input_size = cv::Size(32, 24);
+    BackboneOptions options = test::identityBackbone(path("identity.onnx"));
     options.grid_rows = 2;
     options.grid_cols = 2;
     options.max_landmarks = 5;
-    options.hog_weight = 0.0;  // the network alone unless a test asks for HOG
-    options.min_network_width = 0;
     return options;
   }
 };

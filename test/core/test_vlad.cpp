@@ -8,9 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "file_bytes.h"
+#include "identity_backbone.h"
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/vlad.h"
-#include "onnx_test_model.h"
 #include "temporary_folder.h"
 
 namespace landmark_loop_closure {
@@ -142,17 +142,9 @@ TEST_F(VladTest, VocabularyFileRoundTripsAndDamageIsNamed) {
 }
 
 TEST_F(VladTest, BackboneAggregatesByVladWithItsOwnVocabularyOnly) {
-  // A network whose features are its RGB input (identity 1x1 convolution): local features are
-  // the pixels' colours.
-  const std::string model = path("identity.onnx");
-  test::writeOneByOneConvNet(model, 3, 24, 32, {1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0});
-  BackboneOptions options;
-  options.model_path = model;
-  options.layer = "features";
-  options.input_size = cv::Size(32, 24);
+  // Local features are the pixels' colours.
+  BackboneOptions options = test::identityBackbone(path("identity.onnx"));
   options.max_landmarks = 0;
-  options.hog_weight = 0.0;
-  options.min_network_width = 0;
   options.engine = "opencv";
   const BackboneDescriptor grid(options);
 
