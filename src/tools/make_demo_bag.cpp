@@ -1,6 +1,7 @@
 // Writes a rosbag of a camera driven around the generated corridor: images, camera_info,
 // drifting odometry (and its tf), and ground truth.
 // Usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10]
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -61,15 +62,24 @@ sensor_msgs::CameraInfo cameraInfo(const CameraModel& camera, const std_msgs::He
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10]\n";
+    std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [odometry "
+                 "scale error=0.02] [odometry heading drift, rad/m=0.004]\n";
     return 2;
   }
   const std::string path = argv[1];
   SequenceOptions options;
   if (argc > 2) options.laps = std::atof(argv[2]);
   if (argc > 3) options.rate = std::atof(argv[3]);
+  if (argc > 4) options.odom_scale_error = std::atof(argv[4]);
+  if (argc > 5) options.odom_yaw_drift_per_metre = std::atof(argv[5]);
   if (!(options.laps > 0.0) || !(options.rate > 0.0 && options.rate <= 1000.0)) {
     std::cerr << "laps must be > 0 and frames per second in (0, 1000]\n";
+    return 2;
+  }
+  if (!(std::abs(options.odom_scale_error) < 0.5) ||
+      !(std::abs(options.odom_yaw_drift_per_metre) < 0.1)) {
+    std::cerr << "the odometry scale error must be within +-0.5 and the heading drift within "
+                 "+-0.1 rad/m\n";
     return 2;
   }
   ros::Time::init();
@@ -111,7 +121,7 @@ int main(int argc, char** argv) {
   }
   bag.close();
   std::cout << "make_demo_bag: wrote " << sequence.size() << " frames at " << options.rate
-            << " Hz (" << options.laps
-            << " laps of " << world.lapLength() << " m) to " << path << "\n";
+            << " Hz (" << options.laps << " laps of " << world.lapLength() << " m) to " << path
+            << "\n";
   return 0;
 }
