@@ -65,6 +65,8 @@ std::shared_ptr<const DescriptorExtractor> withFittedWhitening(
         return Eigen::RowVectorXf(Eigen::Map<const Eigen::RowVectorXf>(
             global.data(), static_cast<Eigen::Index>(global.size())));
       });
+  // A regulariser far above every eigenvalue divides each component by nearly the same number:
+  // the projection alone, which the final normalisation leaves unscaled.
   return std::make_shared<WhitenedExtractor>(
       std::move(inner), PcaWhitening::fit(globals, components, whiten ? 1e-3 : 1e9));
 }

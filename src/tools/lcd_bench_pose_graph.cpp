@@ -13,9 +13,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <string>
-
 #include <map>
+#include <string>
 
 #include "kitti_route.h"
 #include "landmark_loop_closure/backend/pose_graph.h"

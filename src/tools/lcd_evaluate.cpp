@@ -99,9 +99,8 @@ OPTIONS:
                        (HOG weight P %), _nW (HOG alone below W px wide), _iWxH (input), _bN
                        (layer block_N_add), _pN (landmark boxes from block_N_add), _lgN
                        (landmark grid), _hoglm (landmarks described by HOG), _pcaN (the global
-                       vector PCA-whitened to N dimensions, fitted on the training images), _projN
-                       (PCA projection to N dimensions, not whitened), _whole
-                       / _centred
+                       vector PCA-whitened to N dimensions, fitted on the training images),
+                       _projN (PCA projection to N dimensions, not whitened), _whole / _centred
                        (grid normalisation), _paper (the paper's shape weighting), _vladK (VLAD
                        over a vocabulary of K centres learnt on the training images instead of
                        the grid), _softN (each local feature shared by its N nearest centres),
