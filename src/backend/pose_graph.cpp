@@ -15,6 +15,26 @@ namespace {
 /// Error of an estimated relative pose i -> j against a measured one, in the measurement's
 /// convention (translation difference, then the rotation w with R_est = exp(w) R_meas, both in
 /// frame i), weighted by the square root of the measurement's information.
+template <typename T>
+void relativePoseError(const T* position_i, const T* orientation_i, const T* position_j,
+                       const T* orientation_j, const Eigen::Matrix<T, 3, 1>& measured_translation,
+                       const Eigen::Quaternion<T>& measured_rotation,
+                       const Eigen::Matrix<double, 6, 6>& sqrt_information, T* residual) {
+  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_i(position_i);
+  const Eigen::Map<const Eigen::Quaternion<T>> q_i(orientation_i);
+  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_j(position_j);
+  const Eigen::Map<const Eigen::Quaternion<T>> q_j(orientation_j);
+  const Eigen::Quaternion<T> q_i_inverse = q_i.conjugate();
+  const Eigen::Matrix<T, 3, 1> t_estimate = q_i_inverse * (p_j - p_i);
+  const Eigen::Quaternion<T> q_estimate = q_i_inverse * q_j;
+  const Eigen::Quaternion<T> difference = q_estimate * measured_rotation.conjugate();
+  Eigen::Map<Eigen::Matrix<T, 6, 1>> error(residual);
+  error.template head<3>() = t_estimate - measured_translation;
+  error.template tail<3>() = T(2.0) * difference.vec();
+  error.applyOnTheLeft(sqrt_information.template cast<T>());
+}
+
+/// A loop, or an odometry step whose heading drift is not estimated.
 class RelativePoseResidual {
  public:
   RelativePoseResidual(const Eigen::Isometry3d& i_T_j,
@@ -26,18 +46,10 @@ class RelativePoseResidual {
   template <typename T>
   bool operator()(const T* position_i, const T* orientation_i, const T* position_j,
                   const T* orientation_j, T* residual) const {
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_i(position_i);
-    const Eigen::Map<const Eigen::Quaternion<T>> q_i(orientation_i);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_j(position_j);
-    const Eigen::Map<const Eigen::Quaternion<T>> q_j(orientation_j);
-    const Eigen::Quaternion<T> q_i_inverse = q_i.conjugate();
-    const Eigen::Matrix<T, 3, 1> t_estimate = q_i_inverse * (p_j - p_i);
-    const Eigen::Quaternion<T> q_estimate = q_i_inverse * q_j;
-    const Eigen::Quaternion<T> difference = q_estimate * rotation_.template cast<T>().conjugate();
-    Eigen::Map<Eigen::Matrix<T, 6, 1>> error(residual);
-    error.template head<3>() = t_estimate - translation_.template cast<T>();
-    error.template tail<3>() = T(2.0) * difference.vec();
-    error.applyOnTheLeft(sqrt_information_.template cast<T>());
+    relativePoseError(position_i, orientation_i, position_j, orientation_j,
+                      Eigen::Matrix<T, 3, 1>(translation_.template cast<T>()),
+                      Eigen::Quaternion<T>(rotation_.template cast<T>()), sqrt_information_,
+                      residual);
     return true;
   }
 
@@ -51,6 +63,57 @@ class RelativePoseResidual {
   Eigen::Vector3d translation_;
   Eigen::Quaterniond rotation_;
   Eigen::Matrix<double, 6, 6> sqrt_information_;
+};
+
+/// The heading turned back by drift x distance before the odometry step is compared: the
+/// odometry's rotation over the step is Rz(drift * metres) R_true.
+Eigen::Quaterniond headingTurn(double radians) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(radians, Eigen::Vector3d::UnitZ()));
+}
+
+/// An odometry step with the drift rate (one parameter) estimated.
+class DriftingOdometryResidual {
+ public:
+  DriftingOdometryResidual(const Eigen::Isometry3d& i_T_j,
+                           const Eigen::Matrix<double, 6, 6>& sqrt_information)
+      : translation_(i_T_j.translation()),
+        rotation_(Eigen::Quaterniond(i_T_j.rotation())),
+        metres_(i_T_j.translation().norm()),
+        sqrt_information_(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* position_i, const T* orientation_i, const T* position_j,
+                  const T* orientation_j, const T* drift_per_m, T* residual) const {
+    const T half_turn = -T(0.5) * drift_per_m[0] * T(metres_);
+    const Eigen::Quaternion<T> undo_drift(cos(half_turn), T(0), T(0), sin(half_turn));
+    relativePoseError(position_i, orientation_i, position_j, orientation_j,
+                      Eigen::Matrix<T, 3, 1>(translation_.template cast<T>()),
+                      Eigen::Quaternion<T>(undo_drift * rotation_.template cast<T>()),
+                      sqrt_information_, residual);
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Isometry3d& i_T_j,
+                                     const Eigen::Matrix<double, 6, 6>& sqrt_information) {
+    return new ceres::AutoDiffCostFunction<DriftingOdometryResidual, 6, 3, 4, 3, 4, 1>(
+        new DriftingOdometryResidual(i_T_j, sqrt_information));
+  }
+
+ private:
+  Eigen::Vector3d translation_;
+  Eigen::Quaterniond rotation_;
+  double metres_;
+  Eigen::Matrix<double, 6, 6> sqrt_information_;
+};
+
+/// The drift rate's prior: zero, with the configured standard deviation.
+struct DriftPrior {
+  double sd;
+  template <typename T>
+  bool operator()(const T* drift_per_m, T* residual) const {
+    residual[0] = drift_per_m[0] / T(sd);
+    return true;
+  }
 };
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
@@ -97,6 +160,10 @@ const ParameterTable<PoseGraphOptions>& PoseGraphOptions::parameters() {
                   "... plus this many radians per metre travelled ...")
           .number("odometry_rotation_sd_per_rad", &O::odometry_rotation_sd_per_rad, atLeast(0),
                   "... and per radian turned.")
+          .number("heading_drift_prior_sd_per_m", &O::heading_drift_prior_sd_per_m, atLeast(0),
+                  "the odometry's heading may drift at a steady rate (rad per metre travelled, "
+                  "about the body's z axis): the graph estimates that rate from the loops, with "
+                  "this prior standard deviation around zero. 0: not estimated.")
           .number("max_loop_error_sd", &O::max_loop_error_sd, above(0),
                   "a loop whose error exceeds this many standard deviations of the uncertainty "
                   "between its keyframes (the odometry along the graph's most certain path plus "
@@ -164,17 +231,20 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
   Node node;
   node.odometry = odometry_pose;
   node.odometry.orientation.normalize();
-  Eigen::Isometry3d start = node.odometry.toIsometry();
-  if (!nodes_.empty()) {
-    const Node& last = nodes_.back();
-    start = estimate(nodes_.size() - 1) * last.odometry.toIsometry().inverse() * start;
-  }
-  const Eigen::Quaterniond orientation(start.rotation());
-  for (int k = 0; k < 3; ++k) node.position[k] = start.translation()[k];
-  for (int k = 0; k < 4; ++k) node.orientation[k] = orientation.normalized().coeffs()[k];
   ids_.push_back(id);
   nodes_.push_back(node);
+  // Placed by the odometry from the last keyframe's estimate, the estimated drift taken out.
+  setEstimate(nodes_.size() - 1,
+              nodes_.size() == 1 ? node.odometry.toIsometry()
+                                 : estimate(nodes_.size() - 2) * odometryStep(nodes_.size() - 2));
   return "";
+}
+
+Eigen::Isometry3d PoseGraph::odometryStep(size_t index) const {
+  Eigen::Isometry3d step =
+      nodes_[index].odometry.toIsometry().inverse() * nodes_[index + 1].odometry.toIsometry();
+  step.linear() = headingTurn(-heading_drift_per_m_ * step.translation().norm()) * step.rotation();
+  return step;
 }
 
 std::optional<size_t> PoseGraph::indexOf(uint64_t id) const {
@@ -284,12 +354,25 @@ bool PoseGraph::solve(size_t first_free, OptimisationReport* report) {
                              nodes_[b].position, nodes_[b].orientation);
     present[a] = present[b] = true;
   };
+  const bool estimate_drift = options_.heading_drift_prior_sd_per_m > 0.0;
   for (size_t i = first_free - 1; i + 1 < nodes_.size(); ++i) {
     const Eigen::Isometry3d motion =
         nodes_[i].odometry.toIsometry().inverse() * nodes_[i + 1].odometry.toIsometry();
     const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
     const Eigen::Matrix<double, 6, 6> sqrt_information = sd.cwiseInverse().asDiagonal();
-    add(i, i + 1, RelativePoseResidual::create(motion, sqrt_information), nullptr);
+    if (estimate_drift) {
+      problem.AddResidualBlock(DriftingOdometryResidual::create(motion, sqrt_information), nullptr,
+                               nodes_[i].position, nodes_[i].orientation, nodes_[i + 1].position,
+                               nodes_[i + 1].orientation, &heading_drift_per_m_);
+      present[i] = present[i + 1] = true;
+    } else {
+      add(i, i + 1, RelativePoseResidual::create(motion, sqrt_information), nullptr);
+    }
+  }
+  if (estimate_drift) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<DriftPrior, 1, 1>(
+                                 new DriftPrior{options_.heading_drift_prior_sd_per_m}),
+                             nullptr, &heading_drift_per_m_);
   }
   size_t active = 0;
   for (LoopEdge& edge : loops_) {
@@ -374,8 +457,34 @@ OptimisationReport PoseGraph::optimise() {
     verdicts_[*worst].error_sd = worst_error;
     report.switched_off.push_back(*worst);
   }
+  if (report.ran && options_.heading_drift_prior_sd_per_m > 0.0) replaceUnloopedStart();
   report.milliseconds = millisecondsSince(start);
   return report;
+}
+
+void PoseGraph::replaceUnloopedStart() {
+  // Keyframes before the earliest one a loop touches are tied to the rest by odometry alone and
+  // are never freed by the incremental solve; held, they keep the drift of the start in their
+  // headings, and everything after them turns with it. With the drift estimated, they are placed
+  // again from the first keyframe, and the rest moves rigidly with the last of them, which leaves
+  // every residual after it as it was.
+  size_t earliest = nodes_.size();
+  for (const LoopEdge& edge : loops_) {
+    if (!edge.active) continue;
+    earliest = std::min(
+        {earliest, *indexOf(edge.constraint.query_id), *indexOf(edge.constraint.match_id)});
+  }
+  if (earliest < 2 || earliest >= nodes_.size()) return;
+  const Eigen::Isometry3d before = estimate(earliest - 1);
+  for (size_t i = 1; i < earliest; ++i) setEstimate(i, estimate(i - 1) * odometryStep(i - 1));
+  const Eigen::Isometry3d correction = estimate(earliest - 1) * before.inverse();
+  for (size_t i = earliest; i < nodes_.size(); ++i) setEstimate(i, correction * estimate(i));
+}
+
+void PoseGraph::setEstimate(size_t index, const Eigen::Isometry3d& pose) {
+  const Eigen::Quaterniond orientation = Eigen::Quaterniond(pose.rotation()).normalized();
+  for (int k = 0; k < 3; ++k) nodes_[index].position[k] = pose.translation()[k];
+  for (int k = 0; k < 4; ++k) nodes_[index].orientation[k] = orientation.coeffs()[k];
 }
 
 std::optional<Pose> PoseGraph::odometryPose(uint64_t id) const {

@@ -61,6 +61,7 @@ PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
     ++replay.refused_loops;
     replay.refused_true_loops += loops[k]->correct ? 1 : 0;
   }
+  replay.heading_drift_per_m = graph.headingDriftPerMetre();
   for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
     replay.corrected.push_back(graph.optimisedPose(id).value_or(evaluation.keyframe_poses[id]));
   }

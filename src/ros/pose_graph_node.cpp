@@ -279,10 +279,11 @@ class PoseGraphNode {
     std::vector<double> times = optimisation_ms_;
     std::sort(times.begin(), times.end());
     const double median = times.empty() ? 0.0 : times[times.size() / 2];
-    char line[160];
+    char line[240];
     std::snprintf(line, sizeof(line),
-                  "Pose graph: %zu keyframes; %zu optimisations, median %.1f ms;",
-                  graph_.keyframes(), times.size(), median);
+                  "Pose graph: %zu keyframes; %zu optimisations, median %.1f ms; odometry heading "
+                  "drift estimated %.4f rad/m;",
+                  graph_.keyframes(), times.size(), median, graph_.headingDriftPerMetre());
     // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
     if (ros::ok()) {
       ROS_INFO("%s loops:%s", line, text.c_str());

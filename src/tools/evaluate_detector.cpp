@@ -44,6 +44,24 @@ NodeOptions readConfig(const std::string& path) {
   return node;
 }
 
+// The pose graph's parameters (config/pose_graph.yaml's layout) for the trajectory error.
+PoseGraphOptions readPoseGraphConfig(const std::string& path) {
+  PoseGraphNodeOptions options;
+  if (path.empty()) return options.graph;
+  const YamlParameterSource source = YamlParameterSource::fromFile(path);
+  OptionReader reader(source);
+  PoseGraphNodeOptions::parameters().read(&reader, &options);
+  for (const std::string& key : source.keys()) {
+    if (!reader.isKnown(key)) {
+      std::fprintf(stderr, "lcd_evaluate: %s: unknown parameter %s ignored\n", path.c_str(),
+                   key.c_str());
+    }
+  }
+  const std::string problems = reader.errors() + options.validate();
+  if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);
+  return options.graph;
+}
+
 void printPass(const char* label, const eval::DetectorPass& pass) {
   std::printf("  %-12s min_score %.3f: %zu loops, %zu true, precision %.3f, recall %.3f\n", label,
               pass.min_score, pass.loops.size(), pass.true_loops, pass.precision, pass.recall);
@@ -279,10 +297,11 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
 // The keyframes' odometry, and the same corrected by the reference pose graph with the metric
 // loops of the configured pass, against the truth (what the demo's summary reports).
 void printTrajectoryError(const eval::DetectorEvaluation& result,
-                          const std::function<Pose(size_t frame)>& true_pose) {
+                          const std::function<Pose(size_t frame)>& true_pose,
+                          const PoseGraphOptions& graph_options) {
   std::vector<Pose> truth;
   for (const size_t frame : result.keyframe_frames) truth.push_back(true_pose(frame));
-  const eval::PoseGraphReplay replay = eval::replayIntoPoseGraph(result);
+  const eval::PoseGraphReplay replay = eval::replayIntoPoseGraph(result, graph_options);
   const eval::TrajectoryError odometry = eval::trajectoryError(result.keyframe_poses, truth);
   const eval::TrajectoryError corrected = eval::trajectoryError(replay.corrected, truth);
   std::printf(
@@ -292,6 +311,10 @@ void printTrajectoryError(const eval::DetectorEvaluation& result,
       odometry.first_pose_rmse, corrected.first_pose_rmse, odometry.similarity_rmse,
       corrected.similarity_rmse, odometry.scale, corrected.scale, replay.metric_loops,
       replay.refused_loops, replay.refused_true_loops);
+  if (graph_options.heading_drift_prior_sd_per_m > 0.0) {
+    std::printf("  odometry heading drift estimated by the pose graph: %.5f rad/m\n",
+                replay.heading_drift_per_m);
+  }
 }
 
 int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
@@ -370,7 +393,10 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
     }
     std::printf("\n");
     for (const eval::DetectorPass& pass : result.sweep) printPass("sweep", pass);
-    if (source.true_pose) printTrajectoryError(result, source.true_pose);
+    if (source.true_pose) {
+      printTrajectoryError(result, source.true_pose,
+                           readPoseGraphConfig(arguments.get("--pose-graph-config")));
+    }
     const std::string path = eval::writeDetectorReport(
         output_folder, label,
         source.description + "; config " + (config.empty() ? "defaults" : config), result);

@@ -1,5 +1,6 @@
 #include "kitti_route.h"
 
+#include <cmath>
 #include <random>
 
 namespace landmark_loop_closure {
@@ -24,6 +25,7 @@ KittiRoute kittiRoute(const std::vector<Pose>& camera_poses, const KittiRouteOpt
   std::normal_distribution<double> normal;
   Eigen::Isometry3d odometry = route.truth.front().toIsometry();
   route.odometry.push_back(route.truth.front());
+  double heading_error_per_m = options.heading_error_per_m;
   for (size_t i = 1; i < route.truth.size(); ++i) {
     Eigen::Isometry3d step =
         route.truth[i - 1].toIsometry().inverse() * route.truth[i].toIsometry();
@@ -32,9 +34,13 @@ KittiRoute kittiRoute(const std::vector<Pose>& camera_poses, const KittiRouteOpt
     for (int axis = 0; axis < 3; ++axis) {
       step.translation()[axis] += options.step_noise_m * normal(random);
     }
-    step.linear() =
-        Eigen::AngleAxisd(options.heading_error_per_m * distance, Eigen::Vector3d::UnitZ()) *
-        step.linear();
+    if (options.heading_error_walk > 0.0) {
+      heading_error_per_m += options.heading_error_walk * std::sqrt(distance) * normal(random);
+    }
+    const double turn = std::atan2(step.linear()(1, 0), step.linear()(0, 0));  // Yaw.
+    step.linear() = Eigen::AngleAxisd(heading_error_per_m * distance + options.turn_error * turn,
+                                      Eigen::Vector3d::UnitZ()) *
+                    step.linear();
     odometry = odometry * step;
     route.odometry.push_back(Pose::fromIsometry(odometry));
   }

@@ -37,11 +37,16 @@ int runKitti(const std::map<std::string, std::string>& values) {
   route_options.seed = static_cast<uint32_t>(number("--seed", route_options.seed));
   route_options.scale_error = number("--scale-error", route_options.scale_error);
   route_options.heading_error_per_m = number("--heading-error", route_options.heading_error_per_m);
+  route_options.heading_error_walk =
+      number("--heading-error-walk", route_options.heading_error_walk);
+  route_options.turn_error = number("--turn-error", route_options.turn_error);
   const tools::KittiRoute route =
       tools::kittiRoute(eval::readKittiPoses(values.at("--kitti")), route_options);
   PoseGraphOptions options;
   options.max_loop_error_sd = number("--max-loop-error-sd", options.max_loop_error_sd);
   options.loop_loss_scale = number("--loop-loss-scale", options.loop_loss_scale);
+  options.heading_drift_prior_sd_per_m =
+      number("--heading-drift-prior-sd", options.heading_drift_prior_sd_per_m);
   const std::string problem = options.validate();
   if (!problem.empty()) {
     std::fprintf(stderr, "lcd_bench_pose_graph: %s\n", problem.c_str());
@@ -76,10 +81,11 @@ int runKitti(const std::map<std::string, std::string>& values) {
       "%s: keyframes %zu, loops %zu (%zu wrong, %zu of them accepted; %zu true refused); "
       "max_loop_error_sd %.2f loop_loss_scale %.2f; RMSE first pose aligned odometry %.3f m, "
       "corrected %.3f m; similarity-aligned %.3f m, %.3f m; optimisation median %.2f ms, p99 "
-      "%.2f ms\n",
+      "%.2f ms; heading drift estimated %.5f rad/m (prior sd %g)\n",
       values.at("--kitti").c_str(), route.truth.size(), route.loops.size(), wrong, wrong_accepted,
       right_refused, options.max_loop_error_sd, options.loop_loss_scale, raw.first_pose_rmse,
-      fixed.first_pose_rmse, raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99);
+      fixed.first_pose_rmse, raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99,
+      graph.headingDriftPerMetre(), options.heading_drift_prior_sd_per_m);
   return 0;
 }
 
@@ -105,7 +111,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E] | "
                    "--kitti POSES [--wrong-loops F] [--seed S] [--max-loop-error-sd X] "
-                   "[--loop-loss-scale Y]\n");
+                   "[--loop-loss-scale Y] [--heading-drift-prior-sd Z] [--scale-error E] "
+                   "[--heading-error H] [--heading-error-walk W] [--turn-error T]\n");
       return 2;
     }
   }

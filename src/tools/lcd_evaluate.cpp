@@ -64,6 +64,7 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   Where true poses are known besides the odometry (the corridor, a bag with --truth-topic), the
   keyframes' trajectory RMSE is reported too: the odometry's, and after the reference pose graph
   (pose_graph node, default config/pose_graph.yaml) took the published metric loops.
+  --pose-graph-config FILE   that pose graph's parameters (config/pose_graph.yaml's layout)
 
 GROUND TRUTH, one of:
   --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)

@@ -26,6 +26,10 @@ struct PoseGraphOptions {
   double odometry_rotation_sd_rad = 0.002;
   double odometry_rotation_sd_per_m = 0.01;
   double odometry_rotation_sd_per_rad = 0.05;
+  /// The odometry's heading may drift at a steady rate (radians per metre travelled, about the
+  /// body's z axis, as visual odometry and wheel odometry do): the graph estimates that rate from
+  /// the loops, with this prior standard deviation around zero. 0: not estimated.
+  double heading_drift_prior_sd_per_m = 0.01;
   /// Loop screening and switching off: a loop whose error, in standard deviations of the
   /// uncertainty between its two keyframes (odometry along the graph's most certain path plus the
   /// loop's own), exceeds this is refused.
@@ -107,6 +111,8 @@ class PoseGraph {
   /// map_T_odom: the correction that takes the odometry frame onto the optimised one at the
   /// newest keyframe (identity before any keyframe).
   Eigen::Isometry3d mapFromOdometry() const;
+  /// The odometry's heading drift the graph has estimated (rad per metre; 0 when not estimated).
+  double headingDriftPerMetre() const { return heading_drift_per_m_; }
 
  private:
   struct Node {
@@ -125,7 +131,13 @@ class PoseGraph {
 
   std::optional<size_t> indexOf(uint64_t id) const;
   Eigen::Isometry3d estimate(size_t index) const;
+  void setEstimate(size_t index, const Eigen::Isometry3d& pose);
+  /// With the drift estimated: the keyframes no loop reaches are placed again (see there).
+  void replaceUnloopedStart();
   Eigen::Matrix<double, 6, 1> odometrySd(size_t from, size_t to) const;
+  /// The odometry's motion from keyframe `index` to the next, its estimated heading drift taken
+  /// out.
+  Eigen::Isometry3d odometryStep(size_t index) const;
   /// Variance per axis (translation m^2, rotation rad^2) of the relative pose between two
   /// keyframes along the graph's most certain path: odometry edges and active, optimised loops,
   /// `excluded` left out; the rotation's variance also moves the far end by the path's length.
@@ -145,6 +157,7 @@ class PoseGraph {
   std::vector<Node> nodes_;
   std::vector<LoopEdge> loops_;
   std::vector<LoopVerdict> verdicts_;
+  double heading_drift_per_m_ = 0.0;  ///< A Ceres parameter block of one.
 };
 
 }  // namespace landmark_loop_closure

@@ -27,6 +27,7 @@ struct PoseGraphReplay {
   size_t metric_loops = 0;      ///< Loops given to the graph.
   size_t refused_loops = 0;     ///< Of those, refused or switched off.
   size_t refused_true_loops = 0;
+  double heading_drift_per_m = 0.0;  ///< The graph's estimate (0 when it does not estimate one).
 };
 PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
                                     const PoseGraphOptions& options = {});
