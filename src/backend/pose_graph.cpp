@@ -12,57 +12,61 @@
 namespace landmark_loop_closure {
 namespace {
 
-/// Error of an estimated relative pose i -> j against a measured one, in the measurement's
-/// convention (translation difference, then the rotation w with R_est = exp(w) R_meas, both in
-/// frame i), weighted by the square root of the measurement's information.
-template <typename T>
-void relativePoseError(const T* position_i, const T* orientation_i, const T* position_j,
-                       const T* orientation_j, const Eigen::Matrix<T, 3, 1>& measured_translation,
-                       const Eigen::Quaternion<T>& measured_rotation,
-                       const Eigen::Matrix<double, 6, 6>& sqrt_information, T* residual) {
-  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_i(position_i);
-  const Eigen::Map<const Eigen::Quaternion<T>> q_i(orientation_i);
-  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_j(position_j);
-  const Eigen::Map<const Eigen::Quaternion<T>> q_j(orientation_j);
-  const Eigen::Quaternion<T> q_i_inverse = q_i.conjugate();
-  const Eigen::Matrix<T, 3, 1> t_estimate = q_i_inverse * (p_j - p_i);
-  const Eigen::Quaternion<T> q_estimate = q_i_inverse * q_j;
-  const Eigen::Quaternion<T> difference = q_estimate * measured_rotation.conjugate();
-  Eigen::Map<Eigen::Matrix<T, 6, 1>> error(residual);
-  error.template head<3>() = t_estimate - measured_translation;
-  error.template tail<3>() = T(2.0) * difference.vec();
-  error.applyOnTheLeft(sqrt_information.template cast<T>());
-}
+/// A measured relative pose i -> j (x_i = R x_j + t), with the square root of its information.
+struct RelativePoseMeasurement {
+  RelativePoseMeasurement(const Eigen::Isometry3d& i_T_j,
+                          const Eigen::Matrix<double, 6, 6>& sqrt_information_)
+      : translation(i_T_j.translation()),
+        rotation(Eigen::Quaterniond(i_T_j.rotation())),
+        sqrt_information(sqrt_information_) {}
+
+  /// The estimate's error against the measurement whose rotation is first turned by `turn`, in
+  /// the measurement's convention (translation difference, then the rotation w with R_est =
+  /// exp(w) R_meas, both in frame i), weighted.
+  template <typename T>
+  void error(const T* position_i, const T* orientation_i, const T* position_j,
+             const T* orientation_j, const Eigen::Quaternion<T>& turn, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_i(position_i);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_i(orientation_i);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_j(position_j);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_j(orientation_j);
+    const Eigen::Quaternion<T> q_i_inverse = q_i.conjugate();
+    const Eigen::Matrix<T, 3, 1> t_estimate = q_i_inverse * (p_j - p_i);
+    const Eigen::Quaternion<T> q_estimate = q_i_inverse * q_j;
+    const Eigen::Quaternion<T> difference =
+        q_estimate * (turn * rotation.template cast<T>()).conjugate();
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> weighted(residual);
+    weighted.template head<3>() = t_estimate - translation.template cast<T>();
+    weighted.template tail<3>() = T(2.0) * difference.vec();
+    weighted.applyOnTheLeft(sqrt_information.template cast<T>());
+  }
+
+  Eigen::Vector3d translation;
+  Eigen::Quaterniond rotation;
+  Eigen::Matrix<double, 6, 6> sqrt_information;
+};
 
 /// A loop, or an odometry step whose heading drift is not estimated.
 class RelativePoseResidual {
  public:
-  RelativePoseResidual(const Eigen::Isometry3d& i_T_j,
-                       const Eigen::Matrix<double, 6, 6>& sqrt_information)
-      : translation_(i_T_j.translation()),
-        rotation_(Eigen::Quaterniond(i_T_j.rotation())),
-        sqrt_information_(sqrt_information) {}
+  explicit RelativePoseResidual(const RelativePoseMeasurement& measured) : measured_(measured) {}
 
   template <typename T>
   bool operator()(const T* position_i, const T* orientation_i, const T* position_j,
                   const T* orientation_j, T* residual) const {
-    relativePoseError(position_i, orientation_i, position_j, orientation_j,
-                      Eigen::Matrix<T, 3, 1>(translation_.template cast<T>()),
-                      Eigen::Quaternion<T>(rotation_.template cast<T>()), sqrt_information_,
-                      residual);
+    measured_.error(position_i, orientation_i, position_j, orientation_j,
+                    Eigen::Quaternion<T>::Identity(), residual);
     return true;
   }
 
   static ceres::CostFunction* create(const Eigen::Isometry3d& i_T_j,
                                      const Eigen::Matrix<double, 6, 6>& sqrt_information) {
     return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 3, 4, 3, 4>(
-        new RelativePoseResidual(i_T_j, sqrt_information));
+        new RelativePoseResidual({i_T_j, sqrt_information}));
   }
 
  private:
-  Eigen::Vector3d translation_;
-  Eigen::Quaterniond rotation_;
-  Eigen::Matrix<double, 6, 6> sqrt_information_;
+  RelativePoseMeasurement measured_;
 };
 
 /// The heading turned back by drift x distance before the odometry step is compared: the
@@ -74,36 +78,27 @@ Eigen::Quaterniond headingTurn(double radians) {
 /// An odometry step with the drift rate (one parameter) estimated.
 class DriftingOdometryResidual {
  public:
-  DriftingOdometryResidual(const Eigen::Isometry3d& i_T_j,
-                           const Eigen::Matrix<double, 6, 6>& sqrt_information)
-      : translation_(i_T_j.translation()),
-        rotation_(Eigen::Quaterniond(i_T_j.rotation())),
-        metres_(i_T_j.translation().norm()),
-        sqrt_information_(sqrt_information) {}
+  explicit DriftingOdometryResidual(const RelativePoseMeasurement& measured)
+      : measured_(measured), metres_(measured.translation.norm()) {}
 
   template <typename T>
   bool operator()(const T* position_i, const T* orientation_i, const T* position_j,
                   const T* orientation_j, const T* drift_per_m, T* residual) const {
     const T half_turn = -T(0.5) * drift_per_m[0] * T(metres_);
     const Eigen::Quaternion<T> undo_drift(cos(half_turn), T(0), T(0), sin(half_turn));
-    relativePoseError(position_i, orientation_i, position_j, orientation_j,
-                      Eigen::Matrix<T, 3, 1>(translation_.template cast<T>()),
-                      Eigen::Quaternion<T>(undo_drift * rotation_.template cast<T>()),
-                      sqrt_information_, residual);
+    measured_.error(position_i, orientation_i, position_j, orientation_j, undo_drift, residual);
     return true;
   }
 
   static ceres::CostFunction* create(const Eigen::Isometry3d& i_T_j,
                                      const Eigen::Matrix<double, 6, 6>& sqrt_information) {
     return new ceres::AutoDiffCostFunction<DriftingOdometryResidual, 6, 3, 4, 3, 4, 1>(
-        new DriftingOdometryResidual(i_T_j, sqrt_information));
+        new DriftingOdometryResidual({i_T_j, sqrt_information}));
   }
 
  private:
-  Eigen::Vector3d translation_;
-  Eigen::Quaterniond rotation_;
+  RelativePoseMeasurement measured_;
   double metres_;
-  Eigen::Matrix<double, 6, 6> sqrt_information_;
 };
 
 /// The drift rate's prior: zero, with the configured standard deviation.

@@ -21,18 +21,23 @@ namespace tools {
 
 namespace {
 
-NodeOptions readConfig(const std::string& path) {
-  NodeOptions node;
-  if (path.empty()) return node;
-  const YamlParameterSource source = YamlParameterSource::fromFile(path);
-  OptionReader reader(source);
-  readNodeOptions(&reader, &node);
+void warnUnknownKeys(const YamlParameterSource& source, const OptionReader& reader,
+                     const std::string& path) {
   for (const std::string& key : source.keys()) {
     if (!reader.isKnown(key)) {
       std::fprintf(stderr, "lcd_evaluate: %s: unknown parameter %s ignored\n", path.c_str(),
                    key.c_str());
     }
   }
+}
+
+NodeOptions readConfig(const std::string& path) {
+  NodeOptions node;
+  if (path.empty()) return node;
+  const YamlParameterSource source = YamlParameterSource::fromFile(path);
+  OptionReader reader(source);
+  readNodeOptions(&reader, &node);
+  warnUnknownKeys(source, reader, path);
   const std::string problems = reader.errors() + node.validate();
   if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);
   if (!node.fallback_warning.empty()) {
@@ -51,12 +56,7 @@ PoseGraphOptions readPoseGraphConfig(const std::string& path) {
   const YamlParameterSource source = YamlParameterSource::fromFile(path);
   OptionReader reader(source);
   PoseGraphNodeOptions::parameters().read(&reader, &options);
-  for (const std::string& key : source.keys()) {
-    if (!reader.isKnown(key)) {
-      std::fprintf(stderr, "lcd_evaluate: %s: unknown parameter %s ignored\n", path.c_str(),
-                   key.c_str());
-    }
-  }
+  warnUnknownKeys(source, reader, path);
   const std::string problems = reader.errors() + options.validate();
   if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);
   return options.graph;
