@@ -72,6 +72,21 @@ int runKitti(const std::map<std::string, std::string>& values) {
     const bool accepted = graph.loopVerdicts()[k].decision == LoopDecision::kAccepted;
     wrong += route.wrong[k] ? 1 : 0;
     wrong_accepted += route.wrong[k] && accepted ? 1 : 0;
+    if (route.wrong[k] && accepted) {
+      const LoopConstraint& loop = route.loops[k];
+      const Eigen::Isometry3d claimed =
+          route.truth[loop.query_id].toIsometry() * loop.query_T_match;
+      std::printf(
+          "  wrong loop %lu -> %lu accepted: the match is %.2f m from where the loop puts "
+          "it, %.1f deg; %s\n",
+          static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
+          (claimed.translation() - route.truth[loop.match_id].position).norm(),
+          Eigen::AngleAxisd(claimed.rotation().transpose() *
+                            route.truth[loop.match_id].toIsometry().rotation())
+                  .angle() *
+              180.0 / M_PI,
+          graph.loopVerdicts()[k].detail.c_str());
+    }
     right_refused += !route.wrong[k] && !accepted ? 1 : 0;
   }
   const eval::TrajectoryError raw = eval::trajectoryError(route.odometry, route.truth);
