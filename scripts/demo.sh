@@ -3,10 +3,13 @@
 # demo bag (a camera driven twice around a textured corridor, drifting odometry, ground truth)
 # and plays it into the detector, printing one line per loop (TRUE or FALSE against ground truth)
 # and a summary at the end. The detector's own log goes to _demo/roslaunch.log.
-#   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--no-setup]
+#   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E]
+#                   [--heading-drift D] [--no-setup]
 # --rviz keeps rviz open after the bag, to look at the map, until it is closed or Ctrl-C.
 # --wrong-loops F replaces that share of loops by wrong ones before the pose graph (loop_injector),
 # to see it refuse them: the summary counts them.
+# --scale-error E and --heading-drift D (rad/m) set the demo odometry's errors (default 0.02 and
+# 0.004), to see what each costs the corrected path.
 # --no-setup skips installing and building (what the demo's test does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,14 +18,19 @@ LAPS=2
 RATE=2.0
 SETUP=true
 WRONG_LOOPS=0.0
+SCALE_ERROR=0.02
+HEADING_DRIFT=0.004
+USAGE="usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E] [--heading-drift D] [--no-setup]"
 while [ $# -gt 0 ]; do
   case "$1" in
     --rviz) RVIZ=true ;;
     --laps) LAPS="$2"; shift ;;
     --rate) RATE="$2"; shift ;;
     --wrong-loops) WRONG_LOOPS="$2"; shift ;;
+    --scale-error) SCALE_ERROR="$2"; shift ;;
+    --heading-drift) HEADING_DRIFT="$2"; shift ;;
     --no-setup) SETUP=false ;;
-    *) echo "usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--no-setup]" >&2; exit 2 ;;
+    *) echo "$USAGE" >&2; exit 2 ;;
   esac
   shift
 done
@@ -39,9 +47,13 @@ fi
 source scripts/ros_env.sh
 mkdir -p _demo
 BAG=_demo/corridor_${LAPS}laps.bag
+if [ "$SCALE_ERROR" != 0.02 ] || [ "$HEADING_DRIFT" != 0.004 ]; then
+  BAG=_demo/corridor_${LAPS}laps_scale${SCALE_ERROR}_drift${HEADING_DRIFT}.bag
+fi
 if [ ! -f "$BAG" ]; then
   phase "3/4 Generating the demo bag ($LAPS laps)"
-  _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" "$LAPS"
+  _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" "$LAPS" 10 "$SCALE_ERROR" \
+    "$HEADING_DRIFT"
 fi
 
 phase "4/4 Playing the bag into the detector"
