@@ -27,16 +27,21 @@ std::vector<float> ConditionStandardiser::apply(const std::vector<float>& global
     for (size_t i = 0; i < sum_.size(); ++i) sum_[i] -= oldest[i];
     recent_.pop_front();
   }
+  return standardise(added);
+}
+
+std::vector<float> ConditionStandardiser::standardise(const std::vector<float>& global) const {
+  if (!enabled()) return global;
   // Alone in its window, a vector has nothing to be told apart from. Kept raw it would carry what
   // every keyframe of its light shares and match them all; as zeros it matches nothing.
-  const std::vector<float> nothing(added.size(), 0.0f);
-  if (recent_.size() < 2) return nothing;
+  const std::vector<float> nothing(global.size(), 0.0f);
+  if (recent_.size() < 2 || global.size() != sum_.size()) return nothing;
 
   const double count = static_cast<double>(recent_.size());
-  std::vector<float> standardised(added.size());
+  std::vector<float> standardised(global.size());
   double norm = 0.0;
-  for (size_t i = 0; i < added.size(); ++i) {
-    const double value = added[i] - sum_[i] / count;
+  for (size_t i = 0; i < global.size(); ++i) {
+    const double value = (std::isfinite(global[i]) ? global[i] : 0.0f) - sum_[i] / count;
     standardised[i] = static_cast<float>(value);
     norm += value * value;
   }

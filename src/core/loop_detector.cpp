@@ -207,6 +207,26 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                          landmark_loop_closure::descriptorIdentity(options.descriptor);
 }
 
+LoopDetector::~LoopDetector() {
+  try {
+    KeyframeResult unreported;
+    storeWarmedUp(&unreported);
+  } catch (...) {
+    // A destructor must not throw; store() keeps what the disk refused in memory anyway.
+  }
+}
+
+void LoopDetector::storeWarmedUp(KeyframeResult* result) {
+  std::vector<WarmingKeyframe> warming = std::move(warming_);
+  warming_.clear();
+  for (WarmingKeyframe& waiting : warming) {
+    if (!standardiser_.warmingUp()) {
+      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
+    }
+    store(std::move(waiting.keyframe), result);
+  }
+}
+
 KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
   KeyframeResult result;
   result.keyframe_id = keyframe.id;
@@ -261,7 +281,10 @@ void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
 }
 
 void LoopDetector::setMode(DetectorMode mode) {
-  if (mode != mode_) {  // Chains and sequences of one mode say nothing in the other.
+  if (mode != mode_) {
+    KeyframeResult unreported;
+    storeWarmedUp(&unreported);  // Localising stores nothing: what mapping kept goes in now.  //
+                                 // Chains and sequences of one mode say nothing in the other.
     consistency_.reset();
     sequence_.reset();
   }
@@ -327,7 +350,16 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   }
   if (mode_ == DetectorMode::kMapping) {
     keyframe.descriptor = std::move(descriptor);
-    store(std::move(keyframe), &result);
+    if (standardiser_.warmingUp()) {
+      warming_.push_back({std::move(keyframe), std::move(last_raw_global_)});
+      result.stored = true;  // Kept, and stored once the window is full.
+    } else {
+      KeyframeResult warmed;
+      storeWarmedUp(&warmed);
+      if (!warmed.map_damage.empty()) result.map_damage = warmed.map_damage;
+      if (!warmed.store_error.empty()) result.store_error = warmed.store_error;
+      store(std::move(keyframe), &result);
+    }
   }
   return result;
 }
@@ -347,6 +379,7 @@ std::optional<InputError> LoopDetector::checkKeyframe(uint64_t keyframe_id,
 ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times) {
   const auto start = Clock::now();
   ImageDescriptor descriptor = extractor_->describe(image);
+  last_raw_global_ = descriptor.global;
   descriptor.global = standardiser_.apply(descriptor.global);
   if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
   times->describe_ms = millisecondsSince(start);

@@ -31,7 +31,9 @@ std::string clearSaveTarget(const std::string& path, const std::string& open_map
 }  // namespace
 
 std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
-                                       std::string* kept_as) const {
+                                       std::string* kept_as) {
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);  // A map saved now holds every keyframe so far.
   if (training_) {
     return "nothing to save yet: the broad autoencoder is still training (" +
            std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
@@ -55,6 +57,8 @@ std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
 }
 
 std::string LoopDetector::beginSave(const std::string& path, bool overwrite, std::string* kept_as) {
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);
   save_.reset();
   save_abandoned_ = false;
   if (!store_ || training_ || path == store_->path()) {
@@ -112,7 +116,9 @@ std::string LoopDetector::adoptMap(ReadMap map) {
     return "map " + map.store->path() +
            ": not switched to, the descriptor changed while it was read (online training)";
   }
-  abandonSave();  // It copies the map replaced here.
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);  // They belong to the map open until now.
+  abandonSave();               // It copies the map replaced here.
   map_graph_reused_ = map.graph_reused;
   map_leftovers_removed_ = map.store->leftoversRemoved();
   map_repairs_ = map.store->repairs();
@@ -168,6 +174,8 @@ std::string LoopDetector::mapCheck() const {
 }
 
 LoopDetector::ResetOutcome LoopDetector::reset() {
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);  // A reset keeps what came before it on disk.
   abandonSave();
   if (training_) training_->clear();
   map_damage_.clear();

@@ -103,9 +103,10 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
                    "searched and stored (per-condition standardisation): what the camera's recent "
                    "keyframes share - night, rain, the season - stops counting as likeness, so "
                    "different places in the dark no longer match each other. 0 = off. Chosen on "
-                   "Gardens Point's first half, reported on the second (bench/README.md). Maps "
-                   "store the "
-                   "standardised vectors: a map made with another window does not load.")
+                   "Gardens Point's first half, reported on the second (bench/README.md). A "
+                   "run's first keyframes are stored once the window is full, standardised by "
+                   "it. Maps store the standardised vectors: a map made with another window "
+                   "does not load.")
           .group(&O::cnn, Cnn::parameters())
           .group(&O::backbone, Backbone::parameters())
           .group(&O::broad, Broad::parameters());

@@ -68,6 +68,30 @@ TEST(ConditionStandardiser, FirstVectorMatchesNothingThenTheWindowMeanIsRemoved)
   EXPECT_EQ(standardiser.held(), 3u);
 }
 
+TEST(ConditionStandardiser, WarmsUpUntilFullAndStandardisesAnEarlierVectorWithoutAddingIt) {
+  ConditionStandardiser standardiser(3);
+  std::mt19937 random(5);
+  std::vector<std::vector<float>> vectors;
+  for (int i = 0; i < 3; ++i) vectors.push_back(normalised(randomVector(&random)));
+  EXPECT_TRUE(standardiser.warmingUp());
+  standardiser.apply(vectors[0]);
+  standardiser.apply(vectors[1]);
+  EXPECT_TRUE(standardiser.warmingUp());
+  standardiser.apply(vectors[2]);
+  EXPECT_FALSE(standardiser.warmingUp());
+  // The first vector, which apply() could only tell apart from nothing, less the full window's
+  // mean; the window is left as it was.
+  const std::vector<float> out = standardiser.standardise(vectors[0]);
+  std::vector<float> expected(kDimension, 0.0f);
+  for (int d = 0; d < kDimension; ++d) {
+    expected[d] = vectors[0][d] - (vectors[0][d] + vectors[1][d] + vectors[2][d]) / 3.0f;
+  }
+  expected = normalised(expected);
+  for (int d = 0; d < kDimension; ++d) EXPECT_NEAR(out[d], expected[d], 1e-5) << d;
+  EXPECT_EQ(standardiser.held(), 3u);
+  EXPECT_FALSE(ConditionStandardiser(0).warmingUp());
+}
+
 // Places p_i seen under two conditions: day (a small shared part) and night (a large shared part
 // that makes every night frame alike). After standardisation within each condition, two night
 // frames of different places no longer look alike, and the same place matches across conditions.

@@ -1,6 +1,7 @@
 // The detector with a map file: sessions, the map kept on disk as keyframes come, its search
 // graph, the memory budget at open and a damaged rows file found while search runs.
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -171,6 +172,56 @@ TEST(LoopDetector, AnOpenMapHasEveryStoredKeyframeAndAResetKeepsItAside) {
   EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 15u) << "the reset map is whole";
   removeMap(path);
   removeMap(kept);
+}
+
+TEST(LoopDetector, TheFirstKeyframesWaitForAFullConditionWindowAndAreDescribedByIt) {
+  LoopDetectorOptions options = smallOptions();
+  options.descriptor.condition_window = 4;
+  LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+  for (int i = 0; i < 3; ++i) {
+    const FrameResult result = feed(&detector, i, 10 + i);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_TRUE(result.keyframe->stored);
+  }
+  EXPECT_EQ(detector.database().size(), 0u) << "kept back while the window warms up";
+  feed(&detector, 3, 13);
+  ASSERT_EQ(detector.database().size(), 4u);
+  // Each is its one-hot place less the first full window's mean (a quarter on places 10-13).
+  for (size_t k = 0; k < 4; ++k) {
+    std::vector<float> expected(256, 0.0f);
+    for (int other = 10; other < 14; ++other) expected[other] = -0.25f;
+    expected[10 + k] += 1.0f;
+    double norm = 0.0;
+    for (float value : expected) norm += value * value;
+    for (float& value : expected) value /= static_cast<float>(std::sqrt(norm));
+    EXPECT_GT(detector.database().similarity(expected, k), 0.99) << "keyframe " << k;
+  }
+  feed(&detector, 4, 14);
+  EXPECT_EQ(detector.database().size(), 5u) << "stored at once from then on";
+}
+
+TEST(LoopDetector, KeyframesWaitingForTheConditionWindowAreKeptBySaveAndByTheEnd) {
+  const std::string saved = temporaryPath("warming_saved.lcdb");
+  const std::string open = temporaryPath("warming_open.lcdb");
+  removeMap(saved);
+  removeMap(open);
+  LoopDetectorOptions options = smallOptions();
+  options.descriptor.condition_window = 10;
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    for (int i = 0; i < 3; ++i) feed(&detector, i, 10 + i);
+    ASSERT_EQ(detector.saveDatabase(saved), "");
+    EXPECT_EQ(detector.database().size(), 3u);
+  }
+  EXPECT_EQ(KeyframeStore::openExisting(saved)->size(), 3u);
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(open), "");
+    for (int i = 0; i < 5; ++i) feed(&detector, i, 10 + i);
+  }  // Shut down before the window filled.
+  EXPECT_EQ(KeyframeStore::openExisting(open)->size(), 5u);
+  removeMap(saved);
+  removeMap(open);
 }
 
 TEST(LoopDetector, AResetSaysSoWhenTheMapCouldNotBeKeptAside) {

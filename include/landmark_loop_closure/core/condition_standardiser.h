@@ -30,6 +30,14 @@ class ConditionStandardiser {
   /// changed). Non-finite values count as 0.
   std::vector<float> apply(const std::vector<float>& global);
 
+  /// The window holds fewer than `window` keyframes (a start): what apply() returned leaned on
+  /// those few alone.
+  bool warmingUp() const { return enabled() && recent_.size() < static_cast<size_t>(window_); }
+
+  /// `global` standardised against the window as it is now, without adding it (for a keyframe
+  /// that came while the window was warming up); zeros under the same rules as apply().
+  std::vector<float> standardise(const std::vector<float>& global) const;
+
  private:
   void reset();
 

@@ -206,6 +206,10 @@ class LoopDetector {
   /// null only when needsOnlineTraining(options.descriptor): the detector then trains it.
   LoopDetector(const LoopDetectorOptions& options,
                std::shared_ptr<const DescriptorExtractor> extractor);
+  /// Stores the keyframes still waiting for the condition window (see storeWarmedUp()).
+  ~LoopDetector();
+  LoopDetector(const LoopDetector&) = delete;
+  LoopDetector& operator=(const LoopDetector&) = delete;
 
   /// Validates stamp, pose and image shape, then applies the keyframe rule.
   FrameAdmission admit(double stamp, const Pose& pose, int image_width, int image_height,
@@ -288,7 +292,7 @@ class LoopDetector {
   /// another name, what is not a regular file, an existing file unless `overwrite` (then only a
   /// map, which is first kept aside under a unique name, given in `kept_as`). Returns "" or why.
   std::string saveDatabase(const std::string& path, bool overwrite = false,
-                           std::string* kept_as = nullptr) const;
+                           std::string* kept_as = nullptr);
   /// Worker thread: saveDatabase() in steps, so that keyframes go on between them (the node's
   /// ~save_database): checks the target and keeps an existing map aside as saveDatabase() does,
   /// then copies nothing yet. Returns "" or why. Without a map file the keyframes are written
@@ -406,6 +410,10 @@ class LoopDetector {
 
   /// Online training: holds the keyframe; once enough are held, trains and adds them all.
   KeyframeResult holdForTraining(HeldKeyframe keyframe);
+  /// Stores the keyframes that came while the condition window was warming up: described by the
+  /// full window once it is full, as they were otherwise (a save, a map switch, a reset or the
+  /// end before then).
+  void storeWarmedUp(KeyframeResult* result);
 
   LoopDetectorOptions options_;
   std::shared_ptr<const DescriptorExtractor> extractor_;
@@ -429,6 +437,15 @@ class LoopDetector {
   std::string map_damage_;
   size_t map_unsearched_ = 0;
   ConditionStandardiser standardiser_;
+  /// A session's first keyframes, standardised against a window of fewer than condition_window
+  /// keyframes: kept out of the database until the window is full (they are never candidates
+  /// before: exclude_recent_keyframes), then described by its mean and stored.
+  struct WarmingKeyframe {
+    KeyframeRecord keyframe;
+    std::vector<float> raw_global;
+  };
+  std::vector<WarmingKeyframe> warming_;
+  std::vector<float> last_raw_global_;  ///< describe()'s vector before standardisation.
   /// The last keyframe's global vector (score_normalisation previous_keyframe).
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;
