@@ -282,9 +282,10 @@ void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
 
 void LoopDetector::setMode(DetectorMode mode) {
   if (mode != mode_) {
+    // Localising stores nothing: what mapping kept back goes in now.
     KeyframeResult unreported;
-    storeWarmedUp(&unreported);  // Localising stores nothing: what mapping kept goes in now.  //
-                                 // Chains and sequences of one mode say nothing in the other.
+    storeWarmedUp(&unreported);
+    // Chains and sequences of one mode say nothing in the other.
     consistency_.reset();
     sequence_.reset();
   }
