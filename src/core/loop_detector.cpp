@@ -336,7 +336,8 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
   if (training_) return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth});
 
-  ImageDescriptor descriptor = describe(image, &result.times);
+  std::vector<float> raw_global;
+  ImageDescriptor descriptor = describe(image, &result.times, &raw_global);
   const QueryResult query = search(keyframe_id, stamp, descriptor, &result);
   KeyframeRecord keyframe =
       makeKeyframe(keyframe_id, stamp, pose, image, intrinsics, depth, &result.times);
@@ -352,7 +353,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kMapping) {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
-      warming_.push_back({std::move(keyframe), std::move(last_raw_global_)});
+      warming_.push_back({std::move(keyframe), std::move(raw_global)});
       result.stored = true;  // Kept, and stored once the window is full.
     } else {
       KeyframeResult warmed;
@@ -377,10 +378,11 @@ std::optional<InputError> LoopDetector::checkKeyframe(uint64_t keyframe_id,
   return std::nullopt;
 }
 
-ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times) {
+ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times,
+                                       std::vector<float>* raw_global) {
   const auto start = Clock::now();
   ImageDescriptor descriptor = extractor_->describe(image);
-  last_raw_global_ = descriptor.global;
+  *raw_global = descriptor.global;
   descriptor.global = standardiser_.apply(descriptor.global);
   if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
   times->describe_ms = millisecondsSince(start);

@@ -365,7 +365,8 @@ class LoopDetector {
   /// The image's shape and texture, and an id after every stored one.
   std::optional<InputError> checkKeyframe(uint64_t keyframe_id, const cv::Mat& image) const;
   /// The extractor's descriptor, its global vector standardised against the recent keyframes.
-  ImageDescriptor describe(const cv::Mat& image, StageTimes* times);
+  /// `raw_global`: the global vector before standardisation.
+  ImageDescriptor describe(const cv::Mat& image, StageTimes* times, std::vector<float>* raw_global);
   /// The database's candidates (or the replay cache's; none when the map is damaged).
   QueryResult search(uint64_t keyframe_id, double stamp, const ImageDescriptor& descriptor,
                      KeyframeResult* result);
@@ -445,7 +446,6 @@ class LoopDetector {
     std::vector<float> raw_global;
   };
   std::vector<WarmingKeyframe> warming_;
-  std::vector<float> last_raw_global_;  ///< describe()'s vector before standardisation.
   /// The last keyframe's global vector (score_normalisation previous_keyframe).
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;
