@@ -279,11 +279,16 @@ class PoseGraphNode {
     std::vector<double> times = optimisation_ms_;
     std::sort(times.begin(), times.end());
     const double median = times.empty() ? 0.0 : times[times.size() / 2];
+    // A rate of 0 from a graph told not to estimate one would read as a measurement.
+    char drift[64] = "not estimated";
+    if (options_.graph.heading_drift_prior_sd_per_m > 0.0) {
+      std::snprintf(drift, sizeof(drift), "estimated %.4f rad/m", graph_.headingDriftPerMetre());
+    }
     char line[240];
     std::snprintf(line, sizeof(line),
                   "Pose graph: %zu keyframes; %zu optimisations, median %.1f ms; odometry heading "
-                  "drift estimated %.4f rad/m;",
-                  graph_.keyframes(), times.size(), median, graph_.headingDriftPerMetre());
+                  "drift %s;",
+                  graph_.keyframes(), times.size(), median, drift);
     // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
     if (ros::ok()) {
       ROS_INFO("%s loops:%s", line, text.c_str());
