@@ -167,6 +167,16 @@ const ParameterTable<PoseGraphOptions>& PoseGraphOptions::parameters() {
           .number("loop_loss_scale", &O::loop_loss_scale, above(0),
                   "Cauchy loss scale of loop residuals, in standard deviations: a wrong loop "
                   "that passed the screening pulls with bounded force.")
+          .integer("loop_confirmations", &O::loop_confirmations, between(0, 10),
+                   "pairwise consistency: a loop that passed the screening enters the graph only "
+                   "once this many other loops nearby agree with it (both ends within "
+                   "confirmation_distance_m of its own along the odometry, the cycle the two "
+                   "close with the odometry within max_loop_error_sd; a partner the screening "
+                   "refused counts too). A wrong loop seldom finds a partner; a true one waits "
+                   "for the next loop of its revisit. 0: each loop on its own.")
+          .number("confirmation_distance_m", &O::confirmation_distance_m, above(0),
+                  "how far apart along the odometry two loops' queries, and their matches, may "
+                  "be to confirm each other (m).")
           .integer("max_iterations", &O::max_iterations, between(1, 1000),
                    "solver iterations per optimisation.");
   return table;
@@ -186,6 +196,8 @@ std::string toString(LoopDecision decision) {
       return "inconsistent";
     case LoopDecision::kSwitchedOff:
       return "switched_off";
+    case LoopDecision::kAwaitingConfirmation:
+      return "awaiting_confirmation";
   }
   return "unknown";
 }
@@ -226,6 +238,10 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
   Node node;
   node.odometry = odometry_pose;
   node.odometry.orientation.normalize();
+  if (!nodes_.empty()) {
+    node.metres_travelled = nodes_.back().metres_travelled +
+                            (node.odometry.position - nodes_.back().odometry.position).norm();
+  }
   ids_.push_back(id);
   nodes_.push_back(node);
   // Placed by the odometry from the last keyframe's estimate, the estimated drift taken out.
@@ -319,10 +335,19 @@ LoopVerdict PoseGraph::addLoop(const LoopConstraint& loop) {
   }
   LoopEdge edge;
   edge.constraint = loop;
+  if (verdict.decision == LoopDecision::kAccepted) {
+    edge.sqrt_information = *sqrt_information;
+    if (options_.loop_confirmations > 0) verdict.decision = LoopDecision::kAwaitingConfirmation;
+  }
   edge.active = verdict.decision == LoopDecision::kAccepted;
-  if (edge.active) edge.sqrt_information = *sqrt_information;
   loops_.push_back(edge);
   verdicts_.push_back(verdict);
+  if (verdict.decision == LoopDecision::kAwaitingConfirmation ||
+      (verdict.decision == LoopDecision::kInconsistent && options_.loop_confirmations > 0)) {
+    confirm(loops_.size() - 1, &verdict);
+    verdicts_.back().decision = verdict.decision;
+    verdicts_.back().detail = verdict.detail;
+  }
   return verdict;
 }
 

@@ -176,13 +176,20 @@ class PoseGraphNode {
     graph_loops_.push_back(loop);
     const LoopVerdict verdict = graph_.addLoop(constraint);
     publishVerdict(loop, toString(verdict.decision), verdict.error_sd, verdict.detail);
-    if (verdict.decision != LoopDecision::kAccepted) {
+    for (const size_t index : verdict.confirmed) {
+      const LoopVerdict& confirmed = graph_.loopVerdicts()[index];
+      publishVerdict(graph_loops_[index], toString(confirmed.decision), confirmed.error_sd,
+                     confirmed.detail);
+    }
+    if (verdict.decision == LoopDecision::kAwaitingConfirmation) {
+      ROS_DEBUG("Pose graph: loop %lu -> %lu %s", static_cast<unsigned long>(loop.query_id),
+                static_cast<unsigned long>(loop.match_id), verdict.detail.c_str());
+    } else if (verdict.decision != LoopDecision::kAccepted) {
       ROS_WARN("Pose graph: loop %lu -> %lu refused (%s): %s",
                static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
                toString(verdict.decision).c_str(), verdict.detail.c_str());
-      return false;
     }
-    return true;
+    return verdict.decision == LoopDecision::kAccepted || !verdict.confirmed.empty();
   }
 
   void publishVerdict(const LoopClosure& loop, const std::string& decision, double error_sd,
@@ -249,7 +256,11 @@ class PoseGraphNode {
     marker.color.a = 1.0;
     const std::vector<LoopVerdict>& verdicts = graph_.loopVerdicts();
     for (size_t k = 0; k < verdicts.size(); ++k) {
-      if (verdicts[k].decision == LoopDecision::kAccepted) continue;
+      // A loop still awaiting confirmation is not a refusal (yet).
+      if (verdicts[k].decision == LoopDecision::kAccepted ||
+          verdicts[k].decision == LoopDecision::kAwaitingConfirmation) {
+        continue;
+      }
       const std::optional<Pose> query = graph_.optimisedPose(graph_loops_[k].query_id);
       const std::optional<Pose> match = graph_.optimisedPose(graph_loops_[k].match_id);
       if (!query || !match) continue;

@@ -47,6 +47,10 @@ int runKitti(const std::map<std::string, std::string>& values) {
   options.loop_loss_scale = number("--loop-loss-scale", options.loop_loss_scale);
   options.heading_drift_prior_sd_per_m =
       number("--heading-drift-prior-sd", options.heading_drift_prior_sd_per_m);
+  options.loop_confirmations =
+      static_cast<int>(number("--loop-confirmations", options.loop_confirmations));
+  options.confirmation_distance_m =
+      number("--confirmation-distance", options.confirmation_distance_m);
   const std::string problem = options.validate();
   if (!problem.empty()) {
     std::fprintf(stderr, "lcd_bench_pose_graph: %s\n", problem.c_str());
@@ -59,8 +63,8 @@ int runKitti(const std::map<std::string, std::string>& values) {
     graph.addKeyframe(i, route.odometry[i]);
     bool new_loop = false;
     while (next_loop < route.loops.size() && route.loops[next_loop].query_id == i) {
-      new_loop =
-          graph.addLoop(route.loops[next_loop]).decision == LoopDecision::kAccepted || new_loop;
+      const LoopVerdict verdict = graph.addLoop(route.loops[next_loop]);
+      new_loop |= verdict.decision == LoopDecision::kAccepted || !verdict.confirmed.empty();
       ++next_loop;
     }
     if (new_loop) times.push_back(graph.optimise().milliseconds);
@@ -94,12 +98,14 @@ int runKitti(const std::map<std::string, std::string>& values) {
   const eval::Percentiles time = eval::percentiles(times);
   std::printf(
       "%s: keyframes %zu, loops %zu (%zu wrong, %zu of them accepted; %zu true refused); "
-      "max_loop_error_sd %.2f loop_loss_scale %.2f; RMSE first pose aligned odometry %.3f m, "
+      "max_loop_error_sd %.2f loop_loss_scale %.2f loop_confirmations %d within %.1f m; RMSE "
+      "first pose aligned odometry %.3f m, "
       "corrected %.3f m; similarity-aligned %.3f m, %.3f m; optimisation median %.2f ms, p99 "
       "%.2f ms; heading drift estimated %.5f rad/m (prior sd %g)\n",
       values.at("--kitti").c_str(), route.truth.size(), route.loops.size(), wrong, wrong_accepted,
-      right_refused, options.max_loop_error_sd, options.loop_loss_scale, raw.first_pose_rmse,
-      fixed.first_pose_rmse, raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99,
+      right_refused, options.max_loop_error_sd, options.loop_loss_scale, options.loop_confirmations,
+      options.confirmation_distance_m, raw.first_pose_rmse, fixed.first_pose_rmse,
+      raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99,
       graph.headingDriftPerMetre(), options.heading_drift_prior_sd_per_m);
   return 0;
 }
@@ -126,7 +132,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E] | "
                    "--kitti POSES [--wrong-loops F] [--seed S] [--max-loop-error-sd X] "
-                   "[--loop-loss-scale Y] [--heading-drift-prior-sd Z] [--scale-error E] "
+                   "[--loop-loss-scale Y] [--heading-drift-prior-sd Z] [--loop-confirmations C] "
+                   "[--confirmation-distance D] [--scale-error E] "
                    "[--heading-error H] [--heading-error-walk W] [--turn-error T]\n");
       return 2;
     }

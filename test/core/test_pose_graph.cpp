@@ -196,6 +196,98 @@ TEST(PoseGraph, AnErrorPerTurnOnOneCircuitPassesForADriftWithinBounds) {
                              << ", without it " << fixed_rmse;
 }
 
+/// The drive with every keyframe in the graph and no loop yet.
+void addAllKeyframes(PoseGraph* graph, const Drive& drive) {
+  for (size_t i = 0; i < drive.truth.size(); ++i) {
+    ASSERT_EQ(graph->addKeyframe(i, drive.odometry[i]), "");
+  }
+}
+
+TEST(PoseGraph, ATrueLoopWaitsForTheNextOneOfItsRevisitThenBothEnter) {
+  const Drive drive = driveLaps(2);
+  const size_t lap = drive.truth.size() / 2;
+  PoseGraph graph;  // The defaults ask one other loop nearby to agree.
+  addAllKeyframes(&graph, drive);
+  const LoopVerdict first = graph.addLoop(trueLoop(drive, lap + 5, 5));
+  EXPECT_EQ(first.decision, LoopDecision::kAwaitingConfirmation) << first.detail;
+  EXPECT_EQ(graph.activeLoops(), 0u);
+  EXPECT_FALSE(graph.optimise().ran);
+  const LoopVerdict second = graph.addLoop(trueLoop(drive, lap + 6, 6));
+  EXPECT_EQ(second.decision, LoopDecision::kAccepted) << second.detail;
+  EXPECT_EQ(second.confirmed, std::vector<size_t>{0});
+  EXPECT_EQ(graph.loopVerdicts()[0].decision, LoopDecision::kAccepted);
+  EXPECT_NE(graph.loopVerdicts()[0].detail.find("confirmed by loop 1"), std::string::npos);
+  EXPECT_EQ(graph.activeLoops(), 2u);
+  EXPECT_TRUE(graph.optimise().ran);
+
+  // The same query matched twice is one observation; a loop further along than
+  // confirmation_distance_m is no partner.
+  PoseGraph alone;
+  addAllKeyframes(&alone, drive);
+  alone.addLoop(trueLoop(drive, lap + 5, 5));
+  EXPECT_EQ(alone.addLoop(trueLoop(drive, lap + 5, 6)).decision,
+            LoopDecision::kAwaitingConfirmation);
+  const double metres_apart = 25 * sim::DrivenLapsOptions{}.step;  // Along the odometry.
+  ASSERT_GT(metres_apart, PoseGraphOptions{}.confirmation_distance_m);
+  EXPECT_EQ(alone.addLoop(trueLoop(drive, lap + 30, 30)).decision,
+            LoopDecision::kAwaitingConfirmation);
+  EXPECT_EQ(alone.activeLoops(), 0u);
+}
+
+TEST(PoseGraph, ALoopTheDriftingOdometryRefusesStillConfirmsItsNeighbour) {
+  const Drive drive = driveLaps(2);  // Its odometry errs 3 % per turn.
+  const size_t lap = drive.truth.size() / 2;
+  // An odometry model far more certain than the drive's odometry: true loops fail the screening
+  // unless their own covariance is loose.
+  PoseGraphOptions tight = perTurnModel();
+  tight.odometry_rotation_sd_per_m = 0.0;
+  tight.odometry_rotation_sd_per_rad = 0.001;
+  PoseGraph graph(tight);
+  addAllKeyframes(&graph, drive);
+  LoopConstraint loose = trueLoop(drive, lap + 5, 5);
+  loose.covariance.diagonal() << 1.0, 1.0, 1.0, 0.1, 0.1, 0.1;
+  const LoopVerdict waiting = graph.addLoop(loose);
+  ASSERT_EQ(waiting.decision, LoopDecision::kAwaitingConfirmation) << waiting.detail;
+  const LoopVerdict refused = graph.addLoop(trueLoop(drive, lap + 6, 6));
+  ASSERT_EQ(refused.decision, LoopDecision::kInconsistent) << refused.detail;
+  // The pair test does not use the long odometry path that refused it.
+  EXPECT_EQ(refused.confirmed, std::vector<size_t>{0});
+  EXPECT_EQ(graph.loopVerdicts()[0].decision, LoopDecision::kAccepted);
+  EXPECT_EQ(graph.activeLoops(), 1u);
+}
+
+TEST(PoseGraph, AWrongLoopTheOdometryCannotTellIsKeptOutByTheLoopsBesideIt) {
+  const Drive drive = driveLaps(2);
+  const size_t lap = drive.truth.size() / 2;
+  // An odometry model too loose to tell a match 4 m along the first lap from the right one.
+  PoseGraphOptions loose = perTurnModel();
+  loose.odometry_rotation_sd_per_m = 0.05;
+  for (const int confirmations : {0, 1}) {
+    loose.loop_confirmations = confirmations;
+    PoseGraph graph(loose);
+    addAllKeyframes(&graph, drive);
+    LoopConstraint wrong = trueLoop(drive, lap + 5, 5);
+    wrong.match_id = 13;
+    const LoopVerdict verdict = graph.addLoop(wrong);
+    size_t true_loops = 0;
+    for (size_t query = lap + 6; query <= lap + 16; ++query) {
+      if ((drive.truth[query].position - drive.truth[query - lap].position).norm() > 0.3) continue;
+      graph.addLoop(trueLoop(drive, query, query - lap));
+      ++true_loops;
+    }
+    graph.optimise();
+    ASSERT_GT(true_loops, 5u);
+    if (confirmations == 0) {
+      // The screening alone lets it in (the optimised graph may switch it off later).
+      EXPECT_EQ(verdict.decision, LoopDecision::kAccepted) << verdict.detail;
+    } else {
+      EXPECT_EQ(verdict.decision, LoopDecision::kAwaitingConfirmation) << verdict.detail;
+      EXPECT_EQ(graph.loopVerdicts()[0].decision, LoopDecision::kAwaitingConfirmation);
+      EXPECT_EQ(graph.activeLoops(), true_loops);
+    }
+  }
+}
+
 TEST(PoseGraph, BadInputIsRefusedAndNamed) {
   PoseGraph graph;
   EXPECT_EQ(graph.addKeyframe(3, planarPose(0, 0, 0)), "");

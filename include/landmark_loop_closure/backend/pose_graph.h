@@ -37,6 +37,15 @@ struct PoseGraphOptions {
   /// Cauchy loss scale on loop residuals (in standard deviations): a wrong loop that passed the
   /// screening pulls with bounded force.
   double loop_loss_scale = 1.0;
+  /// Pairwise consistency (PCM's test, on small groups): a loop that passed the screening enters
+  /// only once this many other loops nearby agree with it: both their ends within
+  /// confirmation_distance_m of its own along the odometry, and the cycle the two loops close
+  /// with the odometry between their ends within max_loop_error_sd (a partner the screening
+  /// refused counts too: the pair test does not use the long path that refused it). A wrong
+  /// loop seldom finds a partner; a true one waits for the next loop of its revisit. 0: each
+  /// loop on its own.
+  int loop_confirmations = 1;
+  double confirmation_distance_m = 10.0;
   int max_iterations = 50;
 
   /// Keys under pose_graph/, documented in config/pose_graph.yaml.
@@ -61,10 +70,11 @@ LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
 
 enum class LoopDecision {
   kAccepted,
-  kUnknownKeyframe,  ///< Query or match not in the graph (yet).
-  kBadCovariance,    ///< Not finite, not symmetric positive definite.
-  kInconsistent,     ///< Disagrees with the graph by more than max_loop_error_sd.
-  kSwitchedOff,      ///< Accepted, then contradicted by the optimised graph.
+  kUnknownKeyframe,       ///< Query or match not in the graph (yet).
+  kBadCovariance,         ///< Not finite, not symmetric positive definite.
+  kInconsistent,          ///< Disagrees with the graph by more than max_loop_error_sd.
+  kSwitchedOff,           ///< Accepted, then contradicted by the optimised graph.
+  kAwaitingConfirmation,  ///< Passed the screening; no loop nearby has agreed with it yet.
 };
 std::string toString(LoopDecision decision);
 
@@ -72,6 +82,8 @@ struct LoopVerdict {
   LoopDecision decision = LoopDecision::kAccepted;
   double error_sd = 0.0;  ///< Its error in standard deviations when it was screened.
   std::string detail;
+  /// Earlier loops (indices) that were awaiting confirmation and entered with this one.
+  std::vector<size_t> confirmed;
 };
 
 struct OptimisationReport {
@@ -91,8 +103,10 @@ class PoseGraph {
   /// keyframe's estimate moved by the odometry between them. Returns why it was refused, or "".
   std::string addKeyframe(uint64_t id, const Pose& odometry_pose);
 
-  /// Screens a loop against the graph's current estimate and keeps it if consistent. Loops are
-  /// numbered in the order they are given (the index the report's switched_off uses).
+  /// Screens a loop against the graph's current estimate and, once confirmed by other loops
+  /// (loop_confirmations), keeps it. Loops are numbered in the order they are given (the index
+  /// the report's switched_off and a verdict's confirmed use); loopVerdicts() holds each one's
+  /// latest decision.
   LoopVerdict addLoop(const LoopConstraint& loop);
 
   /// Optimises every keyframe pose; loops the result contradicts are switched off and the graph
@@ -117,6 +131,7 @@ class PoseGraph {
  private:
   struct Node {
     Pose odometry;
+    double metres_travelled = 0.0;  ///< Along the odometry from the first keyframe.
     double position[3];
     double orientation[4];  ///< x, y, z, w (Eigen's storage order).
   };
@@ -127,6 +142,7 @@ class PoseGraph {
     /// The estimate has been optimised with it: only then does it shorten the paths that
     /// screen later loops (the estimate does not agree with a loop it has not seen).
     bool optimised = false;
+    int agreements = 0;  ///< Other loops nearby that agree with it.
   };
 
   std::optional<size_t> indexOf(uint64_t id) const;
@@ -149,6 +165,23 @@ class PoseGraph {
   /// A loop's error against the current estimate, in standard deviations of the path's and its
   /// own uncertainty; nullopt when a keyframe is not in the graph.
   std::optional<LoopCheck> check(const LoopConstraint& loop, std::optional<size_t> excluded) const;
+  /// Finds the loops nearby that agree with loops_[index] (see loop_confirmations), counts the
+  /// agreement on both sides, and lets in those awaiting confirmation that reach
+  /// loop_confirmations (reported in `verdict`): loops_[index] itself only if it passed the
+  /// screening.
+  void confirm(size_t index, LoopVerdict* verdict);
+  /// The error, in standard deviations, of the cycle two loops close with the odometry between
+  /// their queries and between their matches.
+  double pairError(const LoopConstraint& a, const LoopConstraint& b) const;
+  /// The odometry's motion from keyframe `from` to `to`, its heading drift taken out, with the
+  /// variance per axis (translation, rotation) and the distance it covers.
+  struct OdometryLeg {
+    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+    double translation_variance = 0.0;
+    double rotation_variance = 0.0;
+    double metres = 0.0;
+  };
+  OdometryLeg odometryLeg(size_t from, size_t to) const;
   /// One Ceres solve; keyframes before `first_free` are held. False when nothing was solved.
   bool solve(size_t first_free, OptimisationReport* report);
 

@@ -25,7 +25,7 @@ TrajectoryError trajectoryError(const std::vector<Pose>& estimated, const std::v
 struct PoseGraphReplay {
   std::vector<Pose> corrected;  ///< By keyframe id, like DetectorEvaluation::keyframe_poses.
   size_t metric_loops = 0;      ///< Loops given to the graph.
-  size_t refused_loops = 0;     ///< Of those, refused or switched off.
+  size_t refused_loops = 0;     ///< Of those, refused, switched off or never confirmed.
   size_t refused_true_loops = 0;
   double heading_drift_per_m = 0.0;  ///< The graph's estimate (0 when it does not estimate one).
 };
