@@ -57,6 +57,21 @@ class DemoBag {
   bool written_ = false;
 };
 
+/// Whether the master lists `node` among `topic`'s subscribers.
+bool subscribes(const std::string& topic, const std::string& node) {
+  XmlRpc::XmlRpcValue request, response, payload;
+  request[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", request, response, payload, false)) return false;
+  XmlRpc::XmlRpcValue& subscribers = payload[1];
+  for (int t = 0; t < subscribers.size(); ++t) {
+    if (static_cast<std::string>(subscribers[t][0]) != topic) continue;
+    for (int n = 0; n < subscribers[t][1].size(); ++n) {
+      if (static_cast<std::string>(subscribers[t][1][n]) == node) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 TEST(PoseGraphNode, CorrectsTheDriftOfTheDemoBagAndRefusesWrongLoops) {
@@ -80,6 +95,22 @@ TEST(PoseGraphNode, CorrectsTheDriftOfTheDemoBagAndRefusesWrongLoops) {
       {"/odom", node.advertise<nav_msgs::Odometry>("/odom", 100)},
       {"/tf", node.advertise<tf2_msgs::TFMessage>("/tf", 100)}};
   ASSERT_TRUE(harness.waitForNode()) << "the detector did not subscribe";
+  // A keyframe sent before the graph listens would be missing from it (and move its first pose).
+  const std::vector<std::pair<std::string, std::string>> listeners = {
+      {"/keyframes", "/pose_graph"},
+      {"/loop_closures_injected", "/pose_graph"},
+      {"/keyframes", "/loop_injector"},
+      {"/loop_closures", "/loop_injector"}};
+  const auto allListen = [&listeners] {
+    for (const auto& [topic, node] : listeners) {
+      if (!subscribes(topic, node)) return false;
+    }
+    return true;
+  };
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(30.0);
+  while (!allListen() && ros::WallTime::now() < give_up) ros::WallDuration(0.1).sleep();
+  ASSERT_TRUE(allListen()) << "the pose graph or the loop injector did not subscribe";
+  ros::WallDuration(0.5).sleep();  // The detector connects to the subscribers it was told of.
 
   rosbag::Bag bag(demo.path(), rosbag::bagmode::Read);
   std::map<ros::Time, Pose2D> truth;
