@@ -299,8 +299,8 @@ std::optional<PoseGraph::LoopCheck> PoseGraph::check(const LoopConstraint& loop,
       (estimated.translation() - loop.query_T_match.translation()).norm();
   const double rotation_error =
       rotationAngle(estimated.rotation() * loop.query_T_match.rotation().transpose());
-  const double loop_translation_variance = loop.covariance.block<3, 3>(0, 0).trace() / 3.0;
-  const double loop_rotation_variance = loop.covariance.block<3, 3>(3, 3).trace() / 3.0;
+  const double loop_translation_variance = loop.translationVariance();
+  const double loop_rotation_variance = loop.rotationVariance();
   LoopCheck result;
   result.error_sd = std::max(translation_error / std::sqrt(path.x() + loop_translation_variance),
                              rotation_error / std::sqrt(path.y() + loop_rotation_variance));
@@ -450,7 +450,7 @@ OptimisationReport PoseGraph::optimise() {
       const LoopConstraint& loop = loops_[k].constraint;
       const Eigen::Isometry3d estimated =
           estimate(*indexOf(loop.query_id)).inverse() * estimate(*indexOf(loop.match_id));
-      const double own_sd = std::sqrt(loop.covariance.block<3, 3>(0, 0).trace() / 3.0);
+      const double own_sd = std::sqrt(loop.translationVariance());
       const double own_error =
           (estimated.translation() - loop.query_T_match.translation()).norm() / own_sd;
       if (own_error > options_.max_loop_error_sd) suspects.push_back({own_error, k});

@@ -33,18 +33,12 @@ double PoseGraph::pairError(const LoopConstraint& a, const LoopConstraint& b) co
   // query_a -> match_a -> match_b -> query_b -> query_a is the identity when both loops are true.
   const Eigen::Isometry3d cycle =
       a.query_T_match.inverse() * queries.motion * b.query_T_match * matches.motion;
-  const auto translationVariance = [](const LoopConstraint& loop) {
-    return loop.covariance.block<3, 3>(0, 0).trace() / 3.0;
-  };
-  const auto rotationVariance = [](const LoopConstraint& loop) {
-    return loop.covariance.block<3, 3>(3, 3).trace() / 3.0;
-  };
   const double length = a.query_T_match.translation().norm() +
                         b.query_T_match.translation().norm() + queries.metres + matches.metres;
   const double odometry_rotation = queries.rotation_variance + matches.rotation_variance;
-  const double loop_rotation = rotationVariance(a) + rotationVariance(b);
+  const double loop_rotation = a.rotationVariance() + b.rotationVariance();
   // A loop's rotation error turns the whole rest of the cycle; the odometry's is spread along it.
-  const double translation_variance = translationVariance(a) + translationVariance(b) +
+  const double translation_variance = a.translationVariance() + b.translationVariance() +
                                       queries.translation_variance + matches.translation_variance +
                                       loop_rotation * length * length +
                                       odometry_rotation * length * length / 3.0;

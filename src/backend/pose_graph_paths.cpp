@@ -31,8 +31,8 @@ Eigen::Vector2d PoseGraph::pathVariance(size_t from, size_t to,
     const LoopConstraint& loop = loops_[k].constraint;
     const size_t a = *indexOf(loop.query_id);
     const size_t b = *indexOf(loop.match_id);
-    const double translation = loop.covariance.block<3, 3>(0, 0).trace() / 3.0;
-    const double rotation = loop.covariance.block<3, 3>(3, 3).trace() / 3.0;
+    const double translation = loop.translationVariance();
+    const double rotation = loop.rotationVariance();
     steps[a].push_back({b, translation, rotation, 0.0});
     steps[b].push_back({a, translation, rotation, 0.0});
   }

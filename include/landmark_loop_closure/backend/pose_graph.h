@@ -61,6 +61,10 @@ struct LoopConstraint {
   uint64_t match_id = 0;
   Eigen::Isometry3d query_T_match = Eigen::Isometry3d::Identity();
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+
+  /// The covariance's mean variance per axis: translation (m^2) and rotation (rad^2).
+  double translationVariance() const { return covariance.block<3, 3>(0, 0).trace() / 3.0; }
+  double rotationVariance() const { return covariance.block<3, 3>(3, 3).trace() / 3.0; }
 };
 
 /// Turns a loop expressed in the camera's optical frame into the base frame, given where the
