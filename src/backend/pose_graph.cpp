@@ -135,6 +135,10 @@ std::optional<Eigen::Matrix<double, 6, 6>> sqrtInformation(
   return Eigen::Matrix<double, 6, 6>(information_llt.matrixL().transpose());
 }
 
+// A loop's rotation block may be this far from orthonormal (R^T R - I, largest entry): about a
+// quaternion within 1e-3 of unit length, the keyframes' tolerance.
+constexpr double kRotationTolerance = 5e-3;
+
 double rotationAngle(const Eigen::Matrix3d& rotation) {
   return Eigen::AngleAxisd(rotation).angle();
 }
@@ -192,6 +196,8 @@ std::string toString(LoopDecision decision) {
       return "unknown_keyframe";
     case LoopDecision::kBadCovariance:
       return "bad_covariance";
+    case LoopDecision::kBadPose:
+      return "bad_pose";
     case LoopDecision::kInconsistent:
       return "inconsistent";
     case LoopDecision::kSwitchedOff:
@@ -313,19 +319,30 @@ std::optional<PoseGraph::LoopCheck> PoseGraph::check(const LoopConstraint& loop,
   return result;
 }
 
-LoopVerdict PoseGraph::addLoop(const LoopConstraint& loop) {
+LoopVerdict PoseGraph::addLoop(const LoopConstraint& given) {
   LoopVerdict verdict;
+  const bool pose_usable = given.query_T_match.translation().allFinite() &&
+                           isRotation(given.query_T_match.linear(), kRotationTolerance);
+  LoopConstraint loop = given;
+  // Within the tolerance, made an exact rotation: Isometry3d's inverse takes it for one.
+  if (pose_usable) loop.query_T_match.linear() = given.query_T_match.rotation();
   const std::optional<Eigen::Matrix<double, 6, 6>> sqrt_information =
       sqrtInformation(loop.covariance);
-  const std::optional<LoopCheck> checked = check(loop, std::nullopt);
-  if (!checked) {
+  const std::optional<LoopCheck> checked =
+      pose_usable ? check(loop, std::nullopt) : std::optional<LoopCheck>{};
+  if (!indexOf(loop.query_id) || !indexOf(loop.match_id)) {
     verdict.decision = LoopDecision::kUnknownKeyframe;
     verdict.detail = "keyframe " +
                      std::to_string(indexOf(loop.query_id) ? loop.match_id : loop.query_id) +
                      " is not in the graph";
-  } else if (!sqrt_information || !loop.query_T_match.matrix().allFinite()) {
+  } else if (!pose_usable) {
+    verdict.decision = LoopDecision::kBadPose;
+    verdict.detail =
+        "relative pose not finite or its rotation not a rotation (a quaternion not of unit "
+        "length?)";
+  } else if (!sqrt_information) {
     verdict.decision = LoopDecision::kBadCovariance;
-    verdict.detail = "covariance or pose not finite, or covariance not positive definite";
+    verdict.detail = "covariance not finite or not symmetric positive definite";
   } else {
     verdict.error_sd = checked->error_sd;
     verdict.detail = checked->detail;

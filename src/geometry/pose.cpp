@@ -19,6 +19,23 @@ Pose Pose::fromIsometry(const Eigen::Isometry3d& transform) {
   return pose;
 }
 
+Eigen::Matrix3d scaledRotationMatrix(const Eigen::Quaterniond& q) {
+  // (w^2 - |v|^2) I + 2 v v^T + 2 w [v]x: the unit-quaternion formula with 1 = w^2 + |v|^2 kept
+  // as it is, so every entry scales with the squared length.
+  const Eigen::Vector3d v = q.vec();
+  Eigen::Matrix3d cross;
+  cross << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return (q.w() * q.w() - v.squaredNorm()) * Eigen::Matrix3d::Identity() + 2.0 * v * v.transpose() +
+         2.0 * q.w() * cross;
+}
+
+bool isRotation(const Eigen::Matrix3d& matrix, double tolerance) {
+  if (!matrix.allFinite()) return false;
+  const double off =
+      (matrix.transpose() * matrix - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  return off <= tolerance && matrix.determinant() > 0.0;
+}
+
 Eigen::Vector3d rollPitchYaw(const Eigen::Quaterniond& rotation) {
   // ZYX convention, written out so that the angles stay in [-pi, pi] rather than Eigen's
   // eulerAngles() ranges, which would make a small rotation look like a large one.

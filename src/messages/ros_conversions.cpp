@@ -289,7 +289,10 @@ LoopConstraint loopConstraintFromMsg(const LoopClosure& loop) {
   LoopConstraint constraint;
   constraint.query_id = loop.query_id;
   constraint.match_id = loop.match_id;
-  constraint.query_T_match = fromRos(loop.relative_pose.pose).toIsometry();
+  const Pose relative = fromRos(loop.relative_pose.pose);
+  // Not normalised: the graph refuses a quaternion that is not of unit length.
+  constraint.query_T_match.linear() = scaledRotationMatrix(relative.orientation);
+  constraint.query_T_match.translation() = relative.position;
   constraint.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(
       loop.relative_pose.covariance.data());
   return constraint;

@@ -114,6 +114,11 @@ class PoseGraphNode {
           still_waiting.push_back(loop);
         }
       }
+      // Loops waiting for keyframes that never come (ids from elsewhere) must not pile up.
+      while (still_waiting.size() > kMaxWaitingLoops) {
+        new_loops |= addLoop(still_waiting.front());
+        still_waiting.erase(still_waiting.begin());
+      }
       waiting_loops_.swap(still_waiting);
       if (new_loops) {
         const OptimisationReport report = graph_.optimise();
@@ -184,6 +189,13 @@ class PoseGraphNode {
     if (verdict.decision == LoopDecision::kAwaitingConfirmation) {
       ROS_DEBUG("Pose graph: loop %lu -> %lu %s", static_cast<unsigned long>(loop.query_id),
                 static_cast<unsigned long>(loop.match_id), verdict.detail.c_str());
+    } else if (verdict.decision == LoopDecision::kUnknownKeyframe ||
+               verdict.decision == LoopDecision::kBadPose ||
+               verdict.decision == LoopDecision::kBadCovariance) {
+      ROS_WARN_THROTTLE(10.0, "Pose graph: loop %lu -> %lu dropped as bad input (%s): %s",
+                        static_cast<unsigned long>(loop.query_id),
+                        static_cast<unsigned long>(loop.match_id),
+                        toString(verdict.decision).c_str(), verdict.detail.c_str());
     } else if (verdict.decision != LoopDecision::kAccepted) {
       ROS_WARN("Pose graph: loop %lu -> %lu refused (%s): %s",
                static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
@@ -309,6 +321,7 @@ class PoseGraphNode {
   }
 
   static constexpr uint64_t kLoopWaitKeyframes = 10;
+  static constexpr size_t kMaxWaitingLoops = 100;
 
   PoseGraphNodeOptions options_;
   PoseGraph graph_;

@@ -307,6 +307,17 @@ TEST(PoseGraph, BadInputIsRefusedAndNamed) {
   singular.match_id = 3;
   singular.covariance.setZero();
   EXPECT_EQ(graph.addLoop(singular).decision, LoopDecision::kBadCovariance);
+  LoopConstraint not_turned = singular;
+  not_turned.covariance.setIdentity();
+  for (const double scale : {0.0, 4.0, std::nan("")}) {
+    not_turned.query_T_match.linear() = scale * Eigen::Matrix3d::Identity();
+    EXPECT_EQ(graph.addLoop(not_turned).decision, LoopDecision::kBadPose) << scale;
+  }
+  not_turned.query_T_match.linear() = Eigen::Vector3d(1, 1, -1).asDiagonal();  // A mirror.
+  EXPECT_EQ(graph.addLoop(not_turned).decision, LoopDecision::kBadPose);
+  not_turned.query_T_match.linear().setIdentity();
+  not_turned.query_T_match.translation().x() = std::nan("");
+  EXPECT_EQ(graph.addLoop(not_turned).decision, LoopDecision::kBadPose);
   EXPECT_EQ(graph.activeLoops(), 0u);
 
   PoseGraphOptions options;

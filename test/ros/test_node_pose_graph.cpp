@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include <nav_msgs/Odometry.h>
@@ -18,6 +19,7 @@
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include "landmark_loop_closure/LoopClosure.h"
 #include "landmark_loop_closure/PoseGraphLoop.h"
 #include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/eval/true_loop.h"
@@ -71,6 +73,9 @@ bool subscribes(const std::string& topic, const std::string& node) {
   }
   return false;
 }
+
+// A loop the graph accepted in the demo run, for the bad-input test after it.
+std::optional<PoseGraphLoop> accepted_in_demo;
 
 }  // namespace
 
@@ -178,6 +183,7 @@ TEST(PoseGraphNode, CorrectsTheDriftOfTheDemoBagAndRefusesWrongLoops) {
         eval::TrueLoopRule{}.isTrueLoop({query.x, query.y, 0.0}, verdict.query_stamp.toSec(),
                                         {match.x, match.y, 0.0}, verdict.match_stamp.toSec());
     const bool accepted = verdict.decision == "accepted";
+    if (accepted && is_true) accepted_in_demo = verdict;
     if (is_true) {
       ++right;
       right_refused += accepted ? 0 : 1;
@@ -192,6 +198,61 @@ TEST(PoseGraphNode, CorrectsTheDriftOfTheDemoBagAndRefusesWrongLoops) {
   EXPECT_GE(wrong, 3u) << "too few wrong metric loops injected to tell";
   EXPECT_GT(right, 40u);
   EXPECT_LE(right_refused, right / 10);
+}
+
+// Loops no detector of this map would send, after the demo run: each is named and refused, and
+// loops waiting for keyframes that never come are refused once 100 wait.
+TEST(PoseGraphNode, BadLoopsAreNamedAndLoopsForKeyframesThatNeverComeDoNotPileUp) {
+  if (!accepted_in_demo) GTEST_SKIP() << "needs the graph the demo run above built";
+  ros::NodeHandle node;
+  std::vector<PoseGraphLoop> verdicts;
+  const ros::Subscriber verdict_subscriber = node.subscribe<PoseGraphLoop>(
+      "/pose_graph/loop_verdicts", 1000,
+      [&](const PoseGraphLoopConstPtr& verdict) { verdicts.push_back(*verdict); });
+  ros::Publisher loops = node.advertise<LoopClosure>("/loop_closures_injected", 1000);
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
+  while ((loops.getNumSubscribers() == 0 || verdict_subscriber.getNumPublishers() == 0) &&
+         ros::WallTime::now() < give_up) {
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_GT(loops.getNumSubscribers(), 0u) << "the pose graph does not listen";
+
+  LoopClosure loop;
+  loop.map_id = accepted_in_demo->map_id;
+  loop.query_id = accepted_in_demo->query_id;
+  loop.match_id = accepted_in_demo->match_id;
+  loop.has_relative_pose = loop.relative_pose_metric = true;
+  loop.relative_pose_frame = "base_link";
+  for (int i = 0; i < 6; ++i) loop.relative_pose.covariance[i * 7] = 0.01;
+  LoopClosure unturned = loop;  // orientation all zeros: not "no rotation"
+  loops.publish(unturned);
+  ros::WallDuration(0.002).sleep();
+  LoopClosure bad_covariance = loop;
+  bad_covariance.relative_pose.pose.orientation.w = 1.0;
+  bad_covariance.relative_pose.covariance[7] = std::nan("");
+  loops.publish(bad_covariance);
+  ros::WallDuration(0.002).sleep();
+  const size_t future = 150;
+  for (size_t i = 0; i < future; ++i) {
+    LoopClosure later = bad_covariance;
+    later.relative_pose.covariance[7] = 0.01;
+    later.query_id = accepted_in_demo->query_id + 100000 + i;
+    loops.publish(later);
+    ros::WallDuration(0.002).sleep();  // Within the node's queue of 100 loops.
+  }
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+  while (ros::ok() && verdicts.size() < 2 + future - 100 && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+  }
+  ros::WallDuration(0.5).sleep();
+  ros::spinOnce();
+  std::map<std::string, size_t> decisions;
+  for (const PoseGraphLoop& verdict : verdicts) ++decisions[verdict.decision];
+  EXPECT_EQ(decisions["bad_pose"], 1u);
+  EXPECT_EQ(decisions["bad_covariance"], 1u);
+  EXPECT_EQ(decisions["unknown_keyframe"], future - 100) << "100 wait, the oldest are refused";
+  EXPECT_EQ(verdicts.size(), 2 + future - 100);
 }
 
 int main(int argc, char** argv) {

@@ -76,6 +76,7 @@ enum class LoopDecision {
   kAccepted,
   kUnknownKeyframe,       ///< Query or match not in the graph (yet).
   kBadCovariance,         ///< Not finite, not symmetric positive definite.
+  kBadPose,               ///< Relative pose not finite, or its rotation block not a rotation.
   kInconsistent,          ///< Disagrees with the graph by more than max_loop_error_sd.
   kSwitchedOff,           ///< Accepted, then contradicted by the optimised graph.
   kAwaitingConfirmation,  ///< Passed the screening; no loop nearby has agreed with it yet.

@@ -18,6 +18,14 @@ struct Pose {
   static Pose fromIsometry(const Eigen::Isometry3d& transform);
 };
 
+/// The rotation matrix of q scaled by q's squared length, q not normalised first: a quaternion
+/// that is not of unit length (all zeros, a forgotten w) gives a matrix that is not a rotation,
+/// for the receiver to refuse, where normalising would have read all zeros as no rotation.
+Eigen::Matrix3d scaledRotationMatrix(const Eigen::Quaterniond& q);
+
+/// Whether a matrix is a rotation: R^T R within `tolerance` of identity, determinant positive.
+bool isRotation(const Eigen::Matrix3d& matrix, double tolerance);
+
 /// Roll, pitch and yaw (radians) of a rotation, each in [-pi, pi].
 Eigen::Vector3d rollPitchYaw(const Eigen::Quaterniond& rotation);
 
