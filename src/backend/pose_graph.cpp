@@ -111,12 +111,6 @@ struct DriftPrior {
   }
 };
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
 /// Upper-triangular S with S^T S = covariance^-1; nullopt when the covariance is unusable.
 std::optional<Eigen::Matrix<double, 6, 6>> sqrtInformation(
     const Eigen::Matrix<double, 6, 6>& covariance) {

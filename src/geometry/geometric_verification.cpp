@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
+#include "landmark_loop_closure/geometry/pose.h"
 #include "landmark_loop_closure/geometry/pose_jacobian.h"
 
 namespace landmark_loop_closure {
@@ -20,12 +21,6 @@ constexpr int kSpreadGrid = 4;
 constexpr int kMaxRefitRounds = 5;
 constexpr float kOrbScaleFactor = 1.2f;
 constexpr double kRadiansToDegrees = 180.0 / M_PI;
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
 
 // Signed Sampson distance of a correspondence to the epipolar geometry X_q = R X_m + t, on
 // normalised image coordinates; multiplied by the focal length it is in pixels.

@@ -19,6 +19,12 @@ Pose Pose::fromIsometry(const Eigen::Isometry3d& transform) {
   return pose;
 }
 
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
 Eigen::Matrix3d scaledRotationMatrix(const Eigen::Quaterniond& q) {
   // (w^2 - |v|^2) I + 2 v v^T + 2 w [v]x: the unit-quaternion formula with 1 = w^2 + |v|^2 kept
   // as it is, so every entry scales with the squared length.

@@ -18,6 +18,9 @@ struct Pose {
   static Pose fromIsometry(const Eigen::Isometry3d& transform);
 };
 
+/// The cross-product matrix: skew(v) w = v x w.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+
 /// The rotation matrix of q scaled by q's squared length, q not normalised first: a quaternion
 /// that is not of unit length (all zeros, a forgotten w) gives a matrix that is not a rotation,
 /// for the receiver to refuse, where normalising would have read all zeros as no rotation.
