@@ -551,6 +551,13 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "relative_pose_frame is another frame are taken as the camera's and turned into "
                 "it with camera_mount.")
           .flag("publish_tf", &O::publish_tf, "publish that correction on tf.")
+          .number("tf_rate_hz", &O::tf_rate_hz, between(0, 1000),
+                  "how often the correction is sent (Hz), stamped tf_future_s ahead of the "
+                  "clock, so that a lookup at the newest sensor time finds it while no keyframe "
+                  "comes (the robot stands still), as amcl and slam_toolbox send theirs. 0: "
+                  "once per keyframe, stamped with it.")
+          .number("tf_future_s", &O::tf_future_s, between(0, 1),
+                  "how far ahead of the clock each sending is stamped (s).")
           .group(&O::camera_mount, CameraMount::parameters())
           .group(&O::graph, PoseGraphOptions::parameters());
   return table;

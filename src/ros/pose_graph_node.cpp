@@ -8,7 +8,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
+#include <utility>
 #include <variant>
 
 #include <nav_msgs/Path.h>
@@ -60,9 +62,14 @@ class PoseGraphNode {
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
     loop_subscriber_ = node.subscribe("loop_closures", 100, &PoseGraphNode::onLoop, this);
     worker_ = std::thread([this] { work(); });
+    if (options_.publish_tf && options_.tf_rate_hz > 0.0) {
+      tf_timer_ = node.createTimer(ros::Duration(1.0 / options_.tf_rate_hz),
+                                   [this](const ros::TimerEvent&) { sendCorrection(); });
+    }
   }
 
   ~PoseGraphNode() {
+    tf_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stopping_ = true;
@@ -220,20 +227,38 @@ class PoseGraphNode {
     verdict_publisher_.publish(verdict);
   }
 
+  /// map_frame -> odometry frame, as the last keyframe left it; stamped tf_future_s ahead of
+  /// the clock unless a stamp is given.
+  void sendCorrection(std::optional<ros::Time> stamp = std::nullopt) {
+    std::optional<std::pair<Pose, std::string>> correction;
+    {
+      std::lock_guard<std::mutex> lock(correction_mutex_);
+      correction = correction_;
+    }
+    if (!correction) return;
+    geometry_msgs::TransformStamped transform;
+    transform.header.stamp =
+        stamp ? *stamp : ros::Time::now() + ros::Duration(options_.tf_future_s);
+    transform.header.frame_id = options_.map_frame;
+    transform.child_frame_id = correction->second;
+    const geometry_msgs::Pose pose = toRos(correction->first);
+    transform.transform.translation.x = pose.position.x;
+    transform.transform.translation.y = pose.position.y;
+    transform.transform.translation.z = pose.position.z;
+    transform.transform.rotation = pose.orientation;
+    broadcaster_.sendTransform(transform);
+  }
+
   void publish(bool optimised) {
     const ros::Time stamp = stamps_.empty() ? ros::Time::now() : stamps_.back();
-    // The correction first: a viewer looking the path up at its stamp then finds it.
     if (options_.publish_tf && !odometry_frame_.empty()) {
-      const Pose correction = Pose::fromIsometry(graph_.mapFromOdometry());
-      geometry_msgs::TransformStamped transform;
-      transform.header.stamp = stamp;
-      transform.header.frame_id = options_.map_frame;
-      transform.child_frame_id = odometry_frame_;
-      transform.transform.translation.x = correction.position.x();
-      transform.transform.translation.y = correction.position.y();
-      transform.transform.translation.z = correction.position.z();
-      transform.transform.rotation = toRos(correction).orientation;
-      broadcaster_.sendTransform(transform);
+      {
+        std::lock_guard<std::mutex> lock(correction_mutex_);
+        correction_ = {Pose::fromIsometry(graph_.mapFromOdometry()), odometry_frame_};
+      }
+      // Without the timer, the correction first: a viewer looking the path up at its stamp
+      // then finds it.
+      if (options_.tf_rate_hz <= 0.0) sendCorrection(stamp);
     }
     // The whole corrected path after an optimisation, else every 10 keyframes (it grows).
     if (optimised || graph_.keyframes() % 10 == 0) {
@@ -340,6 +365,9 @@ class PoseGraphNode {
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
   tf2_ros::TransformBroadcaster broadcaster_;
+  ros::Timer tf_timer_;
+  std::mutex correction_mutex_;
+  std::optional<std::pair<Pose, std::string>> correction_;  ///< And the odometry frame.
 
   std::mutex mutex_;
   std::condition_variable wake_;

@@ -207,6 +207,8 @@ struct PoseGraphNodeOptions {
   std::string map_frame = "map";
   std::string base_frame = "base_link";
   bool publish_tf = true;
+  double tf_rate_hz = 20.0;
+  double tf_future_s = 0.1;
   /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
   /// turned into the base frame with the mount; set it as for the detector.
   CameraMount camera_mount;
