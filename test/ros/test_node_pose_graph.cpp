@@ -227,26 +227,29 @@ TEST(PoseGraphNode, BadLoopsAreNamedAndLoopsForKeyframesThatNeverComeDoNotPileUp
   loop.relative_pose_frame = "base_link";
   for (int i = 0; i < 6; ++i) loop.relative_pose.covariance[i * 7] = 0.01;
   LoopClosure unturned = loop;  // orientation all zeros: not "no rotation"
+  // Until `count` verdicts have come (10 s at most).
+  const auto awaitVerdicts = [&verdicts](size_t count) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+    while (ros::ok() && verdicts.size() < count && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+  };
   loops.publish(unturned);
-  ros::WallDuration(0.002).sleep();
   LoopClosure bad_covariance = loop;
   bad_covariance.relative_pose.pose.orientation.w = 1.0;
   bad_covariance.relative_pose.covariance[7] = std::nan("");
   loops.publish(bad_covariance);
-  ros::WallDuration(0.002).sleep();
+  awaitVerdicts(2);
   const size_t future = 150;
   for (size_t i = 0; i < future; ++i) {
     LoopClosure later = bad_covariance;
     later.relative_pose.covariance[7] = 0.01;
     later.query_id = accepted_in_demo->query_id + 100000 + i;
     loops.publish(later);
-    ros::WallDuration(0.002).sleep();  // Within the node's queue of 100 loops.
+    ros::WallDuration(0.01).sleep();  // Far within the node's queue of 100 loops.
   }
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
-  while (ros::ok() && verdicts.size() < 2 + future - 100 && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    ros::WallDuration(0.05).sleep();
-  }
+  awaitVerdicts(2 + future - 100);
   ros::WallDuration(0.5).sleep();
   ros::spinOnce();
   std::map<std::string, size_t> decisions;
