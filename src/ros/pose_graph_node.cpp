@@ -16,6 +16,7 @@
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <visualization_msgs/Marker.h>
 #include <pluginlib/class_list_macros.hpp>
@@ -230,22 +231,17 @@ class PoseGraphNode {
   /// map_frame -> odometry frame, as the last keyframe left it; stamped tf_future_s ahead of
   /// the clock unless a stamp is given.
   void sendCorrection(std::optional<ros::Time> stamp = std::nullopt) {
-    std::optional<std::pair<Pose, std::string>> correction;
+    std::optional<std::pair<Eigen::Isometry3d, std::string>> correction;
     {
       std::lock_guard<std::mutex> lock(correction_mutex_);
       correction = correction_;
     }
     if (!correction) return;
-    geometry_msgs::TransformStamped transform;
+    geometry_msgs::TransformStamped transform = tf2::eigenToTransform(correction->first);
     transform.header.stamp =
         stamp ? *stamp : ros::Time::now() + ros::Duration(options_.tf_future_s);
     transform.header.frame_id = options_.map_frame;
     transform.child_frame_id = correction->second;
-    const geometry_msgs::Pose pose = toRos(correction->first);
-    transform.transform.translation.x = pose.position.x;
-    transform.transform.translation.y = pose.position.y;
-    transform.transform.translation.z = pose.position.z;
-    transform.transform.rotation = pose.orientation;
     broadcaster_.sendTransform(transform);
   }
 
@@ -254,7 +250,7 @@ class PoseGraphNode {
     if (options_.publish_tf && !odometry_frame_.empty()) {
       {
         std::lock_guard<std::mutex> lock(correction_mutex_);
-        correction_ = {Pose::fromIsometry(graph_.mapFromOdometry()), odometry_frame_};
+        correction_ = {graph_.mapFromOdometry(), odometry_frame_};
       }
       // Without the timer, the correction first: a viewer looking the path up at its stamp
       // then finds it.
@@ -367,7 +363,8 @@ class PoseGraphNode {
   tf2_ros::TransformBroadcaster broadcaster_;
   ros::Timer tf_timer_;
   std::mutex correction_mutex_;
-  std::optional<std::pair<Pose, std::string>> correction_;  ///< And the odometry frame.
+  std::optional<std::pair<Eigen::Isometry3d, std::string>>
+      correction_;  ///< And the odometry frame.
 
   std::mutex mutex_;
   std::condition_variable wake_;
