@@ -549,7 +549,7 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
           .text("base_frame", &O::base_frame,
                 "the robot's body frame, as the detector's base_frame: loops whose "
                 "relative_pose_frame is another frame are taken as the camera's and turned into "
-                "it with camera_mount.")
+                "it with camera_mount (or through tf: camera_mount/from_tf).")
           .flag("publish_tf", &O::publish_tf, "publish that correction on tf.")
           .number("tf_rate_hz", &O::tf_rate_hz, between(0, 1000),
                   "how often the correction is sent (Hz), stamped tf_future_s ahead of the "
@@ -559,6 +559,11 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
           .number("tf_future_s", &O::tf_future_s, between(0, 1),
                   "how far ahead of the clock each sending is stamped (s).")
           .group(&O::camera_mount, CameraMount::parameters())
+          .flag("camera_mount/from_tf", &O::camera_mount_from_tf,
+                "turn loops whose relative_pose_frame is not base_frame through tf instead of "
+                "the values above (base_frame -> that frame, latest: the camera's optical frame "
+                "as the detector names it, or any other); a loop whose frame tf does not know "
+                "yet is left out, named in the log.")
           .group(&O::graph, PoseGraphOptions::parameters());
   return table;
 }

@@ -17,7 +17,9 @@
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/Marker.h>
 #include <pluginlib/class_list_macros.hpp>
 
@@ -55,6 +57,10 @@ class PoseGraphNode {
  public:
   PoseGraphNode(ros::NodeHandle node, ros::NodeHandle private_node, PoseGraphNodeOptions options)
       : options_(std::move(options)), graph_(options_.graph) {
+    if (options_.camera_mount_from_tf) {
+      tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+      tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+    }
     corrected_publisher_ = private_node.advertise<nav_msgs::Path>("corrected_path", 1, true);
     odometry_publisher_ = private_node.advertise<nav_msgs::Path>("odometry_path", 1, true);
     verdict_publisher_ = private_node.advertise<PoseGraphLoop>("loop_verdicts", 100);
@@ -177,15 +183,19 @@ class PoseGraphNode {
     } else if (map_id_ && loop.map_id != *map_id_) {
       left_out = "another map than the keyframes'";
     }
+    std::optional<Eigen::Isometry3d> mount;
+    std::string mount_problem;
+    if (!left_out && loop.relative_pose_frame != options_.base_frame) {
+      mount = mountOf(loop.relative_pose_frame, &mount_problem);
+      if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
+    }
     if (left_out) {
       ++left_out_[left_out];
-      publishVerdict(loop, "left_out", 0.0, left_out);
+      publishVerdict(loop, "left_out", 0.0, mount_problem.empty() ? left_out : mount_problem);
       return false;
     }
     LoopConstraint constraint = loopConstraintFromMsg(loop);
-    if (loop.relative_pose_frame != options_.base_frame) {
-      constraint = loopInBaseFrame(constraint, options_.camera_mount.toPose().toIsometry());
-    }
+    if (mount) constraint = loopInBaseFrame(constraint, *mount);
     graph_loops_.push_back(loop);
     const LoopVerdict verdict = graph_.addLoop(constraint);
     publishVerdict(loop, toString(verdict.decision), verdict.error_sd, verdict.detail);
@@ -210,6 +220,31 @@ class PoseGraphNode {
                toString(verdict.decision).c_str(), verdict.detail.c_str());
     }
     return verdict.decision == LoopDecision::kAccepted || !verdict.confirmed.empty();
+  }
+
+  /// base_frame <- `frame`: camera_mount, or tf's (latest, kept: a mount does not move). Empty,
+  /// with `problem` saying why, while tf does not know it.
+  std::optional<Eigen::Isometry3d> mountOf(const std::string& frame, std::string* problem) {
+    if (!options_.camera_mount_from_tf) return options_.camera_mount.toPose().toIsometry();
+    const auto known = mounts_.find(frame);
+    if (known != mounts_.end()) return known->second;
+    std::string error;
+    if (frame.empty()) {
+      error = "the loop names no relative_pose_frame";
+    } else if (tf_buffer_->canTransform(options_.base_frame, frame, ros::Time(0), &error)) {
+      const Eigen::Isometry3d mount = tf2::transformToEigen(
+          tf_buffer_->lookupTransform(options_.base_frame, frame, ros::Time(0)));
+      ROS_INFO(
+          "Pose graph: loops in %s turned into %s through tf, the frame at (%.3f, %.3f, "
+          "%.3f) m",
+          frame.c_str(), options_.base_frame.c_str(), mount.translation().x(),
+          mount.translation().y(), mount.translation().z());
+      return mounts_[frame] = mount;
+    }
+    *problem =
+        "no tf " + options_.base_frame + " -> '" + frame + "' (camera_mount/from_tf): " + error;
+    ROS_WARN_THROTTLE(10.0, "Pose graph: loop left out: %s", problem->c_str());
+    return std::nullopt;
   }
 
   void publishVerdict(const LoopClosure& loop, const std::string& decision, double error_sd,
@@ -349,6 +384,9 @@ class PoseGraphNode {
   std::vector<LoopClosure> waiting_loops_;
   std::optional<uint64_t> map_id_;
   std::string odometry_frame_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< camera_mount/from_tf only.
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::map<std::string, Eigen::Isometry3d> mounts_;  ///< base_frame <- each loop frame, from tf.
   std::vector<ros::Time> stamps_;
   std::vector<LoopClosure> graph_loops_;  ///< As given to the graph, in its loop order.
   std::map<std::string, size_t> left_out_;

@@ -212,6 +212,9 @@ struct PoseGraphNodeOptions {
   /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
   /// turned into the base frame with the mount; set it as for the detector.
   CameraMount camera_mount;
+  /// Turn loops in any frame but base_frame through tf (base_frame <- the loop's
+  /// relative_pose_frame, latest) instead of camera_mount.
+  bool camera_mount_from_tf = false;
   PoseGraphOptions graph;
 
   static const ParameterTable<PoseGraphNodeOptions>& parameters();
