@@ -33,12 +33,12 @@ add_dependencies(test_node_pose_graph ${PROJECT_NAME}_generate_messages_cpp loop
 target_compile_definitions(test_node_pose_graph PRIVATE
   MAKE_DEMO_BAG="$<TARGET_FILE:make_demo_bag>")
 
-# The pose graph alone, its camera mount looked up in tf.
-add_rostest_gtest(test_node_pose_graph_mount test/ros/node_pose_graph_mount.test
-  test/ros/test_node_pose_graph_mount.cpp)
-target_include_directories(test_node_pose_graph_mount SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(test_node_pose_graph_mount ${PROJECT_NAME}_core ${catkin_LIBRARIES})
-add_dependencies(test_node_pose_graph_mount ${PROJECT_NAME}_generate_messages_cpp pose_graph_node
+# The pose graph alone on keyframes and loops the test makes: the camera mount from tf, new maps.
+add_rostest_gtest(test_node_pose_graph_synthetic test/ros/node_pose_graph_synthetic.test
+  test/ros/test_node_pose_graph_synthetic.cpp)
+target_include_directories(test_node_pose_graph_synthetic SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_node_pose_graph_synthetic ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+add_dependencies(test_node_pose_graph_synthetic ${PROJECT_NAME}_generate_messages_cpp pose_graph_node
   ${PROJECT_NAME}_pose_graph_nodelet)
 
 roslaunch_add_file_check(launch IGNORE_UNSET_ARGS)

@@ -219,7 +219,8 @@ LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
   return loop;
 }
 
-PoseGraph::PoseGraph(PoseGraphOptions options) : options_(options) {
+PoseGraph::PoseGraph(PoseGraphOptions options, const Eigen::Isometry3d& map_from_odometry)
+    : options_(options), initial_map_from_odometry_(map_from_odometry) {
   const std::string problems = options_.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
 }
@@ -246,7 +247,7 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
   nodes_.push_back(node);
   // Placed by the odometry from the last keyframe's estimate, the estimated drift taken out.
   setEstimate(nodes_.size() - 1,
-              nodes_.size() == 1 ? node.odometry.toIsometry()
+              nodes_.size() == 1 ? initial_map_from_odometry_ * node.odometry.toIsometry()
                                  : estimate(nodes_.size() - 2) * odometryStep(nodes_.size() - 2));
   return "";
 }
@@ -531,7 +532,7 @@ std::optional<Pose> PoseGraph::optimisedPose(uint64_t id) const {
 }
 
 Eigen::Isometry3d PoseGraph::mapFromOdometry() const {
-  if (nodes_.empty()) return Eigen::Isometry3d::Identity();
+  if (nodes_.empty()) return initial_map_from_odometry_;
   return estimate(nodes_.size() - 1) * nodes_.back().odometry.toIsometry().inverse();
 }
 

@@ -56,7 +56,7 @@ geometry_msgs::PoseStamped stampedPose(const Pose& pose, const std::string& fram
 class PoseGraphNode {
  public:
   PoseGraphNode(ros::NodeHandle node, ros::NodeHandle private_node, PoseGraphNodeOptions options)
-      : options_(std::move(options)), graph_(options_.graph) {
+      : options_(std::move(options)), graph_(std::make_unique<PoseGraph>(options_.graph)) {
     if (options_.camera_mount_from_tf) {
       tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
       tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
@@ -121,8 +121,8 @@ class PoseGraphNode {
       // A loop is published before its query keyframe: it waits for it (a few keyframes at most).
       std::vector<LoopClosure> still_waiting;
       for (const LoopClosure& loop : waiting_loops_) {
-        if (graph_.hasKeyframe(loop.query_id) || graph_.keyframes() == 0 ||
-            graph_.ids().back() > loop.query_id + kLoopWaitKeyframes) {
+        if (graph_->hasKeyframe(loop.query_id) || graph_->keyframes() == 0 ||
+            graph_->ids().back() > loop.query_id + kLoopWaitKeyframes) {
           new_loops |= addLoop(loop);
         } else {
           still_waiting.push_back(loop);
@@ -135,10 +135,10 @@ class PoseGraphNode {
       }
       waiting_loops_.swap(still_waiting);
       if (new_loops) {
-        const OptimisationReport report = graph_.optimise();
+        const OptimisationReport report = graph_->optimise();
         if (report.ran) optimisation_ms_.push_back(report.milliseconds);
         for (const uint64_t index : report.switched_off) {
-          const LoopVerdict& verdict = graph_.loopVerdicts()[index];
+          const LoopVerdict& verdict = graph_->loopVerdicts()[index];
           ROS_WARN("Pose graph: loop %lu -> %lu switched off: %s",
                    static_cast<unsigned long>(graph_loops_[index].query_id),
                    static_cast<unsigned long>(graph_loops_[index].match_id),
@@ -152,16 +152,8 @@ class PoseGraphNode {
   }
 
   bool addKeyframe(const Keyframe& keyframe) {
-    if (map_id_ && *map_id_ != keyframe.map_id) {
-      ROS_WARN_THROTTLE(10.0,
-                        "Pose graph: keyframe %lu of map %lu dropped: the graph holds map %lu "
-                        "(restart it for another map)",
-                        static_cast<unsigned long>(keyframe.id),
-                        static_cast<unsigned long>(keyframe.map_id),
-                        static_cast<unsigned long>(*map_id_));
-      return false;
-    }
-    const std::string problem = graph_.addKeyframe(keyframe.id, fromRos(keyframe.pose));
+    if (map_id_ && *map_id_ != keyframe.map_id) startOver(keyframe);
+    const std::string problem = graph_->addKeyframe(keyframe.id, fromRos(keyframe.pose));
     if (!problem.empty()) {
       ROS_WARN_THROTTLE(10.0, "Pose graph: keyframe dropped: %s", problem.c_str());
       return false;
@@ -170,6 +162,43 @@ class PoseGraphNode {
     odometry_frame_ = keyframe.header.frame_id;
     stamps_.push_back(keyframe.header.stamp);
     return true;
+  }
+
+  /// The detector went on in another map (it was reset, loaded one, or restarted): a new graph
+  /// for it. While time goes on the odometry frame is the same, so the new graph starts from the
+  /// old one's correction (map -> odom does not jump); after time went back (a bag played again)
+  /// the odometry starts afresh, and so does the correction.
+  void startOver(const Keyframe& keyframe) {
+    const bool time_went_back = !stamps_.empty() && keyframe.header.stamp < stamps_.back();
+    const Eigen::Isometry3d correction =
+        time_went_back ? Eigen::Isometry3d::Identity() : graph_->mapFromOdometry();
+    char text[400];
+    std::snprintf(
+        text, sizeof(text),
+        "Pose graph: keyframe %lu is of map %lu, not %lu (the detector was reset, loaded a map or "
+        "restarted): a new graph starts with it, %s; the old graph's %zu keyframes and %zu loops "
+        "are dropped",
+        static_cast<unsigned long>(keyframe.id), static_cast<unsigned long>(keyframe.map_id),
+        static_cast<unsigned long>(*map_id_),
+        time_went_back ? "map -> odom from identity (time went back: a new timeline)"
+                       : "map -> odom where the old graph left it",
+        graph_->keyframes(), graph_->loopVerdicts().size());
+    // Throttled when the old graph had a single keyframe: two detectors on one topic would start
+    // a graph at every keyframe.
+    if (graph_->keyframes() > 1) {
+      ROS_WARN("%s", text);
+    } else {
+      ROS_WARN_THROTTLE(10.0, "%s", text);
+    }
+    for (const LoopVerdict& verdict : graph_->loopVerdicts()) {
+      ++earlier_decisions_[toString(verdict.decision)];
+    }
+    ++graphs_dropped_;
+    graph_ = std::make_unique<PoseGraph>(options_.graph, correction);
+    map_id_.reset();
+    stamps_.clear();
+    graph_loops_.clear();
+    paths_stale_ = true;
   }
 
   bool addLoop(const LoopClosure& loop) {
@@ -197,10 +226,10 @@ class PoseGraphNode {
     LoopConstraint constraint = loopConstraintFromMsg(loop);
     if (mount) constraint = loopInBaseFrame(constraint, *mount);
     graph_loops_.push_back(loop);
-    const LoopVerdict verdict = graph_.addLoop(constraint);
+    const LoopVerdict verdict = graph_->addLoop(constraint);
     publishVerdict(loop, toString(verdict.decision), verdict.error_sd, verdict.detail);
     for (const size_t index : verdict.confirmed) {
-      const LoopVerdict& confirmed = graph_.loopVerdicts()[index];
+      const LoopVerdict& confirmed = graph_->loopVerdicts()[index];
       publishVerdict(graph_loops_[index], toString(confirmed.decision), confirmed.error_sd,
                      confirmed.detail);
     }
@@ -285,30 +314,42 @@ class PoseGraphNode {
     if (options_.publish_tf && !odometry_frame_.empty()) {
       {
         std::lock_guard<std::mutex> lock(correction_mutex_);
-        correction_ = {graph_.mapFromOdometry(), odometry_frame_};
+        correction_ = {graph_->mapFromOdometry(), odometry_frame_};
       }
       // Without the timer, the correction first: a viewer looking the path up at its stamp
       // then finds it.
       if (options_.tf_rate_hz <= 0.0) sendCorrection(stamp);
     }
     // The whole corrected path after an optimisation, else every 10 keyframes (it grows).
-    if (optimised || graph_.keyframes() % 10 == 0) {
+    if (optimised || paths_stale_ || graph_->keyframes() % 10 == 0) {
+      if (paths_stale_) clearRejected(stamp);
+      paths_stale_ = false;
       nav_msgs::Path corrected;
       nav_msgs::Path odometry;
       corrected.header.frame_id = options_.map_frame;
       odometry.header.frame_id = odometry_frame_;
       corrected.header.stamp = odometry.header.stamp = stamp;
-      const std::vector<uint64_t>& ids = graph_.ids();
+      const std::vector<uint64_t>& ids = graph_->ids();
       for (size_t i = 0; i < ids.size(); ++i) {
         corrected.poses.push_back(
-            stampedPose(*graph_.optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
+            stampedPose(*graph_->optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
         odometry.poses.push_back(
-            stampedPose(*graph_.odometryPose(ids[i]), odometry_frame_, stamps_[i]));
+            stampedPose(*graph_->odometryPose(ids[i]), odometry_frame_, stamps_[i]));
       }
       corrected_publisher_.publish(corrected);
       odometry_publisher_.publish(odometry);
       publishRejected(stamp);
     }
+  }
+
+  /// A new graph has refused nothing yet: the old graph's refusals leave rviz.
+  void clearRejected(const ros::Time& stamp) {
+    visualization_msgs::Marker marker;
+    marker.header.frame_id = options_.map_frame;
+    marker.header.stamp = stamp;
+    marker.ns = "rejected_loops";
+    marker.action = visualization_msgs::Marker::DELETEALL;
+    rejected_publisher_.publish(marker);
   }
 
   void publishRejected(const ros::Time& stamp) {
@@ -322,15 +363,15 @@ class PoseGraphNode {
     marker.scale.x = 0.03;
     marker.color.r = 1.0;
     marker.color.a = 1.0;
-    const std::vector<LoopVerdict>& verdicts = graph_.loopVerdicts();
+    const std::vector<LoopVerdict>& verdicts = graph_->loopVerdicts();
     for (size_t k = 0; k < verdicts.size(); ++k) {
       // A loop still awaiting confirmation is not a refusal (yet).
       if (verdicts[k].decision == LoopDecision::kAccepted ||
           verdicts[k].decision == LoopDecision::kAwaitingConfirmation) {
         continue;
       }
-      const std::optional<Pose> query = graph_.optimisedPose(graph_loops_[k].query_id);
-      const std::optional<Pose> match = graph_.optimisedPose(graph_loops_[k].match_id);
+      const std::optional<Pose> query = graph_->optimisedPose(graph_loops_[k].query_id);
+      const std::optional<Pose> match = graph_->optimisedPose(graph_loops_[k].match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;
@@ -345,8 +386,8 @@ class PoseGraphNode {
   }
 
   void summarise() const {
-    std::map<std::string, size_t> decisions;
-    for (const LoopVerdict& verdict : graph_.loopVerdicts())
+    std::map<std::string, size_t> decisions = earlier_decisions_;
+    for (const LoopVerdict& verdict : graph_->loopVerdicts())
       ++decisions[toString(verdict.decision)];
     std::string text;
     for (const auto& [decision, count] : decisions) {
@@ -361,13 +402,18 @@ class PoseGraphNode {
     // A rate of 0 from a graph told not to estimate one would read as a measurement.
     char drift[64] = "not estimated";
     if (options_.graph.heading_drift_prior_sd_per_m > 0.0) {
-      std::snprintf(drift, sizeof(drift), "estimated %.4f rad/m", graph_.headingDriftPerMetre());
+      std::snprintf(drift, sizeof(drift), "estimated %.4f rad/m", graph_->headingDriftPerMetre());
     }
-    char line[240];
+    char earlier[80] = "";
+    if (graphs_dropped_ > 0) {
+      std::snprintf(earlier, sizeof(earlier), " (%zu earlier graph(s) of other maps dropped)",
+                    graphs_dropped_);
+    }
+    char line[320];
     std::snprintf(line, sizeof(line),
-                  "Pose graph: %zu keyframes; %zu optimisations, median %.1f ms; odometry heading "
-                  "drift %s;",
-                  graph_.keyframes(), times.size(), median, drift);
+                  "Pose graph: %zu keyframes%s; %zu optimisations, median %.1f ms; odometry "
+                  "heading drift %s;",
+                  graph_->keyframes(), earlier, times.size(), median, drift);
     // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
     if (ros::ok()) {
       ROS_INFO("%s loops:%s", line, text.c_str());
@@ -380,7 +426,7 @@ class PoseGraphNode {
   static constexpr size_t kMaxWaitingLoops = 100;
 
   PoseGraphNodeOptions options_;
-  PoseGraph graph_;
+  std::unique_ptr<PoseGraph> graph_;
   std::vector<LoopClosure> waiting_loops_;
   std::optional<uint64_t> map_id_;
   std::string odometry_frame_;
@@ -390,6 +436,9 @@ class PoseGraphNode {
   std::vector<ros::Time> stamps_;
   std::vector<LoopClosure> graph_loops_;  ///< As given to the graph, in its loop order.
   std::map<std::string, size_t> left_out_;
+  std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
+  size_t graphs_dropped_ = 0;
+  bool paths_stale_ = false;  ///< A new graph: its paths replace the old one's at once.
   std::vector<double> optimisation_ms_;
 
   ros::Publisher corrected_publisher_;

@@ -113,6 +113,26 @@ TEST(PoseGraph, LoopsBringADriftingSecondLapOntoTheFirst) {
   EXPECT_LT(corrected_rmse, 0.10) << "odometry " << odometry_rmse;
 }
 
+// A graph that takes over from another (the detector reset or switched maps) starts where the
+// old one's correction left the odometry, and keeps it while loops correct the drift.
+TEST(PoseGraph, AGraphBuiltWithACorrectionStartsFromIt) {
+  const Drive drive = driveLaps(2);
+  const Eigen::Isometry3d correction = planarPose(0.4, -0.3, 0.2).toIsometry();
+  PoseGraph graph(perTurnModel(), correction);
+  EXPECT_TRUE(graph.mapFromOdometry().isApprox(correction));
+  const FeedCounts run = feed(&graph, drive, 0);
+  EXPECT_EQ(run.right_refused, 0u);
+  // The held first keyframe is the correction of its odometry; the rest follow the loops, so the
+  // corrected drive is the truth moved rigidly by the correction.
+  const Pose first = *graph.optimisedPose(0);
+  EXPECT_TRUE(first.toIsometry().isApprox(correction * drive.odometry[0].toIsometry(), 1e-9));
+  std::vector<Pose> truth_moved;
+  for (const Pose& pose : drive.truth) {
+    truth_moved.push_back(Pose::fromIsometry(correction * pose.toIsometry()));
+  }
+  EXPECT_LT(positionRmse(truth_moved, optimisedPoses(graph)), 0.10);
+}
+
 TEST(PoseGraph, WrongLoopsAreRefusedAndTheMapHolds) {
   const Drive drive = driveLaps(2);
   PoseGraph graph(perTurnModel());

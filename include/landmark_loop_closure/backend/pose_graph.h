@@ -99,7 +99,10 @@ struct OptimisationReport {
 
 class PoseGraph {
  public:
-  explicit PoseGraph(PoseGraphOptions options = {});
+  /// `map_from_odometry` places the first keyframe (held) at that correction of its odometry
+  /// pose: a graph that continues where another one's correction left off.
+  explicit PoseGraph(PoseGraphOptions options = {},
+                     const Eigen::Isometry3d& map_from_odometry = Eigen::Isometry3d::Identity());
   ~PoseGraph();
   PoseGraph(const PoseGraph&) = delete;
   PoseGraph& operator=(const PoseGraph&) = delete;
@@ -128,7 +131,7 @@ class PoseGraph {
   std::optional<Pose> odometryPose(uint64_t id) const;
   std::optional<Pose> optimisedPose(uint64_t id) const;
   /// map_T_odom: the correction that takes the odometry frame onto the optimised one at the
-  /// newest keyframe (identity before any keyframe).
+  /// newest keyframe (the one it was built with before any keyframe).
   Eigen::Isometry3d mapFromOdometry() const;
   /// The odometry's heading drift the graph has estimated (rad per metre; 0 when not estimated).
   double headingDriftPerMetre() const { return heading_drift_per_m_; }
@@ -191,6 +194,7 @@ class PoseGraph {
   bool solve(size_t first_free, OptimisationReport* report);
 
   PoseGraphOptions options_;
+  Eigen::Isometry3d initial_map_from_odometry_;
   std::vector<uint64_t> ids_;
   std::vector<Node> nodes_;
   std::vector<LoopEdge> loops_;

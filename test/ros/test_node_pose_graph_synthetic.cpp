@@ -1,9 +1,12 @@
-// The pose_graph node with camera_mount/from_tf: loops in the frame of a camera looking left,
-// whose mount only tf knows (the node's camera_mount values say it looks ahead), enter the graph
-// with no error; a loop in a frame tf does not know is left out and named.
+// The pose_graph node on keyframes and loops the test makes. With camera_mount/from_tf, loops in
+// the frame of a camera looking left, whose mount only tf knows (the node's camera_mount values
+// say it looks ahead), enter the graph with no error, and a loop in a frame tf does not know is
+// left out and named. Keyframes of a new map (the detector reset, loaded a map or restarted)
+// start a new graph, from the old correction while time goes on, from none after it went back.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -14,6 +17,8 @@
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+
+#include <nav_msgs/Path.h>
 
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
@@ -37,11 +42,12 @@ Eigen::Isometry3d lapPose(int lap, int index) {
       .toIsometry();
 }
 
-Keyframe keyframeMsg(uint64_t id, const Eigen::Isometry3d& pose) {
+Keyframe keyframeMsg(uint64_t id, const Eigen::Isometry3d& pose, uint64_t map_id = kMapId,
+                     double stamp_s = -1.0) {
   Keyframe keyframe;
   keyframe.header.frame_id = "odom";
-  keyframe.header.stamp = ros::Time(1000.0 + id);
-  keyframe.map_id = kMapId;
+  keyframe.header.stamp = ros::Time(stamp_s < 0.0 ? 1000.0 + id : stamp_s);
+  keyframe.map_id = map_id;
   keyframe.id = id;
   keyframe.pose = tf2::toMsg(pose);
   return keyframe;
@@ -149,8 +155,106 @@ TEST(PoseGraphNode, TurnsCameraFrameLoopsThroughTheMountOnTf) {
   std::printf("%zu loops in the camera frame, largest error %.2g sd\n", sent, worst_error_sd);
 }
 
+TEST(PoseGraphNode, KeyframesOfANewMapStartANewGraph) {
+  ros::NodeHandle node;
+  std::map<std::pair<uint64_t, uint64_t>, PoseGraphLoop> verdicts;
+  const ros::Subscriber verdict_subscriber = node.subscribe<PoseGraphLoop>(
+      "/pose_graph/loop_verdicts", 1000, [&](const PoseGraphLoopConstPtr& verdict) {
+        if (verdict->map_id == 8) verdicts[{verdict->query_id, verdict->match_id}] = *verdict;
+      });
+  nav_msgs::PathConstPtr corrected;
+  const ros::Subscriber path_subscriber =
+      node.subscribe<nav_msgs::Path>("/pose_graph/corrected_path", 10,
+                                     [&](const nav_msgs::PathConstPtr& path) { corrected = path; });
+  ros::Publisher keyframes = node.advertise<Keyframe>("/keyframes", 1000);
+  ros::Publisher loops = node.advertise<LoopClosure>("/loop_closures", 1000);
+  tf2_ros::Buffer buffer;
+  const tf2_ros::TransformListener listener(buffer);
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(20.0);
+  while ((keyframes.getNumSubscribers() == 0 || loops.getNumSubscribers() == 0 ||
+          verdict_subscriber.getNumPublishers() == 0 || path_subscriber.getNumPublishers() == 0) &&
+         ros::WallTime::now() < give_up) {
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_GT(keyframes.getNumSubscribers(), 0u) << "the pose graph does not listen";
+  const auto spinUntil = [](const std::function<bool()>& done) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(15.0);
+    while (ros::ok() && !done() && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+    return done();
+  };
+  const auto mapFromOdometry = [&buffer] {
+    return tf2::transformToEigen(buffer.lookupTransform("map", "odom", ros::Time(0)));
+  };
+
+  // Map 8, later than anything before: the odometry's second lap is 0.3 m off to the left, and
+  // loops in the base frame bring it back, so map -> odom moves it to the right (0.44 m at its
+  // last keyframe, where the graph's estimate of the heading drift also turns it).
+  const Eigen::Isometry3d drift(Eigen::Translation3d(0.0, 0.3, 0.0));
+  for (int lap = 0; lap < 2; ++lap) {
+    for (int i = 0; i < kKeyframesPerLap; ++i) {
+      const uint64_t id = lap * kKeyframesPerLap + i;
+      keyframes.publish(
+          keyframeMsg(id, lap == 0 ? lapPose(0, i) : drift * lapPose(1, i), 8, 3000.0 + id));
+    }
+  }
+  ros::WallDuration(0.5).sleep();
+  size_t sent = 0;
+  for (int i = 4; i < kKeyframesPerLap - 4; i += 3) {
+    LoopClosure loop;
+    loop.map_id = 8;
+    loop.query_id = kKeyframesPerLap + i;
+    loop.match_id = i;
+    loop.has_relative_pose = loop.relative_pose_metric = loop.verified = true;
+    loop.relative_pose_frame = "base_link";
+    loop.relative_pose.pose =
+        tf2::toMsg(Eigen::Isometry3d(lapPose(1, i).inverse() * lapPose(0, i)));
+    for (int k = 0; k < 6; ++k) loop.relative_pose.covariance[k * 7] = k < 3 ? 1e-4 : 1e-5;
+    loops.publish(loop);
+    ++sent;
+  }
+  ASSERT_TRUE(spinUntil([&] {
+    size_t accepted = 0;
+    for (const auto& [ids, verdict] : verdicts) accepted += verdict.decision == "accepted";
+    return accepted == sent;
+  })) << "map 8's loops were not all accepted";
+  Eigen::Isometry3d before;
+  ASSERT_TRUE(spinUntil([&] {
+    if (!buffer.canTransform("map", "odom", ros::Time(0))) return false;
+    before = mapFromOdometry();
+    return before.translation().y() < -0.2;
+  })) << "map -> odom "
+      << before.translation().transpose();
+
+  // Map 9, time going on: a new graph of one keyframe, placed by the old correction.
+  const Eigen::Isometry3d next = lapPose(1, 5);
+  keyframes.publish(keyframeMsg(0, next, 9, 5000.0));
+  ASSERT_TRUE(spinUntil([&] {
+    return corrected && corrected->poses.size() == 1 &&
+           corrected->poses[0].header.stamp == ros::Time(5000.0);
+  })) << "no new graph for map 9";
+  Eigen::Isometry3d placed;
+  tf2::fromMsg(corrected->poses[0].pose, placed);
+  EXPECT_TRUE(placed.isApprox(before * next, 1e-6));
+  ros::WallDuration(0.3).sleep();  // The correction is sent 20 times a second.
+  EXPECT_TRUE(mapFromOdometry().isApprox(before, 1e-6));
+
+  // Map 10, time gone back (the bag played again): a new graph, no correction.
+  keyframes.publish(keyframeMsg(0, next, 10, 100.0));
+  ASSERT_TRUE(spinUntil([&] {
+    return corrected && corrected->poses.size() == 1 &&
+           corrected->poses[0].header.stamp == ros::Time(100.0);
+  })) << "no new graph for map 10";
+  tf2::fromMsg(corrected->poses[0].pose, placed);
+  EXPECT_TRUE(placed.isApprox(next, 1e-6));
+  ros::WallDuration(0.3).sleep();
+  EXPECT_TRUE(mapFromOdometry().isApprox(Eigen::Isometry3d::Identity(), 1e-6));
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_node_pose_graph_mount");
+  ros::init(argc, argv, "test_node_pose_graph_synthetic");
   return RUN_ALL_TESTS();
 }
