@@ -342,21 +342,23 @@ class PoseGraphNode {
     }
   }
 
-  /// A new graph has refused nothing yet: the old graph's refusals leave rviz.
-  void clearRejected(const ros::Time& stamp) {
+  visualization_msgs::Marker rejectedMarker(const ros::Time& stamp) const {
     visualization_msgs::Marker marker;
     marker.header.frame_id = options_.map_frame;
     marker.header.stamp = stamp;
     marker.ns = "rejected_loops";
+    return marker;
+  }
+
+  /// A new graph has refused nothing yet: the old graph's refusals leave rviz.
+  void clearRejected(const ros::Time& stamp) {
+    visualization_msgs::Marker marker = rejectedMarker(stamp);
     marker.action = visualization_msgs::Marker::DELETEALL;
     rejected_publisher_.publish(marker);
   }
 
   void publishRejected(const ros::Time& stamp) {
-    visualization_msgs::Marker marker;
-    marker.header.frame_id = options_.map_frame;
-    marker.header.stamp = stamp;
-    marker.ns = "rejected_loops";
+    visualization_msgs::Marker marker = rejectedMarker(stamp);
     marker.type = visualization_msgs::Marker::LINE_LIST;
     marker.action = visualization_msgs::Marker::ADD;
     marker.pose.orientation.w = 1.0;
