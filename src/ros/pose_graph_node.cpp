@@ -254,9 +254,20 @@ class PoseGraphNode {
   /// base_frame <- `frame`: camera_mount, or tf's (latest, kept: a mount does not move). Empty,
   /// with `problem` saying why, while tf does not know it.
   std::optional<Eigen::Isometry3d> mountOf(const std::string& frame, std::string* problem) {
-    if (!options_.camera_mount_from_tf) return options_.camera_mount.toPose().toIsometry();
     const auto known = mounts_.find(frame);
     if (known != mounts_.end()) return known->second;
+    if (!options_.camera_mount_from_tf) {
+      // Said once per frame: a detector's base frame under another name would be taken for the
+      // camera's here.
+      const CameraMount& mount = options_.camera_mount;
+      ROS_INFO(
+          "Pose graph: loops in '%s' are taken as the camera's and turned into %s with "
+          "camera_mount (%.3f, %.3f, %.3f m; roll %.3f, pitch %.3f, yaw %.3f rad); "
+          "camera_mount/from_tf looks each loop's frame up in tf instead",
+          frame.c_str(), options_.base_frame.c_str(), mount.x, mount.y, mount.z, mount.roll,
+          mount.pitch, mount.yaw);
+      return mounts_[frame] = mount.toPose().toIsometry();
+    }
     std::string error;
     if (frame.empty()) {
       error = "the loop names no relative_pose_frame";
@@ -434,7 +445,7 @@ class PoseGraphNode {
   std::string odometry_frame_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< camera_mount/from_tf only.
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::map<std::string, Eigen::Isometry3d> mounts_;  ///< base_frame <- each loop frame, from tf.
+  std::map<std::string, Eigen::Isometry3d> mounts_;  ///< base_frame <- each loop frame seen.
   std::vector<ros::Time> stamps_;
   std::vector<LoopClosure> graph_loops_;  ///< As given to the graph, in its loop order.
   std::map<std::string, size_t> left_out_;
