@@ -83,29 +83,19 @@ rosrun landmark_loop_closure demo_report &
 report_pid=$!
 # Every node listens before the bag plays: a keyframe sent before the pose graph subscribes is
 # missing from its graph, and the first pose every error is aligned on moves with it.
-wait_for_subscriber() {  # TOPIC NODE
-  for _ in $(seq 1 60); do
-    if rostopic info "$1" 2> /dev/null | sed -n '/^Subscribers:/,$p' | grep -q " $2 "; then
-      return 0
-    fi
-    sleep 0.5
-  done
-  echo "demo: $2 did not subscribe to $1 within 30 s; the launch's log is $LOG" >&2
-  exit 1
-}
 LOOP_TOPIC=/loop_closures
 if awk -v share="$WRONG_LOOPS" 'BEGIN { exit !(share > 0) }'; then
   LOOP_TOPIC=/loop_closures_injected
-  wait_for_subscriber /loop_closures /loop_injector
-  wait_for_subscriber /keyframes /loop_injector
+  wait_for_subscriber /loop_closures /loop_injector "$LOG"
+  wait_for_subscriber /keyframes /loop_injector "$LOG"
 fi
-wait_for_subscriber /camera/image_raw /loop_closure
-wait_for_subscriber /odom /loop_closure
-wait_for_subscriber /keyframes /pose_graph
-wait_for_subscriber "$LOOP_TOPIC" /pose_graph
-wait_for_subscriber /keyframes /demo_report
-wait_for_subscriber /loop_closures /demo_report
-wait_for_subscriber /pose_graph/loop_verdicts /demo_report
+wait_for_subscriber /camera/image_raw /loop_closure "$LOG"
+wait_for_subscriber /odom /loop_closure "$LOG"
+wait_for_subscriber /keyframes /pose_graph "$LOG"
+wait_for_subscriber "$LOOP_TOPIC" /pose_graph "$LOG"
+wait_for_subscriber /keyframes /demo_report "$LOG"
+wait_for_subscriber /loop_closures /demo_report "$LOG"
+wait_for_subscriber /pose_graph/loop_verdicts /demo_report "$LOG"
 sleep 0.5  # The publishers connect to the subscribers they were told of.
 rosbag play --clock --quiet --rate="$RATE" "$BAG" > /dev/null
 sleep 3  # The detector's worker finishes the last keyframes.

@@ -65,7 +65,9 @@ rosrun landmark_loop_closure demo_report > _soak/report.log 2>&1 &
 report_pid=$!
 PYTHONUNBUFFERED=1 rostopic echo -p /diagnostics > _soak/diagnostics.txt &
 echo_pid=$!
-sleep 1  # The report subscribes before the first message.
+# The report counts every keyframe and loop from the first.
+wait_for_subscriber /keyframes /demo_report _soak/report.log
+wait_for_subscriber /loop_closures /demo_report _soak/report.log
 echo "seconds,rss_kb" > _soak/rss.csv
 START=$(date +%s)
 rosbag play --clock --quiet --rate=1.0 "$BAG" > /dev/null &
