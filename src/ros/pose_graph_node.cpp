@@ -2,6 +2,7 @@
 // its own thread optimises whenever loops arrive; publishes the corrected keyframe path, the raw
 // odometry path, map -> odom on tf and a marker of the loops it refused.
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -102,11 +103,18 @@ class PoseGraphNode {
   void work() {
     for (;;) {
       std::deque<Input> batch;
+      bool woken = false;
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return stopping_ || !inputs_.empty(); });
+        woken =
+            wake_.wait_for(lock, kPathCatchUp, [this] { return stopping_ || !inputs_.empty(); });
         if (stopping_) return;
         batch.swap(inputs_);
+      }
+      if (!woken) {
+        // Quiet for a while (the robot stopped, the bag ended): the paths show every keyframe.
+        if (graph_->keyframes() != keyframes_in_paths_) publishPaths(pathStamp());
+        continue;
       }
       // Everything that came meanwhile enters first; one optimisation then serves every loop.
       bool new_loops = false;
@@ -320,8 +328,10 @@ class PoseGraphNode {
     broadcaster_.sendTransform(transform);
   }
 
+  ros::Time pathStamp() const { return stamps_.empty() ? ros::Time::now() : stamps_.back(); }
+
   void publish(bool optimised) {
-    const ros::Time stamp = stamps_.empty() ? ros::Time::now() : stamps_.back();
+    const ros::Time stamp = pathStamp();
     if (options_.publish_tf && !odometry_frame_.empty()) {
       {
         std::lock_guard<std::mutex> lock(correction_mutex_);
@@ -331,26 +341,30 @@ class PoseGraphNode {
       // then finds it.
       if (options_.tf_rate_hz <= 0.0) sendCorrection(stamp);
     }
-    // The whole corrected path after an optimisation, else every 10 keyframes (it grows).
-    if (optimised || paths_stale_ || graph_->keyframes() % 10 == 0) {
-      if (paths_stale_) clearRejected(stamp);
-      paths_stale_ = false;
-      nav_msgs::Path corrected;
-      nav_msgs::Path odometry;
-      corrected.header.frame_id = options_.map_frame;
-      odometry.header.frame_id = odometry_frame_;
-      corrected.header.stamp = odometry.header.stamp = stamp;
-      const std::vector<uint64_t>& ids = graph_->ids();
-      for (size_t i = 0; i < ids.size(); ++i) {
-        corrected.poses.push_back(
-            stampedPose(*graph_->optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
-        odometry.poses.push_back(
-            stampedPose(*graph_->odometryPose(ids[i]), odometry_frame_, stamps_[i]));
-      }
-      corrected_publisher_.publish(corrected);
-      odometry_publisher_.publish(odometry);
-      publishRejected(stamp);
+    // The whole corrected path after an optimisation, else every 10 keyframes (it grows), and
+    // when no input has come for a while (above).
+    if (optimised || paths_stale_ || graph_->keyframes() % 10 == 0) publishPaths(stamp);
+  }
+
+  void publishPaths(const ros::Time& stamp) {
+    if (paths_stale_) clearRejected(stamp);
+    paths_stale_ = false;
+    keyframes_in_paths_ = graph_->keyframes();
+    nav_msgs::Path corrected;
+    nav_msgs::Path odometry;
+    corrected.header.frame_id = options_.map_frame;
+    odometry.header.frame_id = odometry_frame_;
+    corrected.header.stamp = odometry.header.stamp = stamp;
+    const std::vector<uint64_t>& ids = graph_->ids();
+    for (size_t i = 0; i < ids.size(); ++i) {
+      corrected.poses.push_back(
+          stampedPose(*graph_->optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
+      odometry.poses.push_back(
+          stampedPose(*graph_->odometryPose(ids[i]), odometry_frame_, stamps_[i]));
     }
+    corrected_publisher_.publish(corrected);
+    odometry_publisher_.publish(odometry);
+    publishRejected(stamp);
   }
 
   visualization_msgs::Marker rejectedMarker(const ros::Time& stamp) const {
@@ -437,6 +451,7 @@ class PoseGraphNode {
 
   static constexpr uint64_t kLoopWaitKeyframes = 10;
   static constexpr size_t kMaxWaitingLoops = 100;
+  static constexpr std::chrono::seconds kPathCatchUp{1};
 
   PoseGraphNodeOptions options_;
   std::unique_ptr<PoseGraph> graph_;
@@ -451,7 +466,8 @@ class PoseGraphNode {
   std::map<std::string, size_t> left_out_;
   std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
   size_t graphs_dropped_ = 0;
-  bool paths_stale_ = false;  ///< A new graph: its paths replace the old one's at once.
+  bool paths_stale_ = false;       ///< A new graph: its paths replace the old one's at once.
+  size_t keyframes_in_paths_ = 0;  ///< In the paths last published.
   std::vector<double> optimisation_ms_;
 
   ros::Publisher corrected_publisher_;

@@ -253,6 +253,40 @@ TEST(PoseGraphNode, KeyframesOfANewMapStartANewGraph) {
   EXPECT_TRUE(mapFromOdometry().isApprox(Eigen::Isometry3d::Identity(), 1e-6));
 }
 
+// The paths are sent every 10 keyframes while keyframes come; when they stop (the robot stands
+// still, the bag has ended) the paths catch up with the last ones.
+TEST(PoseGraphNode, ThePathsCatchUpWhenKeyframesStop) {
+  ros::NodeHandle node;
+  nav_msgs::PathConstPtr odometry;
+  const ros::Subscriber path_subscriber =
+      node.subscribe<nav_msgs::Path>("/pose_graph/odometry_path", 10,
+                                     [&](const nav_msgs::PathConstPtr& path) { odometry = path; });
+  ros::Publisher keyframes = node.advertise<Keyframe>("/keyframes", 1000);
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(20.0);
+  while ((keyframes.getNumSubscribers() == 0 || path_subscriber.getNumPublishers() == 0) &&
+         ros::WallTime::now() < give_up) {
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_GT(keyframes.getNumSubscribers(), 0u) << "the pose graph does not listen";
+  const auto awaitPath = [&odometry](size_t poses) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
+    while (ros::ok() && !(odometry && odometry->poses.size() == poses) &&
+           ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.05).sleep();
+    }
+    return odometry && odometry->poses.size() == poses;
+  };
+  // A new map: its first keyframe's paths come at once.
+  keyframes.publish(keyframeMsg(0, lapPose(0, 0), 11, 6000.0));
+  ASSERT_TRUE(awaitPath(1));
+  const size_t count = 13;  // Not a multiple of 10.
+  for (size_t i = 1; i < count; ++i) {
+    keyframes.publish(keyframeMsg(i, lapPose(0, static_cast<int>(i)), 11, 6000.0 + i));
+  }
+  EXPECT_TRUE(awaitPath(count)) << (odometry ? odometry->poses.size() : 0) << " poses";
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_node_pose_graph_synthetic");
