@@ -53,6 +53,16 @@ Keyframe keyframeMsg(uint64_t id, const Eigen::Isometry3d& pose, uint64_t map_id
   return keyframe;
 }
 
+/// Spins until `done` holds, `seconds` at most; whether it holds.
+bool spinUntil(const std::function<bool()>& done, double seconds = 15.0) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && !done() && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+  }
+  return done();
+}
+
 }  // namespace
 
 TEST(PoseGraphNode, TurnsCameraFrameLoopsThroughTheMountOnTf) {
@@ -80,12 +90,12 @@ TEST(PoseGraphNode, TurnsCameraFrameLoopsThroughTheMountOnTf) {
   static_tf.publish(mount_message);
   tf2_ros::Buffer buffer;
   const tf2_ros::TransformListener listener(buffer);
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(20.0);
-  while ((keyframes.getNumSubscribers() == 0 || loops.getNumSubscribers() == 0 ||
-          verdict_subscriber.getNumPublishers() == 0) &&
-         ros::WallTime::now() < give_up) {
-    ros::WallDuration(0.1).sleep();
-  }
+  spinUntil(
+      [&] {
+        return keyframes.getNumSubscribers() > 0 && loops.getNumSubscribers() > 0 &&
+               verdict_subscriber.getNumPublishers() > 0;
+      },
+      20.0);
   ASSERT_GT(loops.getNumSubscribers(), 0u) << "the pose graph does not listen";
   std::string error;
   ASSERT_TRUE(
@@ -127,16 +137,11 @@ TEST(PoseGraphNode, TurnsCameraFrameLoopsThroughTheMountOnTf) {
   for (int k = 0; k < 6; ++k) elsewhere.relative_pose.covariance[k * 7] = 1e-4;
   loops.publish(elsewhere);
 
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(15.0);
-  const auto settled = [&] {
+  spinUntil([&] {
     size_t accepted = 0;
     for (const auto& [ids, verdict] : verdicts) accepted += verdict.decision == "accepted";
     return accepted == sent && verdicts.size() == sent + 1;
-  };
-  while (ros::ok() && !settled() && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    ros::WallDuration(0.05).sleep();
-  }
+  });
   ASSERT_EQ(verdicts.size(), sent + 1) << "a loop got no verdict";
   double worst_error_sd = 0.0;
   for (const auto& [ids, verdict] : verdicts) {
@@ -170,21 +175,13 @@ TEST(PoseGraphNode, KeyframesOfANewMapStartANewGraph) {
   ros::Publisher loops = node.advertise<LoopClosure>("/loop_closures", 1000);
   tf2_ros::Buffer buffer;
   const tf2_ros::TransformListener listener(buffer);
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(20.0);
-  while ((keyframes.getNumSubscribers() == 0 || loops.getNumSubscribers() == 0 ||
-          verdict_subscriber.getNumPublishers() == 0 || path_subscriber.getNumPublishers() == 0) &&
-         ros::WallTime::now() < give_up) {
-    ros::WallDuration(0.1).sleep();
-  }
+  spinUntil(
+      [&] {
+        return keyframes.getNumSubscribers() > 0 && loops.getNumSubscribers() > 0 &&
+               verdict_subscriber.getNumPublishers() > 0 && path_subscriber.getNumPublishers() > 0;
+      },
+      20.0);
   ASSERT_GT(keyframes.getNumSubscribers(), 0u) << "the pose graph does not listen";
-  const auto spinUntil = [](const std::function<bool()>& done) {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(15.0);
-    while (ros::ok() && !done() && ros::WallTime::now() < end) {
-      ros::spinOnce();
-      ros::WallDuration(0.05).sleep();
-    }
-    return done();
-  };
   const auto mapFromOdometry = [&buffer] {
     return tf2::transformToEigen(buffer.lookupTransform("map", "odom", ros::Time(0)));
   };
@@ -262,20 +259,12 @@ TEST(PoseGraphNode, ThePathsCatchUpWhenKeyframesStop) {
       node.subscribe<nav_msgs::Path>("/pose_graph/odometry_path", 10,
                                      [&](const nav_msgs::PathConstPtr& path) { odometry = path; });
   ros::Publisher keyframes = node.advertise<Keyframe>("/keyframes", 1000);
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(20.0);
-  while ((keyframes.getNumSubscribers() == 0 || path_subscriber.getNumPublishers() == 0) &&
-         ros::WallTime::now() < give_up) {
-    ros::WallDuration(0.1).sleep();
-  }
+  spinUntil(
+      [&] { return keyframes.getNumSubscribers() > 0 && path_subscriber.getNumPublishers() > 0; },
+      20.0);
   ASSERT_GT(keyframes.getNumSubscribers(), 0u) << "the pose graph does not listen";
   const auto awaitPath = [&odometry](size_t poses) {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(10.0);
-    while (ros::ok() && !(odometry && odometry->poses.size() == poses) &&
-           ros::WallTime::now() < end) {
-      ros::spinOnce();
-      ros::WallDuration(0.05).sleep();
-    }
-    return odometry && odometry->poses.size() == poses;
+    return spinUntil([&] { return odometry && odometry->poses.size() == poses; }, 10.0);
   };
   // A new map: its first keyframe's paths come at once.
   keyframes.publish(keyframeMsg(0, lapPose(0, 0), 11, 6000.0));
