@@ -60,8 +60,10 @@ phase "4/4 Playing the bag into the detector"
 LOG=_demo/roslaunch.log
 launch_pid=""
 report_pid=""
+PLAYER_PID=""
 finish() {
   trap - EXIT INT TERM
+  [ -n "$PLAYER_PID" ] && kill -INT "$PLAYER_PID" 2> /dev/null || true
   [ -n "$report_pid" ] && kill -INT "$report_pid" 2> /dev/null && wait "$report_pid" || true
   [ -n "$launch_pid" ] && kill -INT "$launch_pid" 2> /dev/null && wait "$launch_pid" || true
 }
@@ -96,8 +98,9 @@ wait_for_subscriber "$LOOP_TOPIC" /pose_graph "$LOG"
 wait_for_subscriber /keyframes /demo_report "$LOG"
 wait_for_subscriber /loop_closures /demo_report "$LOG"
 wait_for_subscriber /pose_graph/loop_verdicts /demo_report "$LOG"
-sleep 0.5  # The publishers connect to the subscribers they were told of.
-rosbag play --clock --quiet --rate="$RATE" "$BAG" > /dev/null
+play_bag_when_connected "$BAG" "$RATE" "$LOG" /camera/image_raw:/loop_closure \
+  /camera/camera_info:/loop_closure /odom:/loop_closure /ground_truth:/demo_report
+wait "$PLAYER_PID"
 sleep 3  # The detector's worker finishes the last keyframes.
 if [ "$RVIZ" = true ]; then
   echo "The bag has ended. rviz stays open with the final map: close it or press Ctrl-C to end."

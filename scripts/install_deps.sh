@@ -15,6 +15,7 @@ PACKAGES=(
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev libceres-dev libdnnl-dev
   ocl-icd-opencl-dev  # libdnnl-dev only recommends it, yet its CMake config needs it
+  python3-std-srvs ros-std-srvs  # rosservice resumes the demo's paused bag player
   python3-onnx python3-numpy python3-matplotlib
   rviz xvfb libx11-dev
 )

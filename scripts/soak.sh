@@ -46,9 +46,10 @@ rm -f "$MAP" "$MAP"-*
 launch_pid=""
 report_pid=""
 echo_pid=""
+PLAYER_PID=""
 finish() {
   trap - EXIT INT TERM
-  for pid in "$echo_pid" "$report_pid" "$launch_pid"; do
+  for pid in "$PLAYER_PID" "$echo_pid" "$report_pid" "$launch_pid"; do
     [ -n "$pid" ] && kill -INT "$pid" 2> /dev/null && wait "$pid" 2> /dev/null || true
   done
 }
@@ -75,9 +76,9 @@ for subscription in "/camera/image_raw /loop_closure" "/odom /loop_closure" \
 done
 echo "seconds,rss_kb" > _soak/rss.csv
 START=$(date +%s)
-rosbag play --clock --quiet --rate=1.0 "$BAG" > /dev/null &
-PLAYER=$!
-while kill -0 "$PLAYER" 2> /dev/null; do
+play_bag_when_connected "$BAG" 1.0 _soak/launch.log /camera/image_raw:/loop_closure \
+  /camera/camera_info:/loop_closure /odom:/loop_closure /ground_truth:/demo_report
+while kill -0 "$PLAYER_PID" 2> /dev/null; do
   echo "$(( $(date +%s) - START )),$(ps -o rss= -p "$NODE" | tr -d ' ')" >> _soak/rss.csv
   sleep 5
 done
