@@ -66,14 +66,10 @@ rosrun landmark_loop_closure demo_report > _soak/report.log 2>&1 &
 report_pid=$!
 PYTHONUNBUFFERED=1 rostopic echo -p /diagnostics > _soak/diagnostics.txt &
 echo_pid=$!
-# Every node listens before the bag plays, as in the demo: the node admits every frame, the pose
-# graph and the report see every keyframe and loop from the first.
-for subscription in "/camera/image_raw /loop_closure" "/odom /loop_closure" \
-    "/keyframes /pose_graph" "/loop_closures /pose_graph" \
-    "/keyframes /demo_report" "/loop_closures /demo_report"; do
-  # shellcheck disable=SC2086 # topic and node, split on purpose
-  wait_for_subscriber $subscription _soak/launch.log
-done
+# Every node is connected before the bag plays, as in the demo: the node admits every frame, the
+# pose graph and the report see every keyframe and loop from the first.
+wait_for_connections /loop_closure _soak/launch.log /keyframes:/pose_graph \
+  /loop_closures:/pose_graph /keyframes:/demo_report /loop_closures:/demo_report
 echo "seconds,rss_kb" > _soak/rss.csv
 START=$(date +%s)
 play_bag_when_connected "$BAG" 1.0 _soak/launch.log /camera/image_raw:/loop_closure \
