@@ -85,14 +85,14 @@ rosrun landmark_loop_closure demo_report &
 report_pid=$!
 # Every node is connected before the bag plays: a keyframe sent before the pose graph listens is
 # missing from its graph, and the first pose every error is aligned on moves with it.
+detector_links=(/keyframes:/pose_graph /keyframes:/demo_report /loop_closures:/demo_report)
 if awk -v share="$WRONG_LOOPS" 'BEGIN { exit !(share > 0) }'; then
-  wait_for_connections /loop_closure "$LOG" /keyframes:/loop_injector /loop_closures:/loop_injector
+  detector_links+=(/keyframes:/loop_injector /loop_closures:/loop_injector)
   wait_for_connections /loop_injector "$LOG" /loop_closures_injected:/pose_graph
 else
-  wait_for_connections /loop_closure "$LOG" /loop_closures:/pose_graph
+  detector_links+=(/loop_closures:/pose_graph)
 fi
-wait_for_connections /loop_closure "$LOG" /keyframes:/pose_graph /keyframes:/demo_report \
-  /loop_closures:/demo_report
+wait_for_connections /loop_closure "$LOG" "${detector_links[@]}"
 wait_for_connections /pose_graph "$LOG" /pose_graph/loop_verdicts:/demo_report
 play_bag_when_connected "$BAG" "$RATE" "$LOG" /camera/image_raw:/loop_closure \
   /camera/camera_info:/loop_closure /odom:/loop_closure /ground_truth:/demo_report
