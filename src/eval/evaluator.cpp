@@ -253,12 +253,21 @@ DescribedImages describeImages(size_t count, const std::function<cv::Mat(size_t)
   return result;
 }
 
-void standardiseConditions(DescribedImages* images, int window) {
+void standardiseConditions(DescribedImages* images, int window, ConditionStart start) {
   if (window <= 0) return;
   ConditionStandardiser standardiser(window);
+  std::vector<std::pair<size_t, std::vector<float>>> warming;  // Index and raw vector.
   for (size_t i = 0; i < images->size(); ++i) {
-    if (images->valid[i]) {
-      images->descriptors[i].global = standardiser.apply(images->descriptors[i].global);
+    if (!images->valid[i]) continue;
+    std::vector<float> raw = std::move(images->descriptors[i].global);
+    images->descriptors[i].global = standardiser.apply(raw);
+    if (standardiser.warmingUp()) {
+      if (start == ConditionStart::kStored) warming.emplace_back(i, std::move(raw));
+    } else {
+      for (auto& [index, held] : warming) {
+        images->descriptors[index].global = standardiser.standardise(held);
+      }
+      warming.clear();
     }
   }
 }

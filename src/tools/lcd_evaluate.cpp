@@ -123,8 +123,9 @@ OPTIONS:
   --image-width W      scale every image to W px wide first (aspect kept, area averaging):
                        how a smaller camera sees the same route
   --condition-window N standardise each traversal's global vectors as the node does
-                       (descriptor/condition_window: less the mean of the last N, in list order);
-                       default 0, the descriptors as described (VPR-Bench's way)
+                       (descriptor/condition_window: less the mean of the last N, in list order;
+                       the database's first N-1 by its first full window's, as a mapping run
+                       stores them); default 0, the descriptors as described (VPR-Bench's way)
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -426,7 +427,7 @@ int run(const Arguments& arguments) {
     for (const std::string& path : database.undecodable) {
       std::cerr << "lcd_evaluate: skipped an image that does not decode: " << path << "\n";
     }
-    standardiseConditions(&database, condition_window);
+    standardiseConditions(&database, condition_window, ConditionStart::kStored);
     const cv::Mat first_image = !memory.images.empty() ? memory.images.front()
                                 : database_paths.empty()
                                     ? cv::Mat()

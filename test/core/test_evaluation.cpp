@@ -97,6 +97,46 @@ TEST(Evaluation, ConditionStandardisationRunsInListOrderAndSkipsUndecodedImages)
   EXPECT_NEAR(images.descriptors[2].global[1], std::sqrt(0.5), 1e-6);
 }
 
+TEST(Evaluation, AStoredTraversalsFirstImagesWaitForTheFirstFullWindow) {
+  DescribedImages images;
+  images.descriptors.resize(4);
+  images.descriptors[0].global = {1.0f, 0.0f};
+  images.descriptors[1].global = {5.0f, 5.0f};  // Did not decode: waits for nothing.
+  images.descriptors[2].global = {0.0f, 1.0f};
+  images.descriptors[3].global = {0.0f, 3.0f};
+  images.valid = {true, false, true, true};
+  DescribedImages searched = images;
+  standardiseConditions(&searched, 3, ConditionStart::kSearched);
+  standardiseConditions(&images, 3, ConditionStart::kStored);
+  EXPECT_EQ(searched.descriptors[0].global, (std::vector<float>{0.0f, 0.0f}))
+      << "searched: alone in its window";
+  // Stored: (1, 0) less the mean of the first full window, (1, 0), (0, 1), (0, 3): (2/3, -4/3).
+  const float norm = std::sqrt(4.0f / 9.0f + 16.0f / 9.0f);
+  EXPECT_NEAR(images.descriptors[0].global[0], (2.0f / 3.0f) / norm, 1e-6);
+  EXPECT_NEAR(images.descriptors[0].global[1], (-4.0f / 3.0f) / norm, 1e-6);
+  EXPECT_EQ(images.descriptors[1].global, (std::vector<float>{5.0f, 5.0f}));
+  // (0, 1) likewise: (-1/3, -1/3), normalised; searched it was (0, 1) less the mean of two.
+  EXPECT_NEAR(images.descriptors[2].global[0], -std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(images.descriptors[2].global[1], -std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(searched.descriptors[2].global[0], -std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(searched.descriptors[2].global[1], std::sqrt(0.5), 1e-6);
+  // The image that fills the window is the same either way.
+  EXPECT_EQ(images.descriptors[3].global, searched.descriptors[3].global);
+}
+
+TEST(Evaluation, AStoredTraversalShorterThanTheWindowStaysAsSearched) {
+  DescribedImages images;
+  images.descriptors.resize(2);
+  images.descriptors[0].global = {1.0f, 0.0f};
+  images.descriptors[1].global = {0.0f, 1.0f};
+  images.valid = {true, true};
+  DescribedImages searched = images;
+  standardiseConditions(&searched, 10, ConditionStart::kSearched);
+  standardiseConditions(&images, 10, ConditionStart::kStored);
+  EXPECT_EQ(images.descriptors[0].global, searched.descriptors[0].global);
+  EXPECT_EQ(images.descriptors[1].global, searched.descriptors[1].global);
+}
+
 TEST(Metrics, PerfectAndEmpty) {
   const Metrics perfect = computeMetrics({outcome(0, 0.9, true), outcome(1, 0.5, true)});
   EXPECT_DOUBLE_EQ(perfect.recall_at_100_precision, 1.0);

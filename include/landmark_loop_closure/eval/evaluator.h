@@ -46,10 +46,19 @@ DescribedImages describeImageFiles(const std::vector<std::string>& paths,
                                    const DescriptorExtractor& extractor,
                                    const Progress& progress = {}, int width = 0);
 
+/// How a traversal's first images are standardised, as the detector treats a run's first
+/// keyframes while its window fills.
+enum class ConditionStart {
+  kSearched,  ///< Against the images so far (a query is searched so; the first is zeros).
+  kStored,    ///< The first `window - 1` against the first full window (a mapping run stores
+              ///< them so, once the window is full); a shorter traversal as searched.
+};
+
 /// Each valid image's global vector standardised as the detector standardises a camera's
 /// keyframes (ConditionStandardiser, `window` images, in list order): one traversal, one
 /// condition. 0 leaves them as described.
-void standardiseConditions(DescribedImages* images, int window);
+void standardiseConditions(DescribedImages* images, int window,
+                           ConditionStart start = ConditionStart::kSearched);
 
 /// Reads an image file, in colour or grey; with `width` > 0 scaled to that many pixels wide,
 /// aspect kept, by area averaging (what a smaller camera would see). Empty when it does not
