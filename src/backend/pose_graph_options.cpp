@@ -93,7 +93,7 @@ std::string poseGraphDefaultsYaml() {
       parameters,
       "landmark_loop_closure pose_graph: every parameter of the reference pose-graph backend, "
       "with its default. Written by `lcd_config pose_graph_defaults` from the declarations in "
-      "src/backend/pose_graph.cpp; a test fails when the two differ.");
+      "src/backend/pose_graph_options.cpp; a test fails when the two differ.");
 }
 
 }  // namespace landmark_loop_closure
