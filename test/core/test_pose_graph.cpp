@@ -346,6 +346,55 @@ TEST(PoseGraph, BadInputIsRefusedAndNamed) {
   EXPECT_THROW(PoseGraph{options}, std::invalid_argument);
 }
 
+// Loops the screening cannot judge sensibly - a keyframe to itself, half-turns, 1e5 m away,
+// covariances of 1e-18 and 1e18 - on routes far from the origin, with 1 km steps or none: the
+// graph may refuse or keep them, but every estimate, map -> odom and the drift stay finite.
+TEST(PoseGraph, ExtremeButWellFormedInputKeepsEveryEstimateFinite) {
+  size_t optimised_with_loops = 0;
+  for (int seed = 0; seed < 24; ++seed) {
+    std::mt19937 random(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    PoseGraphOptions options;
+    options.loop_confirmations = seed % 3;
+    PoseGraph graph(options);
+    const double offset = seed % 4 == 0 ? 1e6 : 0.0;
+    const double step = seed % 5 == 0 ? 0.0 : (seed % 7 == 0 ? 1000.0 : 0.1);
+    const size_t count = 40 + static_cast<size_t>(seed) * 3;
+    for (size_t i = 0; i < count; ++i) {
+      ASSERT_EQ(graph.addKeyframe(i, planarPose(offset + step * static_cast<double>(i), 0.0,
+                                                0.3 * std::sin(0.1 * static_cast<double>(i)))),
+                "");
+    }
+    for (int k = 0; k < 40; ++k) {
+      LoopConstraint loop;
+      loop.query_id = static_cast<uint64_t>(unit(random) * static_cast<double>(count));
+      loop.match_id = k % 10 == 0
+                          ? loop.query_id
+                          : static_cast<uint64_t>(unit(random) * static_cast<double>(count));
+      loop.query_T_match.translation() =
+          Eigen::Vector3d(unit(random), unit(random), 0.0) * (k % 6 == 0 ? 1e5 : 1.0);
+      loop.query_T_match.linear() =
+          Eigen::AngleAxisd(k % 4 == 0 ? M_PI : unit(random), Eigen::Vector3d::UnitZ())
+              .toRotationMatrix();
+      const double sd = k % 5 == 0 ? 1e-9 : (k % 5 == 1 ? 1e9 : 0.05);
+      loop.covariance = Eigen::Matrix<double, 6, 6>::Identity() * sd * sd;
+      graph.addLoop(loop);
+      if (k % 3 == 0) graph.optimise();
+    }
+    graph.optimise();
+    EXPECT_EQ(graph.loopVerdicts().size(), 40u);
+    if (graph.activeLoops() > 0) ++optimised_with_loops;
+    for (uint64_t id : graph.ids()) {
+      const Pose pose = *graph.optimisedPose(id);
+      ASSERT_TRUE(pose.position.allFinite() && pose.orientation.coeffs().allFinite())
+          << "seed " << seed << ", keyframe " << id;
+    }
+    ASSERT_TRUE(graph.mapFromOdometry().matrix().allFinite()) << "seed " << seed;
+    ASSERT_TRUE(std::isfinite(graph.headingDriftPerMetre())) << "seed " << seed;
+  }
+  EXPECT_GT(optimised_with_loops, 12u) << "the graphs must have solved with such loops in them";
+}
+
 TEST(PoseGraph, ACameraFrameLoopTurnsIntoTheBaseFrameWithItsCovariance) {
   Eigen::Isometry3d base_T_camera = Eigen::Isometry3d::Identity();
   base_T_camera.translate(Eigen::Vector3d(0.3, -0.1, 0.5));
