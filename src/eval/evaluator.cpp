@@ -130,6 +130,11 @@ QueryOutcome matchQuery(size_t query_index, const ImageDescriptor& query,
       break;
     }
   }
+  // A vector of zeros (a traversal's first image after the condition standardisation) ties
+  // every image at 0 and the node matches nothing with it: a miss, not a lucky tie.
+  const bool carries_nothing =
+      std::all_of(query.global.begin(), query.global.end(), [](float v) { return v == 0.0f; });
+  if (carries_nothing) return outcome;
   const std::vector<Candidate> candidates = search.shortlist(query);
   if (candidates.empty()) return outcome;
   // Re-ranked as the detector re-ranks: the extractor's similarity, or the global score.

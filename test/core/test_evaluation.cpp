@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -191,6 +192,22 @@ TEST(Evaluator, TraversalsFindTheAlignedPlace) {
   EXPECT_FALSE(e.outcomes[7].correct);
   EXPECT_EQ(e.similarity.size(), cv::Size(10, 10));
   EXPECT_GT(e.bytes_per_image, 0.0);
+}
+
+TEST(Evaluator, AQueryOfZerosMatchesNothingAndCountsAsAMiss) {
+  const PlaceExtractor extractor;
+  const auto images = [](size_t i) { return place(static_cast<int>(i)); };
+  const DescribedImages database = describeImages(4, images, extractor);
+  DescribedImages queries = describeImages(4, images, extractor);
+  // As the first query of a standardised traversal is: it would tie every image at 0.
+  std::fill(queries.descriptors[0].global.begin(), queries.descriptors[0].global.end(), 0.0f);
+  const Evaluation e = evaluateTraversals(database, queries, alignedGroundTruth(4, 4, 0), extractor,
+                                          MatchingOptions{});
+  ASSERT_EQ(e.outcomes.size(), 4u);
+  EXPECT_EQ(e.outcomes[0].match, -1);
+  EXPECT_FALSE(e.outcomes[0].correct);
+  EXPECT_TRUE(e.outcomes[0].has_truth);
+  EXPECT_DOUBLE_EQ(e.metrics.recall_at_1, 0.75);
 }
 
 TEST(Evaluator, SequenceRespectsTheExclusionWindowAndSkipsUndecodableImages) {
