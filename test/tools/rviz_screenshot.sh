@@ -34,14 +34,18 @@ cleanup() {
 }
 trap cleanup EXIT
 
+# True when the launch has ended because rviz died of a signal; says so, and how.
+rviz_crashed() {
+  kill -0 "$launch_pid" 2> /dev/null && return 1
+  local how
+  how=$(grep -oE "exit code -(6|11), cmd [^ ]*/rviz " "$work/launch.log" | head -n 1 || true)
+  [ -n "$how" ] || return 1
+  echo "rviz crashed (${how% }) $1; trying again" >&2
+}
+
 # One run of the demo under rviz. Returns 3 when rviz itself died of a signal (software OpenGL
 # under Xvfb crashes now and then: signal 11, or 6 from glibc's heap check, in rviz's own process,
 # which runs none of the package's code), so the run is tried again.
-# Prints how rviz died ("exit code -6, cmd .../rviz "), or nothing when it did not die of a signal.
-rviz_crash() {
-  grep -oE "exit code -(6|11), cmd [^ ]*/rviz " "$work/launch.log" | head -n 1 || true
-}
-
 attempt() {
   work=$(mktemp -d)
   # Xvfb picks a free display and writes its number to fd 3.
@@ -54,19 +58,12 @@ attempt() {
   launch_pid=$!
   for _ in $(seq 1 120); do
     rosservice list 2> /dev/null | grep -q "^/loop_closure/reset" && break
-    if ! kill -0 "$launch_pid" 2> /dev/null; then
-      [ -z "$(rviz_crash)" ] || { echo "rviz crashed ($(rviz_crash)) at start; trying again" >&2; return 3; }
-      cat "$work/launch.log"
-      echo "FAIL: the demo did not start" >&2
-      exit 1
-    fi
+    rviz_crashed "at start" && return 3
+    kill -0 "$launch_pid" 2> /dev/null || { cat "$work/launch.log"; echo "FAIL: the demo did not start" >&2; exit 1; }
     sleep 0.5
   done
   sleep 5  # rviz up and subscribed.
-  if ! kill -0 "$launch_pid" 2> /dev/null && [ -n "$(rviz_crash)" ]; then
-    echo "rviz crashed ($(rviz_crash)) at start; trying again" >&2
-    return 3
-  fi
+  rviz_crashed "at start" && return 3
   # Each check exits itself: `set -e` does not reach into a function called as `attempt || ...`.
   "$TOOL" "$work/start.png" || exit $?
   # rosbag (Python 3.11) prints a traceback when stopped; kept out of the test log.
@@ -77,10 +74,7 @@ attempt() {
     # rviz is required in the launch: when it dies the master goes too, and the player would
     # wait for it forever.
     if ! kill -0 "$launch_pid" 2> /dev/null; then
-      if [ -n "$(rviz_crash)" ]; then
-        echo "rviz crashed ($(rviz_crash)) during the run; trying again" >&2
-        return 3
-      fi
+      rviz_crashed "while the bag played" && return 3
       cat "$work/launch.log"
       echo "FAIL: the demo ended while the bag played" >&2
       exit 1
@@ -92,10 +86,7 @@ attempt() {
   done
   play_pid=""
   sleep 4  # The last keyframes, and rviz draws them.
-  if ! kill -0 "$launch_pid" 2> /dev/null && [ -n "$(rviz_crash)" ]; then
-    echo "rviz crashed ($(rviz_crash)) after the run; trying again" >&2
-    return 3
-  fi
+  rviz_crashed "after the bag" && return 3
   "$TOOL" "$OUT" --final || exit $?
 }
 
