@@ -14,7 +14,11 @@ Metrics computeMetrics(const std::vector<QueryOutcome>& outcomes) {
   for (const QueryOutcome& outcome : outcomes) {
     metrics.queries_with_truth += outcome.has_truth ? 1 : 0;
     correct_at_any_score += outcome.correct ? 1 : 0;
-    if (outcome.match >= 0) ranked.push_back(&outcome);
+    if (outcome.match >= 0) {
+      ranked.push_back(&outcome);
+    } else if (outcome.has_truth) {
+      ++metrics.unmatched_with_truth;
+    }
   }
   if (metrics.queries_with_truth == 0) return metrics;
   const double positives = static_cast<double>(metrics.queries_with_truth);

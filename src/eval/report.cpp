@@ -153,6 +153,7 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
          << "      \"training_source\": " << jsonString(e.training_source) << ",\n"
          << "      \"queries\": " << m.queries << ",\n"
          << "      \"queries_with_truth\": " << m.queries_with_truth << ",\n"
+         << "      \"unmatched_queries_with_truth\": " << m.unmatched_with_truth << ",\n"
          << "      \"undecodable_images\": " << e.undecodable << ",\n"
          << "      \"bytes_per_image\": " << e.bytes_per_image << ",\n";
     writePercentiles(json, "describe_ms", e.describe_ms);

@@ -125,7 +125,8 @@ OPTIONS:
   --condition-window N standardise each traversal's global vectors as the node does
                        (descriptor/condition_window: less the mean of the last N, in list order;
                        the database's first N-1 by its first full window's, as a mapping run
-                       stores them); default 0, the descriptors as described (VPR-Bench's way)
+                       stores them; a query standardised to zeros matches nothing, a miss);
+                       default 0, the descriptors as described (VPR-Bench's way)
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -467,6 +468,13 @@ int run(const Arguments& arguments) {
           m.vprbench.recall_at_100_precision, m.vprbench.auc, evaluation.describe_ms.median,
           evaluation.describe_ms.p99, evaluation.query_ms.median, evaluation.query_ms.p99,
           evaluation.bytes_per_image);
+      if (m.unmatched_with_truth > 0) {
+        std::printf(
+            "%-10s %zu of %zu queries with a place matched nothing, counted as misses: their "
+            "vectors are all zeros (a traversal's first image standardised alone, or a camera "
+            "standing still), as the node would match nothing with them\n",
+            name.c_str(), m.unmatched_with_truth, m.queries_with_truth);
+      }
     }
     if (no_truth || arguments.has("--contact-sheet")) {
       const auto load = [&](bool query_side) {

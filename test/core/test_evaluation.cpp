@@ -208,6 +208,7 @@ TEST(Evaluator, AQueryOfZerosMatchesNothingAndCountsAsAMiss) {
   EXPECT_FALSE(e.outcomes[0].correct);
   EXPECT_TRUE(e.outcomes[0].has_truth);
   EXPECT_DOUBLE_EQ(e.metrics.recall_at_1, 0.75);
+  EXPECT_EQ(e.metrics.unmatched_with_truth, 1u);
 }
 
 TEST(Evaluator, SequenceRespectsTheExclusionWindowAndSkipsUndecodableImages) {

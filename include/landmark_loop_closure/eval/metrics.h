@@ -33,6 +33,9 @@ struct Metrics {
   double recall_at_1 = 0.0;  ///< Correct best matches / queries with a place.
   size_t queries = 0;
   size_t queries_with_truth = 0;
+  /// Queries with a place that matched nothing (a vector of zeros): misses in every recall,
+  /// never ranked.
+  size_t unmatched_with_truth = 0;
 
   /// VPR-Bench's convention (Zaffar et al., IJCV 2021), for rows beside its tables: the same
   /// best matches and scores, but recall = true positives / queries whose best match is right
