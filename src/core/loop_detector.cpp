@@ -11,13 +11,6 @@
 
 namespace landmark_loop_closure {
 
-namespace {
-
-constexpr int kThumbnailWidth = 160;
-constexpr int kThumbnailHeight = 120;
-
-}  // namespace
-
 const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   using O = AcceptanceOptions;
   static const auto table =
@@ -448,7 +441,7 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   last_keyframe_ = PathEnd{keyframe.pose, keyframe.path};
   // Kept for ~match_image and compared by the appearance check.
   if (options_.keep_thumbnails) {
-    keyframe.thumbnail = encodeThumbnail(toWorkingImage(image, kThumbnailWidth, kThumbnailHeight));
+    keyframe.thumbnail = makeThumbnail(image);
   }
   return keyframe;
 }

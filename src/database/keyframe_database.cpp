@@ -7,6 +7,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/common/image_helpers.h"
+
 namespace landmark_loop_closure {
 
 const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
@@ -58,6 +60,11 @@ std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey) {
   // side at twice the size no difference shows), and a million-keyframe map is 0.8 GB smaller.
   if (!grey.empty()) cv::imencode(".webp", grey, bytes, {cv::IMWRITE_WEBP_QUALITY, 30});
   return bytes;
+}
+
+std::vector<uint8_t> makeThumbnail(const cv::Mat& image) {
+  if (image.empty()) return {};
+  return encodeThumbnail(toWorkingImage(image, 160, 120));
 }
 
 cv::Mat decodeThumbnail(const std::vector<uint8_t>& bytes) {

@@ -38,11 +38,13 @@ struct KeyframeRecord : KeyframeSummary {
   std::vector<uint8_t> thumbnail;
 };
 
-/// WebP bytes of an 8-bit grey image (quality 60: a debug picture, ~2 KB at 160x120 where JPEG
-/// of the same quality takes ~3 KB); empty for an empty image.
+/// WebP bytes of an 8-bit grey image (quality 30: ~1.8 KB at 160x120); empty for an empty
+/// image.
 std::vector<uint8_t> encodeThumbnail(const cv::Mat& grey);
 /// The grey image back (WebP or JPEG); empty when `bytes` is empty or cannot be decoded.
 cv::Mat decodeThumbnail(const std::vector<uint8_t>& bytes);
+/// A keyframe's thumbnail as the detector stores it: the image in grey at 160x120, encoded.
+std::vector<uint8_t> makeThumbnail(const cv::Mat& image);
 
 struct DatabaseOptions {
   int exclude_recent_keyframes = 20;     ///< The most recent N keyframes are never candidates.
