@@ -52,7 +52,8 @@ target_include_directories(test_saved_search_rows PRIVATE src)
 target_include_directories(test_old_map_file PRIVATE src)
 
 # Evaluation: ground truth readers, metrics, the evaluator, and the regression guard on real data.
-foreach(name test_ground_truth test_evaluation test_baselines_regression test_loop_detector_sim)
+foreach(name test_ground_truth test_evaluation test_match_verification test_baselines_regression
+    test_loop_detector_sim)
   catkin_add_gtest(${name} test/core/${name}.cpp)
   target_link_libraries(${name} ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")

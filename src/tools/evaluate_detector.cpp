@@ -69,6 +69,10 @@ void printPass(const char* label, const eval::DetectorPass& pass) {
 
 }  // namespace
 
+AppearanceCheckOptions appearanceCheckOptions(const std::string& config) {
+  return readConfig(config).detector.appearance;
+}
+
 namespace {
 
 // Image-only sequences: whether the camera moved since the last frame that did, judged by the

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "evaluate_support.h"
+#include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/eval/detector_evaluation.h"
 
 namespace landmark_loop_closure {
@@ -55,6 +56,10 @@ DetectorSource corridorSource(double laps);
 DetectorSource bagSource(const std::string& path, const std::string& image_topic,
                          const std::string& odom_topic, const std::string& truth_topic,
                          double distance, double gap);
+
+/// The appearance check's options in the node config at `config` (empty: the built-in defaults,
+/// which equal config/default.yaml's).
+AppearanceCheckOptions appearanceCheckOptions(const std::string& config);
 
 /// Runs the detector over the source with --config (default: the built-in defaults, which equal
 /// config/default.yaml) and each --descriptors entry (default: the config's descriptor); prints

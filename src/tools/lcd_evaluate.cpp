@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <sstream>
@@ -15,6 +17,7 @@
 #include "evaluate_detector.h"
 #include "evaluate_support.h"
 #include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/eval/match_verification.h"
 #include "landmark_loop_closure/eval/report.h"
 #include "landmark_loop_closure/eval/training.h"
 #include "landmark_loop_closure/sim/sequence.h"
@@ -127,6 +130,12 @@ OPTIONS:
                        the database's first N-1 by its first full window's, as a mapping run
                        stores them; a query standardised to zeros matches nothing, a miss);
                        default 0, the descriptors as described (VPR-Bench's way)
+  --appearance-check   each best match also goes through the node's appearance check
+                       (verification/appearance of --config, default config/default.yaml) on
+                       the thumbnails the node keeps, as the node checks a loop without camera
+                       intrinsics: a match it refuses ranks below every other (the node would
+                       not publish it); recall@1 is unchanged. Inliers and refusals go to
+                       matches_<name>.csv. Descriptors without feature maps are left as they are
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -146,8 +155,8 @@ Arguments parse(int argc, char** argv) {
       std::exit(0);
     }
     if (key == "--as-sequence" || key == "--detector" || key == "--no-ground-truth" ||
-        key == "--train-on-eval" || key == "--dry-run" ||
-        key == "--still-joint") {  // Flags without a value.
+        key == "--train-on-eval" || key == "--dry-run" || key == "--still-joint" ||
+        key == "--appearance-check") {  // Flags without a value.
       arguments.values[key] = "true";
       continue;
     }
@@ -166,6 +175,44 @@ struct MemorySequence {
   std::vector<Pose> poses;
   std::vector<double> stamps;
 };
+
+// Image i as the evaluation reads it: from the sequence in memory, else from `paths`.
+std::function<cv::Mat(size_t)> imageLoader(const MemorySequence& memory,
+                                           const std::vector<std::string>& paths, int width) {
+  return [&memory, &paths, width](size_t i) -> cv::Mat {
+    if (!memory.images.empty()) return i < memory.images.size() ? memory.images[i] : cv::Mat();
+    return i < paths.size() ? readImage(paths[i], true, width) : cv::Mat();
+  };
+}
+
+// --appearance-check: the node's check on every best match, then the measures again.
+void checkAppearanceOfMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
+                              const AppearanceCheckOptions& options,
+                              const std::function<cv::Mat(size_t)>& query_image,
+                              const std::function<cv::Mat(size_t)>& database_image) {
+  const MatchVerificationSummary summary =
+      verifyMatches(&evaluation->outcomes, query_image, database_image, extractor, options);
+  evaluation->metrics = computeMetrics(evaluation->outcomes);
+  std::ostringstream text;
+  if (summary.checked == 0) {
+    text << "nothing checked (the descriptor gives no feature-map cells)";
+  } else {
+    // The node publishes confirmed matches only: of the right best matches, the share it can
+    // publish, and the wrong ones it would publish.
+    const size_t right = summary.confirmed_correct + summary.refused_correct;
+    text << summary.checked << " best matches checked (min_inliers " << options.min_inliers
+         << "): confirmed " << summary.confirmed_correct << " of " << right << " right ("
+         << std::fixed << std::setprecision(3)
+         << (right > 0 ? static_cast<double>(summary.confirmed_correct) / right : 0.0) << ") and "
+         << summary.confirmed_wrong << " of " << summary.checked - right << " wrong; the "
+         << summary.refused << " refused ranked below the rest";
+  }
+  if (summary.checked > 0 && summary.unverifiable > 0) {
+    text << "; " << summary.unverifiable << " without cells left as they are";
+  }
+  evaluation->appearance_check = text.str();
+  std::printf("%-10s appearance check: %s\n", evaluation->name.c_str(), text.str().c_str());
+}
 
 int run(const Arguments& arguments) {
   const std::string output_folder = arguments.get("--output", "lcd_results");
@@ -409,6 +456,8 @@ int run(const Arguments& arguments) {
                 "the evaluated database images themselves (--train-on-eval)"};
   }
 
+  const AppearanceCheckOptions appearance_options =
+      appearanceCheckOptions(arguments.get("--config"));
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
     Variant variant = descriptorVariant(name, arguments);
@@ -453,6 +502,12 @@ int run(const Arguments& arguments) {
     }
     evaluation.name = name;
     if (trains) evaluation.training_source = training.source;
+    if (arguments.has("--appearance-check")) {
+      checkAppearanceOfMatches(
+          &evaluation, *extractor, appearance_options,
+          imageLoader(memory, traversal ? query_paths : database_paths, image_width),
+          imageLoader(memory, database_paths, image_width));
+    }
     const Metrics& m = evaluation.metrics;
     if (no_truth) {
       std::printf(

@@ -1,0 +1,75 @@
+#include "landmark_loop_closure/eval/match_verification.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "landmark_loop_closure/database/keyframe_database.h"
+
+namespace landmark_loop_closure {
+namespace eval {
+
+namespace {
+
+CellFeatures thumbnailCells(const cv::Mat& image, const DescriptorExtractor& extractor) {
+  if (image.empty()) return {};
+  return cellFeatures(extractor.appearanceMaps(decodeThumbnail(makeThumbnail(image))));
+}
+
+}  // namespace
+
+MatchVerificationSummary verifyMatches(std::vector<QueryOutcome>* outcomes,
+                                       const std::function<cv::Mat(size_t)>& query_image,
+                                       const std::function<cv::Mat(size_t)>& database_image,
+                                       const DescriptorExtractor& extractor,
+                                       const AppearanceCheckOptions& options) {
+  MatchVerificationSummary summary;
+  std::map<size_t, CellFeatures> database_cells;  // A database image is often matched again.
+  for (QueryOutcome& outcome : *outcomes) {
+    outcome.appearance_inliers = -1;
+    outcome.refused = false;
+    if (outcome.match < 0) continue;
+    const size_t match = static_cast<size_t>(outcome.match);
+    auto cached = database_cells.find(match);
+    if (cached == database_cells.end()) {
+      cached =
+          database_cells.emplace(match, thumbnailCells(database_image(match), extractor)).first;
+    }
+    const CellFeatures query_cells = thumbnailCells(query_image(outcome.query), extractor);
+    if (query_cells.empty() || cached->second.empty()) {
+      ++summary.unverifiable;
+      continue;
+    }
+    const AppearanceCheckResult check = checkAppearance(query_cells, cached->second, options);
+    ++summary.checked;
+    outcome.appearance_inliers = check.inliers;
+    if (check.confirmed) {
+      ++(outcome.correct ? summary.confirmed_correct : summary.confirmed_wrong);
+    } else {
+      outcome.refused = true;
+      ++summary.refused;
+      summary.refused_correct += outcome.correct ? 1 : 0;
+    }
+  }
+  double lowest_kept = std::numeric_limits<double>::infinity();
+  double highest_refused = -std::numeric_limits<double>::infinity();
+  for (const QueryOutcome& outcome : *outcomes) {
+    if (outcome.match < 0) continue;
+    if (outcome.refused) {
+      highest_refused = std::max(highest_refused, outcome.score);
+    } else {
+      lowest_kept = std::min(lowest_kept, outcome.score);
+    }
+  }
+  if (summary.refused > 0 && std::isfinite(lowest_kept) && highest_refused >= lowest_kept) {
+    const double shift = highest_refused - lowest_kept + 1.0;
+    for (QueryOutcome& outcome : *outcomes) {
+      if (outcome.refused) outcome.score -= shift;
+    }
+  }
+  return summary;
+}
+
+}  // namespace eval
+}  // namespace landmark_loop_closure
