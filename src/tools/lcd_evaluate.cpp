@@ -457,7 +457,8 @@ int run(const Arguments& arguments) {
   }
 
   const AppearanceCheckOptions appearance_options =
-      appearanceCheckOptions(arguments.get("--config"));
+      arguments.has("--appearance-check") ? appearanceCheckOptions(arguments.get("--config"))
+                                          : AppearanceCheckOptions();
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
     Variant variant = descriptorVariant(name, arguments);
