@@ -533,16 +533,10 @@ int run(const Arguments& arguments) {
       }
     }
     if (no_truth || arguments.has("--contact-sheet")) {
-      const auto load = [&](bool query_side) {
-        return [&, query_side](size_t i) -> cv::Mat {
-          if (!memory.images.empty()) return memory.images[i];
-          const std::vector<std::string>& paths =
-              query_side && traversal ? query_paths : database_paths;
-          return readImage(paths[i], true, image_width);
-        };
-      };
       const std::string sheet = output_folder + "/contact_" + name + ".png";
-      writeContactSheet(sheet, evaluation.outcomes, load(true), load(false), !no_truth,
+      writeContactSheet(sheet, evaluation.outcomes,
+                        imageLoader(memory, traversal ? query_paths : database_paths, image_width),
+                        imageLoader(memory, database_paths, image_width), !no_truth,
                         static_cast<int>(arguments.number("--contact-sheet", 24)));
       std::printf("           contact sheet: %s\n", sheet.c_str());
     }
