@@ -6,7 +6,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
 
 namespace landmark_loop_closure {
@@ -419,16 +418,7 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
   if (options_.verification.enabled) {
-    const int width = std::min(image.cols, options_.verification.max_image_width);
-    const int height = std::max(
-        1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
-    keyframe.local_features = verifier_.extract(toWorkingImage(image, width, height));
-    // The lens is corrected once, here: every check after sees a pinhole camera with the same K,
-    // and a stored keyframe keeps the calibration it was taken with.
-    LocalFeatures& features = keyframe.local_features;
-    if (intrinsics.distorted() && intrinsics.valid()) {
-      features.points = intrinsics.scaledTo(features.image_size).idealPixels(features.points);
-    }
+    keyframe.local_features = verifier_.extractKeyframe(image, intrinsics);
     // A query's own depths are never used (PnP takes the match's); only stored keyframes need them.
     if (mode_ == DetectorMode::kMapping) {
       addDepths(keyframe.pose, depth, intrinsics, &keyframe.local_features);

@@ -22,25 +22,47 @@ MatchVerificationSummary verifyMatches(std::vector<QueryOutcome>* outcomes,
                                        const std::function<cv::Mat(size_t)>& query_image,
                                        const std::function<cv::Mat(size_t)>& database_image,
                                        const DescriptorExtractor& extractor,
-                                       const AppearanceCheckOptions& options) {
+                                       const MatchChecks& checks) {
   MatchVerificationSummary summary;
-  // Cells are made again for a database image matched twice: as the node makes them, and without
-  // holding ~55 KB per matched image over a long sequence.
+  const GeometricVerifier verifier(checks.geometry);
+  // Features are made again for a database image matched twice: as the node makes them, and
+  // without holding them per matched image over a long sequence.
   for (QueryOutcome& outcome : *outcomes) {
+    outcome.geometry_inliers = -1;
     outcome.appearance_inliers = -1;
     outcome.refused = false;
     if (outcome.match < 0) continue;
-    const CellFeatures query_cells = thumbnailCells(query_image(outcome.query), extractor);
-    const CellFeatures match_cells =
-        thumbnailCells(database_image(static_cast<size_t>(outcome.match)), extractor);
-    if (query_cells.empty() || match_cells.empty()) {
+    const cv::Mat query = query_image(outcome.query);
+    const cv::Mat match = database_image(static_cast<size_t>(outcome.match));
+    bool confirmed = false;
+    bool checked = false;
+    if (checks.runsGeometry() && !query.empty() && !match.empty()) {
+      const VerificationResult geometry =
+          verifier.verify(verifier.extractKeyframe(query, checks.intrinsics),
+                          verifier.extractKeyframe(match, checks.intrinsics), checks.intrinsics);
+      checked = true;
+      outcome.geometry_inliers = geometry.inliers;
+      confirmed = geometry.placeConfirmed();
+      summary.confirmed_by_geometry += confirmed ? 1 : 0;
+    }
+    if (!confirmed) {
+      const CellFeatures query_cells = thumbnailCells(query, extractor);
+      const CellFeatures match_cells =
+          query_cells.empty() ? CellFeatures{} : thumbnailCells(match, extractor);
+      if (!query_cells.empty() && !match_cells.empty()) {
+        const AppearanceCheckResult check =
+            checkAppearance(query_cells, match_cells, checks.appearance);
+        checked = true;
+        outcome.appearance_inliers = check.inliers;
+        confirmed = check.confirmed;
+      }
+    }
+    if (!checked) {
       ++summary.unverifiable;
       continue;
     }
-    const AppearanceCheckResult check = checkAppearance(query_cells, match_cells, options);
     ++summary.checked;
-    outcome.appearance_inliers = check.inliers;
-    if (check.confirmed) {
+    if (confirmed) {
       ++(outcome.correct ? summary.confirmed_correct : summary.confirmed_wrong);
     } else {
       outcome.refused = true;

@@ -154,7 +154,7 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
          << "      \"queries\": " << m.queries << ",\n"
          << "      \"queries_with_truth\": " << m.queries_with_truth << ",\n"
          << "      \"unmatched_queries_with_truth\": " << m.unmatched_with_truth << ",\n"
-         << "      \"appearance_check\": " << jsonString(e.appearance_check) << ",\n"
+         << "      \"match_checks\": " << jsonString(e.match_checks) << ",\n"
          << "      \"undecodable_images\": " << e.undecodable << ",\n"
          << "      \"bytes_per_image\": " << e.bytes_per_image << ",\n";
     writePercentiles(json, "describe_ms", e.describe_ms);
@@ -173,15 +173,16 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
       vpr_curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
     }
     std::ofstream matches(base / ("matches_" + e.name + ".csv"));
-    matches << "query,match,score,correct,query_has_place,accepted_at_100p,appearance_inliers,"
+    matches << "query,match,score,correct,query_has_place,accepted_at_100p,geometry_inliers,"
+               "appearance_inliers,"
                "refused\n"
             << std::setprecision(6);
     for (const QueryOutcome& o : e.outcomes) {
       const bool accepted = o.match >= 0 && m.recall_at_100_precision > 0.0 &&
                             o.score >= m.threshold_at_100_precision;
       matches << o.query << "," << o.match << "," << o.score << "," << o.correct << ","
-              << o.has_truth << "," << accepted << "," << o.appearance_inliers << "," << o.refused
-              << "\n";
+              << o.has_truth << "," << accepted << "," << o.geometry_inliers << ","
+              << o.appearance_inliers << "," << o.refused << "\n";
     }
     if (!e.similarity.empty()) {
       cv::imwrite((base / ("similarity_" + e.name + ".png")).string(),

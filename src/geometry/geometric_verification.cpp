@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
+#include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/geometry/pose.h"
 #include "landmark_loop_closure/geometry/pose_jacobian.h"
 
@@ -370,6 +371,20 @@ LocalFeatures GeometricVerifier::extract(const cv::Mat& image) const {
   orb->detectAndCompute(image, cv::noArray(), keypoints, features.descriptors);
   features.points.reserve(keypoints.size());
   for (const cv::KeyPoint& keypoint : keypoints) features.points.push_back(keypoint.pt);
+  return features;
+}
+
+LocalFeatures GeometricVerifier::extractKeyframe(const cv::Mat& image,
+                                                 const CameraIntrinsics& intrinsics) const {
+  if (image.empty()) return extract(image);
+  const int width = std::min(image.cols, options_.max_image_width);
+  const int height = std::max(
+      1, static_cast<int>(std::lround(static_cast<double>(image.rows) * width / image.cols)));
+  LocalFeatures features = extract(toWorkingImage(image, width, height));
+  // The lens is corrected once, here: a stored keyframe keeps the calibration it was taken with.
+  if (intrinsics.distorted() && intrinsics.valid()) {
+    features.points = intrinsics.scaledTo(features.image_size).idealPixels(features.points);
+  }
   return features;
 }
 

@@ -69,8 +69,13 @@ void printPass(const char* label, const eval::DetectorPass& pass) {
 
 }  // namespace
 
-AppearanceCheckOptions appearanceCheckOptions(const std::string& config) {
-  return readConfig(config).detector.appearance;
+eval::MatchChecks matchChecks(const std::string& config, const CameraIntrinsics& intrinsics) {
+  const NodeOptions options = readConfig(config);
+  eval::MatchChecks checks;
+  checks.appearance = options.detector.appearance;
+  checks.geometry = options.detector.verification;
+  checks.intrinsics = intrinsics;
+  return checks;
 }
 
 namespace {

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "evaluate_support.h"
-#include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/eval/detector_evaluation.h"
+#include "landmark_loop_closure/eval/match_verification.h"
 
 namespace landmark_loop_closure {
 namespace tools {
@@ -57,9 +57,10 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
                          const std::string& odom_topic, const std::string& truth_topic,
                          double distance, double gap);
 
-/// The appearance check's options in the node config at `config` (empty: the built-in defaults,
-/// which equal config/default.yaml's).
-AppearanceCheckOptions appearanceCheckOptions(const std::string& config);
+/// The node's checks of a loop candidate in the node config at `config` (empty: the built-in
+/// defaults, which equal config/default.yaml's): the appearance check, and ORB's geometric check
+/// where `intrinsics` are valid.
+eval::MatchChecks matchChecks(const std::string& config, const CameraIntrinsics& intrinsics);
 
 /// Runs the detector over the source with --config (default: the built-in defaults, which equal
 /// config/default.yaml) and each --descriptors entry (default: the config's descriptor); prints

@@ -130,12 +130,14 @@ OPTIONS:
                        the database's first N-1 by its first full window's, as a mapping run
                        stores them; a query standardised to zeros matches nothing, a miss);
                        default 0, the descriptors as described (VPR-Bench's way)
-  --appearance-check   each best match also goes through the node's appearance check
-                       (verification/appearance of --config, default config/default.yaml) on
-                       the thumbnails the node keeps, as the node checks a loop without camera
-                       intrinsics: a match it refuses ranks below every other (the node would
-                       not publish it); recall@1 is unchanged. Inliers and refusals go to
-                       matches_<name>.csv. Descriptors without feature maps are left as they are
+  --appearance-check   each best match also goes through the node's checks of a loop (of
+                       --config, default config/default.yaml): with --camera-info ORB's
+                       geometric check (verification/) first, as the node checks a loop with
+                       camera intrinsics; where ORB does not confirm the place, or without
+                       --camera-info, the appearance check (verification/appearance) on the
+                       thumbnails the node keeps. A match they refuse ranks below every other
+                       (the node would not publish it); recall@1 is unchanged. Inliers and
+                       refusals go to matches_<name>.csv
   --skip N             leave out the first N images of each folder (then --limit applies):
                        --skip 50 --limit 50 is images 50-99, the second half of a 100
   --limit N            use the first N images of each folder
@@ -185,33 +187,38 @@ std::function<cv::Mat(size_t)> imageLoader(const MemorySequence& memory,
   };
 }
 
-// --appearance-check: the node's check on every best match, then the measures again.
-void checkAppearanceOfMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
-                              const AppearanceCheckOptions& options,
-                              const std::function<cv::Mat(size_t)>& query_image,
-                              const std::function<cv::Mat(size_t)>& database_image) {
+// --appearance-check: the node's checks on every best match, then the measures again.
+void checkMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
+                  const MatchChecks& checks, const std::function<cv::Mat(size_t)>& query_image,
+                  const std::function<cv::Mat(size_t)>& database_image) {
   const MatchVerificationSummary summary =
-      verifyMatches(&evaluation->outcomes, query_image, database_image, extractor, options);
+      verifyMatches(&evaluation->outcomes, query_image, database_image, extractor, checks);
   evaluation->metrics = computeMetrics(evaluation->outcomes);
   std::ostringstream text;
   if (summary.checked == 0) {
-    text << "nothing checked (the descriptor gives no feature-map cells)";
+    text << "nothing checked (no camera intrinsics, and the descriptor gives no feature-map "
+            "cells)";
   } else {
     // The node publishes confirmed matches only: of the right best matches, the share it can
     // publish, and the wrong ones it would publish.
     const size_t right = summary.confirmed_correct + summary.refused_correct;
-    text << summary.checked << " best matches checked (min_inliers " << options.min_inliers
-         << "): confirmed " << summary.confirmed_correct << " of " << right << " right ("
-         << std::fixed << std::setprecision(3)
+    text << summary.checked << " best matches checked (";
+    if (checks.runsGeometry()) {
+      text << "ORB min_inliers " << checks.geometry.min_inliers << ", then ";
+    }
+    text << "appearance min_inliers " << checks.appearance.min_inliers << "): confirmed "
+         << summary.confirmed_correct << " of " << right << " right (" << std::fixed
+         << std::setprecision(3)
          << (right > 0 ? static_cast<double>(summary.confirmed_correct) / right : 0.0) << ") and "
-         << summary.confirmed_wrong << " of " << summary.checked - right << " wrong; the "
-         << summary.refused << " refused ranked below the rest";
+         << summary.confirmed_wrong << " of " << summary.checked - right << " wrong";
+    if (checks.runsGeometry()) text << ", " << summary.confirmed_by_geometry << " of them by ORB";
+    text << "; the " << summary.refused << " refused ranked below the rest";
   }
   if (summary.checked > 0 && summary.unverifiable > 0) {
-    text << "; " << summary.unverifiable << " without cells left as they are";
+    text << "; " << summary.unverifiable << " no check could run on left as they are";
   }
-  evaluation->appearance_check = text.str();
-  std::printf("%-10s appearance check: %s\n", evaluation->name.c_str(), text.str().c_str());
+  evaluation->match_checks = text.str();
+  std::printf("%-10s checks: %s\n", evaluation->name.c_str(), text.str().c_str());
 }
 
 int run(const Arguments& arguments) {
@@ -456,9 +463,13 @@ int run(const Arguments& arguments) {
                 "the evaluated database images themselves (--train-on-eval)"};
   }
 
-  const AppearanceCheckOptions appearance_options =
-      arguments.has("--appearance-check") ? appearanceCheckOptions(arguments.get("--config"))
-                                          : AppearanceCheckOptions();
+  const MatchChecks match_checks =
+      arguments.has("--appearance-check")
+          ? matchChecks(arguments.get("--config"),
+                        arguments.has("--camera-info")
+                            ? readCameraInfoFile(arguments.get("--camera-info"))
+                            : CameraIntrinsics())
+          : MatchChecks();
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
     Variant variant = descriptorVariant(name, arguments);
@@ -504,10 +515,9 @@ int run(const Arguments& arguments) {
     evaluation.name = name;
     if (trains) evaluation.training_source = training.source;
     if (arguments.has("--appearance-check")) {
-      checkAppearanceOfMatches(
-          &evaluation, *extractor, appearance_options,
-          imageLoader(memory, traversal ? query_paths : database_paths, image_width),
-          imageLoader(memory, database_paths, image_width));
+      checkMatches(&evaluation, *extractor, match_checks,
+                   imageLoader(memory, traversal ? query_paths : database_paths, image_width),
+                   imageLoader(memory, database_paths, image_width));
     }
     const Metrics& m = evaluation.metrics;
     if (no_truth) {

@@ -86,8 +86,8 @@ struct Evaluation {
   double bytes_per_image = 0.0;
   size_t undecodable = 0;
   cv::Mat similarity;  ///< CV_32F, queries x database, max-pooled to at most matrix_size.
-  /// What the appearance check did to the best matches ("" when it did not run).
-  std::string appearance_check;
+  /// What the node's checks did to the best matches ("" when they did not run).
+  std::string match_checks;
 };
 
 /// Traversal matching: every query against every database image. `truth` is queries x database.

@@ -13,8 +13,10 @@ struct QueryOutcome {
   double score = 0.0;      ///< Its similarity; the acceptance threshold is swept over these.
   bool correct = false;    ///< The ground truth says query and match are the same place.
   bool has_truth = false;  ///< The ground truth has at least one place for this query.
-  /// With verifyMatches: cells the appearance check found in one layout (-1: not checked), and
-  /// whether it refused the match (then `score` is shifted below every unrefused match's).
+  /// With verifyMatches: ORB inliers of the geometric check and cells the appearance check found
+  /// in one layout (-1: not run), and whether the checks refused the match (then `score` is
+  /// shifted below every unrefused match's).
+  int geometry_inliers = -1;
   int appearance_inliers = -1;
   bool refused = false;
 };

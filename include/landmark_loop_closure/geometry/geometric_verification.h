@@ -129,6 +129,10 @@ class GeometricVerifier {
 
   /// `image`: 8-bit grey.
   LocalFeatures extract(const cv::Mat& image) const;
+  /// The keypoints a keyframe keeps of a camera image (grey or colour, any size): found on the
+  /// image shrunk to max_image_width and, where `intrinsics` has a lens model, moved to the ideal
+  /// pixels of a pinhole camera with the same K, which every check after assumes.
+  LocalFeatures extractKeyframe(const cv::Mat& image, const CameraIntrinsics& intrinsics) const;
   /// Both feature sets must come from images of the size `intrinsics` refers to.
   VerificationResult verify(const LocalFeatures& query, const LocalFeatures& match,
                             const CameraIntrinsics& intrinsics) const;
