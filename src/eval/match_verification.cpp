@@ -45,7 +45,7 @@ MatchVerificationSummary verifyMatches(std::vector<QueryOutcome>* outcomes,
       confirmed = geometry.placeConfirmed();
       summary.confirmed_by_geometry += confirmed ? 1 : 0;
     }
-    if (!confirmed) {
+    if (!confirmed && checks.appearance.enabled) {
       const CellFeatures query_cells = thumbnailCells(query, extractor);
       const CellFeatures match_cells =
           query_cells.empty() ? CellFeatures{} : thumbnailCells(match, extractor);

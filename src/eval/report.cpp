@@ -174,8 +174,7 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
     }
     std::ofstream matches(base / ("matches_" + e.name + ".csv"));
     matches << "query,match,score,correct,query_has_place,accepted_at_100p,geometry_inliers,"
-               "appearance_inliers,"
-               "refused\n"
+               "appearance_inliers,refused\n"
             << std::setprecision(6);
     for (const QueryOutcome& o : e.outcomes) {
       const bool accepted = o.match >= 0 && m.recall_at_100_precision > 0.0 &&

@@ -199,6 +199,19 @@ TEST(MatchVerification, WhereOrbCannotConfirmTheAppearanceCheckDecides) {
   EXPECT_GE(outcomes[0].appearance_inliers, AppearanceCheckOptions().min_inliers);
 }
 
+TEST(MatchVerification, WithTheAppearanceCheckOffWhatOrbCannotConfirmIsRefused) {
+  std::vector<QueryOutcome> outcomes = outcomesWithOneConfidentWrongMatch();
+  MatchChecks checks = withIntrinsics();
+  checks.geometry.min_inliers = 100000;  // ORB confirms nothing.
+  checks.appearance.enabled = false;     // The cells would confirm the right places.
+  const MatchVerificationSummary summary =
+      verifyMatches(&outcomes, place, place, PixelCells(true), checks);
+  EXPECT_EQ(summary.checked, 3u);
+  EXPECT_EQ(summary.refused, 3u);
+  EXPECT_EQ(summary.confirmed_correct, 0u);
+  EXPECT_EQ(outcomes[0].appearance_inliers, -1);
+}
+
 }  // namespace
 }  // namespace eval
 }  // namespace landmark_loop_closure

@@ -22,7 +22,8 @@ struct MatchChecks {
   AppearanceCheckOptions appearance;
   /// ORB's check runs first where `geometry.enabled` and `intrinsics` are valid (of the camera,
   /// scaled to the images as loaded): a place it confirms is confirmed, otherwise the appearance
-  /// check decides, and without cells to compare the match is refused, as the node refuses it.
+  /// check decides (where `appearance.enabled`), and without cells to compare the match is
+  /// refused, as the node refuses it.
   VerificationOptions geometry;
   CameraIntrinsics intrinsics;
 
