@@ -82,6 +82,11 @@ add_test(NAME tool_train_learned_descriptors
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
     $<TARGET_FILE:make_demo_bag> $<TARGET_FILE:lcd_train> $<TARGET_FILE:lcd_evaluate>)
 
+# lcd_evaluate refuses another camera's --camera-info before evaluating (Gardens Point, when here).
+add_test(NAME tool_evaluate_camera_info
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/evaluate_camera_info.sh ${CMAKE_CURRENT_SOURCE_DIR}
+    $<TARGET_FILE:lcd_evaluate>)
+
 # The converted pretrained backbone reproduces the original network (TensorFlow.js from npm).
 add_executable(backbone_reference_check test/tools/backbone_reference_check.cpp)
 target_link_libraries(backbone_reference_check ${OpenCV_LIBS})

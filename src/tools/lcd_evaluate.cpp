@@ -59,8 +59,9 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
                        stand (the stops --gt-stops finds), instead of where each one's own
                        picture barely changes (--still-threshold); one step per frame elsewhere
   --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
-                       (image_width, image_height, camera_matrix), scaled to the played size;
-                       the geometric check then runs (bench/cameras/ has Gardens Point's)
+                       (image_width, image_height, camera_matrix), scaled to the played size
+                       (another aspect ratio than the images' stops the run); the geometric
+                       check then runs (bench/cameras/ has Gardens Point's)
   Image folders have no odometry: images are 1 s and 1 m apart (standing still, see
   --still-threshold, adds no keyframe), the odometry gate is off. The corridor plays its drifting odometry and camera intrinsics; a bag plays every image
   with its odometry and camera_info, as the node receives them.
@@ -144,8 +145,9 @@ OPTIONS:
   --output DIR         where results go (default lcd_results)
   --name TEXT          dataset name written into the results
   --matrix-size N      largest side of the similarity pictures (default 1000)
-  --dry-run            read the arguments, the config, the images' list and the ground truth,
-                       say what would be evaluated, and stop (a test runs the README's commands so)
+  --dry-run            read the arguments, the config, the images' list, the ground truth and
+                       --camera-info (against the first image), say what would be evaluated, and
+                       stop (a test runs the README's commands so)
 )";
 
 Arguments parse(int argc, char** argv) {
@@ -185,6 +187,18 @@ std::function<cv::Mat(size_t)> imageLoader(const MemorySequence& memory,
     if (!memory.images.empty()) return i < memory.images.size() ? memory.images[i] : cv::Mat();
     return i < paths.size() ? readImage(paths[i], true, width) : cv::Mat();
   };
+}
+
+// --camera-info, checked against the first image as the node checks camera_info against its
+// images: another camera's calibration would skew every geometric check, so it stops the run.
+CameraIntrinsics cameraInfoFor(const Arguments& arguments, const cv::Mat& first_image) {
+  if (!arguments.has("--camera-info")) return {};
+  const std::string path = arguments.get("--camera-info");
+  CameraIntrinsics intrinsics = readCameraInfoFile(path);
+  if (const auto problem = intrinsics.checkFor(first_image.size())) {
+    throw std::invalid_argument("--camera-info " + path + ": " + problem->text);
+  }
+  return intrinsics;
 }
 
 // --appearance-check: the node's checks on every best match, then the measures again.
@@ -405,6 +419,8 @@ int run(const Arguments& arguments) {
                            " database images (wrong file, or --limit?)");
   }
   if (!no_truth) requirePositives(truth, run.ground_truth);
+  const CameraIntrinsics camera =
+      cameraInfoFor(arguments, imageLoader(memory, database_paths, image_width)(0));
   if (arguments.has("--dry-run") && !arguments.has("--detector")) {
     for (const std::string& name : names) descriptorVariant(name, arguments);
     std::printf(
@@ -421,10 +437,6 @@ int run(const Arguments& arguments) {
       poses = run.trajectory;
       stamps = readNumbers(arguments.get("--gt-times"));
     }
-    CameraIntrinsics intrinsics;
-    if (arguments.has("--camera-info")) {
-      intrinsics = readCameraInfoFile(arguments.get("--camera-info"));
-    }
     // Aligned traversals stand where both stand: each frame of one is the other's place.
     std::vector<bool> standing;
     if (arguments.has("--still-joint")) {
@@ -436,7 +448,7 @@ int run(const Arguments& arguments) {
     }
     return runDetectorMode(
         arguments,
-        imageSequenceSource(database_paths, truth, poses, stamps, intrinsics,
+        imageSequenceSource(database_paths, truth, poses, stamps, camera,
                             arguments.number("--still-threshold", 5.0), image_width, standing),
         run.dataset, output_folder);
   }
@@ -465,10 +477,9 @@ int run(const Arguments& arguments) {
 
   const MatchChecks match_checks =
       arguments.has("--appearance-check")
-          ? matchChecks(arguments.get("--config"),
-                        arguments.has("--camera-info")
-                            ? readCameraInfoFile(arguments.get("--camera-info"))
-                            : CameraIntrinsics())
+          ? matchChecks(
+                arguments.get("--config"),
+                cameraInfoFor(arguments, imageLoader(memory, database_paths, image_width)(0)))
           : MatchChecks();
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
