@@ -210,8 +210,8 @@ void checkMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
   evaluation->metrics = computeMetrics(evaluation->outcomes);
   std::ostringstream text;
   if (summary.checked == 0) {
-    text << "nothing checked (no camera intrinsics, and the descriptor gives no feature-map "
-            "cells)";
+    text << "nothing checked (no camera intrinsics, and no feature-map cells or the appearance "
+            "check off)";
   } else {
     // The node publishes confirmed matches only: of the right best matches, the share it can
     // publish, and the wrong ones it would publish.
@@ -229,7 +229,7 @@ void checkMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
     text << "; the " << summary.refused << " refused ranked below the rest";
   }
   if (summary.checked > 0 && summary.unverifiable > 0) {
-    text << "; " << summary.unverifiable << " no check could run on left as they are";
+    text << "; " << summary.unverifiable << " left as they are (no check could run)";
   }
   evaluation->match_checks = text.str();
   std::printf("%-10s checks: %s\n", evaluation->name.c_str(), text.str().c_str());
