@@ -61,7 +61,8 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
                        (image_width, image_height, camera_matrix), scaled to the played size
                        (another aspect ratio than the images' stops the run); the geometric
-                       check then runs (bench/cameras/ has Gardens Point's)
+                       check then runs (bench/cameras/ has Gardens Point's); used by
+                       --detector and --appearance-check only
   Image folders have no odometry: images are 1 s and 1 m apart (standing still, see
   --still-threshold, adds no keyframe), the odometry gate is off. The corridor plays its drifting odometry and camera intrinsics; a bag plays every image
   with its odometry and camera_info, as the node receives them.
@@ -220,9 +221,13 @@ void checkMatches(Evaluation* evaluation, const DescriptorExtractor& extractor,
     if (checks.runsGeometry()) {
       text << "ORB min_inliers " << checks.geometry.min_inliers << ", then ";
     }
-    text << "appearance min_inliers " << checks.appearance.min_inliers << "): confirmed "
-         << summary.confirmed_correct << " of " << right << " right (" << std::fixed
-         << std::setprecision(3)
+    if (checks.appearance.enabled) {
+      text << "appearance min_inliers " << checks.appearance.min_inliers;
+    } else {
+      text << "appearance check off";
+    }
+    text << "): confirmed " << summary.confirmed_correct << " of " << right << " right ("
+         << std::fixed << std::setprecision(3)
          << (right > 0 ? static_cast<double>(summary.confirmed_correct) / right : 0.0) << ") and "
          << summary.confirmed_wrong << " of " << summary.checked - right << " wrong";
     if (checks.runsGeometry()) text << ", " << summary.confirmed_by_geometry << " of them by ORB";
@@ -421,6 +426,11 @@ int run(const Arguments& arguments) {
   if (!no_truth) requirePositives(truth, run.ground_truth);
   const CameraIntrinsics camera =
       cameraInfoFor(arguments, imageLoader(memory, database_paths, image_width)(0));
+  if (camera.valid() && !arguments.has("--detector") && !arguments.has("--appearance-check")) {
+    std::fprintf(stderr,
+                 "--camera-info is used by --detector and --appearance-check only: not used "
+                 "here\n");
+  }
   if (arguments.has("--dry-run") && !arguments.has("--detector")) {
     for (const std::string& name : names) descriptorVariant(name, arguments);
     std::printf(
@@ -475,12 +485,9 @@ int run(const Arguments& arguments) {
                 "the evaluated database images themselves (--train-on-eval)"};
   }
 
-  const MatchChecks match_checks =
-      arguments.has("--appearance-check")
-          ? matchChecks(
-                arguments.get("--config"),
-                cameraInfoFor(arguments, imageLoader(memory, database_paths, image_width)(0)))
-          : MatchChecks();
+  const MatchChecks match_checks = arguments.has("--appearance-check")
+                                       ? matchChecks(arguments.get("--config"), camera)
+                                       : MatchChecks();
   std::vector<Evaluation> evaluations;
   for (const std::string& name : names) {
     Variant variant = descriptorVariant(name, arguments);

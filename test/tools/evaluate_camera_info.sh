@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # lcd_evaluate checks --camera-info against the images before evaluating anything (as the node
 # checks camera_info against its images): another camera's calibration stops even a dry run with
-# a line naming both sizes; the shipped Gardens Point calibration passes. Reads Gardens Point from
+# a line naming both sizes; the shipped Gardens Point calibration passes; where nothing uses it,
+# it says so. Reads Gardens Point from
 # ../shared/data (CI has it).
 #   evaluate_camera_info.sh SOURCE_DIR LCD_EVALUATE
 set -euo pipefail
@@ -31,4 +32,19 @@ for mode in "--appearance-check" "--detector --as-sequence"; do
     $mode --camera-info "$source_dir/bench/cameras/gardens_point.yaml" \
     --output "$folder/results" --dry-run > /dev/null
 done
+# Single-image matching without the node's checks has no use for the calibration: it says so.
+"$evaluate" --database "$data/day_left" --queries "$data/day_right" --gt-aligned 3 --limit 5 \
+  --camera-info "$source_dir/bench/cameras/gardens_point.yaml" --output "$folder/results" \
+  --dry-run 2> "$folder/error.txt" > /dev/null
+grep -q "camera-info is used by --detector and --appearance-check only" "$folder/error.txt" ||
+  { echo "an unused --camera-info went unmentioned"; cat "$folder/error.txt"; exit 1; }
+# With the appearance check switched off, the checks line says so instead of naming its setting.
+printf 'verification:\n  appearance:\n    enabled: false\n' > "$folder/no_appearance.yaml"
+"$evaluate" --database "$data/day_left" --queries "$data/day_right" --gt-aligned 3 --limit 5 \
+  --descriptors hog --appearance-check --config "$folder/no_appearance.yaml" \
+  --camera-info "$source_dir/bench/cameras/gardens_point.yaml" --output "$folder/results" \
+  > "$folder/output.txt"
+grep -q "ORB min_inliers [0-9]*, then appearance check off)" "$folder/output.txt" ||
+  { echo "the checks line does not say the appearance check is off"; cat "$folder/output.txt"
+    exit 1; }
 echo "camera_info checked against the images in both modes"
