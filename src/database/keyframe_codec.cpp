@@ -420,7 +420,10 @@ void decodeRecord(const uint8_t* data, size_t size, KeyframeRecord* keyframe) {
     const cv::Mat boxes = expandedPixels(in.mat());
     if (!boxes.empty() && boxes.cols != 4) throw FormatError("landmark boxes of another shape");
     descriptor.landmark_boxes.resize(static_cast<size_t>(boxes.rows));
-    std::memcpy(descriptor.landmark_boxes.data(), boxes.data, boxes.total() * sizeof(float));
+    // An image without landmarks has no boxes, and memcpy takes no null pointer even for 0 bytes.
+    if (!boxes.empty()) {
+      std::memcpy(descriptor.landmark_boxes.data(), boxes.data, boxes.total() * sizeof(float));
+    }
     descriptor.landmark_features = readLandmarkFeatures(&in);
   } else {
     descriptor.landmark_boxes.resize(in.count(16));

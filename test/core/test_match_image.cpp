@@ -57,10 +57,10 @@ TEST(MatchImage, MissingMatchIsDrawnAsAPlaceholder) {
 TEST(MatchImage, DrawsAtMostTheStrongestLandmarkPairsInOneColourPerPair) {
   MatchView view = blackPair();
   view.landmark_pairs = {{cv::Rect2f(10, 10, 40, 30), cv::Rect2f(100, 50, 40, 30)}};
-  // More pairs than are drawn, each at its own place further down.
+  // More pairs than are drawn, each at its own place further down, all inside the 120 rows.
   for (int i = 1; i < 9; ++i) {
     view.landmark_pairs.push_back(
-        {cv::Rect2f(2, 10.0f * i + 40, 4, 4), cv::Rect2f(2, 10.0f * i + 40, 4, 4)});
+        {cv::Rect2f(2, 10.0f * i + 30, 4, 4), cv::Rect2f(2, 10.0f * i + 30, 4, 4)});
   }
   const cv::Mat picture = renderMatchImage(view, 240);
   // Height 240 doubles the 160x120 images: the first query box's corner lands at (20, 20), its
@@ -70,7 +70,7 @@ TEST(MatchImage, DrawsAtMostTheStrongestLandmarkPairsInOneColourPerPair) {
   EXPECT_NE(left, cv::Vec3b(0, 0, 0));
   EXPECT_EQ(left, right);
   const auto drawn = [&](int pair) {
-    return picture.at<cv::Vec3b>(kBand + 2 * (10 * pair + 40), 4) != cv::Vec3b(0, 0, 0);
+    return picture.at<cv::Vec3b>(kBand + 2 * (10 * pair + 30), 4) != cv::Vec3b(0, 0, 0);
   };
   for (int pair = 1; pair < static_cast<int>(MatchView::kMaxLandmarkPairs); ++pair) {
     EXPECT_TRUE(drawn(pair)) << pair;
