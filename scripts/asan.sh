@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 if [ "$#" -gt 0 ]; then
   TESTS=("$@")
 else
-  mapfile -t TESTS < <(grep -o 'test_[a-z0-9_]*' cmake/tests.cmake | grep -v '^test_core$' |
+  mapfile -t TESTS < <(grep -o 'test_[a-z0-9_]*' cmake/tests.cmake |
     sort -u | while read -r name; do [ -f "test/core/$name.cpp" ] && echo "$name"; done)
 fi
 LOG=_build_asan.log
