@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the database loader and the image/depth conversion for a bounded time each:
+# Fuzzes the database loader, the image/depth conversion and the pose graph for a bounded time
+# each:
 #   scripts/fuzz.sh [seconds per target, default 60]
 # Builds the libFuzzer targets with clang, AddressSanitizer and UndefinedBehaviorSanitizer in
 # _fuzz/, starts each from its seeds in fuzz/seeds/<target>/ (kept regression inputs included),
@@ -20,10 +21,10 @@ cmake -S . -B _fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCATKIN_ENABLE_TESTING=OF
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > _fuzz.log 2>&1 \
   || { cat _fuzz.log; exit 1; }
-cmake --build _fuzz --target fuzz_old_map_file fuzz_image_message -- -j"$(nproc)" >> _fuzz.log 2>&1 \
+cmake --build _fuzz --target fuzz_old_map_file fuzz_image_message fuzz_pose_graph -- -j"$(nproc)" >> _fuzz.log 2>&1 \
   || { tail -50 _fuzz.log; exit 1; }
 mkdir -p _fuzz/crashes
-for target in fuzz_old_map_file fuzz_image_message; do
+for target in fuzz_old_map_file fuzz_image_message fuzz_pose_graph; do
   corpus="_fuzz/corpus/$target"
   mkdir -p "$corpus"
   echo "fuzz: $target for ${seconds} s"

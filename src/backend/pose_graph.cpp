@@ -129,6 +129,9 @@ std::optional<Eigen::Matrix<double, 6, 6>> sqrtInformation(
   return Eigen::Matrix<double, 6, 6>(information_llt.matrixL().transpose());
 }
 
+// No odometry reaches this far (m, per coordinate); a position beyond it is a corrupt message.
+constexpr double kMaxOdometryCoordinateM = 1e9;
+
 // A loop's rotation block may be this far from orthonormal (R^T R - I, largest entry): about a
 // quaternion within 1e-3 of unit length, the keyframes' tolerance.
 constexpr double kRotationTolerance = 5e-3;
@@ -192,6 +195,12 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
   if (!odometry_pose.position.allFinite() || !odometry_pose.orientation.coeffs().allFinite() ||
       std::abs(odometry_pose.orientation.norm() - 1.0) > 1e-3) {
     return "keyframe " + std::to_string(id) + ": pose not finite or orientation not unit length";
+  }
+  // Far beyond it, squared distances overflow and the estimates turn into NaN, which Ceres
+  // aborts on.
+  if (odometry_pose.position.cwiseAbs().maxCoeff() > kMaxOdometryCoordinateM) {
+    return "keyframe " + std::to_string(id) +
+           ": position more than 1e9 m from the odometry's origin";
   }
   Node node;
   node.odometry = odometry_pose;
@@ -298,7 +307,8 @@ LoopVerdict PoseGraph::addLoop(const LoopConstraint& given) {
   } else {
     verdict.error_sd = checked->error_sd;
     verdict.detail = checked->detail;
-    if (checked->error_sd > options_.max_loop_error_sd) {
+    // A NaN error (an estimate or a covariance that arithmetic broke) is refused too.
+    if (!(checked->error_sd <= options_.max_loop_error_sd)) {
       verdict.decision = LoopDecision::kInconsistent;
     }
   }

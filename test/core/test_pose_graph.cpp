@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../fuzz/pose_graph_input.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/eval/trajectory_error.h"
@@ -315,6 +316,11 @@ TEST(PoseGraph, BadInputIsRefusedAndNamed) {
   Pose broken = planarPose(1, 0, 0);
   broken.position.x() = std::nan("");
   EXPECT_NE(graph.addKeyframe(4, broken), "");
+  // Finite, but its distance to the last keyframe overflows when squared (found by fuzzing: the
+  // estimates became NaN and Ceres aborted at the next optimisation).
+  Pose far = planarPose(1, 0, 0);
+  far.position.x() = 5e173;
+  EXPECT_NE(graph.addKeyframe(4, far).find("more than 1e9 m"), std::string::npos);
   EXPECT_EQ(graph.addKeyframe(5, planarPose(1, 0, 0)), "");
   EXPECT_EQ(graph.keyframes(), 2u);
 
@@ -500,6 +506,22 @@ TEST(PoseGraphReplay, TheDetectorsMetricLoopsCorrectItsKeyframesAndWrongOnesAreC
   ASSERT_EQ(replay.corrected.size(), drive.truth.size());
   EXPECT_LT(eval::trajectoryError(replay.corrected, drive.truth).first_pose_rmse, 0.10);
   EXPECT_GT(eval::trajectoryError(drive.odometry, drive.truth).first_pose_rmse, 0.5);
+}
+
+TEST(PoseGraph, EveryKeptFuzzInputLeavesFiniteEstimates) {
+  // scripts/fuzz.sh starts from these inputs and keeps the ones that once failed here.
+  namespace fs = std::filesystem;
+  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_pose_graph";
+  int inputs = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    SCOPED_TRACE(entry.path().string());
+    std::ifstream file(entry.path(), std::ios::binary);
+    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(file)),
+                                     std::istreambuf_iterator<char>());
+    EXPECT_TRUE(fuzz::replayPoseGraphInput(bytes.data(), bytes.size()));
+    ++inputs;
+  }
+  EXPECT_GE(inputs, 1);
 }
 
 }  // namespace

@@ -1,0 +1,128 @@
+#pragma once
+
+// How fuzz_pose_graph reads its input as a sequence of keyframes, loops and optimisations; tests
+// replay the kept inputs with it.
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+
+#include "landmark_loop_closure/backend/pose_graph.h"
+
+namespace landmark_loop_closure {
+namespace fuzz {
+
+// Reads the input as a stream; past its end every read gives 0.
+class ByteStream {
+ public:
+  ByteStream(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  bool empty() const { return offset_ >= size_; }
+  uint8_t byte() { return offset_ < size_ ? data_[offset_++] : 0; }
+
+  // Mostly small values (the size of real poses and covariances), sometimes one of the special
+  // ones, sometimes any 8 bytes.
+  double number() {
+    const uint8_t kind = byte();
+    if (kind < 8) {
+      static const double kSpecial[] = {0.0,
+                                        -0.0,
+                                        std::numeric_limits<double>::quiet_NaN(),
+                                        std::numeric_limits<double>::infinity(),
+                                        -std::numeric_limits<double>::infinity(),
+                                        std::numeric_limits<double>::denorm_min(),
+                                        1e-300,
+                                        1e300};
+      return kSpecial[kind];
+    }
+    if (kind < 24) {
+      double value = 0.0;
+      uint8_t bytes[sizeof(double)];
+      for (uint8_t& b : bytes) b = byte();
+      std::memcpy(&value, bytes, sizeof(value));
+      return value;
+    }
+    return static_cast<int8_t>(byte()) / 16.0;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t offset_ = 0;
+};
+
+inline Eigen::Quaterniond quaternion(ByteStream* in) {
+  // As a message carries it: four numbers, not necessarily of unit length.
+  const double x = in->number(), y = in->number(), z = in->number(), w = in->number();
+  return Eigen::Quaterniond(w, x, y, z);
+}
+
+inline bool finite(const Pose& pose) {
+  return pose.position.allFinite() && pose.orientation.coeffs().allFinite();
+}
+
+/// Byte 0-2 set the options that change the graph's paths (confirmations, drift estimate,
+/// iterations); then operations until the input ends (at most 64): a keyframe (id step, position,
+/// quaternion as a message carries it), a loop (ids, relative pose, covariance: diagonal, full or
+/// one variance) or an optimisation; one last optimisation. False when an estimate is not finite.
+inline bool replayPoseGraphInput(const uint8_t* data, size_t size) {
+  ByteStream in(data, size);
+  PoseGraphOptions options;
+  options.loop_confirmations = in.byte() % 3;
+  options.heading_drift_prior_sd_per_m = (in.byte() % 2) ? 0.01 : 0.0;
+  options.max_iterations = 1 + in.byte() % 20;
+  PoseGraph graph(options);
+  uint64_t next_id = 0;
+  for (int operations = 0; operations < 64 && !in.empty(); ++operations) {
+    switch (in.byte() % 4) {
+      case 0:
+      case 1: {
+        next_id += in.byte() % 4;  // 0 repeats the last id: refused.
+        Pose pose;
+        pose.position = Eigen::Vector3d(in.number(), in.number(), in.number());
+        pose.orientation = quaternion(&in);
+        graph.addKeyframe(next_id, pose);
+        break;
+      }
+      case 2: {
+        LoopConstraint loop;
+        const uint64_t span = next_id + 2;
+        loop.query_id = in.byte() % span;
+        loop.match_id = in.byte() % span;
+        const Eigen::Vector3d translation(in.number(), in.number(), in.number());
+        const Eigen::Quaterniond rotation = quaternion(&in);
+        loop.query_T_match.setIdentity();
+        loop.query_T_match.translate(translation);
+        // Not normalised: a rotation block that is not a rotation must be refused.
+        loop.query_T_match.linear() = scaledRotationMatrix(rotation);
+        const uint8_t covariance_kind = in.byte() % 3;
+        if (covariance_kind == 0) {
+          for (int k = 0; k < 6; ++k) loop.covariance(k, k) = in.number();
+        } else if (covariance_kind == 1) {
+          for (int r = 0; r < 6; ++r) {
+            for (int c = 0; c < 6; ++c) loop.covariance(r, c) = in.number();
+          }
+        } else {
+          const double variance = in.number();
+          loop.covariance = Eigen::Matrix<double, 6, 6>::Identity() * variance;
+        }
+        graph.addLoop(loop);
+        break;
+      }
+      default:
+        graph.optimise();
+        break;
+    }
+  }
+  graph.optimise();
+  for (const uint64_t id : graph.ids()) {
+    const std::optional<Pose> pose = graph.optimisedPose(id);
+    if (!pose || !finite(*pose)) return false;
+  }
+  return graph.mapFromOdometry().matrix().allFinite();
+}
+
+}  // namespace fuzz
+}  // namespace landmark_loop_closure
