@@ -129,9 +129,6 @@ std::optional<Eigen::Matrix<double, 6, 6>> sqrtInformation(
   return Eigen::Matrix<double, 6, 6>(information_llt.matrixL().transpose());
 }
 
-// No odometry reaches this far (m, per coordinate); a position beyond it is a corrupt message.
-constexpr double kMaxOdometryCoordinateM = 1e9;
-
 // A loop's rotation block may be this far from orthonormal (R^T R - I, largest entry): about a
 // quaternion within 1e-3 of unit length, the keyframes' tolerance.
 constexpr double kRotationTolerance = 5e-3;
@@ -196,9 +193,8 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
       std::abs(odometry_pose.orientation.norm() - 1.0) > 1e-3) {
     return "keyframe " + std::to_string(id) + ": pose not finite or orientation not unit length";
   }
-  // Far beyond it, squared distances overflow and the estimates turn into NaN, which Ceres
-  // aborts on.
-  if (odometry_pose.position.cwiseAbs().maxCoeff() > kMaxOdometryCoordinateM) {
+  // Its estimate would turn into NaN, which Ceres aborts on.
+  if (odometry_pose.position.cwiseAbs().maxCoeff() > kMaxPoseCoordinateM) {
     return "keyframe " + std::to_string(id) +
            ": position more than 1e9 m from the odometry's origin";
   }

@@ -53,6 +53,8 @@ const char* toString(InputErrorCode code) {
       return "stamp_not_increasing";
     case InputErrorCode::kNonFinitePose:
       return "non_finite_pose";
+    case InputErrorCode::kPoseOutOfRange:
+      return "pose_out_of_range";
     case InputErrorCode::kNonUnitQuaternion:
       return "non_unit_quaternion";
     case InputErrorCode::kNoTexture:
@@ -145,6 +147,12 @@ std::optional<InputError> checkPose(const Pose& pose, const InputLimits& limits)
     message << "pose has non-finite values: position (" << pose.position.transpose()
             << "), quaternion xyzw (" << q.transpose() << ")";
     return InputError{InputErrorCode::kNonFinitePose, message.str()};
+  }
+  if (pose.position.cwiseAbs().maxCoeff() > kMaxPoseCoordinateM) {
+    std::ostringstream message;
+    message << "pose position (" << pose.position.transpose() << ") is more than "
+            << kMaxPoseCoordinateM << " m from the odometry's origin";
+    return InputError{InputErrorCode::kPoseOutOfRange, message.str()};
   }
   const double norm = q.norm();
   if (std::abs(norm - 1.0) > limits.quaternion_norm_tolerance) {

@@ -39,6 +39,17 @@ TEST(CheckPose, RefusesNonFiniteValues) {
   EXPECT_EQ(checkPose(pose, InputLimits{})->code, InputErrorCode::kNonFinitePose);
 }
 
+TEST(CheckPose, RefusesAPositionNoOdometryReaches) {
+  Pose pose;
+  pose.position.z() = -5e173;  // Finite, but its distance to any other pose overflows.
+  const auto error = checkPose(pose, InputLimits{});
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, InputErrorCode::kPoseOutOfRange);
+  EXPECT_NE(error->message.find("-5e+173"), std::string::npos) << error->message;
+  pose.position = Eigen::Vector3d(-1e9, 1e9, 0.0);  // The limit itself is accepted.
+  EXPECT_FALSE(checkPose(pose, InputLimits{}));
+}
+
 TEST(CheckPose, RefusesNonUnitQuaternionButToleratesRounding) {
   Pose pose;
   pose.orientation = Eigen::Quaterniond(2.0, 0.0, 0.0, 0.0);

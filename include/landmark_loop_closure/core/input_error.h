@@ -23,6 +23,7 @@ enum class InputErrorCode {
   kStampNotIncreasing,
   kStampInFuture,  ///< Ahead of the receiving clock: it would wedge every later frame.
   kNonFinitePose,
+  kPoseOutOfRange,  ///< A coordinate beyond kMaxPoseCoordinateM: a corrupt message.
   kNonUnitQuaternion,
   kNoTexture,  ///< Nearly uniform image (lens cap, darkness, overexposure): all such look alike.
   kMalformedImage,  ///< Row step or data length that cannot hold the stated size and encoding.

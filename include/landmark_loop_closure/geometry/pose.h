@@ -9,6 +9,11 @@
 
 namespace landmark_loop_closure {
 
+/// No odometry reaches this far from its origin (m, per coordinate): a position beyond it is a
+/// corrupt message. Far beyond it, squared distances overflow and poses built from them turn into
+/// NaN.
+constexpr double kMaxPoseCoordinateM = 1e9;
+
 /// A rigid body pose in the odometry frame: position in metres, orientation as a unit quaternion.
 struct Pose {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
