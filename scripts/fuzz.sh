@@ -21,10 +21,11 @@ cmake -S . -B _fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCATKIN_ENABLE_TESTING=OF
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > _fuzz.log 2>&1 \
   || { cat _fuzz.log; exit 1; }
-cmake --build _fuzz --target fuzz_old_map_file fuzz_image_message fuzz_pose_graph -- -j"$(nproc)" >> _fuzz.log 2>&1 \
+TARGETS=(fuzz_old_map_file fuzz_image_message fuzz_pose_graph)
+cmake --build _fuzz --target "${TARGETS[@]}" -- -j"$(nproc)" >> _fuzz.log 2>&1 \
   || { tail -50 _fuzz.log; exit 1; }
 mkdir -p _fuzz/crashes
-for target in fuzz_old_map_file fuzz_image_message fuzz_pose_graph; do
+for target in "${TARGETS[@]}"; do
   corpus="_fuzz/corpus/$target"
   mkdir -p "$corpus"
   echo "fuzz: $target for ${seconds} s"

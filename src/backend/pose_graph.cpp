@@ -195,8 +195,10 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
   }
   // Its estimate would turn into NaN, which Ceres aborts on.
   if (odometry_pose.position.cwiseAbs().maxCoeff() > kMaxPoseCoordinateM) {
-    return "keyframe " + std::to_string(id) +
-           ": position more than 1e9 m from the odometry's origin";
+    std::ostringstream problem;
+    problem << "keyframe " << id << ": position more than " << kMaxPoseCoordinateM
+            << " m from the odometry's origin";
+    return problem.str();
   }
   Node node;
   node.odometry = odometry_pose;

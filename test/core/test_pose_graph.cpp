@@ -320,7 +320,7 @@ TEST(PoseGraph, BadInputIsRefusedAndNamed) {
   // estimates became NaN and Ceres aborted at the next optimisation).
   Pose far = planarPose(1, 0, 0);
   far.position.x() = 5e173;
-  EXPECT_NE(graph.addKeyframe(4, far).find("more than 1e9 m"), std::string::npos);
+  EXPECT_NE(graph.addKeyframe(4, far).find("more than 1e+09 m from"), std::string::npos);
   EXPECT_EQ(graph.addKeyframe(5, planarPose(1, 0, 0)), "");
   EXPECT_EQ(graph.keyframes(), 2u);
 
@@ -521,7 +521,7 @@ TEST(PoseGraph, EveryKeptFuzzInputLeavesFiniteEstimates) {
     EXPECT_TRUE(fuzz::replayPoseGraphInput(bytes.data(), bytes.size()));
     ++inputs;
   }
-  EXPECT_GE(inputs, 1);
+  EXPECT_GE(inputs, 3);
 }
 
 }  // namespace
