@@ -2,9 +2,7 @@
 // comes through, and every damaged, foreign or newer file is refused with a reason.
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -15,6 +13,7 @@
 #include "../../src/common/crc32c.h"
 #include "../../src/database/old_map_file.h"
 #include "file_bytes.h"
+#include "kept_fuzz_inputs.h"
 #include "keyframe_fixtures.h"
 #include "old_map_file_writer.h"
 
@@ -175,22 +174,18 @@ TEST(OldMapFileVersion1, IsStillReadAndItsRawThumbnailsAreCompressed) {
 }
 
 TEST(OldMapFileFuzzSeeds, EverySeedAndKeptCrashInputIsHandled) {
-  // scripts/fuzz.sh starts from these files and keeps inputs that once crashed the reader here.
-  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_old_map_file";
-  ASSERT_TRUE(fs::is_directory(folder));
-  int files = 0;
-  for (const auto& entry : fs::directory_iterator(folder)) {
-    SCOPED_TRACE(entry.path().string());
-    const ReadFile read = readFile(entry.path().string());
+  const std::vector<KeptFuzzInput> inputs = keptFuzzInputs("fuzz_old_map_file");
+  for (const KeptFuzzInput& input : inputs) {
+    SCOPED_TRACE(input.path.string());
+    const ReadFile read = readFile(input.path.string());
     // The seeds named *.lcdb are whole files of each version.
-    if (entry.path().extension() == ".lcdb") {
+    if (input.path.extension() == ".lcdb") {
       EXPECT_EQ(read.error, "");
       for (const KeyframeRecord& keyframe : read.keyframes)
         EXPECT_EQ(keyframe.descriptor.global.size(), 6u);
     }
-    ++files;
   }
-  EXPECT_GT(files, 0);
+  EXPECT_GT(inputs.size(), 0u);
 }
 
 TEST(Crc32c, MatchesTheStandardCheckValueOnEveryPath) {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "../../fuzz/pose_graph_input.h"
+#include "kept_fuzz_inputs.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/eval/trajectory_error.h"
@@ -509,19 +510,12 @@ TEST(PoseGraphReplay, TheDetectorsMetricLoopsCorrectItsKeyframesAndWrongOnesAreC
 }
 
 TEST(PoseGraph, EveryKeptFuzzInputLeavesFiniteEstimates) {
-  // scripts/fuzz.sh starts from these inputs and keeps the ones that once failed here.
-  namespace fs = std::filesystem;
-  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_pose_graph";
-  int inputs = 0;
-  for (const auto& entry : fs::directory_iterator(folder)) {
-    SCOPED_TRACE(entry.path().string());
-    std::ifstream file(entry.path(), std::ios::binary);
-    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(file)),
-                                     std::istreambuf_iterator<char>());
-    EXPECT_TRUE(fuzz::replayPoseGraphInput(bytes.data(), bytes.size()));
-    ++inputs;
+  const std::vector<KeptFuzzInput> inputs = keptFuzzInputs("fuzz_pose_graph");
+  for (const KeptFuzzInput& input : inputs) {
+    SCOPED_TRACE(input.path.string());
+    EXPECT_TRUE(fuzz::replayPoseGraphInput(input.bytes.data(), input.bytes.size()));
   }
-  EXPECT_GE(inputs, 3);
+  EXPECT_GE(inputs.size(), 3u);
 }
 
 }  // namespace

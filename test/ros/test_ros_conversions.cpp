@@ -1,8 +1,5 @@
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <map>
 
@@ -14,6 +11,7 @@
 #include "../../src/messages/ros_conversions.h"
 #include "../../src/ros/loop_markers.h"
 #include "../../src/ros/ros_parameter_source.h"
+#include "../core/kept_fuzz_inputs.h"
 
 using namespace landmark_loop_closure;
 
@@ -523,25 +521,18 @@ TEST(RosConversions, OdometryRejectionsCarryTheirNumbersInTheReason) {
 }
 
 TEST(RosConversions, EveryKeptFuzzInputIsRefusedOrConverted) {
-  // scripts/fuzz.sh starts from these inputs and keeps the ones that once crashed here.
-  namespace fs = std::filesystem;
-  const fs::path folder = fs::path(PACKAGE_SOURCE_DIR) / "fuzz" / "seeds" / "fuzz_image_message";
-  int inputs = 0;
-  for (const auto& entry : fs::directory_iterator(folder)) {
-    SCOPED_TRACE(entry.path().string());
-    std::ifstream file(entry.path(), std::ios::binary);
-    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(file)),
-                                     std::istreambuf_iterator<char>());
-    const sensor_msgs::Image image = fuzz::imageFromBytes(bytes.data(), bytes.size());
+  const std::vector<KeptFuzzInput> inputs = keptFuzzInputs("fuzz_image_message");
+  for (const KeptFuzzInput& input : inputs) {
+    SCOPED_TRACE(input.path.string());
+    const sensor_msgs::Image image = fuzz::imageFromBytes(input.bytes.data(), input.bytes.size());
     if (!checkImageMessage(image)) {
       EXPECT_EQ(toGrey(image).type(), CV_8UC1);
     }
     std::string error;
     const cv::Mat depth = toDepth(image, &error);
     EXPECT_NE(depth.empty(), error.empty());  // A depth image or a reason, never both.
-    ++inputs;
   }
-  EXPECT_GE(inputs, 5);
+  EXPECT_GE(inputs.size(), 5u);
 }
 
 TEST(RosParameterSource, IntegersAreStrictAndNumbersTakeIntegers) {
