@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Builds the core library and the tests of its threads (the runtime's worker and services, the
-# map's background check and stepped copy) with ThreadSanitizer in _build_tsan/, and runs them.
+# map's background check and stepped copy, the pose graph's worker) with ThreadSanitizer in
+# _build_tsan/, and runs them.
 # Fails on any report; test/tsan.supp lists the only ones ignored (lock order inside hnswlib and
 # GDAL, libraries we do not build). scripts/test.sh runs it after the other tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map)
+TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map test_pose_graph_session)
 LOG=_build_tsan.log
 echo "tsan: configuring and building ${TESTS[*]} (output in $LOG)"
 flags="-fsanitize=thread -O1 -g"

@@ -285,8 +285,19 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id
   return msg;
 }
 
-LoopConstraint loopConstraintFromMsg(const LoopClosure& loop) {
-  LoopConstraint constraint;
+GraphLoop graphLoopFromMsg(const LoopClosure& loop) {
+  GraphLoop graph_loop;
+  graph_loop.map_id = loop.map_id;
+  graph_loop.query_id = loop.query_id;
+  graph_loop.match_id = loop.match_id;
+  graph_loop.query_session = loop.query_session;
+  graph_loop.match_session = loop.match_session;
+  graph_loop.query_stamp_ns = loop.query_stamp.toNSec();
+  graph_loop.match_stamp_ns = loop.match_stamp.toNSec();
+  graph_loop.has_relative_pose = loop.has_relative_pose;
+  graph_loop.relative_pose_metric = loop.relative_pose_metric;
+  graph_loop.relative_pose_frame = loop.relative_pose_frame;
+  LoopConstraint& constraint = graph_loop.constraint;
   constraint.query_id = loop.query_id;
   constraint.match_id = loop.match_id;
   const Pose relative = fromRos(loop.relative_pose.pose);
@@ -295,7 +306,32 @@ LoopConstraint loopConstraintFromMsg(const LoopClosure& loop) {
   constraint.query_T_match.translation() = relative.position;
   constraint.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(
       loop.relative_pose.covariance.data());
-  return constraint;
+  return graph_loop;
+}
+
+GraphKeyframe graphKeyframeFromMsg(const Keyframe& keyframe) {
+  GraphKeyframe graph_keyframe;
+  graph_keyframe.id = keyframe.id;
+  graph_keyframe.map_id = keyframe.map_id;
+  graph_keyframe.odometry = fromRos(keyframe.pose);
+  graph_keyframe.stamp_ns = keyframe.header.stamp.toNSec();
+  graph_keyframe.odometry_frame = keyframe.header.frame_id;
+  return graph_keyframe;
+}
+
+PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::string& map_frame) {
+  PoseGraphLoop msg;
+  msg.query_stamp.fromNSec(verdict.loop.query_stamp_ns);
+  msg.match_stamp.fromNSec(verdict.loop.match_stamp_ns);
+  msg.header.stamp = msg.query_stamp;
+  msg.header.frame_id = map_frame;
+  msg.map_id = verdict.loop.map_id;
+  msg.query_id = verdict.loop.query_id;
+  msg.match_id = verdict.loop.match_id;
+  msg.decision = verdict.decision;
+  msg.error_sd = verdict.error_sd;
+  msg.detail = verdict.detail;
+  return msg;
 }
 
 }  // namespace landmark_loop_closure

@@ -14,7 +14,8 @@
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
-#include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/PoseGraphLoop.h"
+#include "landmark_loop_closure/backend/pose_graph_session.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 
@@ -64,6 +65,9 @@ uint8_t toMsgVerdict(CandidateVerdict verdict);
 
 /// A published loop as the pose graph takes it: ids, T_query_match and its covariance as the
 /// message carries them (relative_pose_frame's frame; loopInBaseFrame turns a camera one).
-LoopConstraint loopConstraintFromMsg(const LoopClosure& loop);
+GraphLoop graphLoopFromMsg(const LoopClosure& loop);
+GraphKeyframe graphKeyframeFromMsg(const Keyframe& keyframe);
+/// A pose graph's decision about a loop, stamped with the loop's query stamp, in `map_frame`.
+PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::string& map_frame);
 
 }  // namespace landmark_loop_closure

@@ -1,18 +1,12 @@
-// The pose_graph nodelet: keyframes and loops from the detector into the ROS-free PoseGraph, which
-// its own thread optimises whenever loops arrive; publishes the corrected keyframe path, the raw
-// odometry path, map -> odom on tf and a marker of the loops it refused.
-#include <algorithm>
-#include <chrono>
-#include <condition_variable>
+// The pose_graph nodelet: keyframes and loops from the detector into the ROS-free
+// PoseGraphRuntime, whose own thread optimises whenever loops arrive; publishes the corrected
+// keyframe path, the raw odometry path, map -> odom on tf, each loop's verdict and a marker of
+// the loops the graph refused.
 #include <cstdio>
-#include <deque>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
-#include <thread>
 #include <utility>
-#include <variant>
 
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
@@ -25,7 +19,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "landmark_loop_closure/PoseGraphLoop.h"
-#include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/backend/pose_graph_runtime.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 
@@ -57,7 +51,7 @@ geometry_msgs::PoseStamped stampedPose(const Pose& pose, const std::string& fram
 class PoseGraphNode {
  public:
   PoseGraphNode(ros::NodeHandle node, ros::NodeHandle private_node, PoseGraphNodeOptions options)
-      : options_(std::move(options)), graph_(std::make_unique<PoseGraph>(options_.graph)) {
+      : options_(options) {
     if (options_.camera_mount_from_tf) {
       tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
       tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
@@ -67,9 +61,19 @@ class PoseGraphNode {
     verdict_publisher_ = private_node.advertise<PoseGraphLoop>("loop_verdicts", 100);
     rejected_publisher_ =
         private_node.advertise<visualization_msgs::Marker>("rejected_loops", 1, true);
+    PoseGraphListener listener;
+    listener.step = [this](PoseGraphSession& session, const GraphStep& step) {
+      onStep(session, step);
+    };
+    listener.catch_up = [this](PoseGraphSession& session) {
+      publishPaths(session, pathStamp(session));
+    };
+    runtime_ = std::make_unique<PoseGraphRuntime>(
+        std::move(options),
+        [this](const std::string& frame, std::string* problem) { return mountOf(frame, problem); },
+        listener);
     keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
     loop_subscriber_ = node.subscribe("loop_closures", 100, &PoseGraphNode::onLoop, this);
-    worker_ = std::thread([this] { work(); });
     if (options_.publish_tf && options_.tf_rate_hz > 0.0) {
       tf_timer_ = node.createTimer(ros::Duration(1.0 / options_.tf_rate_hz),
                                    [this](const ros::TimerEvent&) { sendCorrection(); });
@@ -78,189 +82,65 @@ class PoseGraphNode {
 
   ~PoseGraphNode() {
     tf_timer_.stop();
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stopping_ = true;
+    keyframe_subscriber_.shutdown();
+    loop_subscriber_.shutdown();
+    runtime_->stop();
+    // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
+    const std::string summary = runtime_->summary();
+    if (ros::ok()) {
+      ROS_INFO("%s", summary.c_str());
+    } else {
+      std::fprintf(stderr, "%s\n", summary.c_str());
     }
-    wake_.notify_all();
-    if (worker_.joinable()) worker_.join();
-    summarise();
   }
 
  private:
-  using Input = std::variant<Keyframe, LoopClosure>;
+  void onKeyframe(const Keyframe& keyframe) { runtime_->push(graphKeyframeFromMsg(keyframe)); }
+  void onLoop(const LoopClosure& loop) { runtime_->push(graphLoopFromMsg(loop)); }
 
-  void onKeyframe(const Keyframe& keyframe) { push(keyframe); }
-  void onLoop(const LoopClosure& loop) { push(loop); }
-  void push(Input input) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      inputs_.push_back(std::move(input));
+  /// On the runtime's worker thread.
+  void onStep(PoseGraphSession& session, const GraphStep& step) {
+    for (const GraphNotice& notice : step.notices) log(notice);
+    for (const GraphLoopVerdict& verdict : step.verdicts) {
+      verdict_publisher_.publish(toPoseGraphLoopMsg(verdict, options_.map_frame));
     }
-    wake_.notify_one();
+    if (!step.changed) return;
+    const ros::Time stamp = pathStamp(session);
+    // Without the timer, the correction first: a viewer looking the path up at its stamp then
+    // finds it.
+    if (options_.publish_tf && options_.tf_rate_hz <= 0.0) sendCorrection(stamp);
+    if (step.publish_paths) publishPaths(session, stamp);
   }
 
-  void work() {
-    for (;;) {
-      std::deque<Input> batch;
-      bool woken = false;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        woken =
-            wake_.wait_for(lock, kPathCatchUp, [this] { return stopping_ || !inputs_.empty(); });
-        if (stopping_) return;
-        batch.swap(inputs_);
-      }
-      if (!woken) {
-        // Quiet for a while (the robot stopped, the bag ended): the paths show every keyframe.
-        if (graph_->keyframes() != keyframes_in_paths_) publishPaths(pathStamp());
-        continue;
-      }
-      // Everything that came meanwhile enters first; one optimisation then serves every loop.
-      bool new_loops = false;
-      bool new_keyframes = false;
-      for (const Input& input : batch) {
-        if (const auto* keyframe = std::get_if<Keyframe>(&input)) {
-          new_keyframes |= addKeyframe(*keyframe);
+  /// Each kind at its own call site, so that throttling one does not silence another.
+  static void log(const GraphNotice& notice) {
+    const char* text = notice.text.c_str();
+    switch (notice.kind) {
+      case GraphNotice::Kind::kKeyframeDropped:
+        ROS_WARN_THROTTLE(10.0, "Pose graph: %s", text);
+        break;
+      case GraphNotice::Kind::kNewGraph:
+        if (notice.throttle) {
+          ROS_WARN_THROTTLE(10.0, "Pose graph: %s", text);
         } else {
-          waiting_loops_.push_back(std::get<LoopClosure>(input));
+          ROS_WARN("Pose graph: %s", text);
         }
-      }
-      // A loop is published before its query keyframe: it waits for it (a few keyframes at most).
-      std::vector<LoopClosure> still_waiting;
-      for (const LoopClosure& loop : waiting_loops_) {
-        if (graph_->hasKeyframe(loop.query_id) || graph_->keyframes() == 0 ||
-            graph_->ids().back() > loop.query_id + kLoopWaitKeyframes) {
-          new_loops |= addLoop(loop);
-        } else {
-          still_waiting.push_back(loop);
-        }
-      }
-      // Loops waiting for keyframes that never come (ids from elsewhere) must not pile up.
-      while (still_waiting.size() > kMaxWaitingLoops) {
-        new_loops |= addLoop(still_waiting.front());
-        still_waiting.erase(still_waiting.begin());
-      }
-      waiting_loops_.swap(still_waiting);
-      if (new_loops) {
-        const OptimisationReport report = graph_->optimise();
-        if (report.ran) optimisation_ms_.push_back(report.milliseconds);
-        for (const uint64_t index : report.switched_off) {
-          const LoopVerdict& verdict = graph_->loopVerdicts()[index];
-          ROS_WARN("Pose graph: loop %lu -> %lu switched off: %s",
-                   static_cast<unsigned long>(graph_loops_[index].query_id),
-                   static_cast<unsigned long>(graph_loops_[index].match_id),
-                   verdict.detail.c_str());
-          publishVerdict(graph_loops_[index], toString(verdict.decision), verdict.error_sd,
-                         verdict.detail);
-        }
-      }
-      if (new_loops || new_keyframes) publish(new_loops);
+        break;
+      case GraphNotice::Kind::kLoopBadInput:
+        ROS_WARN_THROTTLE(10.0, "Pose graph: %s", text);
+        break;
+      case GraphNotice::Kind::kLoopRefused:
+      case GraphNotice::Kind::kLoopSwitchedOff:
+        ROS_WARN("Pose graph: %s", text);
+        break;
+      case GraphNotice::Kind::kLoopAwaiting:
+        ROS_DEBUG("Pose graph: %s", text);
+        break;
     }
-  }
-
-  bool addKeyframe(const Keyframe& keyframe) {
-    if (map_id_ && *map_id_ != keyframe.map_id) startOver(keyframe);
-    const std::string problem = graph_->addKeyframe(keyframe.id, fromRos(keyframe.pose));
-    if (!problem.empty()) {
-      ROS_WARN_THROTTLE(10.0, "Pose graph: keyframe dropped: %s", problem.c_str());
-      return false;
-    }
-    map_id_ = keyframe.map_id;
-    odometry_frame_ = keyframe.header.frame_id;
-    stamps_.push_back(keyframe.header.stamp);
-    return true;
-  }
-
-  /// The detector went on in another map (it was reset, loaded one, or restarted): a new graph
-  /// for it. While time goes on the odometry frame is the same, so the new graph starts from the
-  /// old one's correction (map -> odom does not jump); after time went back (a bag played again)
-  /// the odometry starts afresh, and so does the correction.
-  void startOver(const Keyframe& keyframe) {
-    const bool time_went_back = !stamps_.empty() && keyframe.header.stamp < stamps_.back();
-    const Eigen::Isometry3d correction =
-        time_went_back ? Eigen::Isometry3d::Identity() : graph_->mapFromOdometry();
-    char text[400];
-    std::snprintf(
-        text, sizeof(text),
-        "Pose graph: keyframe %lu is of map %lu, not %lu (the detector was reset, loaded a map or "
-        "restarted): a new graph starts with it, %s; the old graph's %zu keyframes and %zu loops "
-        "are dropped",
-        static_cast<unsigned long>(keyframe.id), static_cast<unsigned long>(keyframe.map_id),
-        static_cast<unsigned long>(*map_id_),
-        time_went_back ? "map -> odom from identity (time went back: a new timeline)"
-                       : "map -> odom where the old graph left it",
-        graph_->keyframes(), graph_->loopVerdicts().size());
-    // Throttled when the old graph had a single keyframe: two detectors on one topic would start
-    // a graph at every keyframe.
-    if (graph_->keyframes() > 1) {
-      ROS_WARN("%s", text);
-    } else {
-      ROS_WARN_THROTTLE(10.0, "%s", text);
-    }
-    for (const LoopVerdict& verdict : graph_->loopVerdicts()) {
-      ++earlier_decisions_[toString(verdict.decision)];
-    }
-    ++graphs_dropped_;
-    graph_ = std::make_unique<PoseGraph>(options_.graph, correction);
-    map_id_.reset();
-    stamps_.clear();
-    graph_loops_.clear();
-    paths_stale_ = true;
-  }
-
-  bool addLoop(const LoopClosure& loop) {
-    const char* left_out = nullptr;
-    if (!loop.has_relative_pose) {
-      left_out = "no relative pose (verified by appearance, or the pose was ambiguous)";
-    } else if (!loop.relative_pose_metric) {
-      left_out = "scale-free relative pose (a metric graph takes metric loops only)";
-    } else if (loop.query_session != loop.match_session) {
-      left_out = "it joins another run's map, whose odometry frame is not this one";
-    } else if (map_id_ && loop.map_id != *map_id_) {
-      left_out = "another map than the keyframes'";
-    }
-    std::optional<Eigen::Isometry3d> mount;
-    std::string mount_problem;
-    if (!left_out && loop.relative_pose_frame != options_.base_frame) {
-      mount = mountOf(loop.relative_pose_frame, &mount_problem);
-      if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
-    }
-    if (left_out) {
-      ++left_out_[left_out];
-      publishVerdict(loop, "left_out", 0.0, mount_problem.empty() ? left_out : mount_problem);
-      return false;
-    }
-    LoopConstraint constraint = loopConstraintFromMsg(loop);
-    if (mount) constraint = loopInBaseFrame(constraint, *mount);
-    graph_loops_.push_back(loop);
-    const LoopVerdict verdict = graph_->addLoop(constraint);
-    publishVerdict(loop, toString(verdict.decision), verdict.error_sd, verdict.detail);
-    for (const size_t index : verdict.confirmed) {
-      const LoopVerdict& confirmed = graph_->loopVerdicts()[index];
-      publishVerdict(graph_loops_[index], toString(confirmed.decision), confirmed.error_sd,
-                     confirmed.detail);
-    }
-    if (verdict.decision == LoopDecision::kAwaitingConfirmation) {
-      ROS_DEBUG("Pose graph: loop %lu -> %lu %s", static_cast<unsigned long>(loop.query_id),
-                static_cast<unsigned long>(loop.match_id), verdict.detail.c_str());
-    } else if (verdict.decision == LoopDecision::kUnknownKeyframe ||
-               verdict.decision == LoopDecision::kBadPose ||
-               verdict.decision == LoopDecision::kBadCovariance) {
-      ROS_WARN_THROTTLE(10.0, "Pose graph: loop %lu -> %lu dropped as bad input (%s): %s",
-                        static_cast<unsigned long>(loop.query_id),
-                        static_cast<unsigned long>(loop.match_id),
-                        toString(verdict.decision).c_str(), verdict.detail.c_str());
-    } else if (verdict.decision != LoopDecision::kAccepted) {
-      ROS_WARN("Pose graph: loop %lu -> %lu refused (%s): %s",
-               static_cast<unsigned long>(loop.query_id), static_cast<unsigned long>(loop.match_id),
-               toString(verdict.decision).c_str(), verdict.detail.c_str());
-    }
-    return verdict.decision == LoopDecision::kAccepted || !verdict.confirmed.empty();
   }
 
   /// base_frame <- `frame`: camera_mount, or tf's (latest, kept: a mount does not move). Empty,
-  /// with `problem` saying why, while tf does not know it.
+  /// with `problem` saying why, while tf does not know it. On the worker thread.
   std::optional<Eigen::Isometry3d> mountOf(const std::string& frame, std::string* problem) {
     const auto known = mounts_.find(frame);
     if (known != mounts_.end()) return known->second;
@@ -295,76 +175,47 @@ class PoseGraphNode {
     return std::nullopt;
   }
 
-  void publishVerdict(const LoopClosure& loop, const std::string& decision, double error_sd,
-                      const std::string& detail) {
-    PoseGraphLoop verdict;
-    verdict.header.stamp = loop.query_stamp;
-    verdict.header.frame_id = options_.map_frame;
-    verdict.map_id = loop.map_id;
-    verdict.query_id = loop.query_id;
-    verdict.match_id = loop.match_id;
-    verdict.query_stamp = loop.query_stamp;
-    verdict.match_stamp = loop.match_stamp;
-    verdict.decision = decision;
-    verdict.error_sd = error_sd;
-    verdict.detail = detail;
-    verdict_publisher_.publish(verdict);
-  }
-
   /// map_frame -> odometry frame, as the last keyframe left it; stamped tf_future_s ahead of
   /// the clock unless a stamp is given.
   void sendCorrection(std::optional<ros::Time> stamp = std::nullopt) {
-    std::optional<std::pair<Eigen::Isometry3d, std::string>> correction;
-    {
-      std::lock_guard<std::mutex> lock(correction_mutex_);
-      correction = correction_;
-    }
+    const std::optional<GraphCorrection> correction = runtime_->correction();
     if (!correction) return;
-    geometry_msgs::TransformStamped transform = tf2::eigenToTransform(correction->first);
+    geometry_msgs::TransformStamped transform =
+        tf2::eigenToTransform(correction->map_from_odometry);
     transform.header.stamp =
         stamp ? *stamp : ros::Time::now() + ros::Duration(options_.tf_future_s);
     transform.header.frame_id = options_.map_frame;
-    transform.child_frame_id = correction->second;
+    transform.child_frame_id = correction->odometry_frame;
     broadcaster_.sendTransform(transform);
   }
 
-  ros::Time pathStamp() const { return stamps_.empty() ? ros::Time::now() : stamps_.back(); }
-
-  void publish(bool optimised) {
-    const ros::Time stamp = pathStamp();
-    if (options_.publish_tf && !odometry_frame_.empty()) {
-      {
-        std::lock_guard<std::mutex> lock(correction_mutex_);
-        correction_ = {graph_->mapFromOdometry(), odometry_frame_};
-      }
-      // Without the timer, the correction first: a viewer looking the path up at its stamp
-      // then finds it.
-      if (options_.tf_rate_hz <= 0.0) sendCorrection(stamp);
-    }
-    // The whole corrected path after an optimisation, else every 10 keyframes (it grows), and
-    // when no input has come for a while (above).
-    if (optimised || paths_stale_ || graph_->keyframes() % 10 == 0) publishPaths(stamp);
+  static ros::Time pathStamp(const PoseGraphSession& session) {
+    ros::Time stamp;
+    return session.stampsNs().empty() ? ros::Time::now()
+                                      : stamp.fromNSec(session.stampsNs().back());
   }
 
-  void publishPaths(const ros::Time& stamp) {
-    if (paths_stale_) clearRejected(stamp);
-    paths_stale_ = false;
-    keyframes_in_paths_ = graph_->keyframes();
+  void publishPaths(PoseGraphSession& session, const ros::Time& stamp) {
+    if (session.pathsPublished()) clearRejected(stamp);
+    const PoseGraph& graph = session.graph();
+    const std::string& odometry_frame = session.odometryFrame();
     nav_msgs::Path corrected;
     nav_msgs::Path odometry;
     corrected.header.frame_id = options_.map_frame;
-    odometry.header.frame_id = odometry_frame_;
+    odometry.header.frame_id = odometry_frame;
     corrected.header.stamp = odometry.header.stamp = stamp;
-    const std::vector<uint64_t>& ids = graph_->ids();
+    const std::vector<uint64_t>& ids = graph.ids();
     for (size_t i = 0; i < ids.size(); ++i) {
+      ros::Time keyframe_stamp;
+      keyframe_stamp.fromNSec(session.stampsNs()[i]);
       corrected.poses.push_back(
-          stampedPose(*graph_->optimisedPose(ids[i]), options_.map_frame, stamps_[i]));
+          stampedPose(*graph.optimisedPose(ids[i]), options_.map_frame, keyframe_stamp));
       odometry.poses.push_back(
-          stampedPose(*graph_->odometryPose(ids[i]), odometry_frame_, stamps_[i]));
+          stampedPose(*graph.odometryPose(ids[i]), odometry_frame, keyframe_stamp));
     }
     corrected_publisher_.publish(corrected);
     odometry_publisher_.publish(odometry);
-    publishRejected(stamp);
+    publishRejected(session, stamp);
   }
 
   visualization_msgs::Marker rejectedMarker(const ros::Time& stamp) const {
@@ -382,7 +233,7 @@ class PoseGraphNode {
     rejected_publisher_.publish(marker);
   }
 
-  void publishRejected(const ros::Time& stamp) {
+  void publishRejected(const PoseGraphSession& session, const ros::Time& stamp) {
     visualization_msgs::Marker marker = rejectedMarker(stamp);
     marker.type = visualization_msgs::Marker::LINE_LIST;
     marker.action = visualization_msgs::Marker::ADD;
@@ -390,15 +241,16 @@ class PoseGraphNode {
     marker.scale.x = 0.03;
     marker.color.r = 1.0;
     marker.color.a = 1.0;
-    const std::vector<LoopVerdict>& verdicts = graph_->loopVerdicts();
+    const PoseGraph& graph = session.graph();
+    const std::vector<LoopVerdict>& verdicts = graph.loopVerdicts();
     for (size_t k = 0; k < verdicts.size(); ++k) {
       // A loop still awaiting confirmation is not a refusal (yet).
       if (verdicts[k].decision == LoopDecision::kAccepted ||
           verdicts[k].decision == LoopDecision::kAwaitingConfirmation) {
         continue;
       }
-      const std::optional<Pose> query = graph_->optimisedPose(graph_loops_[k].query_id);
-      const std::optional<Pose> match = graph_->optimisedPose(graph_loops_[k].match_id);
+      const std::optional<Pose> query = graph.optimisedPose(session.graphLoops()[k].query_id);
+      const std::optional<Pose> match = graph.optimisedPose(session.graphLoops()[k].match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;
@@ -412,81 +264,20 @@ class PoseGraphNode {
     if (!marker.points.empty()) rejected_publisher_.publish(marker);
   }
 
-  void summarise() const {
-    std::map<std::string, size_t> decisions = earlier_decisions_;
-    for (const LoopVerdict& verdict : graph_->loopVerdicts())
-      ++decisions[toString(verdict.decision)];
-    std::string text;
-    for (const auto& [decision, count] : decisions) {
-      text += " " + decision + " " + std::to_string(count);
-    }
-    for (const auto& [reason, count] : left_out_) {
-      text += "; left out " + std::to_string(count) + ": " + reason;
-    }
-    std::vector<double> times = optimisation_ms_;
-    std::sort(times.begin(), times.end());
-    const double median = times.empty() ? 0.0 : times[times.size() / 2];
-    // A rate of 0 from a graph told not to estimate one would read as a measurement.
-    char drift[64] = "not estimated";
-    if (options_.graph.heading_drift_prior_sd_per_m > 0.0) {
-      std::snprintf(drift, sizeof(drift), "estimated %.4f rad/m", graph_->headingDriftPerMetre());
-    }
-    char earlier[80] = "";
-    if (graphs_dropped_ > 0) {
-      std::snprintf(earlier, sizeof(earlier), " (%zu earlier graph(s) of other maps dropped)",
-                    graphs_dropped_);
-    }
-    char line[320];
-    std::snprintf(line, sizeof(line),
-                  "Pose graph: %zu keyframes%s; %zu optimisations, median %.1f ms; odometry "
-                  "heading drift %s;",
-                  graph_->keyframes(), earlier, times.size(), median, drift);
-    // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
-    if (ros::ok()) {
-      ROS_INFO("%s loops:%s", line, text.c_str());
-    } else {
-      std::fprintf(stderr, "%s loops:%s\n", line, text.c_str());
-    }
-  }
-
-  static constexpr uint64_t kLoopWaitKeyframes = 10;
-  static constexpr size_t kMaxWaitingLoops = 100;
-  static constexpr std::chrono::seconds kPathCatchUp{1};
-
-  PoseGraphNodeOptions options_;
-  std::unique_ptr<PoseGraph> graph_;
-  std::vector<LoopClosure> waiting_loops_;
-  std::optional<uint64_t> map_id_;
-  std::string odometry_frame_;
+  const PoseGraphNodeOptions options_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< camera_mount/from_tf only.
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::map<std::string, Eigen::Isometry3d> mounts_;  ///< base_frame <- each loop frame seen.
-  std::vector<ros::Time> stamps_;
-  std::vector<LoopClosure> graph_loops_;  ///< As given to the graph, in its loop order.
-  std::map<std::string, size_t> left_out_;
-  std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
-  size_t graphs_dropped_ = 0;
-  bool paths_stale_ = false;       ///< A new graph: its paths replace the old one's at once.
-  size_t keyframes_in_paths_ = 0;  ///< In the paths last published.
-  std::vector<double> optimisation_ms_;
 
   ros::Publisher corrected_publisher_;
   ros::Publisher odometry_publisher_;
   ros::Publisher rejected_publisher_;
   ros::Publisher verdict_publisher_;
+  tf2_ros::TransformBroadcaster broadcaster_;
+  std::unique_ptr<PoseGraphRuntime> runtime_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
-  tf2_ros::TransformBroadcaster broadcaster_;
   ros::Timer tf_timer_;
-  std::mutex correction_mutex_;
-  std::optional<std::pair<Eigen::Isometry3d, std::string>>
-      correction_;  ///< And the odometry frame.
-
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Input> inputs_;
-  bool stopping_ = false;
-  std::thread worker_;
 };
 
 class PoseGraphNodelet : public nodelet::Nodelet {

@@ -177,22 +177,6 @@ TEST(RosConversions, VerifiedLoopCarriesItsRelativePoseAndCovariance) {
   EXPECT_EQ(message.relative_pose_frame, "camera");
 }
 
-TEST(RosConversions, ALoopsQuaternionIsNotNormalisedOnItsWayToTheGraph) {
-  LoopClosure message;
-  message.relative_pose.pose.position.x = 0.5;
-  message.relative_pose.pose.orientation.z = std::sin(0.1);
-  message.relative_pose.pose.orientation.w = std::cos(0.1);
-  const LoopConstraint turned = loopConstraintFromMsg(message);
-  EXPECT_TRUE(isRotation(turned.query_T_match.linear(), 1e-12));
-  EXPECT_NEAR(Eigen::AngleAxisd(turned.query_T_match.rotation()).angle(), 0.2, 1e-12);
-  EXPECT_DOUBLE_EQ(turned.query_T_match.translation().x(), 0.5);
-  // A default-constructed orientation (all zeros) must not become "no rotation".
-  message.relative_pose.pose.orientation = geometry_msgs::Quaternion();
-  EXPECT_FALSE(isRotation(loopConstraintFromMsg(message).query_T_match.linear(), 5e-3));
-  message.relative_pose.pose.orientation.w = 2.0;
-  EXPECT_FALSE(isRotation(loopConstraintFromMsg(message).query_T_match.linear(), 5e-3));
-}
-
 TEST(RosConversions, DepthImagesOf16And32BitsAreCopied) {
   std::string error;
   sensor_msgs::Image millimetres = makeImage("16UC1", 4, 3, 2);

@@ -1,0 +1,71 @@
+// The pose graph as a running service, without ROS: inputs are queued on the caller's thread,
+// which never waits for an optimisation; one worker thread takes whatever came meanwhile into
+// the PoseGraphSession and tells the listener. map -> odom is readable from any thread.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "landmark_loop_closure/backend/pose_graph_session.h"
+
+namespace landmark_loop_closure {
+
+/// Called on the worker thread; the session is the worker's own until the call returns.
+struct PoseGraphListener {
+  /// A batch of inputs went into the graph.
+  std::function<void(PoseGraphSession&, const GraphStep&)> step;
+  /// No input came for the catch-up time and the last paths miss keyframes (the robot stopped,
+  /// the bag ended): the paths should show every keyframe.
+  std::function<void(PoseGraphSession&)> catch_up;
+};
+
+/// map_frame -> the odometry frame, and that frame's name.
+struct GraphCorrection {
+  Eigen::Isometry3d map_from_odometry = Eigen::Isometry3d::Identity();
+  std::string odometry_frame;
+};
+
+class PoseGraphRuntime {
+ public:
+  /// Starts the worker.
+  PoseGraphRuntime(PoseGraphNodeOptions options, MountLookup mount, PoseGraphListener listener,
+                   std::chrono::milliseconds catch_up = std::chrono::seconds(1));
+  /// stop().
+  ~PoseGraphRuntime();
+  PoseGraphRuntime(const PoseGraphRuntime&) = delete;
+  PoseGraphRuntime& operator=(const PoseGraphRuntime&) = delete;
+
+  /// Any thread; returns at once.
+  void push(PoseGraphSession::Input input);
+  /// Any thread: the correction after the last keyframe that entered; nullopt before the first.
+  std::optional<GraphCorrection> correction() const;
+  /// Joins the worker; inputs still queued are not processed. Idempotent.
+  void stop();
+  /// After stop(): PoseGraphSession::summary().
+  std::string summary() const;
+
+ private:
+  void work();
+
+  PoseGraphSession session_;
+  PoseGraphListener listener_;
+  const std::chrono::milliseconds catch_up_;
+
+  mutable std::mutex correction_mutex_;
+  std::optional<GraphCorrection> correction_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::vector<PoseGraphSession::Input> inputs_;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+}  // namespace landmark_loop_closure

@@ -1,0 +1,135 @@
+// The pose_graph node's bookkeeping without ROS or threads: keyframes and loops, in the order they
+// come, into the reference PoseGraph. A loop waits for its query keyframe (the detector may
+// publish it first); a keyframe of another map starts a new graph; a loop the metric graph cannot
+// take is left out with its reason. The node converts messages and publishes what it is told.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "landmark_loop_closure/backend/pose_graph.h"
+
+namespace landmark_loop_closure {
+
+/// A keyframe as the detector publishes it (Keyframe.msg).
+struct GraphKeyframe {
+  uint64_t id = 0;
+  uint64_t map_id = 0;
+  Pose odometry;
+  uint64_t stamp_ns = 0;
+  std::string odometry_frame;
+};
+
+/// What the graph reads of a loop the detector publishes (LoopClosure.msg).
+struct GraphLoop {
+  uint64_t map_id = 0;
+  uint64_t query_id = 0;
+  uint64_t match_id = 0;
+  uint32_t query_session = 0;
+  uint32_t match_session = 0;
+  uint64_t query_stamp_ns = 0;
+  uint64_t match_stamp_ns = 0;
+  bool has_relative_pose = false;
+  bool relative_pose_metric = false;
+  std::string relative_pose_frame;
+  /// query_T_match and its covariance, in relative_pose_frame.
+  LoopConstraint constraint;
+};
+
+/// One decision about a loop (PoseGraphLoop.msg). A loop may get several: awaiting confirmation
+/// then accepted, accepted then switched off.
+struct GraphLoopVerdict {
+  GraphLoop loop;
+  std::string decision;  ///< toString(LoopDecision), or "left_out".
+  double error_sd = 0.0;
+  std::string detail;
+};
+
+/// A line for the log; its kind lets the node throttle each kind on its own.
+struct GraphNotice {
+  enum class Kind {
+    kKeyframeDropped,  ///< Bad input: a warning, throttled.
+    kNewGraph,         ///< A warning; `throttle` when the old graph held a single keyframe.
+    kLoopBadInput,     ///< A warning, throttled.
+    kLoopRefused,      ///< A warning.
+    kLoopSwitchedOff,  ///< A warning.
+    kLoopAwaiting,     ///< Debug.
+  };
+  Kind kind = Kind::kLoopRefused;
+  std::string text;
+  bool throttle = false;
+};
+
+/// base_frame <- `frame` (where the camera sits, or tf's answer); nullopt, with `problem` set,
+/// when it is not known.
+using MountLookup =
+    std::function<std::optional<Eigen::Isometry3d>(const std::string& frame, std::string* problem)>;
+
+/// What one batch of inputs did.
+struct GraphStep {
+  std::vector<GraphLoopVerdict> verdicts;  ///< In the order they were made.
+  std::vector<GraphNotice> notices;
+  bool changed = false;        ///< A keyframe or a loop entered: map -> odom may have moved.
+  bool publish_paths = false;  ///< After an optimisation, a new graph, or every 10 keyframes.
+};
+
+class PoseGraphSession {
+ public:
+  using Input = std::variant<GraphKeyframe, GraphLoop>;
+
+  /// `mount` is asked for each loop frame other than options.base_frame.
+  PoseGraphSession(PoseGraphNodeOptions options, MountLookup mount);
+
+  /// Everything that came meanwhile enters first; one optimisation then serves every new loop.
+  GraphStep process(const std::vector<Input>& batch);
+
+  /// The paths show the graph as it is now; true (once) when a new graph replaced the one they
+  /// showed, whose refusals must then leave the view.
+  bool pathsPublished();
+  /// The graph holds keyframes the paths last published do not show.
+  bool pathsBehind() const { return graph_->keyframes() != keyframes_in_paths_; }
+
+  const PoseGraph& graph() const { return *graph_; }
+  /// Each keyframe's stamp, in the graph's keyframe order.
+  const std::vector<uint64_t>& stampsNs() const { return stamps_ns_; }
+  /// The loops given to the graph, in its loop order (PoseGraph::loopVerdicts' indices).
+  const std::vector<GraphLoop>& graphLoops() const { return graph_loops_; }
+  /// The odometry frame of the keyframes; empty before the first.
+  const std::string& odometryFrame() const { return odometry_frame_; }
+  /// One line: keyframes, optimisations and their median time, the heading drift, every
+  /// decision and every reason for leaving a loop out, earlier maps' graphs included.
+  std::string summary() const;
+
+ private:
+  bool addKeyframe(const GraphKeyframe& keyframe, GraphStep* step);
+  void startOver(const GraphKeyframe& keyframe, GraphStep* step);
+  bool addLoop(const GraphLoop& loop, GraphStep* step);
+
+  static constexpr uint64_t kLoopWaitKeyframes = 10;
+  static constexpr size_t kMaxWaitingLoops = 100;
+
+  PoseGraphNodeOptions options_;
+  MountLookup mount_;
+  std::unique_ptr<PoseGraph> graph_;
+  std::vector<GraphLoop> waiting_loops_;
+  std::optional<uint64_t> map_id_;
+  std::string odometry_frame_;
+  std::vector<uint64_t> stamps_ns_;
+  std::vector<GraphLoop> graph_loops_;
+  std::map<std::string, size_t> left_out_;
+  std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
+  size_t graphs_dropped_ = 0;
+  bool paths_stale_ = false;       ///< A new graph: its paths replace the old one's at once.
+  size_t keyframes_in_paths_ = 0;  ///< In the paths last published.
+  std::vector<double> optimisation_ms_;
+};
+
+}  // namespace landmark_loop_closure

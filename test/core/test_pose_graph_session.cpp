@@ -1,0 +1,288 @@
+// The pose_graph node's bookkeeping (PoseGraphSession) and its thread (PoseGraphRuntime), without
+// ROS: what enters the graph, what waits, what is left out and why, and a new graph per map.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/backend/pose_graph_runtime.h"
+#include "landmark_loop_closure/backend/pose_graph_session.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+constexpr uint64_t kMap = 7;
+constexpr uint64_t kSecond = 1000000000ull;
+
+/// Along x, 1 m a keyframe, one keyframe a second.
+GraphKeyframe keyframeAt(uint64_t id, uint64_t map_id = kMap, uint64_t stamp_ns = 0) {
+  GraphKeyframe keyframe;
+  keyframe.id = id;
+  keyframe.map_id = map_id;
+  keyframe.odometry.position = Eigen::Vector3d(static_cast<double>(id), 0.0, 0.0);
+  keyframe.stamp_ns = stamp_ns > 0 ? stamp_ns : (id + 1) * kSecond;
+  keyframe.odometry_frame = "odom";
+  return keyframe;
+}
+
+/// A metric loop in the base frame whose relative pose is the odometry's own (a true one).
+GraphLoop loopBetween(uint64_t query, uint64_t match) {
+  GraphLoop loop;
+  loop.map_id = kMap;
+  loop.query_id = loop.constraint.query_id = query;
+  loop.match_id = loop.constraint.match_id = match;
+  loop.query_stamp_ns = (query + 1) * kSecond;
+  loop.match_stamp_ns = (match + 1) * kSecond;
+  loop.has_relative_pose = true;
+  loop.relative_pose_metric = true;
+  loop.relative_pose_frame = "base_link";
+  loop.constraint.query_T_match.translation() =
+      Eigen::Vector3d(static_cast<double>(match) - static_cast<double>(query), 0.0, 0.0);
+  loop.constraint.covariance = 1e-4 * Eigen::Matrix<double, 6, 6>::Identity();
+  return loop;
+}
+
+/// Knows "camera" only (0.2 m ahead of the base); says why for any other frame.
+std::optional<Eigen::Isometry3d> cameraOnly(const std::string& frame, std::string* problem) {
+  if (frame == "camera") return Eigen::Isometry3d(Eigen::Translation3d(0.2, 0.0, 0.0));
+  *problem = "no tf base_link -> '" + frame + "'";
+  return std::nullopt;
+}
+
+PoseGraphNodeOptions eachLoopOnItsOwn() {
+  PoseGraphNodeOptions options;
+  options.graph.loop_confirmations = 0;
+  return options;
+}
+
+std::vector<PoseGraphSession::Input> keyframes(uint64_t first, uint64_t end) {
+  std::vector<PoseGraphSession::Input> inputs;
+  for (uint64_t id = first; id < end; ++id) inputs.emplace_back(keyframeAt(id));
+  return inputs;
+}
+
+bool hasNotice(const GraphStep& step, GraphNotice::Kind kind, const std::string& part) {
+  return std::any_of(step.notices.begin(), step.notices.end(), [&](const GraphNotice& notice) {
+    return notice.kind == kind && notice.text.find(part) != std::string::npos;
+  });
+}
+
+TEST(PoseGraphSession, ALoopPublishedBeforeItsQueryKeyframeWaitsForIt) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 5));
+  const GraphStep early = session.process({loopBetween(6, 1)});
+  EXPECT_TRUE(early.verdicts.empty());
+  EXPECT_FALSE(early.changed);
+  EXPECT_EQ(session.graph().loops(), 0u);
+
+  const GraphStep arrived = session.process(keyframes(5, 7));
+  ASSERT_EQ(arrived.verdicts.size(), 1u);
+  EXPECT_EQ(arrived.verdicts[0].decision, "accepted");
+  EXPECT_EQ(arrived.verdicts[0].loop.query_stamp_ns, 7 * kSecond);
+  EXPECT_TRUE(arrived.changed);
+  EXPECT_TRUE(arrived.publish_paths);  // It was optimised.
+  EXPECT_EQ(session.graph().activeLoops(), 1u);
+  ASSERT_EQ(session.graphLoops().size(), 1u);
+  EXPECT_EQ(session.graphLoops()[0].query_id, 6u);
+}
+
+TEST(PoseGraphSession, LoopsTheMetricGraphCannotTakeAreLeftOutWithTheirReason) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 20));
+  GraphLoop appearance_only = loopBetween(15, 2);
+  appearance_only.has_relative_pose = false;
+  GraphLoop scale_free = loopBetween(16, 2);
+  scale_free.relative_pose_metric = false;
+  GraphLoop earlier_run = loopBetween(17, 2);
+  earlier_run.match_session = 1;
+  earlier_run.query_session = 2;
+  GraphLoop other_map = loopBetween(18, 2);
+  other_map.map_id = kMap + 1;
+  GraphLoop unknown_frame = loopBetween(19, 2);
+  unknown_frame.relative_pose_frame = "rear_camera";
+  const GraphStep step =
+      session.process({appearance_only, scale_free, earlier_run, other_map, unknown_frame});
+  ASSERT_EQ(step.verdicts.size(), 5u);
+  for (const GraphLoopVerdict& verdict : step.verdicts) {
+    EXPECT_EQ(verdict.decision, "left_out") << verdict.loop.query_id;
+    EXPECT_EQ(verdict.error_sd, 0.0);
+  }
+  EXPECT_NE(step.verdicts[0].detail.find("no relative pose"), std::string::npos);
+  EXPECT_NE(step.verdicts[1].detail.find("scale-free"), std::string::npos);
+  EXPECT_NE(step.verdicts[2].detail.find("another run's map"), std::string::npos);
+  EXPECT_NE(step.verdicts[3].detail.find("another map"), std::string::npos);
+  EXPECT_EQ(step.verdicts[4].detail, "no tf base_link -> 'rear_camera'");  // The lookup's words.
+  EXPECT_FALSE(step.changed);
+  EXPECT_EQ(session.graph().loops(), 0u);
+  const std::string summary = session.summary();
+  EXPECT_NE(summary.find("left out 1: scale-free"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("left out 1: its frame is not on tf"), std::string::npos) << summary;
+}
+
+TEST(PoseGraphSession, ALoopInTheCameraFrameIsTurnedIntoTheBaseFrame) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 20));
+  // Seen from a camera 0.2 m ahead of the base, the true loop has the same translation (the
+  // camera is not turned): in the base frame it is the odometry's, so it fits.
+  GraphLoop camera_loop = loopBetween(19, 3);
+  camera_loop.relative_pose_frame = "camera";
+  const GraphStep step = session.process({camera_loop});
+  ASSERT_EQ(step.verdicts.size(), 1u);
+  EXPECT_EQ(step.verdicts[0].decision, "accepted") << step.verdicts[0].detail;
+}
+
+TEST(PoseGraphSession, BadInputIsNamedAndTheGraphKeepsWhatItHas) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 5));
+  GraphKeyframe broken = keyframeAt(5);
+  broken.odometry.position.x() = std::nan("");
+  const GraphStep dropped = session.process({broken});
+  EXPECT_TRUE(hasNotice(dropped, GraphNotice::Kind::kKeyframeDropped, "keyframe dropped: "));
+  EXPECT_FALSE(dropped.changed);
+  EXPECT_EQ(session.graph().keyframes(), 5u);
+
+  GraphLoop no_covariance = loopBetween(4, 1);
+  no_covariance.constraint.covariance.setZero();
+  const GraphStep refused = session.process({no_covariance});
+  ASSERT_EQ(refused.verdicts.size(), 1u);
+  EXPECT_EQ(refused.verdicts[0].decision, "bad_covariance");
+  EXPECT_TRUE(
+      hasNotice(refused, GraphNotice::Kind::kLoopBadInput, "loop 4 -> 1 dropped as bad input"));
+
+  GraphLoop far_off = loopBetween(4, 1);
+  far_off.constraint.query_T_match.translation().y() = 50.0;
+  const GraphStep inconsistent = session.process({far_off});
+  ASSERT_EQ(inconsistent.verdicts.size(), 1u);
+  EXPECT_EQ(inconsistent.verdicts[0].decision, "inconsistent");
+  EXPECT_TRUE(hasNotice(inconsistent, GraphNotice::Kind::kLoopRefused, "loop 4 -> 1 refused"));
+  EXPECT_EQ(session.graph().activeLoops(), 0u);
+  EXPECT_EQ(session.graph().keyframes(), 5u);
+}
+
+TEST(PoseGraphSession, LoopsForKeyframesThatNeverComeDoNotPileUp) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 5));
+  std::vector<PoseGraphSession::Input> strays;
+  for (uint64_t k = 0; k < 150; ++k) strays.emplace_back(loopBetween(1000 + k, 1));
+  const GraphStep step = session.process(strays);
+  // 100 wait for their keyframes; the oldest 50 go to the graph, which does not know them.
+  ASSERT_EQ(step.verdicts.size(), 50u);
+  for (const GraphLoopVerdict& verdict : step.verdicts) {
+    EXPECT_EQ(verdict.decision, "unknown_keyframe");
+  }
+  EXPECT_EQ(step.verdicts.front().loop.query_id, 1000u);
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput, "keyframe 1000 is not in"));
+}
+
+TEST(PoseGraphSession, AKeyframeOfAnotherMapStartsANewGraph) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 12));
+  // The odometry overestimated the 10 m by 0.3 m: the graph moves the last keyframe back.
+  GraphLoop shorter = loopBetween(11, 1);
+  shorter.constraint.query_T_match.translation().x() += 0.3;
+  ASSERT_EQ(session.process({shorter}).verdicts.at(0).decision, "accepted");
+  const Eigen::Isometry3d correction = session.graph().mapFromOdometry();
+  EXPECT_GT(correction.translation().norm(), 0.1);
+  EXPECT_FALSE(session.pathsPublished());  // The first graph: nothing to clear.
+  EXPECT_FALSE(session.pathsBehind());
+
+  // The detector was reset: a new map, time going on.
+  const GraphStep reset = session.process({keyframeAt(0, kMap + 1, 20 * kSecond)});
+  EXPECT_TRUE(hasNotice(reset, GraphNotice::Kind::kNewGraph,
+                        "map -> odom where the old graph left it; the old graph's 12 keyframes "
+                        "and 1 loops are dropped"));
+  EXPECT_FALSE(reset.notices[0].throttle);
+  EXPECT_TRUE(reset.publish_paths);  // The old graph's paths are replaced at once...
+  EXPECT_EQ(session.graph().keyframes(), 1u);
+  EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(correction));  // map -> odom holds.
+  EXPECT_TRUE(session.pathsPublished());  // ...and its refusals cleared, once.
+  EXPECT_FALSE(session.pathsPublished());
+
+  // The bag played again: time went back, the odometry starts afresh.
+  const GraphStep replay = session.process({keyframeAt(0, kMap, 1 * kSecond)});
+  EXPECT_TRUE(hasNotice(replay, GraphNotice::Kind::kNewGraph, "from identity (time went back"));
+  EXPECT_TRUE(replay.notices[0].throttle);  // The graph it replaced held one keyframe.
+  EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(Eigen::Isometry3d::Identity()));
+  const std::string summary = session.summary();
+  EXPECT_NE(summary.find("1 keyframes (2 earlier graph(s) of other maps dropped)"),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("accepted 1"), std::string::npos) << summary;
+}
+
+TEST(PoseGraphSession, PathsArePublishedEveryTenKeyframesAndAfterEachOptimisation) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  std::vector<bool> published;
+  for (uint64_t id = 0; id < 20; ++id) {
+    published.push_back(session.process({keyframeAt(id)}).publish_paths);
+  }
+  for (uint64_t id = 0; id < 20; ++id) EXPECT_EQ(published[id], (id + 1) % 10 == 0) << id;
+  EXPECT_TRUE(session.process({loopBetween(19, 4)}).publish_paths);
+  EXPECT_FALSE(session.process({}).publish_paths);
+}
+
+TEST(PoseGraphRuntime, InputsFromSeveralThreadsAllEnterWhileTheCorrectionIsRead) {
+  std::mutex mutex;
+  std::condition_variable changed;
+  size_t keyframes_seen = 0;
+  size_t verdicts_seen = 0;
+  bool caught_up = false;
+  PoseGraphListener listener;
+  listener.step = [&](PoseGraphSession& session, const GraphStep& step) {
+    std::lock_guard<std::mutex> lock(mutex);
+    keyframes_seen = session.graph().keyframes();
+    verdicts_seen += step.verdicts.size();
+    changed.notify_all();
+  };
+  listener.catch_up = [&](PoseGraphSession& session) {
+    session.pathsPublished();
+    std::lock_guard<std::mutex> lock(mutex);
+    caught_up = true;
+    changed.notify_all();
+  };
+  PoseGraphRuntime runtime(eachLoopOnItsOwn(), cameraOnly, listener, std::chrono::milliseconds(20));
+  EXPECT_FALSE(runtime.correction().has_value());
+  constexpr uint64_t kKeyframes = 205;  // Not a multiple of 10: the last paths need a catch-up.
+  std::atomic<bool> done{false};
+  std::thread keyframe_source([&] {
+    for (uint64_t id = 0; id < kKeyframes; ++id) runtime.push(keyframeAt(id));
+  });
+  std::thread loop_source([&] {
+    for (uint64_t query = 100; query < kKeyframes; query += 5) {
+      runtime.push(loopBetween(query, query - 100));
+    }
+  });
+  std::thread reader([&] {
+    while (!done) {
+      const std::optional<GraphCorrection> correction = runtime.correction();
+      if (correction) {
+        EXPECT_EQ(correction->odometry_frame, "odom");
+      }
+    }
+  });
+  keyframe_source.join();
+  loop_source.join();
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    EXPECT_TRUE(changed.wait_for(
+        lock, std::chrono::seconds(60),
+        [&] { return keyframes_seen == kKeyframes && verdicts_seen >= 21 && caught_up; }))
+        << keyframes_seen << " keyframes, " << verdicts_seen << " verdicts";
+  }
+  done = true;
+  reader.join();
+  runtime.stop();
+  runtime.stop();  // Idempotent.
+  ASSERT_TRUE(runtime.correction().has_value());
+  EXPECT_NE(runtime.summary().find("205 keyframes"), std::string::npos) << runtime.summary();
+}
+
+}  // namespace
+}  // namespace landmark_loop_closure
