@@ -1,6 +1,8 @@
 #include "landmark_loop_closure/eval/trajectory_error.h"
 
 #include <cmath>
+#include <optional>
+#include <string>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -39,22 +41,41 @@ TrajectoryError trajectoryError(const std::vector<Pose>& estimated,
 PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
                                     const PoseGraphOptions& options) {
   PoseGraphReplay replay;
-  PoseGraph graph(options);
+  PoseGraphNodeOptions node_options;
+  node_options.graph = options;
+  // The loops are in the base frame already (metric_pose): no frame is looked up.
+  PoseGraphSession session(node_options, [](const std::string& frame, std::string* problem) {
+    *problem = "no mount for " + frame;
+    return std::optional<Eigen::Isometry3d>();
+  });
   std::vector<const PublishedLoop*> loops;
   for (const PublishedLoop& loop : evaluation.configured.loops) {
     if (loop.metric_pose) loops.push_back(&loop);
   }
+  constexpr uint64_t kSecond = 1000000000ull;
   size_t next = 0;
   for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
-    graph.addKeyframe(id, evaluation.keyframe_poses[id]);
-    bool added = false;
+    GraphKeyframe keyframe;
+    keyframe.id = id;
+    keyframe.odometry = evaluation.keyframe_poses[id];
+    keyframe.stamp_ns = (id + 1) * kSecond;
+    keyframe.odometry_frame = "odom";
+    std::vector<PoseGraphSession::Input> batch{keyframe};
     for (; next < loops.size() && loops[next]->query_id == id; ++next) {
-      graph.addLoop(*loops[next]->metric_pose);
+      GraphLoop loop;
+      loop.query_id = loops[next]->query_id;
+      loop.match_id = loops[next]->match_id;
+      loop.has_relative_pose = loop.relative_pose_metric = true;
+      loop.relative_pose_frame = node_options.base_frame;
+      loop.constraint = *loops[next]->metric_pose;
+      batch.emplace_back(loop);
       ++replay.metric_loops;
-      added = true;
     }
-    if (added) graph.optimise();
+    session.process(batch);
   }
+  // Every loop of one map and session in the base frame enters the graph: its loop order is
+  // `loops`'.
+  const PoseGraph& graph = session.graph();
   const std::vector<LoopVerdict>& verdicts = graph.loopVerdicts();
   for (size_t k = 0; k < verdicts.size(); ++k) {
     if (verdicts[k].decision == LoopDecision::kAccepted) continue;

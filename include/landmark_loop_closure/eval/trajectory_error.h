@@ -2,7 +2,7 @@
 
 #include <vector>
 
-#include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/backend/pose_graph_session.h"
 #include "landmark_loop_closure/eval/detector_evaluation.h"
 #include "landmark_loop_closure/geometry/pose.h"
 
@@ -20,8 +20,9 @@ struct TrajectoryError {
 };
 TrajectoryError trajectoryError(const std::vector<Pose>& estimated, const std::vector<Pose>& truth);
 
-/// The configured pass replayed into the reference pose graph as the pose_graph node receives it:
-/// keyframes in order, each metric loop after its query keyframe, optimised on arrival.
+/// The configured pass replayed into the reference pose graph as the pose_graph node receives it
+/// (through the node's PoseGraphSession): keyframes in order, each metric loop after its query
+/// keyframe, optimised on arrival.
 struct PoseGraphReplay {
   std::vector<Pose> corrected;  ///< By keyframe id, like DetectorEvaluation::keyframe_poses.
   size_t metric_loops = 0;      ///< Loops given to the graph.
