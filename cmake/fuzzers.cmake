@@ -1,5 +1,5 @@
 # libFuzzer targets (clang; scripts/fuzz.sh configures a separate build with the sanitizer flags).
-foreach(target fuzz_old_map_file fuzz_image_message fuzz_pose_graph)
+foreach(target fuzz_old_map_file fuzz_image_message fuzz_pose_graph fuzz_pose_graph_session)
   add_executable(${target} fuzz/${target}.cpp)
   target_link_options(${target} PRIVATE -fsanitize=fuzzer)
 endforeach()
@@ -9,3 +9,4 @@ target_include_directories(fuzz_image_message SYSTEM PRIVATE ${catkin_INCLUDE_DI
 target_link_libraries(fuzz_image_message ${PROJECT_NAME}_messages ${catkin_LIBRARIES})
 add_dependencies(fuzz_image_message ${PROJECT_NAME}_generate_messages_cpp)
 target_link_libraries(fuzz_pose_graph ${PROJECT_NAME}_backend)
+target_link_libraries(fuzz_pose_graph_session ${PROJECT_NAME}_backend)

@@ -66,6 +66,8 @@ target_link_libraries(test_pose_graph ${PROJECT_NAME}_backend ${PROJECT_NAME}_co
 target_compile_definitions(test_pose_graph PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)
 target_link_libraries(test_pose_graph_session ${PROJECT_NAME}_backend GTest::gtest_main)
+target_compile_definitions(test_pose_graph_session PRIVATE
+  PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
 include(cmake/ros_tests.cmake OPTIONAL)
 

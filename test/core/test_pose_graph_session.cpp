@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../../fuzz/pose_graph_session_input.h"
+#include "kept_fuzz_inputs.h"
 #include "landmark_loop_closure/backend/pose_graph_runtime.h"
 #include "landmark_loop_closure/backend/pose_graph_session.h"
 
@@ -226,6 +228,16 @@ TEST(PoseGraphSession, PathsArePublishedEveryTenKeyframesAndAfterEachOptimisatio
   for (uint64_t id = 0; id < 20; ++id) EXPECT_EQ(published[id], (id + 1) % 10 == 0) << id;
   EXPECT_TRUE(session.process({loopBetween(19, 4)}).publish_paths);
   EXPECT_FALSE(session.process({}).publish_paths);
+}
+
+TEST(PoseGraphSession, EveryKeptFuzzInputKeepsItsInvariants) {
+  // scripts/fuzz.sh starts from these inputs and keeps the ones that once failed here.
+  const std::vector<KeptFuzzInput> inputs = keptFuzzInputs("fuzz_pose_graph_session");
+  for (const KeptFuzzInput& input : inputs) {
+    SCOPED_TRACE(input.path.string());
+    EXPECT_TRUE(fuzz::replayPoseGraphSessionInput(input.bytes.data(), input.bytes.size()));
+  }
+  EXPECT_GE(inputs.size(), 2u);
 }
 
 TEST(PoseGraphRuntime, InputsFromSeveralThreadsAllEnterWhileTheCorrectionIsRead) {
