@@ -72,8 +72,6 @@ inline bool replayPoseGraphSessionInput(const uint8_t* data, size_t size) {
       loop.relative_pose_frame = kFrames[(flags >> 5) & 3];
       // Ids a little beyond the last keyframe too: such a loop waits for its keyframe.
       loop.constraint = readLoop(&in, next_id + 16);
-      loop.query_id = loop.constraint.query_id;
-      loop.match_id = loop.constraint.match_id;
       batch.emplace_back(loop);
     } else {
       session.process(batch);

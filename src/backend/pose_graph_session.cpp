@@ -8,7 +8,8 @@ namespace landmark_loop_closure {
 namespace {
 
 std::string loopName(const GraphLoop& loop) {
-  return "loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id);
+  return "loop " + std::to_string(loop.constraint.query_id) + " -> " +
+         std::to_string(loop.constraint.match_id);
 }
 
 }  // namespace
@@ -32,8 +33,9 @@ GraphStep PoseGraphSession::process(const std::vector<Input>& batch) {
   // A loop is published before its query keyframe: it waits for it (a few keyframes at most).
   std::vector<GraphLoop> still_waiting;
   for (const GraphLoop& loop : waiting_loops_) {
-    if (graph_->hasKeyframe(loop.query_id) || graph_->keyframes() == 0 ||
-        graph_->ids().back() > loop.query_id + kLoopWaitKeyframes) {
+    const uint64_t query_id = loop.constraint.query_id;
+    if (graph_->hasKeyframe(query_id) || graph_->keyframes() == 0 ||
+        graph_->ids().back() > query_id + kLoopWaitKeyframes) {
       new_loops |= addLoop(loop, &step);
     } else {
       still_waiting.push_back(loop);

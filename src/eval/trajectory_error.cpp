@@ -63,8 +63,6 @@ PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
     std::vector<PoseGraphSession::Input> batch{keyframe};
     for (; next < loops.size() && loops[next]->query_id == id; ++next) {
       GraphLoop loop;
-      loop.query_id = loops[next]->query_id;
-      loop.match_id = loops[next]->match_id;
       loop.has_relative_pose = loop.relative_pose_metric = true;
       loop.relative_pose_frame = node_options.base_frame;
       loop.constraint = *loops[next]->metric_pose;

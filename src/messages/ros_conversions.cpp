@@ -288,8 +288,6 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id
 GraphLoop graphLoopFromMsg(const LoopClosure& loop) {
   GraphLoop graph_loop;
   graph_loop.map_id = loop.map_id;
-  graph_loop.query_id = loop.query_id;
-  graph_loop.match_id = loop.match_id;
   graph_loop.query_session = loop.query_session;
   graph_loop.match_session = loop.match_session;
   graph_loop.query_stamp_ns = loop.query_stamp.toNSec();
@@ -326,8 +324,8 @@ PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::str
   msg.header.stamp = msg.query_stamp;
   msg.header.frame_id = map_frame;
   msg.map_id = verdict.loop.map_id;
-  msg.query_id = verdict.loop.query_id;
-  msg.match_id = verdict.loop.match_id;
+  msg.query_id = verdict.loop.constraint.query_id;
+  msg.match_id = verdict.loop.constraint.match_id;
   msg.decision = verdict.decision;
   msg.error_sd = verdict.error_sd;
   msg.detail = verdict.detail;

@@ -249,8 +249,10 @@ class PoseGraphNode {
           verdicts[k].decision == LoopDecision::kAwaitingConfirmation) {
         continue;
       }
-      const std::optional<Pose> query = graph.optimisedPose(session.graphLoops()[k].query_id);
-      const std::optional<Pose> match = graph.optimisedPose(session.graphLoops()[k].match_id);
+      const std::optional<Pose> query =
+          graph.optimisedPose(session.graphLoops()[k].constraint.query_id);
+      const std::optional<Pose> match =
+          graph.optimisedPose(session.graphLoops()[k].constraint.match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;

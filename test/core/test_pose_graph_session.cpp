@@ -38,8 +38,8 @@ GraphKeyframe keyframeAt(uint64_t id, uint64_t map_id = kMap, uint64_t stamp_ns 
 GraphLoop loopBetween(uint64_t query, uint64_t match) {
   GraphLoop loop;
   loop.map_id = kMap;
-  loop.query_id = loop.constraint.query_id = query;
-  loop.match_id = loop.constraint.match_id = match;
+  loop.constraint.query_id = query;
+  loop.constraint.match_id = match;
   loop.query_stamp_ns = (query + 1) * kSecond;
   loop.match_stamp_ns = (match + 1) * kSecond;
   loop.has_relative_pose = true;
@@ -92,7 +92,7 @@ TEST(PoseGraphSession, ALoopPublishedBeforeItsQueryKeyframeWaitsForIt) {
   EXPECT_TRUE(arrived.publish_paths);  // It was optimised.
   EXPECT_EQ(session.graph().activeLoops(), 1u);
   ASSERT_EQ(session.graphLoops().size(), 1u);
-  EXPECT_EQ(session.graphLoops()[0].query_id, 6u);
+  EXPECT_EQ(session.graphLoops()[0].constraint.query_id, 6u);
 }
 
 TEST(PoseGraphSession, LoopsTheMetricGraphCannotTakeAreLeftOutWithTheirReason) {
@@ -113,7 +113,7 @@ TEST(PoseGraphSession, LoopsTheMetricGraphCannotTakeAreLeftOutWithTheirReason) {
       session.process({appearance_only, scale_free, earlier_run, other_map, unknown_frame});
   ASSERT_EQ(step.verdicts.size(), 5u);
   for (const GraphLoopVerdict& verdict : step.verdicts) {
-    EXPECT_EQ(verdict.decision, "left_out") << verdict.loop.query_id;
+    EXPECT_EQ(verdict.decision, "left_out") << verdict.loop.constraint.query_id;
     EXPECT_EQ(verdict.error_sd, 0.0);
   }
   EXPECT_NE(step.verdicts[0].detail.find("no relative pose"), std::string::npos);
@@ -179,7 +179,7 @@ TEST(PoseGraphSession, LoopsForKeyframesThatNeverComeDoNotPileUp) {
   for (const GraphLoopVerdict& verdict : step.verdicts) {
     EXPECT_EQ(verdict.decision, "unknown_keyframe");
   }
-  EXPECT_EQ(step.verdicts.front().loop.query_id, 1000u);
+  EXPECT_EQ(step.verdicts.front().loop.constraint.query_id, 1000u);
   EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput, "keyframe 1000 is not in"));
 }
 

@@ -31,8 +31,6 @@ struct GraphKeyframe {
 /// What the graph reads of a loop the detector publishes (LoopClosure.msg).
 struct GraphLoop {
   uint64_t map_id = 0;
-  uint64_t query_id = 0;
-  uint64_t match_id = 0;
   uint32_t query_session = 0;
   uint32_t match_session = 0;
   uint64_t query_stamp_ns = 0;
@@ -40,7 +38,7 @@ struct GraphLoop {
   bool has_relative_pose = false;
   bool relative_pose_metric = false;
   std::string relative_pose_frame;
-  /// query_T_match and its covariance, in relative_pose_frame.
+  /// The ids, query_T_match and its covariance, in relative_pose_frame.
   LoopConstraint constraint;
 };
 
