@@ -132,8 +132,12 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   std::optional<Eigen::Isometry3d> mount;
   std::string mount_problem;
   if (!left_out && loop.relative_pose_frame != options_.base_frame) {
-    mount = mount_(loop.relative_pose_frame, &mount_problem);
-    if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
+    if (mount_) {
+      mount = mount_(loop.relative_pose_frame, &mount_problem);
+      if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
+    } else {
+      left_out = "its frame is not the base frame, and no camera mount is known";
+    }
   }
   if (left_out) {
     ++left_out_[left_out];
@@ -151,19 +155,20 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
     step->verdicts.push_back(
         {graph_loops_[index], toString(confirmed.decision), confirmed.error_sd, confirmed.detail});
   }
-  const std::string said = loopName(loop) + " ";
+  // Most loops are accepted and need no line: the name is built only for one.
+  const auto said = [&loop] { return loopName(loop) + " "; };
   if (verdict.decision == LoopDecision::kAwaitingConfirmation) {
-    step->notices.push_back({GraphNotice::Kind::kLoopAwaiting, said + verdict.detail});
+    step->notices.push_back({GraphNotice::Kind::kLoopAwaiting, said() + verdict.detail});
   } else if (verdict.decision == LoopDecision::kUnknownKeyframe ||
              verdict.decision == LoopDecision::kBadPose ||
              verdict.decision == LoopDecision::kBadCovariance) {
     step->notices.push_back(
         {GraphNotice::Kind::kLoopBadInput,
-         said + "dropped as bad input (" + toString(verdict.decision) + "): " + verdict.detail});
+         said() + "dropped as bad input (" + toString(verdict.decision) + "): " + verdict.detail});
   } else if (verdict.decision != LoopDecision::kAccepted) {
     step->notices.push_back(
         {GraphNotice::Kind::kLoopRefused,
-         said + "refused (" + toString(verdict.decision) + "): " + verdict.detail});
+         said() + "refused (" + toString(verdict.decision) + "): " + verdict.detail});
   }
   return verdict.decision == LoopDecision::kAccepted || !verdict.confirmed.empty();
 }

@@ -1,8 +1,6 @@
 #include "landmark_loop_closure/eval/trajectory_error.h"
 
 #include <cmath>
-#include <optional>
-#include <string>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -43,11 +41,8 @@ PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
   PoseGraphReplay replay;
   PoseGraphNodeOptions node_options;
   node_options.graph = options;
-  // The loops are in the base frame already (metric_pose): no frame is looked up.
-  PoseGraphSession session(node_options, [](const std::string& frame, std::string* problem) {
-    *problem = "no mount for " + frame;
-    return std::optional<Eigen::Isometry3d>();
-  });
+  // The loops are in the base frame already (metric_pose): no mount to look up.
+  PoseGraphSession session(node_options, MountLookup());
   std::vector<const PublishedLoop*> loops;
   for (const PublishedLoop& loop : evaluation.configured.loops) {
     if (loop.metric_pose) loops.push_back(&loop);

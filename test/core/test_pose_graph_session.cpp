@@ -140,6 +140,19 @@ TEST(PoseGraphSession, ALoopInTheCameraFrameIsTurnedIntoTheBaseFrame) {
   EXPECT_EQ(step.verdicts[0].decision, "accepted") << step.verdicts[0].detail;
 }
 
+TEST(PoseGraphSession, WithoutAMountLookupOnlyBaseFrameLoopsEnter) {
+  PoseGraphSession session(eachLoopOnItsOwn(), MountLookup());
+  session.process(keyframes(0, 20));
+  GraphLoop camera_loop = loopBetween(19, 3);
+  camera_loop.relative_pose_frame = "camera";
+  const GraphStep step = session.process({camera_loop, loopBetween(18, 2)});
+  ASSERT_EQ(step.verdicts.size(), 2u);
+  EXPECT_EQ(step.verdicts[0].decision, "left_out");
+  EXPECT_NE(step.verdicts[0].detail.find("no camera mount is known"), std::string::npos)
+      << step.verdicts[0].detail;
+  EXPECT_EQ(step.verdicts[1].decision, "accepted") << step.verdicts[1].detail;
+}
+
 TEST(PoseGraphSession, BadInputIsNamedAndTheGraphKeepsWhatItHas) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
   session.process(keyframes(0, 5));

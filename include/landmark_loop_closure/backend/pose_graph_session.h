@@ -83,7 +83,8 @@ class PoseGraphSession {
  public:
   using Input = std::variant<GraphKeyframe, GraphLoop>;
 
-  /// `mount` is asked for each loop frame other than options.base_frame.
+  /// `mount` is asked for each loop frame other than options.base_frame; without one (empty),
+  /// such loops are left out.
   PoseGraphSession(PoseGraphNodeOptions options, MountLookup mount);
 
   /// Everything that came meanwhile enters first; one optimisation then serves every new loop.
