@@ -54,7 +54,9 @@ inline bool replayPoseGraphSessionInput(const uint8_t* data, size_t size) {
       GraphKeyframe keyframe;
       next_id += in.byte() % 4;  // 0 repeats the last id: refused.
       keyframe.id = next_id;
-      keyframe.map_id = 1 + in.byte() % 2;
+      const uint8_t map_and_session = in.byte();
+      keyframe.map_id = 1 + map_and_session % 2;
+      keyframe.session = (map_and_session >> 1) & 1;
       stamp_s += static_cast<uint64_t>(static_cast<int64_t>(in.byte() % 16) - 8);
       keyframe.stamp_ns = stamp_s * 1000000000ull;
       keyframe.odometry.position = Eigen::Vector3d(in.number(), in.number(), in.number());

@@ -73,37 +73,58 @@ bool PoseGraphSession::pathsPublished() {
 }
 
 bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* step) {
-  if (map_id_ && *map_id_ != keyframe.map_id) startOver(keyframe, step);
+  if (map_id_ && (*map_id_ != keyframe.map_id || session_ != keyframe.session)) {
+    startOver(keyframe, step);
+  }
   const std::string problem = graph_->addKeyframe(keyframe.id, keyframe.odometry);
   if (!problem.empty()) {
     step->notices.push_back({GraphNotice::Kind::kKeyframeDropped, "keyframe dropped: " + problem});
     return false;
   }
   map_id_ = keyframe.map_id;
+  session_ = keyframe.session;
   odometry_frame_ = keyframe.odometry_frame;
   stamps_ns_.push_back(keyframe.stamp_ns);
   return true;
 }
 
-// The detector went on in another map (it was reset, loaded one, or restarted): a new graph for
-// it. While time goes on the odometry frame is the same, so the new graph starts from the old
-// one's correction (map -> odom does not jump); after time went back (a bag played again) the
-// odometry starts afresh, and so does the correction.
+// The detector went on in another map (it was reset, loaded one, or restarted) or session (its
+// odometry was re-initialised): a new graph. While time goes on in another map the odometry frame
+// is the same, so the new graph starts from the old one's correction (map -> odom does not jump);
+// a new session's odometry frame is another, so the new graph starts where the old one last saw
+// the robot; after time went back (a bag played again) the odometry starts afresh, and so does
+// the correction.
 void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step) {
   const bool time_went_back = !stamps_ns_.empty() && keyframe.stamp_ns < stamps_ns_.back();
-  const Eigen::Isometry3d correction =
-      time_went_back ? Eigen::Isometry3d::Identity() : graph_->mapFromOdometry();
-  char text[400];
-  std::snprintf(
-      text, sizeof(text),
-      "keyframe %llu is of map %llu, not %llu (the detector was reset, loaded a map or "
-      "restarted): a new graph starts with it, %s; the old graph's %zu keyframes and %zu loops "
-      "are dropped",
-      static_cast<unsigned long long>(keyframe.id),
-      static_cast<unsigned long long>(keyframe.map_id), static_cast<unsigned long long>(*map_id_),
-      time_went_back ? "map -> odom from identity (time went back: a new timeline)"
-                     : "map -> odom where the old graph left it",
-      graph_->keyframes(), graph_->loopVerdicts().size());
+  const bool new_map = *map_id_ != keyframe.map_id;
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  const char* start = "map -> odom from identity (time went back: a new timeline)";
+  if (!time_went_back && new_map) {
+    correction = graph_->mapFromOdometry();
+    start = "map -> odom where the old graph left it";
+  } else if (!time_went_back) {
+    correction = graph_->optimisedPose(graph_->ids().back())->toIsometry() *
+                 keyframe.odometry.toIsometry().inverse();
+    start = "placed where the old graph last saw the robot";
+  }
+  char cause[160];
+  if (new_map) {
+    std::snprintf(cause, sizeof(cause),
+                  "is of map %llu, not %llu (the detector was reset, loaded a map or restarted)",
+                  static_cast<unsigned long long>(keyframe.map_id),
+                  static_cast<unsigned long long>(*map_id_));
+  } else {
+    std::snprintf(cause, sizeof(cause),
+                  "starts session %u after %u (the odometry was re-initialised: another odometry "
+                  "frame)",
+                  keyframe.session, session_);
+  }
+  char text[480];
+  std::snprintf(text, sizeof(text),
+                "keyframe %llu %s: a new graph starts with it, %s; the old graph's %zu keyframes "
+                "and %zu loops are dropped",
+                static_cast<unsigned long long>(keyframe.id), cause, start, graph_->keyframes(),
+                graph_->loopVerdicts().size());
   // Throttled when the old graph had a single keyframe: two detectors on one topic would start a
   // graph at every keyframe.
   step->notices.push_back({GraphNotice::Kind::kNewGraph, text, graph_->keyframes() <= 1});
@@ -125,9 +146,13 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   } else if (!loop.relative_pose_metric) {
     left_out = "scale-free relative pose (a metric graph takes metric loops only)";
   } else if (loop.query_session != loop.match_session) {
-    left_out = "it joins another run's map, whose odometry frame is not this one";
+    left_out =
+        "it joins another session (an earlier run, or the odometry before it was "
+        "re-initialised), whose odometry frame is not this one";
   } else if (map_id_ && loop.map_id != *map_id_) {
     left_out = "another map than the keyframes'";
+  } else if (map_id_ && loop.query_session != session_) {
+    left_out = "another session than the keyframes'";
   }
   std::optional<Eigen::Isometry3d> mount;
   std::string mount_problem;
@@ -191,10 +216,10 @@ std::string PoseGraphSession::summary() const {
   if (options_.graph.heading_drift_prior_sd_per_m > 0.0) {
     std::snprintf(drift, sizeof(drift), "estimated %.4f rad/m", graph_->headingDriftPerMetre());
   }
-  char earlier[80] = "";
+  char earlier[96] = "";
   if (graphs_dropped_ > 0) {
-    std::snprintf(earlier, sizeof(earlier), " (%zu earlier graph(s) of other maps dropped)",
-                  graphs_dropped_);
+    std::snprintf(earlier, sizeof(earlier),
+                  " (%zu earlier graph(s) of other maps or sessions dropped)", graphs_dropped_);
   }
   char line[320];
   std::snprintf(line, sizeof(line),

@@ -23,7 +23,8 @@ const ParameterTable<KeyframeSelectorOptions>& KeyframeSelectorOptions::paramete
                   "seconds without a keyframe that force one even when standing still; 0 = off.")
           .integer("jump_reanchor_frames", &O::jump_reanchor_frames, between(0, 100000),
                    "after this many consecutive jump frames the odometry is taken as "
-                   "re-initialised and the next frame becomes a keyframe; 0 = never.");
+                   "re-initialised and the next frame becomes a keyframe, the first of a new "
+                   "session (Keyframe.session: another odometry frame); 0 = never.");
   return table;
 }
 

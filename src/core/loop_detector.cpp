@@ -327,6 +327,13 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   result.keyframe_id = keyframe_id;
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
   if (training_) return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth});
+  // Held keyframes come back here in order, so the session changes where the odometry did; a
+  // marked keyframe that never came (refused, dropped) passes its mark to the next. After a load
+  // or a reset (no keyframe yet) the session is new already.
+  const auto marks_end = odometry_restarts_.upper_bound(keyframe_id);
+  const bool odometry_restarted = odometry_restarts_.begin() != marks_end;
+  odometry_restarts_.erase(odometry_restarts_.begin(), marks_end);
+  if (odometry_restarted && last_keyframe_) ++session_;
 
   std::vector<float> raw_global;
   ImageDescriptor descriptor = describe(image, &result.times, &raw_global);
@@ -426,9 +433,12 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   }
   times->features_ms = millisecondsSince(features_start);
   if (last_keyframe_) {
-    keyframe.path = extendPath(last_keyframe_->path, last_keyframe_->pose, keyframe.pose);
+    // The odometry's jump to its new frame is no distance travelled.
+    keyframe.path = last_keyframe_->session != session_
+                        ? last_keyframe_->path
+                        : extendPath(last_keyframe_->path, last_keyframe_->pose, keyframe.pose);
   }
-  last_keyframe_ = PathEnd{keyframe.pose, keyframe.path};
+  last_keyframe_ = PathEnd{keyframe.pose, keyframe.path, session_};
   // Kept for ~match_image and compared by the appearance check.
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = makeThumbnail(image);
@@ -494,7 +504,9 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
   for (size_t back = 1;
        back <= static_cast<size_t>(options_.triangulation_keyframes) && back <= stored; ++back) {
     const std::shared_ptr<const KeyframeRecord> neighbour = database_.record(stored - back);
-    if (!neighbour || neighbour->local_features.empty()) continue;
+    // Another session's pose is in another odometry frame (a loaded map, the odometry before it
+    // was re-initialised): no baseline to triangulate over.
+    if (!neighbour || neighbour->local_features.empty() || neighbour->session != session_) continue;
     const Eigen::Isometry3d neighbour_camera = neighbour->pose.toIsometry() * mount;
     triangulateKeypoints(neighbour->local_features, camera.inverse() * neighbour_camera, intrinsics,
                          options_.verification, options_.metric_pose, features);
@@ -505,6 +517,9 @@ FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat&
                                   const CameraIntrinsics& intrinsics, const cv::Mat& depth) {
   FrameResult result;
   result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
+  if (result.admission.isKeyframe() && result.admission.selection.reanchored) {
+    markOdometryRestart(result.admission.keyframe_id);
+  }
   if (result.admission.isKeyframe()) {
     result.keyframe =
         addKeyframe(result.admission.keyframe_id, stamp, pose, image, intrinsics, depth);

@@ -311,6 +311,7 @@ GraphKeyframe graphKeyframeFromMsg(const Keyframe& keyframe) {
   GraphKeyframe graph_keyframe;
   graph_keyframe.id = keyframe.id;
   graph_keyframe.map_id = keyframe.map_id;
+  graph_keyframe.session = keyframe.session;
   graph_keyframe.odometry = fromRos(keyframe.pose);
   graph_keyframe.stamp_ns = keyframe.header.stamp.toNSec();
   graph_keyframe.odometry_frame = keyframe.header.frame_id;

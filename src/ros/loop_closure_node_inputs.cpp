@@ -214,7 +214,8 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   if (selection.reanchored) {
     ROS_WARN(
         "Odometry stayed %.2f away from the last keyframe for %d frames: taking it as "
-        "re-initialised and starting from keyframe %lu",
+        "re-initialised and starting from keyframe %lu, the first of a new session (another "
+        "odometry frame)",
         selection.motion, options_.detector.keyframe.jump_reanchor_frames,
         static_cast<unsigned long>(admission.keyframe_id));
   }

@@ -80,6 +80,7 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
   job.pose = normalisedPose(frame.pose);  // Within tolerance of unit length once admitted.
   job.intrinsics = frame.intrinsics;
   job.source = std::move(frame.source);
+  job.odometry_restarted = result.admission.selection.reanchored;
   job.generation = generation_.load();
   job.map_epoch = map_epoch;
   result.queued = true;
@@ -189,6 +190,8 @@ void DetectorRuntime::process(KeyframeJob& job) {
   const auto reject = [this](const InputError& error) {
     if (listener_.rejected) listener_.rejected(error);
   };
+  // Marked even when this keyframe is refused: the next one then starts the new session.
+  if (job.odometry_restarted) detector_->markOdometryRestart(job.id);
   if (!ready) {
     reject(error);
     return;

@@ -355,6 +355,40 @@ TEST(DetectorRuntime, RefusedJobsAreReportedAndStoreNothing) {
   EXPECT_EQ(detector->database().size(), 1u);
 }
 
+// The odometry comes back 100 m away after tracking was lost: the re-anchored keyframe reaches the
+// worker with its mark, and the keyframes after it are a new session even though that keyframe
+// itself was refused.
+TEST(DetectorRuntime, KeyframesAfterTheOdometryWasReinitialisedAreANewSession) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  const int reanchor_frames = smallOptions().keyframe.jump_reanchor_frames;
+  Recorder recorder;
+  RuntimeOptions options;
+  options.queue_size = 100;
+  DetectorRuntime runtime(detector.get(), options, recorder.listener());
+  for (int i = 0; i < 5; ++i) runtime.admit(frame(i, i * 10));
+  int frames = 5;
+  for (int jumped = 0; jumped < reanchor_frames; ++jumped, ++frames) {
+    EXPECT_EQ(runtime.admit(frame(100 + frames, 50)).admission.selection.verdict,
+              SelectionVerdict::kOdometryJump);
+  }
+  FrameInput reanchored = frame(100 + frames++, 60);
+  reanchored.source = cv::Mat();  // Refused by the worker.
+  const RuntimeAdmission admitted = runtime.admit(std::move(reanchored));
+  EXPECT_TRUE(admitted.admission.selection.reanchored);
+  runtime.admit(frame(100 + frames++, 70));
+  runtime.admit(frame(100 + frames++, 80));
+  ASSERT_TRUE(recorder.waitDone(8));
+  EXPECT_EQ(recorder.rejected().size(), 1u);
+  std::vector<uint32_t> sessions;
+  runtime.withDetector([&](LoopDetector& worker_detector) {
+    for (size_t i = 0; i < worker_detector.database().size(); ++i) {
+      sessions.push_back(worker_detector.database().summary(i).session);
+    }
+    return false;
+  });
+  EXPECT_EQ(sessions, (std::vector<uint32_t>{0, 0, 0, 0, 0, 1, 1}));
+}
+
 TEST(DetectorRuntime, MapServicesRunBetweenKeyframesAndStopIsFinal) {
   const std::unique_ptr<LoopDetector> detector = smallDetector();
   Recorder recorder;

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
@@ -198,6 +199,107 @@ TEST(LoopDetectorOnCorridor, DepthsAreTriangulatedOnlyOnceTheCameraMountIsKnown)
   awaiting.setCameraMount(std::nullopt);
   EXPECT_FALSE(awaiting.cameraMount());
   EXPECT_EQ(triangulatedKeypoints(&awaiting), 0);
+}
+
+// Tracking lost in the second lap: the odometry comes back in a frame 40 m and a quarter turn away
+// from its old one. The keyframes after it are a new session, so loops into the first lap are not
+// refused by the odometry gate (which cannot compare two frames), depths are not triangulated
+// across the two frames, and the jump is no distance travelled.
+TEST(LoopDetectorOnCorridor, AfterTheOdometryIsReinitialisedLoopsJoinTheEarlierSession) {
+  LoopDetector detector(LoopDetectorOptions{}, makeDescriptorExtractor(DescriptorOptions{}));
+  const CorridorWorld world;
+  SequenceOptions options;
+  options.laps = 2.0;
+  SequenceGenerator sequence(world, CameraModel{}, options);
+  const size_t restart = sequence.size() * 13 / 20;  // 1.3 laps.
+  const Eigen::Isometry3d new_frame_from_old =
+      Eigen::Translation3d(40.0, -25.0, 0.0) *
+      Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  std::map<uint64_t, SequenceFrame> truth_by_keyframe;
+  std::optional<uint64_t> first_restarted;
+  int loops_after = 0;
+  int true_loops_after = 0;
+  SequenceFrame frame;
+  while (sequence.next(&frame)) {
+    Pose odom = planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw);
+    const bool restarted = frame.index >= restart;
+    if (restarted) {
+      odom = Pose::fromIsometry(new_frame_from_old * odom.toIsometry());
+    }
+    const FrameResult result =
+        detector.process(frame.stamp, odom, frame.image, CameraModel{}.intrinsics());
+    if (!result.admission.isKeyframe()) continue;
+    const uint64_t id = result.admission.keyframe_id;
+    truth_by_keyframe[id] = frame;
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_EQ(detector.session(), restarted ? 1u : 0u) << frame.index;
+    if (restarted && !first_restarted) {
+      EXPECT_TRUE(result.admission.selection.reanchored);
+      first_restarted = id;
+    }
+    if (!result.keyframe->loop || !restarted) continue;
+    const AcceptedLoop& loop = *result.keyframe->loop;
+    EXPECT_EQ(loop.query_session, 1u);
+    EXPECT_EQ(loop.match_session, 0u);
+    ++loops_after;
+    true_loops_after += isTrueLoop(frame, truth_by_keyframe.at(loop.match_id)) ? 1 : 0;
+  }
+  ASSERT_TRUE(first_restarted);
+  EXPECT_GE(loops_after, 3);
+  EXPECT_EQ(true_loops_after, loops_after);
+
+  const KeyframeDatabase& database = detector.database();
+  size_t restart_index = 0;
+  while (database.summary(restart_index).id < *first_restarted) ++restart_index;
+  ASSERT_GT(restart_index, 0u);
+  const KeyframeSummary& before = database.summary(restart_index - 1);
+  const KeyframeSummary& after = database.summary(restart_index);
+  EXPECT_EQ(after.session, 1u);
+  EXPECT_EQ(after.path.metres, before.path.metres);  // The 47 m jump is not travelled.
+}
+
+namespace {
+
+// Keypoints of a stored keyframe that got a triangulated depth.
+int keypointsWithDepth(const KeyframeDatabase& database, size_t index) {
+  int with_depth = 0;
+  for (const cv::Point3f& point : database.record(index)->local_features.points3d) {
+    with_depth += std::isfinite(point.z) ? 1 : 0;
+  }
+  return with_depth;
+}
+
+}  // namespace
+
+// A small jump (1.5 m along the corridor, taken as a re-initialisation under a lower max_motion):
+// across it the old keyframes' poses would give plausible depths, several times too far. The first keyframe of the new
+// session has no neighbour in its own frame yet; the next ones triangulate as before.
+TEST(LoopDetectorOnCorridor, DepthsAreNotTriangulatedAcrossAnOdometryRestart) {
+  LoopDetectorOptions options;
+  options.keyframe.max_motion = 1.0;
+  LoopDetector detector(options, makeDescriptorExtractor(DescriptorOptions{}));
+  SequenceOptions route;
+  route.laps = 0.2;
+  const CorridorWorld world;  // The generator keeps a reference.
+  SequenceGenerator sequence(world, CameraModel{}, route);
+  const size_t restart = sequence.size() / 2;
+  SequenceFrame frame;
+  while (sequence.next(&frame)) {
+    const double ahead = frame.index >= restart ? 1.5 : 0.0;
+    detector.process(frame.stamp, planarPose(frame.odom.x + ahead, frame.odom.y, frame.odom.yaw),
+                     frame.image, CameraModel{}.intrinsics());
+  }
+  const KeyframeDatabase& database = detector.database();
+  size_t first_restarted = 0;
+  while (first_restarted < database.size() && database.summary(first_restarted).session == 0) {
+    ++first_restarted;
+  }
+  ASSERT_GT(first_restarted, 2u);
+  ASSERT_LT(first_restarted + 1, database.size());
+  EXPECT_GT(keypointsWithDepth(database, first_restarted - 1), 0);
+  EXPECT_EQ(keypointsWithDepth(database, first_restarted), 0)
+      << "triangulated against the old odometry frame";
+  EXPECT_GT(keypointsWithDepth(database, first_restarted + 1), 0);
 }
 
 namespace {

@@ -118,7 +118,7 @@ TEST(PoseGraphSession, LoopsTheMetricGraphCannotTakeAreLeftOutWithTheirReason) {
   }
   EXPECT_NE(step.verdicts[0].detail.find("no relative pose"), std::string::npos);
   EXPECT_NE(step.verdicts[1].detail.find("scale-free"), std::string::npos);
-  EXPECT_NE(step.verdicts[2].detail.find("another run's map"), std::string::npos);
+  EXPECT_NE(step.verdicts[2].detail.find("another session (an earlier run"), std::string::npos);
   EXPECT_NE(step.verdicts[3].detail.find("another map"), std::string::npos);
   EXPECT_EQ(step.verdicts[4].detail, "no tf base_link -> 'rear_camera'");  // The lookup's words.
   EXPECT_FALSE(step.changed);
@@ -226,10 +226,57 @@ TEST(PoseGraphSession, AKeyframeOfAnotherMapStartsANewGraph) {
   EXPECT_TRUE(replay.notices[0].throttle);  // The graph it replaced held one keyframe.
   EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(Eigen::Isometry3d::Identity()));
   const std::string summary = session.summary();
-  EXPECT_NE(summary.find("1 keyframes (2 earlier graph(s) of other maps dropped)"),
+  EXPECT_NE(summary.find("1 keyframes (2 earlier graph(s) of other maps or sessions dropped)"),
             std::string::npos)
       << summary;
   EXPECT_NE(summary.find("accepted 1"), std::string::npos) << summary;
+}
+
+TEST(PoseGraphSession, ANewSessionOfTheMapStartsAGraphWhereTheRobotWasLastSeen) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 12));
+  GraphLoop shorter = loopBetween(11, 1);
+  shorter.constraint.query_T_match.translation().x() += 0.3;
+  ASSERT_EQ(session.process({shorter}).verdicts.at(0).decision, "accepted");
+  const Eigen::Vector3d last_seen = session.graph().optimisedPose(11)->position;
+
+  // The odometry was re-initialised at its origin, 1 m on: keyframe 12 is at (0, 0, 0) in a new
+  // odometry frame. An odometry edge from keyframe 11 would say the robot went 11 m back.
+  GraphKeyframe restarted = keyframeAt(12);
+  restarted.session = 1;
+  restarted.odometry.position.setZero();
+  const GraphStep step = session.process({restarted});
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kNewGraph,
+                        "keyframe 12 starts session 1 after 0 (the odometry was re-initialised"));
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kNewGraph,
+                        "placed where the old graph last saw the robot"));
+  EXPECT_EQ(session.graph().keyframes(), 1u);
+  EXPECT_TRUE(session.graph().optimisedPose(12)->position.isApprox(last_seen, 1e-9));
+  EXPECT_TRUE(session.graph().mapFromOdometry().translation().isApprox(last_seen, 1e-9));
+
+  // The new frame goes on from there; a loop into the earlier session cannot join two frames.
+  GraphKeyframe next = keyframeAt(13);
+  next.session = 1;
+  next.odometry.position = Eigen::Vector3d(1.0, 0.0, 0.0);
+  GraphLoop into_earlier = loopBetween(13, 2);
+  into_earlier.query_session = 1;
+  const GraphStep later = session.process({next, into_earlier});
+  ASSERT_EQ(later.verdicts.size(), 1u);
+  EXPECT_EQ(later.verdicts[0].decision, "left_out");
+  EXPECT_NE(later.verdicts[0].detail.find("another session"), std::string::npos);
+  EXPECT_TRUE(session.graph().optimisedPose(13)->position.isApprox(
+      last_seen + Eigen::Vector3d(1.0, 0.0, 0.0), 1e-9));
+  // A loop of the old session that comes late is not this graph's either (once it has waited
+  // for its keyframe as any loop does).
+  std::vector<PoseGraphSession::Input> late_inputs{loopBetween(11, 3)};
+  for (uint64_t id = 14; id < 24; ++id) {
+    GraphKeyframe keyframe = keyframeAt(id);
+    keyframe.session = 1;
+    late_inputs.emplace_back(keyframe);
+  }
+  const GraphStep late = session.process(late_inputs);
+  ASSERT_EQ(late.verdicts.size(), 1u);
+  EXPECT_EQ(late.verdicts[0].detail, "another session than the keyframes'");
 }
 
 TEST(PoseGraphSession, PathsArePublishedEveryTenKeyframesAndAfterEachOptimisation) {

@@ -1,7 +1,8 @@
 // The pose_graph node's bookkeeping without ROS or threads: keyframes and loops, in the order they
 // come, into the reference PoseGraph. A loop waits for its query keyframe (the detector may
-// publish it first); a keyframe of another map starts a new graph; a loop the metric graph cannot
-// take is left out with its reason. The node converts messages and publishes what it is told.
+// publish it first); a keyframe of another map or session starts a new graph (no odometry edge
+// joins two odometry frames); a loop the metric graph cannot take is left out with its reason.
+// The node converts messages and publishes what it is told.
 #pragma once
 
 #include <cstdint>
@@ -23,6 +24,9 @@ namespace landmark_loop_closure {
 struct GraphKeyframe {
   uint64_t id = 0;
   uint64_t map_id = 0;
+  /// Keyframes of one session share one odometry frame (Keyframe.session: a new one after a map
+  /// was loaded or the odometry re-initialised).
+  uint32_t session = 0;
   Pose odometry;
   uint64_t stamp_ns = 0;
   std::string odometry_frame;
@@ -120,6 +124,7 @@ class PoseGraphSession {
   std::unique_ptr<PoseGraph> graph_;
   std::vector<GraphLoop> waiting_loops_;
   std::optional<uint64_t> map_id_;
+  uint32_t session_ = 0;  ///< Of the graph's keyframes (when map_id_ is set).
   std::string odometry_frame_;
   std::vector<uint64_t> stamps_ns_;
   std::vector<GraphLoop> graph_loops_;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -322,6 +323,13 @@ class LoopDetector {
   void restartAdmission();
   /// Receiving thread: stamp of the last admitted keyframe, if any.
   std::optional<double> lastKeyframeStamp() const;
+  /// Worker thread, before addKeyframe(keyframe_id): the odometry was re-initialised before this
+  /// keyframe (its admission's selection.reanchored), so its pose is in another odometry frame
+  /// than the keyframes before it: it starts a new session, or the next keyframe does if this one
+  /// never comes (process() marks them itself).
+  void markOdometryRestart(uint64_t keyframe_id) { odometry_restarts_.insert(keyframe_id); }
+  /// The session new keyframes get: 0 for the first run, +1 after each map loaded and each time
+  /// the odometry was re-initialised. Poses of one session share one odometry frame.
   uint32_t session() const { return session_; }
   /// Worker thread: the identity of the map keyframes are stored in (KeyframeStore::mapId, or one
   /// drawn for a map in memory only). Keyframe ids repeat between maps (a loaded map keeps its
@@ -453,12 +461,14 @@ class LoopDetector {
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
   uint32_t session_ = 0;
+  std::set<uint64_t> odometry_restarts_;                 ///< Keyframe ids that start a new session.
   uint64_t memory_map_id_ = KeyframeStore::drawMapId();  ///< mapId() without a map file.
   std::string descriptor_identity_;
   std::optional<Pose> camera_mount_;
   struct PathEnd {
     Pose pose;
     PathLength path;
+    uint32_t session = 0;
   };
   std::optional<PathEnd> last_keyframe_;  ///< The last keyframe processed (stored or not).
 };

@@ -22,10 +22,12 @@ namespace landmark_loop_closure {
 /// What search keeps in RAM of every keyframe besides its global descriptor.
 struct KeyframeSummary {
   uint64_t id = 0;
-  uint32_t session = 0;  ///< The run that stored it; a loaded database holds earlier ones.
-  double stamp = 0.0;    ///< Seconds.
-  Pose pose;             ///< In the odometry frame.
-  PathLength path;       ///< Odometry path travelled up to this keyframe.
+  /// Its pose's odometry frame: the run that stored it, or the part of that run after its
+  /// odometry was re-initialised; a loaded database holds earlier ones.
+  uint32_t session = 0;
+  double stamp = 0.0;  ///< Seconds.
+  Pose pose;           ///< In the odometry frame.
+  PathLength path;     ///< Odometry path travelled up to this keyframe.
 };
 
 struct KeyframeRecord : KeyframeSummary {
@@ -122,10 +124,11 @@ class KeyframeDatabase {
   /// newest ones and the latest read); the records held so far are dropped.
   void readRecordsFrom(RecordReader reader, size_t cached_records);
 
-  /// `session`: the querying run; only its own newest keyframes count as recent (the last ones
-  /// of a loaded earlier run are not). Throws std::invalid_argument for a descriptor of the wrong
-  /// length. With the graph on, the exclusion windows are applied to its shortlist, which is
-  /// widened by the number of excluded keyframes (exact search when more than 2000 are excluded).
+  /// `session`: the querying one; only its own newest keyframes count as recent (the last ones
+  /// of an earlier session are not: a loaded run, or the odometry before it was re-initialised).
+  /// Throws std::invalid_argument for a descriptor of the wrong length. With the graph on, the
+  /// exclusion windows are applied to its shortlist, which is widened by the number of excluded
+  /// keyframes (exact search when more than 2000 are excluded).
   QueryResult query(const std::vector<float>& global, double stamp, const DatabaseOptions& options,
                     uint32_t session = 0) const;
   /// Whether keyframe `index` lies outside a query's exclusion windows, as query() decides.

@@ -53,6 +53,7 @@ struct KeyframeJob {
   std::any source;
   uint64_t generation = 0;  ///< The timeline it was admitted in.
   uint64_t map_epoch = 0;   ///< The map it was admitted against (a load or reset starts another).
+  bool odometry_restarted = false;  ///< Re-anchored after odometry jumps: a new session.
 };
 
 /// A frame as the caller receives it.
