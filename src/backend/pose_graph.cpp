@@ -184,11 +184,7 @@ PoseGraph::PoseGraph(PoseGraphOptions options, const Eigen::Isometry3d& map_from
 
 PoseGraph::~PoseGraph() = default;
 
-std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
-  if (!ids_.empty() && id <= ids_.back()) {
-    return "keyframe id " + std::to_string(id) + " is not after the last one (" +
-           std::to_string(ids_.back()) + ")";
-  }
+std::string PoseGraph::odometryPoseProblem(uint64_t id, const Pose& odometry_pose) {
   if (!odometry_pose.position.allFinite() || !odometry_pose.orientation.coeffs().allFinite() ||
       std::abs(odometry_pose.orientation.norm() - 1.0) > 1e-3) {
     return "keyframe " + std::to_string(id) + ": pose not finite or orientation not unit length";
@@ -200,6 +196,16 @@ std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
             << " m from the odometry's origin";
     return problem.str();
   }
+  return "";
+}
+
+std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
+  if (!ids_.empty() && id <= ids_.back()) {
+    return "keyframe id " + std::to_string(id) + " is not after the last one (" +
+           std::to_string(ids_.back()) + ")";
+  }
+  const std::string problem = odometryPoseProblem(id, odometry_pose);
+  if (!problem.empty()) return problem;
   Node node;
   node.odometry = odometry_pose;
   node.odometry.orientation.normalize();

@@ -73,10 +73,12 @@ bool PoseGraphSession::pathsPublished() {
 }
 
 bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* step) {
-  if (map_id_ && (*map_id_ != keyframe.map_id || session_ != keyframe.session)) {
+  // A keyframe the graph would refuse must not replace the graph (nor place the new one).
+  std::string problem = PoseGraph::odometryPoseProblem(keyframe.id, keyframe.odometry);
+  if (problem.empty() && map_id_ && (*map_id_ != keyframe.map_id || session_ != keyframe.session)) {
     startOver(keyframe, step);
   }
-  const std::string problem = graph_->addKeyframe(keyframe.id, keyframe.odometry);
+  if (problem.empty()) problem = graph_->addKeyframe(keyframe.id, keyframe.odometry);
   if (!problem.empty()) {
     step->notices.push_back({GraphNotice::Kind::kKeyframeDropped, "keyframe dropped: " + problem});
     return false;

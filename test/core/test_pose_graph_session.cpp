@@ -279,6 +279,22 @@ TEST(PoseGraphSession, ANewSessionOfTheMapStartsAGraphWhereTheRobotWasLastSeen) 
   EXPECT_EQ(late.verdicts[0].detail, "another session than the keyframes'");
 }
 
+TEST(PoseGraphSession, ABadKeyframeOfAnotherSessionOrMapDoesNotReplaceTheGraph) {
+  PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
+  session.process(keyframes(0, 12));
+  GraphKeyframe broken_session = keyframeAt(12);
+  broken_session.session = 1;
+  broken_session.odometry.position.x() = std::nan("");
+  GraphKeyframe broken_map = keyframeAt(13, kMap + 1);
+  broken_map.odometry.orientation.coeffs() << 0.0, 0.0, 0.0, 2.0;
+  const GraphStep step = session.process({broken_session, broken_map});
+  EXPECT_FALSE(hasNotice(step, GraphNotice::Kind::kNewGraph, ""));
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kKeyframeDropped, "keyframe 12: pose not finite"));
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kKeyframeDropped, "keyframe 13: pose not finite"));
+  EXPECT_EQ(session.graph().keyframes(), 12u);
+  EXPECT_TRUE(session.graph().mapFromOdometry().matrix().allFinite());
+}
+
 TEST(PoseGraphSession, PathsArePublishedEveryTenKeyframesAndAfterEachOptimisation) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
   std::vector<bool> published;

@@ -110,6 +110,8 @@ class PoseGraph {
   /// Adds a keyframe at its odometry pose; ids must increase. Its estimate starts at the last
   /// keyframe's estimate moved by the odometry between them. Returns why it was refused, or "".
   std::string addKeyframe(uint64_t id, const Pose& odometry_pose);
+  /// Why addKeyframe would refuse this odometry pose whatever the graph holds, or "".
+  static std::string odometryPoseProblem(uint64_t id, const Pose& odometry_pose);
 
   /// Screens a loop against the graph's current estimate and, once confirmed by other loops
   /// (loop_confirmations), keeps it. Loops are numbered in the order they are given (the index
