@@ -56,12 +56,13 @@ TEST(PoseGraphMessages, ALoopsVerdictCarriesItsIdsAndExactStamps) {
   EXPECT_EQ(verdict.detail, "0.80 m from the graph");
 }
 
-TEST(PoseGraphMessages, AKeyframeReachesTheGraphWithItsFrameAndExactStamp) {
+TEST(PoseGraphMessages, AKeyframeReachesTheGraphWithItsFrameSessionAndExactStamp) {
   const Keyframe message =
-      toKeyframeMsg(12, 0, 5, ros::Time(1700000000, 1), planarPose(2.0, 1.0, 0.3), "odom");
+      toKeyframeMsg(12, 3, 5, ros::Time(1700000000, 1), planarPose(2.0, 1.0, 0.3), "odom");
   const GraphKeyframe keyframe = graphKeyframeFromMsg(message);
   EXPECT_EQ(keyframe.id, 12u);
   EXPECT_EQ(keyframe.map_id, 5u);
+  EXPECT_EQ(keyframe.session, 3u);  // Another odometry frame: the graph starts over.
   EXPECT_EQ(keyframe.stamp_ns, 1700000000000000001ull);
   EXPECT_EQ(keyframe.odometry_frame, "odom");
   EXPECT_DOUBLE_EQ(keyframe.odometry.position.x(), 2.0);
