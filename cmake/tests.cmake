@@ -130,3 +130,5 @@ endif()
 # The README's tool commands run as written (evaluations as dry runs; README "Evaluate").
 add_test(NAME tool_readme_commands
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/readme_commands.sh ${CMAKE_CURRENT_SOURCE_DIR})
+
+include(cmake/test_tiers.cmake)

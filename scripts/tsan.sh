@@ -3,13 +3,14 @@
 # map's background check and stepped copy, the pose graph's worker) with ThreadSanitizer in
 # _build_tsan/, and runs them.
 # Fails on any report; test/tsan.supp lists the only ones ignored (lock order inside hnswlib and
-# GDAL, libraries we do not build). scripts/test.sh runs it after the other tests.
+# GDAL, libraries we do not build). scripts/test.sh runs it after the other tests (ctest entry
+# tsan_threaded_tests, tier slow).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map test_pose_graph_session)
 LOG=_build_tsan.log
 echo "tsan: configuring and building ${TESTS[*]} (output in $LOG)"
-flags="-fsanitize=thread -O1 -g"
+flags="-fsanitize=thread -O1 -g1"
 cmake -S . -B _build_tsan -DCMAKE_BUILD_TYPE=Debug -DCATKIN_ENABLE_TESTING=ON \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=thread \
   -DCMAKE_SHARED_LINKER_FLAGS=-fsanitize=thread > "$LOG" 2>&1 \
