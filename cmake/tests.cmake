@@ -9,6 +9,7 @@ set(CORE_TESTS
   test_temporal_consistency
   test_condition_standardiser
   test_place_distinctiveness
+  test_false_alarms
   test_score_normalisation
   test_appearance_check
   test_loop_detector

@@ -6,10 +6,17 @@
 #include <sstream>
 
 #include "landmark_loop_closure/common/stopwatch.h"
+#include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/core/place_distinctiveness.h"
 
 namespace landmark_loop_closure {
+
+namespace {
+
+uint64_t idDistance(uint64_t a, uint64_t b) { return a > b ? a - b : b - a; }
+
+}  // namespace
 
 void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
                           const QueryResult& query, const KeyframeRecord& query_keyframe,
@@ -53,6 +60,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   std::stable_sort(
       reports.begin(), reports.end(),
       [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
+  recordBackground(query_keyframe);
   result->times.rerank_ms = millisecondsSince(rerank_start);
   rateDistinctiveness(&reports);
 
@@ -88,6 +96,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
 
   size_t chain_index = 0;
   std::optional<CellFeatures> query_cells;
+  std::vector<const CandidateReport*> place_leaders;
   for (CandidateReport& report : reports) {
     if (report.score < options_.acceptance.min_score) {
       report.verdict = CandidateVerdict::kBelowThreshold;
@@ -100,10 +109,21 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     }
     const TemporalConsistency::Chain& chain = chains[chain_index++];
     report.consistent_keyframes = chain.keyframes;
+    const CandidateReport* leader = placeLeader(report, place_leaders);
+    if (!leader) place_leaders.push_back(&report);
     if (!consistentLongEnough(chain, &report.detail)) {
       report.verdict = CandidateVerdict::kAwaitingConsistency;
     } else if (result->loop) {
       report.verdict = CandidateVerdict::kOutscored;
+    } else if (leader && !nearLeader(report, *leader)) {
+      // The place's better-scoring keyframes were refused: a keyframe farther along it that
+      // happens to pass would put the loop off the place.
+      report.verdict = CandidateVerdict::kOutscored;
+      report.detail = std::to_string(report.match_id) + " is more than " +
+                      std::to_string(options_.acceptance.index_window) +
+                      " ids from its place's best candidate " + std::to_string(leader->match_id);
+    } else if (!passesFalseAlarms(&report, query_keyframe)) {
+      report.verdict = CandidateVerdict::kBelowThreshold;
     } else {
       const std::shared_ptr<const KeyframeRecord> match = database_.findRecord(report.match_id);
       if (!match) {
@@ -129,6 +149,107 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       result->loop = loop;
     }
   }
+}
+
+const CandidateReport* LoopDetector::placeLeader(
+    const CandidateReport& report, const std::vector<const CandidateReport*>& leaders) const {
+  const KeyframeSummary* match = database_.findSummary(report.match_id);
+  for (const CandidateReport* leader : leaders) {
+    const KeyframeSummary* other = database_.findSummary(leader->match_id);
+    if (match && other && match->session == other->session &&
+        idDistance(match->id, other->id) <=
+            static_cast<uint64_t>(options_.acceptance.place_window)) {
+      return leader;
+    }
+  }
+  return nullptr;
+}
+
+bool LoopDetector::nearLeader(const CandidateReport& report, const CandidateReport& leader) const {
+  return idDistance(report.match_id, leader.match_id) <=
+         static_cast<uint64_t>(options_.acceptance.index_window);
+}
+
+bool LoopDetector::calibrates() const {
+  return options_.acceptance.max_false_alarms > 0.0 && !extractor_->reranks();
+}
+
+void LoopDetector::recordBackground(const KeyframeRecord& query_keyframe) {
+  if (!calibrates()) return;
+  DatabaseOptions search = options_.database;
+  if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
+  const ScoreBackground background =
+      sequence_.background(database_, *extractor_, [&](size_t index) {
+        return database_.eligible(index, query_keyframe.stamp, search, session_);
+      });
+  std::vector<PlaceScore> scores;
+  scores.reserve(background.index.size());
+  for (size_t j = 0; j < background.index.size(); ++j) {
+    const KeyframeSummary& place = database_.summary(background.index[j]);
+    scores.push_back({place.id, place.session, background.score[j]});
+  }
+  backgrounds_.push_front(std::move(scores));
+  while (backgrounds_.size() > kPooledBackgrounds) backgrounds_.pop_back();
+  background_places_ = background.places;
+}
+
+bool LoopDetector::passesFalseAlarms(CandidateReport* report,
+                                     const KeyframeRecord& query_keyframe) const {
+  if (!calibrates()) return true;
+  // Not evidence of what a wrong place scores: the candidate's own place, and places the
+  // odometry puts within its drift of the query (laps of one run revisit them).
+  const OdometryGateOptions& gate = options_.odometry_gate;
+  const KeyframeSummary* match = database_.findSummary(report->match_id);
+  const uint64_t window = static_cast<uint64_t>(options_.acceptance.place_window);
+  std::vector<double> others;
+  // Places that could be mistaken for the query's: those the odometry does not rule out. The
+  // gate refuses the others whatever they score, so they count as evidence of what a wrong
+  // place scores, not as chances of a false alarm.
+  size_t newest_searchable = 0;
+  for (size_t b = 0; b < backgrounds_.size(); ++b) {
+    for (const PlaceScore& place : backgrounds_[b]) {
+      if (match && place.session == match->session && idDistance(place.id, match->id) <= window) {
+        continue;
+      }
+      bool reachable = true;
+      if (gate.enabled && mode_ == DetectorMode::kMapping && place.session == session_) {
+        const KeyframeSummary* summary = database_.findSummary(place.id);
+        reachable = summary && checkOdometry(gate, query_keyframe.pose, query_keyframe.path,
+                                             summary->pose, summary->path)
+                                   .consistent;
+        // Within the odometry's reach it may be the query's own place (laps of one run).
+        if (!reachable) others.push_back(place.score);
+      } else {
+        others.push_back(place.score);
+      }
+      if (b == 0 && reachable) ++newest_searchable;
+    }
+  }
+  const ScoreTail tail = fitScoreTail(others);
+  std::ostringstream detail;
+  if (!tail.valid()) {
+    detail << "too few other places (" << others.size()
+           << ") to tell what a wrong match scores here";
+    report->detail = detail.str();
+    return false;
+  }
+  // The newest background's searchable share of the map's eligible places, at least one.
+  const size_t sampled = backgrounds_.empty() ? 0 : backgrounds_.front().size();
+  const size_t places =
+      sampled == 0
+          ? 1
+          : std::max<size_t>(
+                1, static_cast<size_t>(std::llround(static_cast<double>(background_places_) *
+                                                    static_cast<double>(newest_searchable) /
+                                                    static_cast<double>(sampled))));
+  report->false_alarms = tail.expectedFalseAlarms(report->score, places);
+  const double bound = options_.acceptance.max_false_alarms;
+  if (report->false_alarms <= bound) return true;
+  detail.precision(3);
+  detail << report->false_alarms << " wrong places expected to score as high among " << places
+         << ", more than " << bound << " (it needs " << tail.scoreFor(bound, places) << ")";
+  report->detail = detail.str();
+  return false;
 }
 
 void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) const {

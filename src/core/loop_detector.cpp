@@ -26,6 +26,17 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
               "back to it), 0.7 for hog, 0.97 for calc (those three measured without the "
               "window, L = 1). At most 1, except with score_normalisation local_contrast or "
               "z_score (standard deviations).")
+          .number("max_false_alarms", &O::max_false_alarms, between(0, 1000000),
+                  "calibrated decision (a-contrario), 0 = off: a candidate that reached the "
+                  "k-chain is believed only where fewer wrong places than this are expected to "
+                  "score as high, from an exponential tail fitted to what the map's other places "
+                  "(outside the candidate's place_window and the odometry's reach) scored against "
+                  "the last 5 keyframes; the places counted are those the odometry does not rule "
+                  "out. A map of look-alike places needs more than a varied route; min_score "
+                  "becomes a floor (0.1 with it). Not the default: 0.003 (chosen on the first "
+                  "halves) lifts recall at the defaults on Gardens Point and Nordland but "
+                  "refuses a third of the corridor's loops and publishes two wrong ones on "
+                  "Nordland's second half (bench/README.md). Off with a descriptor that re-ranks.")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
@@ -280,6 +291,7 @@ void LoopDetector::setMode(DetectorMode mode) {
     // Chains and sequences of one mode say nothing in the other.
     consistency_.reset();
     sequence_.reset();
+    backgrounds_.clear();
   }
   mode_ = mode;
 }
@@ -383,7 +395,7 @@ ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times,
   ImageDescriptor descriptor = extractor_->describe(image);
   *raw_global = descriptor.global;
   descriptor.global = standardiser_.apply(descriptor.global);
-  if (options_.acceptance.sequence.enabled()) sequence_.push(descriptor);
+  if (options_.acceptance.sequence.enabled() || calibrates()) sequence_.push(descriptor);
   times->describe_ms = millisecondsSince(start);
   return descriptor;
 }

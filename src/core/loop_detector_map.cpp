@@ -133,6 +133,7 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   }
   consistency_.reset();
   sequence_.reset();
+  backgrounds_.clear();
   last_keyframe_.reset();
   return "";
 }
@@ -185,6 +186,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   memory_map_id_ = KeyframeStore::drawMapId();
   consistency_.reset();
   sequence_.reset();
+  backgrounds_.clear();
   last_keyframe_.reset();
   ResetOutcome outcome;
   if (!store_ || store_->size() == 0) return outcome;

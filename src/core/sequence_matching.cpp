@@ -51,7 +51,7 @@ std::string SequenceMatchingOptions::validate() const {
 }
 
 void SequenceMatcher::push(ImageDescriptor descriptor) {
-  history_.push_front(Slot{std::move(descriptor), {}, {}, {}, {}});
+  history_.push_front(Slot{std::move(descriptor), {}, {}, {}, {}, {}});
   while (history_.size() > static_cast<size_t>(std::max(1, options_.length))) history_.pop_back();
 }
 
@@ -126,6 +126,71 @@ void SequenceMatcher::score(const KeyframeDatabase& database, const DescriptorEx
   for (const SequenceCandidate& candidate : *candidates) {
     if (!candidate.projected) current.candidates.push_back(candidate.index);
   }
+}
+
+double SequenceMatcher::blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,
+                                        const KeyframeDatabase& database,
+                                        const DescriptorExtractor& extractor) const {
+  std::vector<float>& row = slot->blocks[block_start];
+  if (row.empty()) row.assign(kBackgroundBlock + margin, std::nanf(""));
+  float& value = row[index + margin - block_start];
+  if (std::isnan(value)) {
+    if (slot->encoded.row.empty()) slot->encoded = database.encode(slot->descriptor.global);
+    value = static_cast<float>(extractor.globalScore(database.similarity(slot->encoded, index)));
+  }
+  return slot->standardisation.apply(value);
+}
+
+ScoreBackground SequenceMatcher::background(const KeyframeDatabase& database,
+                                            const DescriptorExtractor& extractor,
+                                            const std::function<bool(size_t index)>& eligible) {
+  ScoreBackground result;
+  const size_t size = database.size();
+  if (history_.empty() || size == 0) return result;
+  // Blocks start at multiples of a stride that doubles as the map grows: the same positions are
+  // sampled from one keyframe to the next, and the older slots' similarities are reused.
+  size_t stride = kBackgroundBlock;
+  while ((size + stride - 1) / stride > kBackgroundBlocks) stride *= 2;
+  const std::vector<double> speeds = options_.speeds();
+  const size_t slots = history_.size();
+  const size_t margin = static_cast<size_t>(
+      std::lround(static_cast<double>(slots - 1) * std::max(1.0, options_.max_speed)));
+  for (Slot& slot : history_) {
+    // Blocks of a smaller stride are not read again once the map has grown past it.
+    if (slot.blocks.size() > 2 * kBackgroundBlocks) slot.blocks.clear();
+  }
+  size_t sampled = 0;
+  for (size_t start = 0; start < size; start += stride) {
+    const size_t end = std::min(size, start + kBackgroundBlock);
+    for (size_t index = start; index < end; ++index) {
+      ++sampled;
+      if (!eligible(index)) continue;
+      double best = -HUGE_VAL;
+      for (const double speed : speeds) {
+        double sum = 0.0;
+        bool complete = true;
+        for (size_t slot = 0; slot < slots; ++slot) {
+          const long step = std::lround(static_cast<double>(slot) * speed);
+          if (static_cast<long>(index) < step) {
+            complete = false;
+            break;
+          }
+          sum += blockSimilarity(&history_[slot], start, index - static_cast<size_t>(step), margin,
+                                 database, extractor);
+        }
+        if (complete) best = std::max(best, sum / static_cast<double>(slots));
+        if (slots == 1) break;  // One keyframe: every speed reads the same similarity.
+      }
+      if (best == -HUGE_VAL) continue;
+      result.index.push_back(index);
+      result.score.push_back(best);
+    }
+  }
+  result.places = sampled == 0 ? 0
+                               : static_cast<size_t>(std::llround(
+                                     static_cast<double>(result.index.size()) *
+                                     static_cast<double>(size) / static_cast<double>(sampled)));
+  return result;
 }
 
 }  // namespace landmark_loop_closure

@@ -139,6 +139,8 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
         row.match_frame = keyframe_frames.at(candidate.match_id);
         row.global_score = candidate.global_score;
         row.score = candidate.score;
+        row.place_ratio = candidate.place_ratio;
+        row.false_alarms = candidate.false_alarms;
         row.verdict = toString(candidate.verdict);
         row.correct = (*input.same_place)(row.query_frame, row.match_frame);
         pass.candidates.push_back(row);
@@ -218,6 +220,10 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
     }
   }
   setRecall(&evaluation.configured, evaluation.revisits);
+  if (evaluation_options.sweep_steps == 0) {
+    evaluation.recall_at_100_precision = -1.0;  // Not swept: the configured pass alone.
+    return evaluation;
+  }
 
   // The sweep: the configured threshold, then a grid from 1 (or the highest candidate score:
   // standardised scores count spreads) down to the lowest final score seen, then bisections
@@ -316,12 +322,14 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
           << "\n";
   }
   std::ofstream candidates(base / ("candidates_" + name + ".csv"));
-  candidates << "query_id,match_id,query_frame,match_frame,global_score,score,verdict,correct\n"
+  candidates << "query_id,match_id,query_frame,match_frame,global_score,score,verdict,correct,"
+                "place_ratio,false_alarms\n"
              << std::setprecision(6);
   for (const CandidateRow& row : result.configured.candidates) {
     candidates << row.query_id << "," << row.match_id << "," << row.query_frame << ","
                << row.match_frame << "," << row.global_score << "," << row.score << ","
-               << row.verdict << "," << row.correct << "\n";
+               << row.verdict << "," << row.correct << "," << row.place_ratio << ","
+               << row.false_alarms << "\n";
   }
   return path;
 }

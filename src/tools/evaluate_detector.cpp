@@ -391,11 +391,15 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
       std::printf("  descriptor %s\n", extractor->describesAs(first_image).c_str());
     }
     printPass("configured", result.configured);
-    std::printf(
-        "  R@100P %.3f (min_score %.3f)  keyframe %.2f/%.2f ms (median/p99, whole "
-        "pipeline)\n",
-        result.recall_at_100_precision, result.threshold_at_100_precision,
-        result.keyframe_ms.median, result.keyframe_ms.p99);
+    if (result.recall_at_100_precision < 0.0) {
+      std::printf("  R@100P not swept (--sweep-steps 0)  keyframe %.2f/%.2f ms (median/p99)\n",
+                  result.keyframe_ms.median, result.keyframe_ms.p99);
+    } else
+      std::printf(
+          "  R@100P %.3f (min_score %.3f)  keyframe %.2f/%.2f ms (median/p99, whole "
+          "pipeline)\n",
+          result.recall_at_100_precision, result.threshold_at_100_precision,
+          result.keyframe_ms.median, result.keyframe_ms.p99);
     std::printf("  configured, keyframes without a loop by stage:");
     for (const auto& [stage, count] : result.configured.refused) {
       std::printf(" %s %zu", stage.c_str(), count);

@@ -50,7 +50,8 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
                        acceptance/min_score, refusals by stage, time per keyframe
   --config FILE        the node's parameters (default: the built-in defaults = config/default.yaml);
                        --descriptors then replaces its descriptor (default: the config's own)
-  --sweep-steps N      thresholds on the sweep's grid (default 16)
+  --sweep-steps N      thresholds on the sweep's grid (default 16; 0 = the configured threshold
+                       alone, no sweep)
   --still-threshold G  image folders without poses: an image whose grey picture (64 px wide)
                        differs from the last moving one's by less than G levels on average
                        stands still and adds no keyframe (default 5; 0 = every image moves)

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <set>
@@ -35,6 +36,9 @@ constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
   double min_score = 0.34;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  /// A candidate is believed only where fewer non-loop places than this are expected to score as
+  /// high over the map, from the tail of the query's scores against it (ScoreTail); 0 = off.
+  double max_false_alarms = 0.0;
   /// kKeyframes: a loop needs consistent_keyframes consecutive keyframes whose matches agree
   /// within index_window ids; kMetres: the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).
@@ -123,6 +127,9 @@ struct CandidateReport {
   double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
   double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
   double place_ratio = 0.0;   ///< score over the best other place's (placeRatios).
+  /// Non-loop places expected to score as high, over the map (acceptance/max_false_alarms); -1
+  /// when not tested.
+  double false_alarms = -1.0;
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
   std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
@@ -394,6 +401,21 @@ class LoopDetector {
   /// False while the history is shorter than a sequence (every report then waits).
   /// Sets each report's place_ratio (placeRatios over the shortlist).
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
+  /// Whether acceptance/max_false_alarms applies: on, and the descriptor's final score is the
+  /// global similarity the background is made of (no re-ranking).
+  bool calibrates() const;
+  /// acceptance/max_false_alarms: whether so few wrong places are expected to score as high as
+  /// the report over the map (ScoreTail of the pooled backgrounds_) that it may be believed;
+  /// sets its false_alarms, and its detail when not.
+  bool passesFalseAlarms(CandidateReport* report, const KeyframeRecord& query_keyframe) const;
+  /// Adds this keyframe's background to backgrounds_ (when calibrates()).
+  void recordBackground(const KeyframeRecord& query_keyframe);
+  /// The first of `leaders` (best-scoring candidates of their places, in score order) whose place
+  /// (place_window ids, same session) the report's match is in; null when it leads its own.
+  const CandidateReport* placeLeader(const CandidateReport& report,
+                                     const std::vector<const CandidateReport*>& leaders) const;
+  /// Whether the report's match is within index_window ids of its place's leader.
+  bool nearLeader(const CandidateReport& report, const CandidateReport& leader) const;
   /// acceptance/score_normalisation: each report's score normalised by what the query resembles
   /// anyway (score_normalisation.h); `indices` are the reports' database indices. With sequence
   /// matching (z_score only) the sequence matcher is told the query's standardisation instead.
@@ -458,6 +480,17 @@ class LoopDetector {
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
+  /// acceptance/max_false_alarms: what the last kPooledBackgrounds searched keyframes' wrong
+  /// places scored (ids, sessions and scores), pooled for the tail: one keyframe's sample of a
+  /// small map is too thin to fit, and the map's look-alikes change slowly along a path.
+  struct PlaceScore {
+    uint64_t id = 0;
+    uint32_t session = 0;
+    double score = 0.0;
+  };
+  static constexpr size_t kPooledBackgrounds = 5;
+  std::deque<std::vector<PlaceScore>> backgrounds_;
+  size_t background_places_ = 0;  ///< Eligible places of the newest background.
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
   uint32_t session_ = 0;

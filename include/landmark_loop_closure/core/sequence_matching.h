@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -39,8 +40,21 @@ struct SequenceCandidate {
   bool projected = false;    ///< Added from an earlier keyframe's candidate, not the shortlist.
 };
 
+/// What the places of the map score against the current keyframe, each as a candidate would
+/// (SequenceMatcher::background).
+struct ScoreBackground {
+  std::vector<size_t> index;  ///< Sampled database positions that were eligible.
+  std::vector<double> score;  ///< Their best path scores, in the same order.
+  size_t places = 0;          ///< Eligible positions in the whole map (estimated from the sample).
+};
+
 class SequenceMatcher {
  public:
+  /// Sampled positions per background: blocks of kBackgroundBlock contiguous positions spread
+  /// evenly over the map, at most kBackgroundBlocks of them.
+  static constexpr size_t kBackgroundBlock = 32;
+  static constexpr size_t kBackgroundBlocks = 32;
+
   explicit SequenceMatcher(const SequenceMatchingOptions& options = {}) : options_(options) {}
 
   /// Appends the new query keyframe (slot 0 from now on); older ones shift back.
@@ -63,6 +77,13 @@ class SequenceMatcher {
   void score(const KeyframeDatabase& database, const DescriptorExtractor& extractor,
              const std::function<bool(size_t index)>& eligible,
              std::vector<SequenceCandidate>* candidates);
+  /// Every sampled eligible position's best path score, as score() scores a candidate (with
+  /// length 1, the current keyframe's similarity). Samples the whole map up to
+  /// kBackgroundBlock * kBackgroundBlocks positions; a larger map in blocks spread evenly, whose
+  /// positions stay put as it grows, so earlier keyframes' similarities are computed once. Global
+  /// similarities only: not for a descriptor that re-ranks.
+  ScoreBackground background(const KeyframeDatabase& database, const DescriptorExtractor& extractor,
+                             const std::function<bool(size_t index)>& eligible);
 
  private:
   struct Slot {
@@ -71,7 +92,14 @@ class SequenceMatcher {
     std::unordered_map<size_t, double> similarity;  ///< Similarities already computed, by position.
     KeyframeDatabase::EncodedQuery encoded;         ///< The descriptor as search compares it.
     Standardisation standardisation;                ///< Identity unless standardiseCurrent.
+    /// Similarities to background blocks, by block start: positions start - margin to
+    /// start + kBackgroundBlock, NaN until computed.
+    std::unordered_map<size_t, std::vector<float>> blocks;
   };
+  /// Slot's similarity to `index`, read from (or computed into) its row for `block_start`.
+  double blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,
+                         const KeyframeDatabase& database,
+                         const DescriptorExtractor& extractor) const;
   /// The slot's similarity to a database keyframe, not standardised.
   double similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
                     const DescriptorExtractor& extractor) const;

@@ -57,6 +57,8 @@ struct CandidateRow {
   double score = 0.0;
   std::string verdict;
   bool correct = false;
+  double place_ratio = 0.0;    ///< CandidateReport::place_ratio.
+  double false_alarms = -1.0;  ///< CandidateReport::false_alarms (-1: not tested).
 };
 
 /// What the detector published at one acceptance/min_score.
@@ -83,13 +85,16 @@ struct DetectorEvaluation {
   std::vector<Pose> keyframe_poses;     ///< Odometry pose of each keyframe, by keyframe id.
   DetectorPass configured;          ///< At the configuration's min_score: what the node publishes.
   std::vector<DetectorPass> sweep;  ///< Other thresholds, high to low.
-  double recall_at_100_precision = 0.0;  ///< Best recall of a pass without a false loop.
+  /// Best recall of a pass without a false loop; -1 when not swept (sweep_steps 0).
+  double recall_at_100_precision = 0.0;
   double threshold_at_100_precision = 0.0;
   Percentiles keyframe_ms;  ///< Of the configured pass (descriptions computed there, not cached).
 };
 
 struct DetectorEvaluationOptions {
-  int sweep_steps = 16;  ///< Thresholds on the grid (quantiles of the best candidate scores).
+  /// Thresholds on the grid (quantiles of the best candidate scores); 0 = the configured
+  /// threshold alone, no sweep.
+  int sweep_steps = 16;
   int refine_steps = 4;  ///< Bisections between the last clean and the first false threshold.
 };
 

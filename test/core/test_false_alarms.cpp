@@ -1,0 +1,254 @@
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/core/false_alarms.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "small_detector.h"
+
+using namespace landmark_loop_closure;
+
+TEST(ScoreTail, TooFewScoresCalibrateNothing) {
+  const ScoreTail tail = fitScoreTail(std::vector<double>(ScoreTail::kMinSamples - 1, 0.1));
+  EXPECT_FALSE(tail.valid());
+  EXPECT_DOUBLE_EQ(tail.exceedance(0.99), 1.0);
+  EXPECT_TRUE(std::isinf(tail.scoreFor(0.1, 100)));
+}
+
+TEST(ScoreTail, RecoversAnExponentialTail) {
+  // Scores 0.1 + Exp(mean 0.05): above any threshold inside the sample, the excess is again
+  // exponential with mean 0.05.
+  std::mt19937 random(7);
+  std::exponential_distribution<double> excess(1.0 / 0.05);
+  std::vector<double> scores;
+  for (int i = 0; i < 20000; ++i) scores.push_back(0.1 + excess(random));
+  const ScoreTail tail = fitScoreTail(scores, 0.1);
+  ASSERT_TRUE(tail.valid());
+  EXPECT_NEAR(tail.tail_fraction, 0.1, 1e-9);
+  EXPECT_NEAR(tail.mean_excess, 0.05, 0.003);
+  // The 90th percentile of 0.1 + Exp(0.05) is 0.1 + 0.05 ln 10.
+  EXPECT_NEAR(tail.threshold, 0.1 + 0.05 * std::log(10.0), 0.005);
+  // P(S >= 0.1 + 0.05 ln 1000) = 1e-3 exactly under the model.
+  EXPECT_NEAR(tail.exceedance(0.1 + 0.05 * std::log(1000.0)), 1e-3, 2e-4);
+}
+
+TEST(ScoreTail, ExpectedFalseAlarmsAndTheScoreForThemAgree) {
+  std::vector<double> scores;
+  for (int i = 0; i < 200; ++i) scores.push_back(0.001 * i);
+  const ScoreTail tail = fitScoreTail(scores);
+  for (const double bound : {0.01, 0.1, 1.0}) {
+    const double score = tail.scoreFor(bound, 5000);
+    EXPECT_NEAR(tail.expectedFalseAlarms(score, 5000), bound, 1e-9 * bound);
+  }
+  // More places searched: the same bound needs a higher score.
+  EXPECT_GT(tail.scoreFor(0.1, 50000), tail.scoreFor(0.1, 5000));
+  // At or below the tail's threshold, a score is as common as the tail itself.
+  EXPECT_DOUBLE_EQ(tail.exceedance(tail.threshold), 1.0);
+}
+
+TEST(ScoreTail, EqualScoresStillLeaveAMargin) {
+  // Every other place scores exactly 0.3: a score just above must not count as impossible.
+  const ScoreTail tail = fitScoreTail(std::vector<double>(100, 0.3));
+  ASSERT_TRUE(tail.valid());
+  EXPECT_DOUBLE_EQ(tail.mean_excess, ScoreTail::kMinMeanExcess);
+  EXPECT_GT(tail.expectedFalseAlarms(0.31, 100), 1.0);
+  EXPECT_LT(tail.expectedFalseAlarms(0.5, 100), 1e-6);
+}
+
+TEST(ScoreTail, AHeavierTailNeedsAHigherScore) {
+  // A varied route (other places 0.0-0.1) against look-alike bays (the same range and a third of
+  // the places up to 0.4): the same bound asks more of the second.
+  std::vector<double> varied;
+  std::vector<double> bays;
+  for (int i = 0; i < 300; ++i) {
+    varied.push_back(0.1 * (i % 100) / 100.0);
+    bays.push_back(i % 3 == 0 ? 0.4 * (i % 100) / 100.0 : 0.1 * (i % 100) / 100.0);
+  }
+  const ScoreTail varied_tail = fitScoreTail(varied);
+  const ScoreTail bay_tail = fitScoreTail(bays);
+  EXPECT_LT(varied_tail.scoreFor(0.1, 300), 0.25);
+  EXPECT_GT(bay_tail.scoreFor(0.1, 300), 0.45);
+}
+
+namespace {
+
+// Places as vectors: image pixel (0,0) names the place, (0,1) the world (0: every place its own
+// look; 1: bays, every fourth place built from the same look with its own share), (0,2) = 1 a
+// revisit under other light (half the vector replaced: cosine about 0.7 with the first visit).
+class WorldExtractor : public DescriptorExtractor {
+ public:
+  std::string name() const override { return "world"; }
+  int globalDimension() const override { return kDimension; }
+  ImageDescriptor describe(const cv::Mat& image) const override {
+    const int place = image.at<uchar>(0, 0);
+    const bool bays = image.at<uchar>(0, 1) == 1;
+    const bool revisit = image.at<uchar>(0, 2) == 1;
+    std::vector<float> look = randomVector(place);
+    if (bays) {
+      const std::vector<float> bay = randomVector(1000 + place % 4);
+      const float own = 0.35f + 0.1f * static_cast<float>(place % 7);
+      for (int i = 0; i < kDimension; ++i) look[i] = bay[i] + own * look[i];
+    }
+    normalise(&look);
+    if (revisit) {
+      const std::vector<float> light = randomVector(2000 + place);
+      for (int i = 0; i < kDimension; ++i) look[i] += light[i];
+      normalise(&look);
+    }
+    ImageDescriptor descriptor;
+    descriptor.global = look;
+    return descriptor;
+  }
+
+ private:
+  static constexpr int kDimension = 64;
+  static std::vector<float> randomVector(int seed) {
+    std::mt19937 random(static_cast<uint32_t>(seed) * 7919u + 13u);
+    std::normal_distribution<float> normal;
+    std::vector<float> v(kDimension);
+    for (float& x : v) x = normal(random);
+    normalise(&v);
+    return v;
+  }
+  static void normalise(std::vector<float>* v) {
+    double norm = 0.0;
+    for (const float x : *v) norm += x * x;
+    for (float& x : *v) x = static_cast<float>(x / std::sqrt(norm));
+  }
+};
+
+cv::Mat worldImage(int place, bool bays, bool revisit) {
+  cv::Mat image = test_support::place(place);
+  image.at<uchar>(0, 1) = bays ? 1 : 0;
+  image.at<uchar>(0, 2) = revisit ? 1 : 0;
+  return image;
+}
+
+// Maps 60 places of one world, then revisits places 30-34 under other light; returns the loops
+// and the lowest expected false alarms the revisits' best candidates had.
+struct Drive {
+  int loops = 0;
+  double fewest_false_alarms = HUGE_VAL;
+};
+
+Drive drive(bool bays, double max_false_alarms) {
+  LoopDetectorOptions options = test_support::smallOptions();
+  options.acceptance.min_score = 0.3;
+  options.acceptance.max_false_alarms = max_false_alarms;
+  options.acceptance.sequence.length = 1;
+  options.acceptance.min_place_ratio = 0.0;
+  LoopDetector detector(options, std::make_shared<WorldExtractor>());
+  Drive result;
+  int frame = 0;
+  for (int place = 0; place < 60; ++place, ++frame) {
+    detector.process(frame, planarPose(frame, 0, 0), worldImage(place, bays, false));
+  }
+  for (int place = 30; place < 35; ++place, ++frame) {
+    const FrameResult step =
+        detector.process(frame, planarPose(frame, 0, 0), worldImage(place, bays, true));
+    if (!step.keyframe) continue;
+    if (step.keyframe->loop) ++result.loops;
+    for (const CandidateReport& candidate : step.keyframe->candidates) {
+      if (candidate.false_alarms >= 0.0) {
+        result.fewest_false_alarms = std::min(result.fewest_false_alarms, candidate.false_alarms);
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace
+
+TEST(CalibratedDecision, AbsoluteThresholdAcceptsBothWorlds) {
+  // The check the calibrated decision is measured against: one absolute min_score publishes the
+  // revisit in the varied world and in the world of bays alike.
+  EXPECT_GT(drive(false, 0.0).loops, 0);
+  EXPECT_GT(drive(true, 0.0).loops, 0);
+}
+
+TEST(CalibratedDecision, TheSameRevisitNeedsMoreAmongLookAlikes) {
+  const Drive varied = drive(false, 0.01);
+  const Drive bays = drive(true, 0.01);
+  EXPECT_GT(varied.loops, 0) << "a revisit that stands out of a varied map is believed";
+  EXPECT_LT(varied.fewest_false_alarms, 0.01);
+  EXPECT_EQ(bays.loops, 0) << "among bays that look alike the same revisit is not";
+  EXPECT_GT(bays.fewest_false_alarms, 0.01);
+}
+
+TEST(CalibratedDecision, OffLeavesEveryCandidateUntested) {
+  LoopDetectorOptions options = test_support::smallOptions();
+  LoopDetector detector(options, std::make_shared<WorldExtractor>());
+  for (int frame = 0; frame < 40; ++frame) {
+    const FrameResult step =
+        detector.process(frame, planarPose(frame, 0, 0), worldImage(frame % 20, false, false));
+    if (!step.keyframe) continue;
+    for (const CandidateReport& candidate : step.keyframe->candidates) {
+      EXPECT_EQ(candidate.false_alarms, -1.0);
+    }
+  }
+}
+
+TEST(ScoreBackground, EachSampledPlaceScoresAsItWouldAsACandidate) {
+  // A map larger than the sample: 3000 keyframes, sampled in blocks.
+  const int dimension = 32;
+  KeyframeDatabase database(dimension);
+  std::mt19937 random(3);
+  std::normal_distribution<float> normal;
+  const auto random_descriptor = [&] {
+    ImageDescriptor descriptor;
+    descriptor.global.resize(dimension);
+    double norm = 0.0;
+    for (float& x : descriptor.global) {
+      x = normal(random);
+      norm += x * x;
+    }
+    for (float& x : descriptor.global) x = static_cast<float>(x / std::sqrt(norm));
+    return descriptor;
+  };
+  for (uint64_t id = 0; id < 3000; ++id) {
+    KeyframeRecord record;
+    record.id = id;
+    record.stamp = static_cast<double>(id);
+    record.descriptor = random_descriptor();
+    database.add(record);
+  }
+  test_support::PlaceExtractor extractor;  // globalScore is the identity.
+  SequenceMatchingOptions options;
+  options.length = 4;
+  SequenceMatcher matcher(options);
+  ImageDescriptor current;
+  for (int k = 0; k < 4; ++k) {
+    current = random_descriptor();
+    matcher.push(current);
+  }
+  const auto every = [](size_t) { return true; };
+  const ScoreBackground background = matcher.background(database, extractor, every);
+  EXPECT_LE(background.index.size(),
+            SequenceMatcher::kBackgroundBlock * SequenceMatcher::kBackgroundBlocks);
+  EXPECT_GE(background.index.size(), 500u);
+  // Every position but the map's first few (no full path ends there).
+  EXPECT_NEAR(static_cast<double>(background.places), 3000.0, 30.0);
+  // The same positions scored as candidates: the best path ending at each is the same.
+  std::vector<SequenceCandidate> candidates;
+  std::vector<double> expected;
+  for (size_t j = 0; j < background.index.size(); j += 97) {
+    SequenceCandidate candidate;
+    candidate.index = background.index[j];
+    candidate.image_score = database.similarity(current.global, candidate.index);
+    candidates.push_back(candidate);
+    expected.push_back(background.score[j]);
+  }
+  matcher.score(database, extractor, every, &candidates);
+  ASSERT_GE(candidates.size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_NEAR(candidates[i].score, expected[i], 1e-6) << "position " << candidates[i].index;
+  }
+  // A place the exclusion leaves out is not in the background.
+  const ScoreBackground without_recent =
+      matcher.background(database, extractor, [](size_t index) { return index < 2900; });
+  for (const size_t index : without_recent.index) EXPECT_LT(index, 2900u);
+  EXPECT_LT(without_recent.places, background.places);
+}
