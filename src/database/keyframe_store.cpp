@@ -108,10 +108,15 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   checkPath(path);
   const bool existed = std::filesystem::exists(path);
   if (!existed) {
-    // A log left by an earlier map at this path would be replayed into the new one.
-    std::error_code ignored;
+    // A log left by an earlier map at this path would be replayed into the new one; it is
+    // someone's data (the last commits of a map moved away without it), never deleted here.
     for (const char* journal : {"-wal", "-shm", "-journal"}) {
-      std::filesystem::remove(path + journal, ignored);
+      std::error_code absent;
+      if (std::filesystem::exists(path + journal, absent)) {
+        throw storeError(path, "cannot start here: " + path + journal +
+                                   " exists without its map (a journal holding another map's "
+                                   "last commits); move it away first, it is never deleted");
+      }
     }
   } else {
     refuseForeignFile(path);

@@ -72,7 +72,10 @@ FileStart fileStartOf(const std::string& path) {
 }
 
 std::vector<std::string> mapFiles(const std::string& map) {
-  return {map, map + "-vectors", map + "-graph", map + "-summaries"};
+  // The journals too: a map whose writer was killed keeps its last commits in its -wal until it
+  // is next opened, so the map without it is not the map.
+  return {map,          map + "-vectors", map + "-graph",  map + "-summaries",
+          map + "-wal", map + "-shm",     map + "-journal"};
 }
 
 std::string saveTargetProblem(const std::string& target, const std::string& live_map,

@@ -2,6 +2,7 @@
 // save and reset on top of them. Never touches a real device node: a FIFO and a directory stand
 // in for what is not a regular file.
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include "keyframe_fixtures.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/map_file_safety.h"
@@ -232,3 +234,43 @@ TEST_F(MapFileSafety, AnEmptyForeignOrTextFileIsNoMapAndIsLeftAlone) {
 }
 
 }  // namespace
+
+TEST_F(MapFileSafety, AMapWhoseWriterWasKilledIsKeptAsideWhole) {
+  // A writer that stores 300 keyframes and is killed: its last commits are only in A.db-wal.
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    try {
+      auto store = KeyframeStore::open(path("A.db"), kIdentity, kDimension);
+      for (uint64_t id = 0; id < 300; ++id) store->add(makeKeyframe(id, 0));
+      ::_exit(0);  // Killed: nothing closes the map, its log is not folded in.
+    } catch (...) {
+      ::_exit(1);
+    }
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  ASSERT_TRUE(fs::exists(path("A.db-wal")));
+  ASSERT_GT(fs::file_size(path("A.db-wal")), 0u);
+  // Another map is saved over it: the one that was there is kept with every commit.
+  auto detector = detectorWithKeyframes();
+  std::string kept;
+  ASSERT_EQ(detector->saveDatabase(path("A.db"), true, &kept), "");
+  EXPECT_TRUE(fs::exists(kept + "-wal") || !fs::exists(path("A.db-wal")));
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 300u);
+  LoopDetector reader(test_support::smallOptions(),
+                      std::make_shared<test_support::PlaceExtractor>());
+  EXPECT_EQ(reader.loadDatabase(path("A.db")), "");
+  EXPECT_EQ(reader.database().size(), 12u);
+}
+
+TEST_F(MapFileSafety, AJournalWithoutItsMapIsNeverDeleted) {
+  write(path("stray.db-wal"), "another map's last commits");
+  auto detector = detectorWithKeyframes();
+  const std::string refused = detector->saveDatabase(path("stray.db"));
+  EXPECT_NE(refused.find("stray.db-wal"), std::string::npos) << refused;
+  EXPECT_THROW(KeyframeStore::open(path("stray.db"), kIdentity, kDimension), std::runtime_error);
+  EXPECT_EQ(read(path("stray.db-wal")), "another map's last commits");
+  EXPECT_FALSE(fs::exists(path("stray.db")));
+}

@@ -16,7 +16,8 @@ enum class FileStart {
 FileStart fileStartOf(const std::string& path);
 
 /// The files that make one map: the map itself and the companions written beside it (its search
-/// rows, its search graph, its summaries).
+/// rows, its search graph, its summaries) and SQLite's journals (-wal holds the last commits of
+/// a map whose writer was killed): kept aside together, and none written over.
 std::vector<std::string> mapFiles(const std::string& map);
 
 /// Why a map may not be saved at `target` (a copy of the open map `live_map`, "" when none), or ""
