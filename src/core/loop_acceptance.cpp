@@ -12,12 +12,6 @@
 
 namespace landmark_loop_closure {
 
-namespace {
-
-uint64_t idDistance(uint64_t a, uint64_t b) { return a > b ? a - b : b - a; }
-
-}  // namespace
-
 void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descriptor,
                           const QueryResult& query, const KeyframeRecord& query_keyframe,
                           const CameraIntrinsics& intrinsics) {
@@ -60,8 +54,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   std::stable_sort(
       reports.begin(), reports.end(),
       [](const CandidateReport& a, const CandidateReport& b) { return a.score > b.score; });
-  recordBackground(query_keyframe);
   result->times.rerank_ms = millisecondsSince(rerank_start);
+  recordBackground(query_keyframe);
   rateDistinctiveness(&reports);
 
   std::vector<PathPoint> above_threshold;
@@ -156,9 +150,9 @@ const CandidateReport* LoopDetector::placeLeader(
   const KeyframeSummary* match = database_.findSummary(report.match_id);
   for (const CandidateReport* leader : leaders) {
     const KeyframeSummary* other = database_.findSummary(leader->match_id);
-    if (match && other && match->session == other->session &&
-        idDistance(match->id, other->id) <=
-            static_cast<uint64_t>(options_.acceptance.place_window)) {
+    if (match && other &&
+        sameIdPlace(match->id, match->session, other->id, other->session,
+                    static_cast<uint64_t>(options_.acceptance.place_window))) {
       return leader;
     }
   }
@@ -166,7 +160,7 @@ const CandidateReport* LoopDetector::placeLeader(
 }
 
 bool LoopDetector::nearLeader(const CandidateReport& report, const CandidateReport& leader) const {
-  return idDistance(report.match_id, leader.match_id) <=
+  return idGap(report.match_id, leader.match_id) <=
          static_cast<uint64_t>(options_.acceptance.index_window);
 }
 
@@ -208,7 +202,7 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
   size_t newest_searchable = 0;
   for (size_t b = 0; b < backgrounds_.size(); ++b) {
     for (const PlaceScore& place : backgrounds_[b]) {
-      if (match && place.session == match->session && idDistance(place.id, match->id) <= window) {
+      if (match && sameIdPlace(place.id, place.session, match->id, match->session, window)) {
         continue;
       }
       bool reachable = true;

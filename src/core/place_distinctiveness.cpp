@@ -19,9 +19,7 @@ std::vector<double> placeRatios(
     for (size_t j = 0; j < shortlist.size(); ++j) {
       const ShortlistEntry& other = shortlist[j];
       if (j == i || other.session != candidate.session) continue;
-      const uint64_t gap =
-          other.id > candidate.id ? other.id - candidate.id : candidate.id - other.id;
-      if (gap <= window) continue;
+      if (sameIdPlace(other.id, other.session, candidate.id, candidate.session, window)) continue;
       if (could_be_same_place && could_be_same_place(i, j)) continue;
       competitor = std::max(competitor, other.score);
       found = true;

@@ -7,6 +7,16 @@
 
 namespace landmark_loop_closure {
 
+/// How many keyframe ids apart two keyframes are.
+inline uint64_t idGap(uint64_t a, uint64_t b) { return a > b ? a - b : b - a; }
+
+/// One place by the map's ids: the same session and at most `window` ids apart (the acceptance
+/// stages' place_window).
+inline bool sameIdPlace(uint64_t id_a, uint32_t session_a, uint64_t id_b, uint32_t session_b,
+                        uint64_t window) {
+  return session_a == session_b && idGap(id_a, id_b) <= window;
+}
+
 /// A shortlisted candidate as the distinctiveness test sees it.
 struct ShortlistEntry {
   uint64_t id = 0;
