@@ -235,6 +235,9 @@ void LoopClosureNode::subscribe() {
   camera_info_subscriber_ = node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
                                             &LoopClosureNode::onCameraInfo, this);
   if (options_.use_depth) {
+    // Every queued keyframe (and the one in the worker) keeps its depth image however far behind
+    // the worker is.
+    depth_buffer_.setMaxWanted(static_cast<size_t>(options_.worker_queue_size) + 2);
     depth_subscriber_ = image_transport_.subscribe("depth", 5, &LoopClosureNode::onDepth, this);
   }
   if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf) {

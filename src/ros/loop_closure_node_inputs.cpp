@@ -200,6 +200,10 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     return;
   }
   ++frames_admitted_;
+  // The worker may reach this keyframe after its depth image left the buffer's window.
+  if (options_.use_depth && admission.isKeyframe()) {
+    depth_buffer_.want(frame_stamp, options_.sync_slop);
+  }
   if (!descriptor_path_said_) sayDescriptorPath(cv::Size(image->width, image->height));
   noteCalibration(calibration_problem);
   const Selection& selection = admission.selection;

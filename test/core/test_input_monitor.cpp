@@ -153,3 +153,55 @@ TEST(StampedBuffer, KeepsOnlyTheNewestItems) {
   EXPECT_EQ(buffer.nearest(2.0, wait, true), std::nullopt) << "dropped";
   EXPECT_EQ(buffer.nearest(8.0, wait, true), 8);
 }
+
+TEST(StampedBuffer, HoldsTheItemOfAWantedStampAfterItLeavesTheWindow) {
+  // A worker 40 items behind a 3-item window still finds the depth image of its keyframe, whether
+  // the image came before or after the keyframe was queued.
+  StampedBuffer<int> buffer(3);
+  buffer.push(1.00, 100);
+  buffer.want(1.01, 0.05);
+  buffer.want(2.00, 0.05);
+  for (int i = 0; i < 40; ++i) buffer.push(1.98 + 0.01 * i, i);
+  EXPECT_EQ(buffer.size(), 3u);
+  EXPECT_EQ(buffer.wantedCount(), 2u);
+  StampedWait wait;
+  wait.max_wait_s = 5.0;  // Nothing better can come: later items arrived, so no wait.
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(buffer.nearest(1.01, wait, true), 100);
+  EXPECT_EQ(buffer.nearest(2.00, wait, true), 2) << "the nearest of those that came, 1.98 + 0.02";
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+  EXPECT_EQ(buffer.wantedCount(), 0u) << "an answered stamp is not held any more";
+  wait.max_wait_s = 0.0;
+  EXPECT_EQ(buffer.nearest(1.01, wait, true), std::nullopt) << "held once, for one consumer";
+}
+
+TEST(StampedBuffer, AWantedStampWithoutAMatchGivesNothing) {
+  StampedBuffer<int> buffer(3);
+  buffer.want(5.0, 0.02);
+  for (int i = 0; i < 10; ++i) buffer.push(6.0 + i, i);
+  StampedWait wait;
+  wait.slop_s = 0.02;
+  wait.max_wait_s = 5.0;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(buffer.nearest(5.0, wait, true), std::nullopt);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+  EXPECT_EQ(buffer.wantedCount(), 0u);
+}
+
+TEST(StampedBuffer, HoldsAtMostMaxWantedStamps) {
+  // A consumer that drops queued jobs never asks for them: the oldest stamps are let go.
+  StampedBuffer<int> buffer(3, 4);
+  for (int i = 0; i < 10; ++i) {
+    buffer.push(i, i);
+    buffer.want(i, 0.01);
+  }
+  EXPECT_EQ(buffer.wantedCount(), 4u);
+  for (int i = 10; i < 20; ++i) buffer.push(i, i);
+  StampedWait wait;
+  wait.max_wait_s = 0.0;
+  EXPECT_EQ(buffer.nearest(5.0, wait, true), std::nullopt) << "let go";
+  EXPECT_EQ(buffer.nearest(6.0, wait, true), 6) << "still held";
+  buffer.setMaxWanted(1);
+  EXPECT_EQ(buffer.wantedCount(), 1u);
+  EXPECT_EQ(buffer.nearest(9.0, wait, true), 9) << "the newest is kept";
+}
