@@ -238,7 +238,10 @@ void LoopClosureNode::subscribe() {
     // Every queued keyframe (and the one in the worker) keeps its depth image however far behind
     // the worker is.
     depth_buffer_.setMaxWanted(static_cast<size_t>(options_.worker_queue_size) + 2);
-    depth_subscriber_ = image_transport_.subscribe("depth", 5, &LoopClosureNode::onDepth, this);
+    // As deep as the buffer: with callbacks late on a busy machine, a queue of 5 dropped the
+    // depth of an image the image queue kept.
+    depth_subscriber_ =
+        image_transport_.subscribe("depth", kDepthQueue, &LoopClosureNode::onDepth, this);
   }
   if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf) {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();

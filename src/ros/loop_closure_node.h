@@ -148,8 +148,10 @@ class LoopClosureNode {
   std::deque<sensor_msgs::ImageConstPtr> pending_odometry_;
   ros::Subscriber camera_info_subscriber_;
   image_transport::Subscriber depth_subscriber_;
-  InputMonitor inputs_;  // Arrivals, pairing, bad frames: thread-safe.
-  StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{30};  // Callbacks fill, worker reads.
+  InputMonitor inputs_;                        // Arrivals, pairing, bad frames: thread-safe.
+  static constexpr uint32_t kDepthQueue = 30;  // Depth images the subscriber and buffer keep.
+  StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{
+      kDepthQueue};                              // Callbacks fill, worker reads.
   KindThrottle depth_warnings_{kWarningPeriod};  ///< The depth decoder's reasons, one silence each.
   std::atomic<bool> depth_silence_reported_{false};    ///< Warned of a silent depth publisher.
   KindThrottle camera_info_warnings_{kWarningPeriod};  ///< Under stats_mutex_; one per cause.
