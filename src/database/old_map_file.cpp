@@ -21,7 +21,7 @@ using database_payload::decode;
 using database_payload::FormatError;
 using database_payload::PayloadReader;
 
-constexpr char kMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
+constexpr char kOldMapMagic[8] = {'L', 'L', 'C', 'K', 'F', 'D', 'B', '\n'};
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8 + 4;
 
 class FileDescriptor {
@@ -81,7 +81,7 @@ void readOldMapFile(const std::string& path,
     if (file_bytes < kHeaderBytes) throw FormatError("truncated: shorter than the header");
     uint8_t bytes[kHeaderBytes];
     database_payload::readAt(file.get(), 0, bytes, kHeaderBytes);
-    if (std::memcmp(bytes, kMagic, 8) != 0) throw FormatError("not a keyframe database file");
+    if (std::memcmp(bytes, kOldMapMagic, 8) != 0) throw FormatError("not a keyframe database file");
     const uint32_t version = decode<uint32_t>(bytes + 8);
     if (decode<uint32_t>(bytes + 12) != kByteOrderMark) {
       throw FormatError("byte-order mark is not little-endian 0x01020304");

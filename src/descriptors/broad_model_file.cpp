@@ -10,8 +10,8 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'L', 'C', 'B', 'R', 'O', 'A', 'D'};
-constexpr uint32_t kVersion = 1;
+constexpr char kBroadModelMagic[8] = {'L', 'L', 'C', 'B', 'R', 'O', 'A', 'D'};
+constexpr uint32_t kBroadModelVersion = 1;
 constexpr uint64_t kMaxValues = uint64_t{1} << 30;  // 4 GB of floats: anything more is damage.
 
 void writeMatrix(LittleEndianWriter* writer, const Eigen::MatrixXf& matrix) {
@@ -41,7 +41,7 @@ bool readRow(LittleEndianReader* reader, Eigen::RowVectorXf* row) {
 
 void BroadModel::save(const std::string& path) const {
   LittleEndianWriter writer;
-  beginChecksummedFile(&writer, kMagic, kVersion);
+  beginChecksummedFile(&writer, kBroadModelMagic, kBroadModelVersion);
   const BroadOptions& o = options;
   for (const int value : {o.input_width, o.input_height, o.mapped_groups, o.nodes_per_group,
                           o.enhancement_nodes, o.lasso_iterations}) {
@@ -69,8 +69,8 @@ BroadModel BroadModel::load(const std::string& path) {
     return BroadModelFileError("broad autoencoder model " + path + ": " + what);
   };
   std::vector<uint8_t> body;
-  const std::string error =
-      readChecksummedFile(path, kMagic, kVersion, "broad autoencoder model", &body);
+  const std::string error = readChecksummedFile(path, kBroadModelMagic, kBroadModelVersion,
+                                                "broad autoencoder model", &body);
   if (!error.empty()) throw fail(error);
   LittleEndianReader reader(body.data(), body.size());
   BroadModel model;

@@ -12,10 +12,10 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'L', 'C', 'V', 'L', 'A', 'D', 'V'};
-constexpr uint32_t kVersion = 1;
+constexpr char kVocabularyMagic[8] = {'L', 'L', 'C', 'V', 'L', 'A', 'D', 'V'};
+constexpr uint32_t kVocabularyVersion = 1;
 constexpr uint32_t kMaxClusters = 4096;
-constexpr uint32_t kMaxDimension = 8192;
+constexpr uint32_t kVocabularyMaxDimension = 8192;
 
 }  // namespace
 
@@ -49,7 +49,7 @@ VladVocabulary VladVocabulary::learn(const cv::Mat& samples, int clusters,
 
 void VladVocabulary::save(const std::string& path) const {
   LittleEndianWriter writer;
-  beginChecksummedFile(&writer, kMagic, kVersion);
+  beginChecksummedFile(&writer, kVocabularyMagic, kVocabularyVersion);
   writer.u32(static_cast<uint32_t>(clusters()));
   writer.u32(static_cast<uint32_t>(dimension()));
   writer.text(identity_);
@@ -64,14 +64,15 @@ VladVocabulary VladVocabulary::load(const std::string& path) {
     return VocabularyFileError("vocabulary file " + path + ": " + what);
   };
   std::vector<uint8_t> body;
-  const std::string error = readChecksummedFile(path, kMagic, kVersion, "vocabulary", &body);
+  const std::string error =
+      readChecksummedFile(path, kVocabularyMagic, kVocabularyVersion, "vocabulary", &body);
   if (!error.empty()) throw fail(error);
   LittleEndianReader reader(body.data(), body.size());
   uint32_t clusters = 0, dimension = 0;
   std::string identity;
   const bool header = reader.u32(&clusters) && reader.u32(&dimension) && clusters > 0 &&
-                      dimension > 0 && clusters <= kMaxClusters && dimension <= kMaxDimension &&
-                      reader.text(&identity);
+                      dimension > 0 && clusters <= kMaxClusters &&
+                      dimension <= kVocabularyMaxDimension && reader.text(&identity);
   if (!header) throw fail("header is damaged");
   cv::Mat centres(static_cast<int>(clusters), static_cast<int>(dimension), CV_32F);
   if (!reader.floats(centres.ptr<float>(), centres.total()) || reader.remaining() != 0) {

@@ -19,7 +19,7 @@ namespace landmark_loop_closure {
 namespace {
 
 constexpr int kSpreadGrid = 4;
-constexpr int kMaxRefitRounds = 5;
+constexpr int kMaxModelRefitRounds = 5;
 constexpr float kOrbScaleFactor = 1.2f;
 constexpr double kRadiansToDegrees = 180.0 / M_PI;
 
@@ -251,10 +251,6 @@ bool estimateCovariance(const Correspondences& c, double focal, double min_sigma
   return true;
 }
 
-Eigen::Vector3d normalised(const cv::Point2f& pixel, const CameraIntrinsics& k) {
-  return {(pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0};
-}
-
 }  // namespace
 
 RelativePose withUnknownScale(RelativePose pose) {
@@ -438,12 +434,12 @@ VerificationResult GeometricVerifier::verify(const LocalFeatures& query, const L
   // stops changing, so the final pose is fitted to all matches it agrees with.
   Correspondences all;
   for (size_t i = 0; i < query_points.size(); ++i) {
-    all.query.push_back(normalised(query_points[i], k));
-    all.match.push_back(normalised(match_points[i], k));
+    all.query.push_back(k.ray(query_points[i]));
+    all.match.push_back(k.ray(match_points[i]));
   }
   const double focal = 0.5 * (k.fx + k.fy);
   std::vector<size_t> chosen = selectInliers(all, pose, focal, options_.ransac_threshold_px);
-  for (int round = 0; round < kMaxRefitRounds && static_cast<int>(chosen.size()) >= needed;
+  for (int round = 0; round < kMaxModelRefitRounds && static_cast<int>(chosen.size()) >= needed;
        ++round) {
     refine(subset(all, chosen), focal, &pose);
     std::vector<size_t> again = selectInliers(all, pose, focal, options_.ransac_threshold_px);

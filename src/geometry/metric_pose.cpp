@@ -15,11 +15,7 @@ namespace landmark_loop_closure {
 namespace {
 
 constexpr double kDegreesToRadians = M_PI / 180.0;
-constexpr int kMaxRefitRounds = 5;
-
-Eigen::Vector3d normalised(const cv::Point2f& pixel, const CameraIntrinsics& k) {
-  return {(pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0};
-}
+constexpr int kMaxPnpRefitRounds = 5;
 
 bool finite(const cv::Point3f& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
@@ -259,8 +255,8 @@ int triangulateKeypoints(const LocalFeatures& neighbour,
        ratioTestMatches(*keyframe, neighbour, verification.ratio_test)) {
     const cv::Point2f& here = keyframe->points[static_cast<size_t>(keyframe_index)];
     const cv::Point2f& there = neighbour.points[static_cast<size_t>(neighbour_index)];
-    const Eigen::Vector3d ray = normalised(here, k);
-    const Eigen::Vector3d neighbour_ray = rotation * normalised(there, k);
+    const Eigen::Vector3d ray = k.ray(here);
+    const Eigen::Vector3d neighbour_ray = rotation * k.ray(there);
     if (ray.normalized().dot(neighbour_ray.normalized()) > min_angle_cosine) continue;
     const double depth = depthAlongRay(ray, neighbour_ray);
     if (!(depth > 0.0 && depth <= options.max_point_depth_m)) continue;
@@ -268,7 +264,7 @@ int triangulateKeypoints(const LocalFeatures& neighbour,
     const Eigen::Vector3d in_neighbour = rotation.transpose() * (point - t);
     if (in_neighbour.z() <= 0.0) continue;
     const double error_there =
-        focal * (in_neighbour.head<2>() / in_neighbour.z() - normalised(there, k).head<2>()).norm();
+        focal * (in_neighbour.head<2>() / in_neighbour.z() - k.ray(there).head<2>()).norm();
     if (error_there > options.max_reprojection_px) continue;
     // The depth's spread from keypoint noise in both images, by finite differences.
     double variance = 0.0;
@@ -281,8 +277,7 @@ int triangulateKeypoints(const LocalFeatures& neighbour,
                      : coordinate == 2 ? moved_there.x
                                        : moved_there.y;
       moved += static_cast<float>(pixel_step);
-      const double moved_depth =
-          depthAlongRay(normalised(moved_here, k), rotation * normalised(moved_there, k));
+      const double moved_depth = depthAlongRay(k.ray(moved_here), rotation * k.ray(moved_there));
       stable = std::isfinite(moved_depth);
       const double derivative = (moved_depth - depth) / pixel_step;
       variance += derivative * derivative;
@@ -325,7 +320,7 @@ int keypointsFromDepth(const cv::Mat& depth, const CameraIntrinsics& intrinsics,
                          ? depth.at<uint16_t>(row, col) * options.depth_image_metres_per_unit
                          : static_cast<double>(depth.at<float>(row, col));
     if (!(z > 0.0 && z <= options.max_point_depth_m)) continue;
-    const Eigen::Vector3d point = z * normalised(p, k);
+    const Eigen::Vector3d point = z * k.ray(p);
     keyframe->points3d[i] = cv::Point3f(static_cast<float>(point.x()),
                                         static_cast<float>(point.y()), static_cast<float>(z));
     // Along the ray (z scaled to the ray's length), from the sensor's noise model.
@@ -397,7 +392,7 @@ MetricPoseResult estimateMetricPose(const LocalFeatures& query, const LocalFeatu
   // refitted pose explains, until the set stops changing.
   std::vector<size_t> chosen(ransac_inliers.begin(), ransac_inliers.end());
   double scale = 1.0;
-  for (int round = 0; round < kMaxRefitRounds; ++round) {
+  for (int round = 0; round < kMaxPnpRefitRounds; ++round) {
     updateWhiteners(pose, k, keypoint_sd, &all);
     refine(subset(all, chosen), k, &pose);
     updateWhiteners(pose, k, keypoint_sd, &all);

@@ -11,7 +11,6 @@ namespace sim {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kWallSampleStep = 0.25;  // Metres between wall vertices; arcs need it.
 
 double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -35,7 +34,7 @@ void drawPoster(cv::Mat* texture, const cv::Rect& box, cv::RNG* rng) {
   patch.setTo(cv::Scalar(background));
   switch (rng->uniform(0, 4)) {
     case 0: {  // Stripes at a random angle.
-      const double angle = rng->uniform(0.0, kPi);
+      const double angle = rng->uniform(0.0, M_PI);
       const int period = rng->uniform(6, 20);
       for (int y = 0; y < patch.rows; ++y) {
         for (int x = 0; x < patch.cols; ++x) {
@@ -83,7 +82,7 @@ void drawPoster(cv::Mat* texture, const cv::Rect& box, cv::RNG* rng) {
 CorridorWorld::CorridorWorld(const Options& options) : options_(options) {
   const double straight_x = options.length - 2.0 * options.corner_radius;
   const double straight_y = options.width - 2.0 * options.corner_radius;
-  centre_length_ = 2.0 * (straight_x + straight_y) + 2.0 * kPi * options.corner_radius;
+  centre_length_ = 2.0 * (straight_x + straight_y) + 2.0 * M_PI * options.corner_radius;
   buildWall(0, 0.5 * options.corridor_width);   // Inner wall, left of the direction of travel.
   buildWall(1, -0.5 * options.corridor_width);  // Outer wall.
 
@@ -107,7 +106,7 @@ Eigen::Vector2d CorridorWorld::centreAt(double s, Eigen::Vector2d* tangent) cons
   const double r = options_.corner_radius;
   const double straight_x = options_.length - 2.0 * r;
   const double straight_y = options_.width - 2.0 * r;
-  const double arc = 0.5 * kPi * r;
+  const double arc = 0.5 * M_PI * r;
   s = std::fmod(s, centre_length_);
   if (s < 0.0) s += centre_length_;
 

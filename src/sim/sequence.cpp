@@ -8,7 +8,6 @@ namespace sim {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kLateralRampMetres = 4.0;  // The sideways shift is eased in, not a jump.
 
 double wrapAngle(double angle) { return std::atan2(std::sin(angle), std::cos(angle)); }
@@ -32,7 +31,7 @@ Pose2D SequenceGenerator::truthAt(size_t index, int* lap) const {
   }
   Pose2D pose = world_.poseAt(s, lateral);
   // A little head sway, as a handheld camera or a rolling robot has.
-  pose.yaw = wrapAngle(pose.yaw + 0.03 * std::sin(2.0 * kPi * s / 3.7));
+  pose.yaw = wrapAngle(pose.yaw + 0.03 * std::sin(2.0 * M_PI * s / 3.7));
   return pose;
 }
 

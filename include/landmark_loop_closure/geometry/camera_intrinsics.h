@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 namespace landmark_loop_closure {
@@ -61,6 +62,10 @@ struct CameraIntrinsics {
   /// coordinates, does not change).
   CameraIntrinsics scaledTo(cv::Size size) const;
   cv::Matx33d matrix() const { return {fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0}; }
+  /// The ray through an (ideal) pixel, on the plane z = 1.
+  Eigen::Vector3d ray(const cv::Point2f& pixel) const {
+    return {(pixel.x - cx) / fx, (pixel.y - cy) / fy, 1.0};
+  }
   /// camera_info's distortion_model and D. All zeros under any name (simulators, drivers without
   /// a lens model) is a pinhole.
   void setLens(const std::string& model, std::vector<double> d);
