@@ -207,8 +207,9 @@ LoopClosureNode::~LoopClosureNode() {
   // longer publish: the last line says so, so the map's count and the topic's can be reconciled.
   std::string shutdown_note;
   if (const uint64_t unpublished = keyframes_unpublished_at_shutdown_.load(); unpublished > 0) {
-    shutdown_note += "; " + std::to_string(unpublished) +
-                     " of them stored after ROS shut down, not published on keyframes";
+    shutdown_note +=
+        "; " + std::to_string(unpublished) +
+        " of them stored while ROS shut down, which may not have reached keyframes' subscribers";
   }
   if (unprocessed > 0) {
     shutdown_note += "; " + std::to_string(unprocessed) + " queued keyframes not processed";

@@ -193,7 +193,8 @@ class LoopClosureNode {
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};
-  /// Keyframes stored after ROS shut down, so never published (said in the last log line).
+  /// Keyframes stored while or after ROS shut down, which may not have reached subscribers (said
+  /// in the last log line).
   std::atomic<uint64_t> keyframes_unpublished_at_shutdown_{0};
   std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<bool> camera_info_seen_{false};

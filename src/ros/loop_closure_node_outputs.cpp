@@ -102,8 +102,10 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
 
 void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
-  // Stored, but ROS is gone: nobody can receive it. Counted, and said at shutdown.
-  if (!ros::ok()) ++keyframes_unpublished_at_shutdown_;
+  // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
+  // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted, and
+  // said at shutdown.
+  if (!ros::ok() || ros::isShuttingDown()) ++keyframes_unpublished_at_shutdown_;
   keyframe_publisher_.publish(toKeyframeMsg(job.id, detector_.session(), detector_.mapId(),
                                             job.stamp, job.pose, job.frame_id));
   if (result.loop) {

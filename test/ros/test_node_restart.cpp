@@ -481,8 +481,8 @@ TEST(LoopClosureNode, AStopUnderLoadAccountsForEveryStoredKeyframe) {
   EXPECT_NE(exitStatus(node), -1) << "the node did not stop";
   spinFor(1.0);
   const std::string output = readFile(log);
-  // "Map PATH: N keyframes, each committed when it was stored[; K of them stored after ROS shut
-  // down, not published on keyframes]..."
+  // "Map PATH: N keyframes, each committed when it was stored[; K of them stored while ROS shut
+  // down, which may not have reached keyframes' subscribers]..."
   std::smatch found;
   ASSERT_TRUE(std::regex_search(output, found, std::regex("Map [^ ]+: ([0-9]+) keyframes, each")))
       << output;
@@ -490,12 +490,15 @@ TEST(LoopClosureNode, AStopUnderLoadAccountsForEveryStoredKeyframe) {
   size_t unpublished = 0;
   if (std::regex_search(
           output, found,
-          std::regex("; ([0-9]+) of them stored after ROS shut down, not published"))) {
+          std::regex("; ([0-9]+) of them stored while ROS shut down, which may not have"))) {
     unpublished = std::stoul(found[1]);
   }
   EXPECT_EQ(KeyframeStore::openExisting(path)->size(), stored);
-  EXPECT_EQ(harness.keyframes().size() + unpublished, stored)
-      << "every keyframe in the map was published, or the last line says it was not:\n"
+  // Every keyframe received is in the map, and every one in the map was received or is among
+  // those the last line says may not have been.
+  EXPECT_LE(harness.keyframes().size(), stored) << output;
+  EXPECT_GE(harness.keyframes().size() + unpublished, stored)
+      << "a keyframe in the map was neither received nor said possibly unreceived:\n"
       << output;
   std::printf("stopped with %zu keyframes in the map, %zu published, %zu said unpublished\n",
               stored, harness.keyframes().size(), unpublished);
