@@ -46,17 +46,37 @@ void PoseGraphRuntime::work() {
       if (stopping_) return;
       batch.swap(inputs_);
     }
-    if (!woken) {
-      if (session_.pathsBehind() && listener_.catch_up) listener_.catch_up(session_);
+    // An exception must not end the process (with a shared nodelet manager, the detector and
+    // the camera driver too): counted, reported, and the worker takes the next batch.
+    std::string what;
+    try {
+      if (woken) {
+        process(batch);
+      } else if (session_.pathsBehind() && listener_.catch_up) {
+        listener_.catch_up(session_);
+      }
       continue;
+    } catch (const std::exception& error) {
+      what = error.what();
+    } catch (...) {
+      what = "an exception that is not a std::exception";
     }
-    const GraphStep step = session_.process(batch);
-    if (step.changed && !session_.odometryFrame().empty()) {
-      std::lock_guard<std::mutex> lock(correction_mutex_);
-      correction_ = GraphCorrection{session_.graph().mapFromOdometry(), session_.odometryFrame()};
+    ++failures_;
+    if (!listener_.failed) continue;
+    try {
+      listener_.failed(what);
+    } catch (...) {  // Reporting must not end the worker either.
     }
-    if (listener_.step) listener_.step(session_, step);
   }
+}
+
+void PoseGraphRuntime::process(const std::vector<PoseGraphSession::Input>& batch) {
+  const GraphStep step = session_.process(batch);
+  if (step.changed && !session_.odometryFrame().empty()) {
+    std::lock_guard<std::mutex> lock(correction_mutex_);
+    correction_ = GraphCorrection{session_.graph().mapFromOdometry(), session_.odometryFrame()};
+  }
+  if (listener_.step) listener_.step(session_, step);
 }
 
 }  // namespace landmark_loop_closure

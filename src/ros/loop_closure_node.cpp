@@ -177,6 +177,13 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                              const PreparedKeyframe& prepared) {
     onKeyframeDone(job, result, prepared);
   };
+  listener.failed = [this](const KeyframeJob& job, const std::string& what) {
+    ROS_ERROR_THROTTLE(kWarningPeriod,
+                       "Keyframe %lu at %.3f dropped: its processing threw (%s); the detector goes "
+                       "on with the next (%lu so far, diagnostics: keyframes failed)",
+                       static_cast<unsigned long>(job.id), job.stamp, what.c_str(),
+                       static_cast<unsigned long>(runtime_ ? runtime_->keyframesFailed() : 0));
+  };
   runtime_ = std::make_unique<DetectorRuntime>(&detector_, runtime_options, std::move(listener));
   advertiseServices();
   subscribe();

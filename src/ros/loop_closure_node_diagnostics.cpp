@@ -88,6 +88,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("loops published", loops_published_.load());
   status.add("keyframes dropped (worker busy)", runtime_->keyframesDropped());
   status.add("keyframes dropped at a map switch", runtime_->keyframesDroppedAtMapSwitch());
+  status.add("keyframes failed (processing threw)", runtime_->keyframesFailed());
   status.add("time jumps (new timelines)", runtime_->timeJumps());
   status.add("queued keyframes", runtime_->queued());
   status.add("odometry jumps", odometry_jumps_.load());

@@ -68,6 +68,13 @@ class PoseGraphNode {
     listener.catch_up = [this](PoseGraphSession& session) {
       publishPaths(session, pathStamp(session));
     };
+    listener.failed = [this](const std::string& what) {
+      ROS_ERROR_THROTTLE(10.0,
+                         "Pose graph: a batch of keyframes and loops threw (%s) and was dropped "
+                         "where it was; the graph goes on with the next (%lu so far)",
+                         what.c_str(),
+                         static_cast<unsigned long>(runtime_ ? runtime_->failures() : 0));
+    };
     runtime_ = std::make_unique<PoseGraphRuntime>(
         std::move(options),
         [this](const std::string& frame, std::string* problem) { return mountOf(frame, problem); },

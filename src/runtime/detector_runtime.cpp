@@ -156,7 +156,25 @@ size_t DetectorRuntime::runOnDetector(const std::function<bool(LoopDetector&)>& 
 }
 
 void DetectorRuntime::work() {
-  while (std::optional<KeyframeJob> job = queue_.pop()) process(*job);
+  // An exception must not end the process (with a shared nodelet manager, the camera driver's
+  // too): the job is dropped, counted and reported, and the next one is taken.
+  while (std::optional<KeyframeJob> job = queue_.pop()) {
+    std::string what;
+    try {
+      process(*job);
+      continue;
+    } catch (const std::exception& error) {
+      what = error.what();
+    } catch (...) {
+      what = "an exception that is not a std::exception";
+    }
+    ++failed_;
+    if (!listener_.failed) continue;
+    try {
+      listener_.failed(*job, what);
+    } catch (...) {  // Reporting must not end the worker either.
+    }
+  }
 }
 
 void DetectorRuntime::process(KeyframeJob& job) {

@@ -7,7 +7,10 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -429,4 +432,45 @@ TEST(DetectorRuntime, AKeyframeBeingPreparedNeverHoldsAServiceBack) {
   ASSERT_TRUE(recorder.waitDone(1));
   EXPECT_EQ(recorder.processed(), std::vector<uint64_t>{1});
   EXPECT_EQ(runtime.keyframesDroppedAtMapSwitch(), 1u);
+}
+
+// An exception on the worker (OpenCV, oneDNN, SQLite, a publisher) must not end the process, which
+// a shared nodelet manager shares with the camera driver: the job is dropped, counted and reported,
+// and the keyframes after it are processed as if it had not come.
+TEST(DetectorRuntime, AJobThatThrowsIsReportedAndTheWorkerGoesOn) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  Recorder recorder;
+  RuntimeListener listener = recorder.listener();
+  const auto prepare = listener.prepare;
+  listener.prepare = [prepare](const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
+                               InputError* error) {
+    if (job.id == 1) throw std::runtime_error("oneDNN: could not allocate");
+    return prepare(job, colour, prepared, error);
+  };
+  const auto keyframe = listener.keyframe;
+  listener.keyframe = [keyframe](const KeyframeJob& job, const KeyframeResult& result,
+                                 const PreparedKeyframe& prepared) {
+    keyframe(job, result, prepared);
+    if (job.id == 3) throw 42;  // Not even a std::exception.
+  };
+  std::mutex mutex;
+  std::vector<std::pair<uint64_t, std::string>> failures;
+  listener.failed = [&](const KeyframeJob& job, const std::string& what) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    failures.emplace_back(job.id, what);
+  };
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, std::move(listener));
+  for (int i = 0; i < 6; ++i) runtime.admit(frame(i, i * 10));
+  ASSERT_TRUE(recorder.waitDone(5));  // Every job but the one that threw before its result.
+  runtime.stop();
+  EXPECT_EQ(recorder.processed(), (std::vector<uint64_t>{0, 2, 3, 4, 5}));
+  EXPECT_EQ(runtime.keyframesFailed(), 2u);
+  const std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(failures.size(), 2u);
+  EXPECT_EQ(failures[0].first, 1u);
+  EXPECT_EQ(failures[0].second, "oneDNN: could not allocate");
+  EXPECT_EQ(failures[1].first, 3u);
+  EXPECT_EQ(failures[1].second, "an exception that is not a std::exception");
+  EXPECT_EQ(detector->database().size(), 5u)
+      << "the job that threw before the detector stored nothing";
 }

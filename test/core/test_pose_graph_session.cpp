@@ -6,6 +6,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -373,6 +374,49 @@ TEST(PoseGraphRuntime, InputsFromSeveralThreadsAllEnterWhileTheCorrectionIsRead)
   runtime.stop();  // Idempotent.
   ASSERT_TRUE(runtime.correction().has_value());
   EXPECT_NE(runtime.summary().find("205 keyframes"), std::string::npos) << runtime.summary();
+}
+
+// An exception on the worker (Ceres, a listener) must not end the process, which a shared nodelet
+// manager shares with the detector and the camera driver.
+TEST(PoseGraphRuntime, ABatchThatThrowsIsReportedAndTheWorkerGoesOn) {
+  std::mutex mutex;
+  std::condition_variable changed;
+  size_t keyframes_seen = 0;
+  bool thrown = false;
+  std::vector<std::string> failures;
+  PoseGraphListener listener;
+  listener.step = [&](PoseGraphSession& session, const GraphStep&) {
+    std::lock_guard<std::mutex> lock(mutex);
+    keyframes_seen = session.graph().keyframes();
+    changed.notify_all();
+    if (!thrown) {
+      thrown = true;
+      throw std::runtime_error("publish failed");
+    }
+  };
+  listener.failed = [&](const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex);
+    failures.push_back(what);
+    changed.notify_all();
+  };
+  PoseGraphRuntime runtime(eachLoopOnItsOwn(), cameraOnly, listener, std::chrono::milliseconds(20));
+  runtime.push(keyframeAt(0));
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(
+        changed.wait_for(lock, std::chrono::seconds(10), [&] { return !failures.empty(); }));
+  }
+  for (uint64_t id = 1; id < 5; ++id) runtime.push(keyframeAt(id));
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    EXPECT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] {
+      return keyframes_seen == 5;
+    })) << keyframes_seen;
+  }
+  runtime.stop();
+  EXPECT_EQ(runtime.failures(), 1u);
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0], "publish failed");
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // the PoseGraphSession and tells the listener. map -> odom is readable from any thread.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -24,6 +25,9 @@ struct PoseGraphListener {
   /// No input came for the catch-up time and the last paths miss keyframes (the robot stopped,
   /// the bag ended): the paths should show every keyframe.
   std::function<void(PoseGraphSession&)> catch_up;
+  /// An exception escaped a batch (Ceres, a listener): the batch's remaining work is dropped and
+  /// the worker goes on with the next one. `what` is the exception's.
+  std::function<void(const std::string& what)> failed;
 };
 
 /// map_frame -> the odometry frame, and that frame's name.
@@ -50,9 +54,12 @@ class PoseGraphRuntime {
   void stop();
   /// After stop(): PoseGraphSession::summary().
   std::string summary() const;
+  /// Batches (or catch-ups) an exception ended; the worker went on.
+  uint64_t failures() const { return failures_; }
 
  private:
   void work();
+  void process(const std::vector<PoseGraphSession::Input>& batch);
 
   PoseGraphSession session_;
   PoseGraphListener listener_;
@@ -65,6 +72,7 @@ class PoseGraphRuntime {
   std::condition_variable wake_;
   std::vector<PoseGraphSession::Input> inputs_;
   bool stopping_ = false;
+  std::atomic<uint64_t> failures_{0};
   std::thread worker_;
 };
 

@@ -116,6 +116,9 @@ struct RuntimeListener {
       training_finished;
   /// A keyframe described, searched and (in mapping mode) stored.
   std::function<void(const KeyframeJob&, const KeyframeResult&, const PreparedKeyframe&)> keyframe;
+  /// An exception escaped the work on this job (OpenCV, oneDNN, SQLite, a listener): the job is
+  /// dropped where it was and the worker goes on with the next one. `what` is the exception's.
+  std::function<void(const KeyframeJob&, const std::string& what)> failed;
 };
 
 class DetectorRuntime {
@@ -165,6 +168,8 @@ class DetectorRuntime {
   uint64_t staleKeyframesDropped() const { return stale_; }
   /// Keyframes queued before a load or reset replaced the map, dropped by the worker.
   uint64_t keyframesDroppedAtMapSwitch() const { return dropped_at_map_switch_; }
+  /// Jobs an exception ended (listener.failed said which); the worker went on.
+  uint64_t keyframesFailed() const { return failed_; }
   size_t queued() const { return queue_.size(); }
   /// Worker time of the last keyframe and the longest so far, in milliseconds.
   double lastProcessingMs() const { return last_ms_; }
@@ -191,6 +196,7 @@ class DetectorRuntime {
   std::atomic<uint64_t> stale_{0};
   std::atomic<uint64_t> map_epoch_{0};  ///< Bumped when a map service replaced the map.
   std::atomic<uint64_t> dropped_at_map_switch_{0};
+  std::atomic<uint64_t> failed_{0};
   std::atomic<double> last_ms_{0.0};
   std::atomic<double> max_ms_{0.0};
   std::thread worker_;
