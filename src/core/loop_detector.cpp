@@ -477,6 +477,7 @@ void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
   noteMapDamage(result);
   if (!map_damage_.empty()) {
     // A damaged map is left as it is: keyframes stay in memory (mapDamage() said so once).
+    ++map_unwritten_;
     result->stored = true;
     database_.addUnstored(std::move(keyframe));
     return;
@@ -488,6 +489,7 @@ void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
       store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
     } catch (const std::exception& error) {
       result->store_error = error.what();
+      ++map_unwritten_;
       if (over_budget) return;
     }
   }

@@ -123,6 +123,7 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   map_leftovers_removed_ = map.store->leftoversRemoved();
   map_repairs_ = map.store->repairs();
   map_damage_.clear();
+  map_unwritten_ = 0;
   map_unsearched_ = map.keyframes - map.database.size();
   database_ = std::move(map.database);
   store_ = std::move(map.store);
@@ -147,6 +148,8 @@ size_t LoopDetector::cachedRecords() const {
 
 std::string LoopDetector::saveMapGraph() {
   if (!store_) return "";
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);  // The graph, and the counts said at a stop, include them.
   try {
     store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
   } catch (const std::exception& error) {
@@ -158,6 +161,20 @@ std::string LoopDetector::saveMapGraph() {
 std::string LoopDetector::loadDatabase(const std::string& path) {
   const std::string missing = missingMapProblem(path);
   return missing.empty() ? openMap(path) : missing;
+}
+
+size_t LoopDetector::mapKeyframesNotWritten() const {
+  if (!store_) return 0;
+  // Held during a check that failed: never committed.
+  const size_t held =
+      store_->integrityCheck() == KeyframeStore::MapCheck::kFailed ? store_->heldKeyframes() : 0;
+  return map_unwritten_ + held;
+}
+
+size_t LoopDetector::mapKeyframesInFile() const {
+  if (!store_) return 0;
+  const bool failed = store_->integrityCheck() == KeyframeStore::MapCheck::kFailed;
+  return store_->size() - (failed ? store_->heldKeyframes() : 0);
 }
 
 std::string LoopDetector::mapCheck() const {
@@ -181,6 +198,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   if (training_) training_->clear();
   map_damage_.clear();
   map_unsearched_ = 0;
+  map_unwritten_ = 0;
   database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
   session_ = 0;
   memory_map_id_ = KeyframeStore::drawMapId();

@@ -228,8 +228,18 @@ LoopClosureNode::~LoopClosureNode() {
     const double seconds = (ros::WallTime::now() - start).toSec();
     if (!error.empty()) logAtStop(ros::console::levels::Warn, error);
     std::ostringstream line;
-    line << "Map " << detector.mapPath() << ": " << detector.database().size()
-         << " keyframes, each committed when it was stored" << shutdown_note
+    // What is on disk, not what was in memory: a damaged map or a full disk kept some out.
+    if (const size_t unwritten = detector.mapKeyframesNotWritten(); unwritten > 0) {
+      line << "Map " << detector.mapPath() << ": " << detector.mapKeyframesInFile()
+           << " keyframes in the file; " << unwritten << " keyframes of this run are not in it ("
+           << (detector.mapCheck() == "damaged" ? "the map is damaged and never written to"
+                                                : "writing failed")
+           << "), they were in memory only";
+    } else {
+      line << "Map " << detector.mapPath() << ": " << detector.mapKeyframesInFile()
+           << " keyframes, each committed when it was stored";
+    }
+    line << shutdown_note
          << (error.empty() ? "; search graph and rows saved in " : "; search files not saved, ")
          << std::fixed << std::setprecision(2) << seconds << " s";
     logAtStop(ros::console::levels::Info, line.str());

@@ -411,12 +411,16 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWritten
   }
   EXPECT_EQ(detector.database().size(), 25u);
   EXPECT_NE(detector.mapDamage(), "");
+  // What a stop says: the file's 20, and the 5 of this run only in memory.
+  EXPECT_EQ(detector.mapKeyframesInFile(), 20u);
+  EXPECT_EQ(detector.mapKeyframesNotWritten(), 5u);
   EXPECT_NE(detector.saveMapGraph(), "") << "nothing is saved beside a damaged map";
   EXPECT_TRUE(fileBytes(path) == damaged_map);
   EXPECT_TRUE(fileBytes(path + "-vectors") == damaged_rows);
   const LoopDetector::ResetOutcome outcome = detector.reset();  // A fresh map: searched again.
   EXPECT_EQ(outcome.problem, "");
   EXPECT_EQ(detector.mapDamage(), "");
+  EXPECT_EQ(detector.mapKeyframesNotWritten(), 0u);
   EXPECT_EQ(detector.mapCheck(), "checked");
   // The damaged map, kept aside by the reset, is as it was: its byte put back, it holds its 20.
   ASSERT_EQ(outcome.kept_as.rfind(path, 0), 0u) << outcome.kept_as;

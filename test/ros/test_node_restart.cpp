@@ -325,7 +325,9 @@ TEST(LoopClosureNode, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
   const std::string damaged_map = readFile(path);
   const std::string damaged_rows = readFile(path + "-vectors");
   const size_t keyframes_before = harness.keyframes().size();
-  const pid_t second = startNode();
+  const std::string log =
+      (std::filesystem::temp_directory_path() / "lcd_node_damaged_page.log").string();
+  const pid_t second = startNode(log);
   ASSERT_GT(second, 0);
   ASSERT_TRUE(harness.waitForNode()) << "the second run did not subscribe";
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
@@ -341,6 +343,18 @@ TEST(LoopClosureNode, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
   EXPECT_TRUE(stopNode(second));
   EXPECT_TRUE(readFile(path) == damaged_map) << "the damaged map was written to";
   EXPECT_TRUE(readFile(path + "-vectors") == damaged_rows) << "its rows were written to";
+  // The last line counts what is on disk, and says which keyframes are not there.
+  const std::string output = readFile(log);
+  std::smatch found;
+  ASSERT_TRUE(std::regex_search(
+      output, found,
+      std::regex("Map [^ ]+: ([0-9]+) keyframes in the file; ([0-9]+) keyframes of this run are "
+                 "not in it \\(the map is damaged")))
+      << output;
+  EXPECT_EQ(std::stoul(found[1]), keyframes_before);
+  EXPECT_EQ(std::stoul(found[2]), harness.keyframes().size() - keyframes_before);
+  EXPECT_EQ(output.find("each committed"), std::string::npos) << output;
+  std::filesystem::remove(log);
   ros::param::set("/loop_closure/database_path", std::string());
   removeMapFiles(path);
 }

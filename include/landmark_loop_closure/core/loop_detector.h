@@ -267,8 +267,8 @@ class LoopDetector {
                      : std::make_pair(0, 0);
   }
   /// Worker thread: keeps the search graph and summaries beside the open map for the next start
-  /// (they change with every keyframe, so they are written at shutdown, not as keyframes come).
-  /// Returns "" or why.
+  /// (they change with every keyframe, so they are written at shutdown, not as keyframes come),
+  /// after storing the keyframes still waiting for the condition window. Returns "" or why.
   std::string saveMapGraph();
   /// Worker thread: why search stopped, "" while it runs. openMap() starts search at once and
   /// checks the map's integrity (its pages, and the rows sealed at its last clean shutdown) on a
@@ -286,6 +286,12 @@ class LoopDetector {
   size_t mapKeyframesNotSearched() const { return map_unsearched_; }
   /// Worker thread: "checked", "being checked" or "damaged" ("" without a map file).
   std::string mapCheck() const;
+  /// Worker thread: keyframes of this run the open map file will not hold: the map was found
+  /// damaged (those held during its check, and every one after) or a write failed (disk full).
+  /// They are in memory only. 0 without a map file.
+  size_t mapKeyframesNotWritten() const;
+  /// Worker thread: keyframes the open map file holds, or will once its check passes.
+  size_t mapKeyframesInFile() const;
   /// Whether the last openMap() found the map's saved search graph (else it was built).
   bool mapGraphReused() const { return map_graph_reused_; }
   /// Temporary files of an interrupted save that opening the map removed.
@@ -467,6 +473,7 @@ class LoopDetector {
   std::vector<std::string> map_repairs_;
   std::string map_damage_;
   size_t map_unsearched_ = 0;
+  size_t map_unwritten_ = 0;  ///< Keyframes store() could not write (see mapKeyframesNotWritten).
   ConditionStandardiser standardiser_;
   /// A session's first keyframes, standardised against a window of fewer than condition_window
   /// keyframes: kept out of the database until the window is full (they are never candidates
