@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <map>
 #include <string>
 #include <utility>
@@ -53,6 +54,9 @@ class DemoReport {
     verdict_subscriber_ =
         node.subscribe("pose_graph/loop_verdicts", 1000, &DemoReport::onVerdict, this);
   }
+
+  /// Judges what still waits for truth with the truth there is (the bag has ended).
+  void finish() { judgeWaiting(true); }
 
   void printSummary() const {
     const int false_loops = loops_ - true_loops_;
@@ -112,7 +116,7 @@ class DemoReport {
       const auto before = std::prev(it);
       if ((stamp - before->first) < (it->first - stamp)) it = before;
     }
-    if (std::abs((it->first - stamp).toSec()) > 0.5) return false;
+    if (std::abs((it->first - stamp).toSec()) > kTruthTolerance) return false;
     *pose = it->second;
     return true;
   }
@@ -177,11 +181,44 @@ class DemoReport {
         odometry.similarity_rmse, optimised.similarity_rmse, odometry.scale, optimised.scale);
   }
 
+  // Keyframes and loops wait until the truth at their stamps has come: the bag player sends it on
+  // a connection of its own, and on a busy machine a loop (from the detector, after the image)
+  // can arrive before it. Judged in the order they came.
   void onTruth(const nav_msgs::OdometryConstPtr& truth) {
     truth_[truth->header.stamp] = truth->pose.pose;
+    judgeWaiting(false);
   }
 
   void onKeyframe(const landmark_loop_closure::KeyframeConstPtr& keyframe) {
+    waiting_keyframes_.push_back(keyframe);
+    judgeWaiting(false);
+  }
+
+  void onLoop(const landmark_loop_closure::LoopClosureConstPtr& loop) {
+    waiting_loops_.push_back(loop);
+    judgeWaiting(false);
+  }
+
+  // Truth past stamp + the tolerance has come, so the nearest truth is here (the bag sends it in
+  // stamp order).
+  bool truthCovers(const ros::Time& stamp) const {
+    return !truth_.empty() && (truth_.rbegin()->first - stamp).toSec() >= kTruthTolerance;
+  }
+
+  void judgeWaiting(bool all) {
+    while (!waiting_keyframes_.empty() &&
+           (all || truthCovers(waiting_keyframes_.front()->header.stamp))) {
+      judgeKeyframe(*waiting_keyframes_.front());
+      waiting_keyframes_.pop_front();
+    }
+    while (!waiting_loops_.empty() && (all || truthCovers(waiting_loops_.front()->query_stamp))) {
+      judgeLoop(*waiting_loops_.front());
+      waiting_loops_.pop_front();
+    }
+  }
+
+  void judgeKeyframe(const landmark_loop_closure::Keyframe& keyframe_message) {
+    const landmark_loop_closure::Keyframe* keyframe = &keyframe_message;
     ++keyframes_;
     keyframe_odometry_.emplace_back(keyframe->header.stamp, keyframe->pose);
     geometry_msgs::Pose here_pose;
@@ -198,7 +235,8 @@ class DemoReport {
     keyframe_truth_[keyframe->header.stamp] = here;
   }
 
-  void onLoop(const landmark_loop_closure::LoopClosureConstPtr& loop) {
+  void judgeLoop(const landmark_loop_closure::LoopClosure& loop_message) {
+    const landmark_loop_closure::LoopClosure* loop = &loop_message;
     ++loops_;
     geometry_msgs::Pose query_pose;
     geometry_msgs::Pose match_pose;
@@ -235,7 +273,11 @@ class DemoReport {
     std::fflush(stdout);
   }
 
+  static constexpr double kTruthTolerance = 0.5;  ///< Seconds from a stamp to its truth.
+
   landmark_loop_closure::eval::TrueLoopRule rule_;
+  std::deque<landmark_loop_closure::KeyframeConstPtr> waiting_keyframes_;
+  std::deque<landmark_loop_closure::LoopClosureConstPtr> waiting_loops_;
   ros::Subscriber truth_subscriber_;
   ros::Subscriber loop_subscriber_;
   ros::Subscriber keyframe_subscriber_;
@@ -265,6 +307,7 @@ int main(int argc, char** argv) {
   ros::NodeHandle private_node("~");
   DemoReport report(node, private_node);
   ros::spin();
+  report.finish();
   report.printSummary();
   return 0;
 }
