@@ -1,5 +1,7 @@
 #include "landmark_loop_closure/backend/pose_graph_runtime.h"
 
+#include "landmark_loop_closure/common/caught.h"
+
 namespace landmark_loop_closure {
 
 PoseGraphRuntime::PoseGraphRuntime(PoseGraphNodeOptions options, MountLookup mount,
@@ -48,25 +50,16 @@ void PoseGraphRuntime::work() {
     }
     // An exception must not end the process (with a shared nodelet manager, the detector and
     // the camera driver too): counted, reported, and the worker takes the next batch.
-    std::string what;
-    try {
+    const std::optional<std::string> what = runCaught([&] {
       if (woken) {
         process(batch);
       } else if (session_.pathsBehind() && listener_.catch_up) {
         listener_.catch_up(session_);
       }
-      continue;
-    } catch (const std::exception& error) {
-      what = error.what();
-    } catch (...) {
-      what = "an exception that is not a std::exception";
-    }
+    });
+    if (!what) continue;
     ++failures_;
-    if (!listener_.failed) continue;
-    try {
-      listener_.failed(what);
-    } catch (...) {  // Reporting must not end the worker either.
-    }
+    if (listener_.failed) reportCaught([&] { listener_.failed(*what); });
   }
 }
 

@@ -1,5 +1,7 @@
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 
+#include "landmark_loop_closure/common/caught.h"
+
 #include <algorithm>
 #include <chrono>
 #include <sstream>
@@ -159,21 +161,10 @@ void DetectorRuntime::work() {
   // An exception must not end the process (with a shared nodelet manager, the camera driver's
   // too): the job is dropped, counted and reported, and the next one is taken.
   while (std::optional<KeyframeJob> job = queue_.pop()) {
-    std::string what;
-    try {
-      process(*job);
-      continue;
-    } catch (const std::exception& error) {
-      what = error.what();
-    } catch (...) {
-      what = "an exception that is not a std::exception";
-    }
+    const std::optional<std::string> what = runCaught([&] { process(*job); });
+    if (!what) continue;
     ++failed_;
-    if (!listener_.failed) continue;
-    try {
-      listener_.failed(*job, what);
-    } catch (...) {  // Reporting must not end the worker either.
-    }
+    if (listener_.failed) reportCaught([&] { listener_.failed(*job, *what); });
   }
 }
 
