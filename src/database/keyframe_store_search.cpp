@@ -111,22 +111,35 @@ void KeyframeStore::openRows() {
     const auto id = static_cast<uint64_t>(sqlite3_column_int64(later, 0));
     const auto position = static_cast<uint64_t>(sqlite3_column_int64(later, 1));
     const auto checksum = static_cast<uint32_t>(sqlite3_column_int64(later, 2));
+    const size_t bytes = mapped->entryBytes();
+    const bool matches = position < mapped->entries() &&
+                         crc32c(0, mapped->entry(position), bytes) == checksum &&
+                         mapped->summary(position).id == id;
+    if (first_lost) {
+      // A power cut loses the file's last pages: a row that matches after a lost one means the
+      // file was damaged in its middle, and repairing would delete intact keyframes.
+      if (matches) {
+        sqlite3_finalize(later);
+        throw damaged("keyframe " + std::to_string(*first_lost) +
+                      "'s search row does not match it, yet keyframe " + std::to_string(id) +
+                      "'s later one does (damaged, not cut short by a power cut)");
+      }
+      continue;
+    }
     if (position != checked) {
       sqlite3_finalize(later);
       throw damaged("keyframe " + std::to_string(id) + " points at entry " +
                     std::to_string(position) + ", not " + std::to_string(checked));
     }
-    const size_t bytes = mapped->entryBytes();
-    if (position >= mapped->entries() || crc32c(0, mapped->entry(position), bytes) != checksum ||
-        mapped->summary(position).id != id) {
+    if (!matches) {
       first_lost = id;
-      break;
+      continue;
     }
     crc = crc32c(crc, mapped->entry(position), bytes);
     ++checked;
   }
   sqlite3_finalize(later);
-  if (!first_lost && status != SQLITE_DONE) c.fail("cannot read the keyframes");
+  if (status != SQLITE_DONE) c.fail("cannot read the keyframes");
   // Not one row matching is no power cut's doing (another map's file, or an emptied one): refused,
   // the keyframes left as they are.
   if (first_lost && checked == 0) throw damaged("no keyframe's row matches");

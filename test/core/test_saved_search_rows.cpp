@@ -233,8 +233,7 @@ TEST_F(KeyframeStoreTest, ADamagedMissingOrForeignRowsFileIsRefusedWithItsName) 
   }
   std::string refused = failureOf([&] { KeyframeStore::openExisting(path_); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
-  refused =
-      failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkIntegrity(); });
+  refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension)->checkIntegrity(); });
   EXPECT_NE(refused.find(rows + " are damaged"), std::string::npos) << refused;
   // Another map's rows file with the same keyframe ids: its content differs.
   fs::copy_file(sealMap((folder_ / "twin.db").string(), 5, 3) + "-vectors", rows,
@@ -352,6 +351,36 @@ TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIs
   KeyframeDatabase reopened(kDimension);
   store->loadSearch(&reopened);
   EXPECT_EQ(reopened.summary(6).session, 2u);
+}
+
+TEST_F(KeyframeStoreTest, ARowDamagedBeforeIntactOnesIsDamageNotAPowerCut) {
+  const size_t entry_bytes = sizeof(float) + kDimension + 92;
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 0);
+    store->saveGraph("hnsw M=8", database);
+    for (uint64_t id = 6; id <= 9; ++id) store->add(makeKeyframe(id, 1));
+  }
+  // Bytes flipped inside keyframe 7's row (entry 6); keyframes 8 and 9's rows are intact.
+  {
+    std::fstream damage(path_ + "-vectors", std::ios::in | std::ios::out | std::ios::binary);
+    damage.seekp(static_cast<std::streamoff>(16 + 6 * entry_bytes + 10));
+    damage.write("\xff\xfe\xfd\xfc", 4);
+  }
+  const std::string before = bytesOf(path_ + "-vectors");
+  const std::string keyframes_before = bytesOf(path_);
+  const std::string refused = failureOf([&] { KeyframeStore::open(path_, kIdentity, kDimension); });
+  EXPECT_NE(refused.find("keyframe 7's search row does not match it, yet keyframe 8's"),
+            std::string::npos)
+      << refused;
+  EXPECT_NE(refused.find("damaged"), std::string::npos) << refused;
+  // Nothing was repaired away or cut: every keyframe and row is still there, and the tools that
+  // only read a map report the same.
+  EXPECT_EQ(bytesOf(path_ + "-vectors"), before);
+  EXPECT_EQ(bytesOf(path_), keyframes_before);
+  EXPECT_NE(failureOf([&] { KeyframeStore::openExisting(path_); }).find("yet keyframe 8's"),
+            std::string::npos);
 }
 
 TEST_F(KeyframeStoreTest, SearchHoldingAKeyframeTheMapCouldNotTakeIsNotSaved) {
