@@ -4,9 +4,16 @@
 # _build_tsan/, and runs them.
 # Fails on any report; test/tsan.supp lists the only ones ignored (lock order inside hnswlib and
 # GDAL, libraries we do not build). scripts/test.sh runs it after the other tests (ctest entry
-# tsan_threaded_tests, tier slow).
+# tsan_threaded_tests, tier slow), and starts its build earlier, at the lowest priority, with
+# --build-only while the other tiers run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+build_only=false
+case "${1:-}" in
+  "") ;;
+  --build-only) build_only=true ;;
+  *) echo "usage: scripts/tsan.sh [--build-only]" >&2; exit 2 ;;
+esac
 TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map test_pose_graph_session)
 LOG=_build_tsan.log
 echo "tsan: configuring and building ${TESTS[*]} (output in $LOG)"
@@ -19,6 +26,9 @@ cmake -S . -B _build_tsan -DCMAKE_BUILD_TYPE=None -DCATKIN_ENABLE_TESTING=ON \
   || { tail -n 40 "$LOG"; echo "tsan: configuring failed" >&2; exit 1; }
 cmake --build _build_tsan --target "${TESTS[@]}" -- -j"$(nproc)" >> "$LOG" 2>&1 \
   || { grep -E "error" "$LOG" | head -20; echo "tsan: build failed; see $LOG" >&2; exit 1; }
+if $build_only; then
+  exit 0
+fi
 export TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1 suppressions=$PWD/test/tsan.supp"
 failed=0
 for test in "${TESTS[@]}"; do
