@@ -41,4 +41,26 @@ double ScoreTail::scoreFor(double false_alarms, size_t places) const {
   return threshold + mean_excess * std::log(tail_fraction / share);
 }
 
+void PassedPlaceScores::add(std::vector<double> scores) {
+  if (scores.empty()) return;
+  queries_.push_front(std::move(scores));
+  while (queries_.size() > kQueries) queries_.pop_back();
+}
+
+size_t PassedPlaceScores::samples() const {
+  size_t count = 0;
+  for (const std::vector<double>& scores : queries_) count += scores.size();
+  return count;
+}
+
+ScoreTail PassedPlaceScores::tail() const {
+  if (samples() < kMinSamples) return {};
+  std::vector<double> pooled;
+  pooled.reserve(samples());
+  for (const std::vector<double>& scores : queries_) {
+    pooled.insert(pooled.end(), scores.begin(), scores.end());
+  }
+  return fitScoreTail(std::move(pooled));
+}
+
 }  // namespace landmark_loop_closure

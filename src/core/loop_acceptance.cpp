@@ -185,10 +185,30 @@ void LoopDetector::recordBackground(const KeyframeRecord& query_keyframe) {
   backgrounds_.push_front(std::move(scores));
   while (backgrounds_.size() > kPooledBackgrounds) backgrounds_.pop_back();
   background_places_ = background.places;
+  const uint64_t span = static_cast<uint64_t>(options_.database.exclude_recent_keyframes);
+  if (mode_ != DetectorMode::kMapping || span == 0) return;
+  std::vector<double> passed;
+  for (size_t index = database_.size(); index-- > 0;) {
+    const KeyframeSummary& place = database_.summary(index);
+    if (place.session != session_ || place.id >= query_keyframe.id) break;
+    if (!justPassed(place, query_keyframe.id)) {
+      if (query_keyframe.id - place.id > 2 * span) break;
+      continue;
+    }
+    passed.push_back(sequence_.pathScore(index, database_, *extractor_));
+  }
+  passed_places_.add(std::move(passed));
+}
+
+bool LoopDetector::justPassed(const KeyframeSummary& match, uint64_t query_id) const {
+  if (match.session != session_ || match.id >= query_id) return false;
+  const uint64_t span = static_cast<uint64_t>(options_.database.exclude_recent_keyframes);
+  const uint64_t gap = query_id - match.id;
+  return gap > span && gap <= 2 * span;
 }
 
 bool LoopDetector::passesFalseAlarms(CandidateReport* report,
-                                     const KeyframeRecord& query_keyframe) const {
+                                     const KeyframeRecord& query_keyframe) {
   if (!calibrates()) return true;
   // Not evidence of what a wrong place scores: the candidate's own place, and places the
   // odometry puts within its drift of the query (laps of one run revisit them).
@@ -238,11 +258,60 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
                                                     static_cast<double>(sampled))));
   report->false_alarms = tail.expectedFalseAlarms(report->score, places);
   const double bound = options_.acceptance.max_false_alarms;
-  if (report->false_alarms <= bound) return true;
+  if (match && mode_ == DetectorMode::kMapping && justPassed(*match, query_keyframe.id)) {
+    // Among the places just passed it must also stand out of what they score.
+    const ScoreTail passed = passed_places_.tail();
+    if (!passed.valid()) {
+      detail << "among the places just passed, and too few of their scores yet ("
+             << passed_places_.samples() << ") to tell what they score here";
+      report->detail = detail.str();
+      return false;
+    }
+    const size_t span = static_cast<size_t>(options_.database.exclude_recent_keyframes);
+    const double passed_alarms = passed.expectedFalseAlarms(report->score, span);
+    if (passed_alarms > bound) {
+      report->false_alarms = std::max(report->false_alarms, passed_alarms);
+      detail.precision(3);
+      detail << passed_alarms << " of the " << span
+             << " places just passed expected to score as high, more than " << bound
+             << " (it needs " << passed.scoreFor(bound, span) << ")";
+      report->detail = detail.str();
+      return false;
+    }
+  }
+  if (report->false_alarms <= bound) {
+    if (!match || match->session != session_ || mode_ != DetectorMode::kMapping) return true;
+    return leftThePlace(*match, tail.threshold, &report->detail);
+  }
   detail.precision(3);
   detail << report->false_alarms << " wrong places expected to score as high among " << places
          << ", more than " << bound << " (it needs " << tail.scoreFor(bound, places) << ")";
   report->detail = detail.str();
+  return false;
+}
+
+bool LoopDetector::leftThePlace(const KeyframeSummary& match, double level, std::string* detail) {
+  const std::optional<size_t> start = database_.indexOf(match.id);
+  if (!start) return true;
+  const uint64_t window = static_cast<uint64_t>(options_.acceptance.place_window);
+  double lowest = HUGE_VAL;
+  // From the match onwards: a revisit usually leaves its place within a few keyframes.
+  for (size_t index = *start + 1; index < database_.size(); ++index) {
+    const KeyframeSummary& between = database_.summary(index);
+    if (between.session != session_ || idGap(between.id, match.id) <= window) continue;
+    const double score = sequence_.pathScore(index, database_, *extractor_);
+    if (score <= level) return true;
+    lowest = std::min(lowest, score);
+  }
+  if (lowest == HUGE_VAL) {
+    *detail = "not a revisit: the query has not left its place (no keyframe of this run between)";
+    return false;
+  }
+  std::ostringstream text;
+  text.precision(3);
+  text << "not a revisit: every keyframe of this run since its place scores at least " << lowest
+       << " against the query, above what other places score (" << level << ")";
+  *detail = text.str();
   return false;
 }
 

@@ -32,11 +32,14 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "score as high, from an exponential tail fitted to what the map's other places "
                   "(outside the candidate's place_window and the odometry's reach) scored against "
                   "the last 5 keyframes; the places counted are those the odometry does not rule "
-                  "out. A map of look-alike places needs more than a varied route; min_score "
-                  "becomes a floor (0.1 with it). Not the default: 0.003 (chosen on the first "
-                  "halves) lifts recall at the defaults on Gardens Point and Nordland but "
-                  "refuses a third of the corridor's loops and publishes two wrong ones on "
-                  "Nordland's second half (bench/README.md). Off with a descriptor that re-ranks.")
+                  "out. A candidate of the query's own run must also stand out of what the places "
+                  "just passed (exclude_recent_keyframes to twice that back) scored against the "
+                  "last 200 keyframes, and the run must have left it (some keyframe between "
+                  "scoring like an ordinary other place). A map of look-alike places needs more "
+                  "than a varied route; min_score becomes a floor (0.1 with it). Not the default: "
+                  "0.003 (chosen on the first halves) lifts recall on Gardens Point and Nordland "
+                  "without a wrong loop but refuses a third of the corridor's loops "
+                  "(bench/README.md). Off with a descriptor that re-ranks.")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
@@ -292,6 +295,7 @@ void LoopDetector::setMode(DetectorMode mode) {
     consistency_.reset();
     sequence_.reset();
     backgrounds_.clear();
+    passed_places_.clear();
   }
   mode_ = mode;
 }
@@ -531,8 +535,10 @@ FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat&
                                   const CameraIntrinsics& intrinsics, const cv::Mat& depth) {
   FrameResult result;
   result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
-  if (result.admission.isKeyframe() && result.admission.selection.reanchored) {
+  if (result.admission.isKeyframe() &&
+      (result.admission.selection.reanchored || odometry_restart_pending_)) {
     markOdometryRestart(result.admission.keyframe_id);
+    odometry_restart_pending_ = false;
   }
   if (result.admission.isKeyframe()) {
     result.keyframe =

@@ -135,6 +135,7 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   consistency_.reset();
   sequence_.reset();
   backgrounds_.clear();
+  passed_places_.clear();
   last_keyframe_.reset();
   return "";
 }
@@ -205,6 +206,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   consistency_.reset();
   sequence_.reset();
   backgrounds_.clear();
+  passed_places_.clear();
   last_keyframe_.reset();
   ResetOutcome outcome;
   if (!store_ || store_->size() == 0) return outcome;

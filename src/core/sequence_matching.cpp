@@ -97,35 +97,46 @@ void SequenceMatcher::score(const KeyframeDatabase& database, const DescriptorEx
       candidates->push_back(projected);
     }
   }
-  const std::vector<double> speeds = options_.speeds();
   for (SequenceCandidate& candidate : *candidates) {
-    candidate.score = -1.0;
-    for (const double speed : speeds) {
-      double sum = 0.0;
-      bool complete = true;
-      for (size_t slot = 0; slot < history_.size(); ++slot) {
-        const long index = static_cast<long>(candidate.index) -
-                           static_cast<long>(std::lround(static_cast<double>(slot) * speed));
-        if (index < 0) {
-          complete = false;
-          break;
-        }
-        Slot* earlier = &history_[slot];
-        sum += earlier->standardisation.apply(
-            similarity(earlier, static_cast<size_t>(index), database, extractor));
-      }
-      if (!complete) continue;
-      const double mean = sum / static_cast<double>(history_.size());
-      if (mean > candidate.score) {
-        candidate.score = mean;
-        candidate.speed = speed;
-      }
-    }
+    candidate.score = bestPath(candidate.index, database, extractor, &candidate.speed);
   }
   current.candidates.clear();
   for (const SequenceCandidate& candidate : *candidates) {
     if (!candidate.projected) current.candidates.push_back(candidate.index);
   }
+}
+
+double SequenceMatcher::bestPath(size_t index, const KeyframeDatabase& database,
+                                 const DescriptorExtractor& extractor, double* best_speed) {
+  double best = -1.0;
+  for (const double speed : options_.speeds()) {
+    double sum = 0.0;
+    bool complete = true;
+    for (size_t slot = 0; slot < history_.size(); ++slot) {
+      const long position = static_cast<long>(index) -
+                            static_cast<long>(std::lround(static_cast<double>(slot) * speed));
+      if (position < 0) {
+        complete = false;
+        break;
+      }
+      Slot* earlier = &history_[slot];
+      sum += earlier->standardisation.apply(
+          similarity(earlier, static_cast<size_t>(position), database, extractor));
+    }
+    if (!complete) continue;
+    const double mean = sum / static_cast<double>(history_.size());
+    if (mean > best) {
+      best = mean;
+      if (best_speed) *best_speed = speed;
+    }
+  }
+  return best;
+}
+
+double SequenceMatcher::pathScore(size_t index, const KeyframeDatabase& database,
+                                  const DescriptorExtractor& extractor) {
+  if (history_.empty() || index >= database.size()) return -1.0;
+  return bestPath(index, database, extractor, nullptr);
 }
 
 double SequenceMatcher::blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,

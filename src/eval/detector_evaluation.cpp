@@ -86,6 +86,7 @@ class CachedExtractor : public DescriptorExtractor {
 };
 
 struct PassInput {
+  RunProtocol protocol;
   std::shared_ptr<LoopDetector::QueryCache> queries;
   const LoopDetectorOptions* options;
   std::shared_ptr<const DescriptorExtractor> extractor;
@@ -110,6 +111,10 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
   size_t refused_frames = 0;
   (*input.play)([&](size_t index, const DetectorFrame& frame) {
     ++frames;
+    if (frame.new_run && input.protocol == RunProtocol::kSessions) detector.restartOdometry();
+    if (frame.new_run && input.protocol == RunProtocol::kLocalisation) {
+      detector.setMode(DetectorMode::kLocalization);
+    }
     const auto start = std::chrono::steady_clock::now();
     const FrameResult result =
         detector.process(frame.stamp, frame.pose, frame.image, frame.intrinsics);
@@ -141,6 +146,7 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
         row.score = candidate.score;
         row.place_ratio = candidate.place_ratio;
         row.false_alarms = candidate.false_alarms;
+        row.detail = candidate.detail;
         row.verdict = toString(candidate.verdict);
         row.correct = (*input.same_place)(row.query_frame, row.match_frame);
         pass.candidates.push_back(row);
@@ -195,6 +201,41 @@ bool clean(const DetectorPass& pass) { return pass.true_loops == pass.loops.size
 
 }  // namespace
 
+namespace {
+
+// A CSV field: quoted, inner quotes doubled (details hold commas).
+std::string csvQuoted(const std::string& text) {
+  std::string quoted = "\"";
+  for (const char c : text) {
+    quoted += c;
+    if (c == '"') quoted += '"';
+  }
+  return quoted + "\"";
+}
+
+}  // namespace
+
+const char* toString(RunProtocol protocol) {
+  switch (protocol) {
+    case RunProtocol::kOneSequence:
+      return "one-sequence";
+    case RunProtocol::kSessions:
+      return "sessions";
+    case RunProtocol::kLocalisation:
+      return "localisation";
+  }
+  return "?";
+}
+
+RunProtocol runProtocol(const std::string& name) {
+  for (const RunProtocol protocol :
+       {RunProtocol::kOneSequence, RunProtocol::kSessions, RunProtocol::kLocalisation}) {
+    if (name == toString(protocol)) return protocol;
+  }
+  throw std::invalid_argument("unknown protocol '" + name +
+                              "' (one-sequence, sessions or localisation)");
+}
+
 DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
                                     std::shared_ptr<const DescriptorExtractor> extractor,
                                     const FramePlayer& play, const SamePlace& same_place,
@@ -203,8 +244,11 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   DetectorEvaluation evaluation;
-  const PassInput input{std::make_shared<LoopDetector::QueryCache>(), &options,
-                        std::make_shared<CachedExtractor>(std::move(extractor)), &play,
+  const PassInput input{evaluation_options.protocol,
+                        std::make_shared<LoopDetector::QueryCache>(),
+                        &options,
+                        std::make_shared<CachedExtractor>(std::move(extractor)),
+                        &play,
                         &same_place};
   evaluation.configured = runPass(input, options.acceptance.min_score, &evaluation, true, progress);
   evaluation.keyframe_ms = percentiles(evaluation.configured.keyframe_ms);
@@ -323,13 +367,13 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
   }
   std::ofstream candidates(base / ("candidates_" + name + ".csv"));
   candidates << "query_id,match_id,query_frame,match_frame,global_score,score,verdict,correct,"
-                "place_ratio,false_alarms\n"
+                "place_ratio,false_alarms,detail\n"
              << std::setprecision(6);
   for (const CandidateRow& row : result.configured.candidates) {
     candidates << row.query_id << "," << row.match_id << "," << row.query_frame << ","
                << row.match_frame << "," << row.global_score << "," << row.score << ","
                << row.verdict << "," << row.correct << "," << row.place_ratio << ","
-               << row.false_alarms << "\n";
+               << row.false_alarms << "," << csvQuoted(row.detail) << "\n";
   }
   return path;
 }

@@ -162,6 +162,11 @@ void CorridorWorld::buildWall(int wall, double offset) {
   const double ppm = options_.pixels_per_metre;
   const int cols = static_cast<int>(std::ceil(u * ppm)) + 1;
   const int rows = static_cast<int>(std::ceil(options_.wall_height * ppm));
+  if (options_.bay_length > 0.0) {
+    if (static_cast<int>(wall_textures_.size()) <= wall) wall_textures_.resize(wall + 1);
+    wall_textures_[wall] = bayTexture(wall, cols, rows);
+    return;
+  }
   cv::RNG rng(options_.seed * 977u + static_cast<uint32_t>(wall) * 131u + 1u);
 
   // Base: smooth low-frequency shading, so blank wall is not perfectly flat.
@@ -212,6 +217,66 @@ void CorridorWorld::buildWall(int wall, double offset) {
   }
   if (static_cast<int>(wall_textures_.size()) <= wall) wall_textures_.resize(wall + 1);
   wall_textures_[wall] = texture;
+}
+
+cv::Mat CorridorWorld::bayTexture(int wall, int cols, int rows) const {
+  const double ppm = options_.pixels_per_metre;
+  const auto px = [ppm](double metres) { return static_cast<int>(metres * ppm); };
+  const int bay_cols = std::max(px(2.0), px(options_.bay_length));
+  cv::RNG rng(options_.seed * 613u + static_cast<uint32_t>(wall) * 17u + 3u);
+  // One bay: green wall, a door, four lockers with vents, a notice board with its papers.
+  cv::Mat bay(rows, bay_cols, CV_8UC1, cv::Scalar(120));
+  const int door_left = px(0.3);
+  const cv::Rect door(door_left, rows - px(2.1), px(0.9), px(2.1));
+  cv::rectangle(bay, door, cv::Scalar(70), cv::FILLED);
+  cv::rectangle(bay, door, cv::Scalar(20), 3);
+  cv::rectangle(bay, cv::Rect(door_left + px(0.2), rows - px(1.9), px(0.5), px(0.5)),
+                cv::Scalar(200), cv::FILLED);  // The door's window.
+  cv::circle(bay, cv::Point(door_left + px(0.8), rows - px(1.0)), 4, cv::Scalar(220), cv::FILLED);
+  for (int locker = 0; locker < 4; ++locker) {
+    const cv::Rect box(px(1.5) + locker * px(0.42), rows - px(1.9), px(0.4), px(1.8));
+    if (box.br().x >= bay_cols) break;
+    cv::rectangle(bay, box, cv::Scalar(175), cv::FILLED);
+    cv::rectangle(bay, box, cv::Scalar(60), 2);
+    for (int vent = 0; vent < 4; ++vent) {
+      const int y = box.y + px(0.15) + vent * 6;
+      cv::line(bay, cv::Point(box.x + 6, y), cv::Point(box.br().x - 6, y), cv::Scalar(90), 2);
+    }
+  }
+  const cv::Rect board(px(3.3), px(0.8), px(0.5), px(0.6));
+  if (board.br().x < bay_cols) {
+    bay(board).setTo(cv::Scalar(95));
+    for (int paper = 0; paper < 5; ++paper) {
+      const cv::Rect sheet(board.x + rng.uniform(2, board.width - 14),
+                           board.y + rng.uniform(2, board.height - 18), 12, 16);
+      cv::rectangle(bay, sheet & board, cv::Scalar(235), cv::FILLED);
+    }
+    cv::rectangle(bay, board, cv::Scalar(40), 3);
+  }
+  cv::rectangle(bay, cv::Rect(0, rows - px(0.12), bay_cols, px(0.12)), cv::Scalar(50), cv::FILLED);
+  cv::line(bay, cv::Point(0, static_cast<int>(0.45 * rows)),
+           cv::Point(bay_cols, static_cast<int>(0.45 * rows)), cv::Scalar(70), 2);
+  // The wall: the bay again and again, each with its own room-number plate by the door.
+  cv::Mat texture(rows, cols, CV_8UC1);
+  for (int left = 0, number = 0; left < cols; left += bay_cols, ++number) {
+    const int width = std::min(bay_cols, cols - left);
+    bay(cv::Rect(0, 0, width, rows)).copyTo(texture(cv::Rect(left, 0, width, rows)));
+    const cv::Rect plate(left + door_left + px(0.95), rows - px(1.6), px(0.15), px(0.1));
+    if (plate.br().x >= cols) continue;
+    texture(plate).setTo(cv::Scalar(230));
+    for (int digit = 0; digit < 3; ++digit) {
+      const int value = (number / (digit == 0 ? 1 : digit == 1 ? 10 : 100)) % 10;
+      const int x = plate.x + 2 + digit * (plate.width - 4) / 3;
+      cv::rectangle(texture, cv::Rect(x, plate.y + 2, 1 + value % 3, plate.height - 4),
+                    cv::Scalar(20), cv::FILLED);
+    }
+  }
+  // Light and wear vary a little along the wall.
+  cv::Mat shading(std::max(2, rows / 40), std::max(2, cols / 40), CV_8UC1);
+  rng.fill(shading, cv::RNG::UNIFORM, 118, 138);
+  cv::resize(shading, shading, cv::Size(cols, rows), 0, 0, cv::INTER_CUBIC);
+  cv::addWeighted(texture, 1.0, shading, 1.0, -128.0, texture);
+  return texture;
 }
 
 CorridorWorld::Hit CorridorWorld::castRay(const Eigen::Vector2d& origin,

@@ -18,11 +18,25 @@ struct DetectorSource {
   std::function<void(bool colour, const std::function<void(size_t, const eval::DetectorFrame&)>&)>
       play;
   eval::SamePlace same_place;
-  bool has_intrinsics = false;  ///< False: the geometric check is switched off (said so).
-  bool has_odometry = false;    ///< False: the odometry gate is switched off (said so).
+  /// Frames that start a later run (DetectorFrame::new_run, as eval::RunProtocol plays them).
+  eval::RunProtocol protocol = eval::RunProtocol::kOneSequence;
+  bool has_intrinsics = false;      ///< False: the geometric check is switched off (said so).
+  bool has_odometry = false;        ///< False: the odometry gate is switched off (said so) ...
+  bool gate_without_poses = false;  ///< ... unless the source made odometry up (ImageRuns).
   /// The true pose at a frame, where the source has one besides its odometry (the corridor, a
   /// bag with a truth topic): the keyframes' trajectory error is then reported.
   std::function<Pose(size_t frame)> true_pose;
+};
+
+/// How an image-only sequence of several runs (traversals) is played: as one sequence, or each
+/// run with its own odometry (eval::RunProtocol).
+struct ImageRuns {
+  eval::RunProtocol protocol = eval::RunProtocol::kOneSequence;
+  std::vector<size_t> starts;  ///< First image of each run after the first.
+  /// kSessions: each step's heading changes by a normal error of this many radians per step
+  /// (a random walk, seeded: every pass plays the same odometry), so the odometry drifts as a
+  /// robot's does; the odometry gate is on.
+  double heading_drift = 0.01;
 };
 
 /// An image sequence. Without poses: images 1 s apart, each 1 m further on a straight path
@@ -31,14 +45,14 @@ struct DetectorSource {
 /// moves; `standing`, when given, says instead which frames stand), odometry gate off. With poses
 /// and stamps (KITTI's, one per image): they drive the keyframe rule and the odometry gate as
 /// odometry would. Valid `intrinsics` (of the camera at its own image size, scaled to the played
-/// size) switch the geometric check on.
-DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
-                                   const eval::GroundTruth& truth,
-                                   const std::vector<Pose>& poses = {},
-                                   const std::vector<double>& stamps = {},
-                                   const CameraIntrinsics& intrinsics = {},
-                                   double still_threshold = 0.0, int image_width = 0,
-                                   const std::vector<bool>& standing = {});
+/// size) switch the geometric check on. `runs`: without poses, a later run's first image starts a
+/// new run as its protocol says (with kSessions each run's odometry starts at the origin and
+/// drifts, and the odometry gate is on).
+DetectorSource imageSequenceSource(
+    const std::vector<std::string>& paths, const eval::GroundTruth& truth,
+    const std::vector<Pose>& poses = {}, const std::vector<double>& stamps = {},
+    const CameraIntrinsics& intrinsics = {}, double still_threshold = 0.0, int image_width = 0,
+    const std::vector<bool>& standing = {}, const ImageRuns& runs = {});
 
 /// Frames at which two aligned traversals both stand still: frame i's grey picture (64 px wide)
 /// differs from frame i - 1's by less than `threshold` grey levels on average in each traversal
@@ -46,9 +60,20 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
 std::vector<bool> jointStops(const std::vector<std::string>& first,
                              const std::vector<std::string>& second, double threshold);
 
+/// Which generated corridor, and how its laps meet.
+struct CorridorRun {
+  /// The aliasing corridor: bays that look alike (sim::CorridorWorld::Options::bay_length 4 m)
+  /// seen through a wide lens (plumb_bob k1 -0.3, k2 0.1); the second lap in other light as
+  /// always.
+  bool aliasing = false;
+  /// kSessions: the second lap is a new run whose odometry restarts at the origin;
+  /// kLocalisation: the second lap localises in the first lap's map.
+  eval::RunProtocol protocol = eval::RunProtocol::kOneSequence;
+};
+
 /// The generated corridor as the demo bag holds it: drifting odometry, intrinsics, and a loop is
 /// true when the true positions lie within 2.5 m and 20 s apart (the demo report's rule).
-DetectorSource corridorSource(double laps);
+DetectorSource corridorSource(double laps, const CorridorRun& run = {});
 
 /// Every image of a bag with its odometry and camera_info (as the node receives them); a loop is
 /// true when the truth topic's positions (else the odometry's) lie within `distance` metres and

@@ -36,7 +36,9 @@ SOURCE, one of:
   --database DIR --queries DIR  two traversals: each query against every database image
       [--as-sequence]           ...or played one after the other as one sequence (the second
                                 traversal's images then close loops with the first's)
-  --corridor LAPS               the generated corridor (ground truth from its true poses)
+  --corridor LAPS               the generated corridor (ground truth from its true poses);
+      [--aliasing]              ...its aliasing form: bays that look alike every 4 m (door,
+                                lockers, notice board) through a wide lens
   --bag FILE                    the keyframes a node would keep from a bag (images + odometry,
                                 keyframe rule of config/default.yaml); topics: --image-topic
                                 (/camera/image_raw), --odom-topic (/odom), --truth-topic (none);
@@ -59,6 +61,14 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
                        same place at the same frame, so a frame stands still exactly where both
                        stand (the stops --gt-stops finds), instead of where each one's own
                        picture barely changes (--still-threshold); one step per frame elsewhere
+  --protocol P         --as-sequence or --corridor, how the two traversals (laps) meet: one-sequence (default: one
+                       session, no odometry, the odometry gate off), sessions (as a robot
+                       runs: each traversal its own session with its own odometry, one step a
+                       frame, its heading drifting by --odometry-drift rad per step, default
+                       0.01, as a random walk; loops within a traversal meet the odometry gate,
+                       loops into the first skip it, as loops into a loaded map do), or
+                       localisation (the first traversal mapped, the second searched in it,
+                       nothing stored: mode localization)
   --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
                        (image_width, image_height, camera_matrix), scaled to the played size
                        (another aspect ratio than the images' stops the run); the geometric
@@ -162,7 +172,7 @@ Arguments parse(int argc, char** argv) {
     }
     if (key == "--as-sequence" || key == "--detector" || key == "--no-ground-truth" ||
         key == "--train-on-eval" || key == "--dry-run" || key == "--still-joint" ||
-        key == "--appearance-check") {  // Flags without a value.
+        key == "--appearance-check" || key == "--aliasing") {  // Flags without a value.
       arguments.values[key] = "true";
       continue;
     }
@@ -251,8 +261,13 @@ int run(const Arguments& arguments) {
   }
   const double gt_gap = arguments.number("--gt-gap", 30.0);
   if (arguments.has("--detector") && arguments.has("--corridor")) {
-    return runDetectorMode(arguments, corridorSource(arguments.number("--corridor", 2.0)),
-                           arguments.get("--name", "generated corridor"), output_folder);
+    CorridorRun run;
+    run.aliasing = arguments.has("--aliasing");
+    run.protocol = runProtocol(arguments.get("--protocol", "one-sequence"));
+    return runDetectorMode(arguments, corridorSource(arguments.number("--corridor", 2.0), run),
+                           arguments.get("--name", run.aliasing ? "generated aliasing corridor"
+                                                                : "generated corridor"),
+                           output_folder);
   }
   if (arguments.has("--detector") && arguments.has("--bag")) {
     return runDetectorMode(
@@ -457,11 +472,22 @@ int run(const Arguments& arguments) {
         standing.push_back(place < joint_stops.size() && joint_stops[place]);
       }
     }
-    return runDetectorMode(
-        arguments,
-        imageSequenceSource(database_paths, truth, poses, stamps, camera,
-                            arguments.number("--still-threshold", 5.0), image_width, standing),
-        run.dataset, output_folder);
+    ImageRuns runs;
+    runs.protocol = runProtocol(arguments.get("--protocol", "one-sequence"));
+    if (runs.protocol != RunProtocol::kOneSequence) {
+      if (first_traversal == 0 || !poses.empty()) {
+        throw std::invalid_argument(
+            "--protocol sessions|localisation plays --database then --queries (--as-sequence) "
+            "as two runs of an image-only sequence");
+      }
+      runs.starts = {first_traversal};
+    }
+    runs.heading_drift = arguments.number("--odometry-drift", runs.heading_drift);
+    return runDetectorMode(arguments,
+                           imageSequenceSource(database_paths, truth, poses, stamps, camera,
+                                               arguments.number("--still-threshold", 5.0),
+                                               image_width, standing, runs),
+                           run.dataset, output_folder);
   }
 
   // Training images of the learned descriptors: --train-images, or with --train-on-eval the

@@ -409,6 +409,50 @@ TEST(DetectorEvaluation, ScoresThePublishedLoopsAndSweepsTheThreshold) {
   EXPECT_EQ(header, "query_id,match_id,query_frame,match_frame,score,verified,correct");
 }
 
+TEST(DetectorEvaluation, RunProtocolsPlayTheSecondRunAsARobotWould) {
+  // Run 1: places 0..39; run 2 (frame 40 on): places 10..29 again, its own odometry from the
+  // origin. The odometry gate is on: in one sequence the revisits lie 30 m behind on a straight
+  // path, so it refuses them; as a new session (a robot whose odometry restarted, as into a loaded
+  // map) they skip it; localising in run 1's map finds them without storing run 2.
+  LoopDetectorOptions options = smallDetector();
+  options.odometry_gate.enabled = true;
+  const auto player = [](bool restart_odometry) -> FramePlayer {
+    return [restart_odometry](const std::function<void(size_t, const DetectorFrame&)>& sink) {
+      for (size_t i = 0; i < 60; ++i) {
+        DetectorFrame frame;
+        frame.stamp = 1.0 + i;
+        const double x = restart_odometry && i >= 40 ? double(i) - 40.0 : double(i);
+        frame.pose = planarPose(x, 0, 0);
+        frame.image = test_support::place(placeOfFrame(i));
+        frame.new_run = i == 40;
+        sink(i, frame);
+      }
+    };
+  };
+  const SamePlace same = [](size_t q, size_t m) { return placeOfFrame(q) == placeOfFrame(m); };
+  DetectorEvaluationOptions evaluation;
+  evaluation.sweep_steps = 0;
+  const auto run = [&](RunProtocol protocol, bool restart_odometry) {
+    evaluation.protocol = protocol;
+    return evaluateDetector(options, std::make_shared<PlaceExtractor>(), player(restart_odometry),
+                            same, evaluation);
+  };
+  const DetectorEvaluation one = run(RunProtocol::kOneSequence, false);
+  EXPECT_EQ(one.configured.loops.size(), 0u);
+  EXPECT_GT(one.configured.refused.at("odometry_rejected"), 0u);
+  const DetectorEvaluation sessions = run(RunProtocol::kSessions, true);
+  EXPECT_EQ(sessions.keyframes, 60u) << "the odometry's restart is not a jump";
+  EXPECT_EQ(sessions.configured.loops.size(), 18u);
+  EXPECT_EQ(sessions.configured.true_loops, 18u);
+  const DetectorEvaluation localisation = run(RunProtocol::kLocalisation, false);
+  EXPECT_EQ(localisation.configured.true_loops, localisation.configured.loops.size());
+  EXPECT_GE(localisation.configured.loops.size(), 18u);
+
+  EXPECT_EQ(runProtocol("sessions"), RunProtocol::kSessions);
+  EXPECT_STREQ(toString(runProtocol("localisation")), "localisation");
+  EXPECT_THROW(runProtocol("robot"), std::invalid_argument);
+}
+
 TEST(Training, AFittedWhiteningWrapsAnyExtractor) {
   // Training images: random textures; the whitened global keeps `components` unit-norm values.
   std::vector<cv::Mat> images;

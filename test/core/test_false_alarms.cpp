@@ -73,29 +73,64 @@ TEST(ScoreTail, AHeavierTailNeedsAHigherScore) {
   EXPECT_GT(bay_tail.scoreFor(0.1, 300), 0.45);
 }
 
+TEST(PassedPlaceScores, CalibratesOnceEnoughScoresArePooledAndKeepsTheLastQueries) {
+  PassedPlaceScores passed;
+  EXPECT_FALSE(passed.tail().valid());
+  for (int query = 0; query < 9; ++query) passed.add(std::vector<double>(20, 0.1 + 0.01 * query));
+  EXPECT_EQ(passed.samples(), 180u);
+  EXPECT_FALSE(passed.tail().valid()) << "under kMinSamples: nothing to calibrate on yet";
+  passed.add(std::vector<double>(20, 0.5));
+  ASSERT_TRUE(passed.tail().valid());
+  // The top 10 % (20 scores) is the last query's 0.5; the threshold is the next score down.
+  EXPECT_NEAR(passed.tail().threshold, 0.18, 1e-12);
+  EXPECT_NEAR(passed.tail().mean_excess, 0.32, 1e-12);
+  // Only the last kQueries queries count: a stretch left long ago is forgotten.
+  for (size_t query = 0; query < PassedPlaceScores::kQueries; ++query) {
+    passed.add(std::vector<double>(1, 0.2));
+  }
+  EXPECT_EQ(passed.samples(), PassedPlaceScores::kQueries);
+  EXPECT_DOUBLE_EQ(passed.tail().threshold, 0.2);
+  passed.add({});
+  EXPECT_EQ(passed.samples(), PassedPlaceScores::kQueries) << "an empty query adds nothing";
+  passed.clear();
+  EXPECT_EQ(passed.samples(), 0u);
+}
+
 namespace {
 
 // Places as vectors: image pixel (0,0) names the place, (0,1) the world (0: every place its own
-// look; 1: bays, every fourth place built from the same look with its own share), (0,2) = 1 a
-// revisit under other light (half the vector replaced: cosine about 0.7 with the first visit).
+// look; 1: bays, every fourth place built from the same look with its own share; 2: a slow
+// stretch, each frame the sum of the last kStretch + 1 of a series of looks, so frames 13 apart
+// still share 60 % of it), (0,2) = 1 a revisit under other light (half the vector replaced:
+// cosine about 0.7 with the first visit).
 class WorldExtractor : public DescriptorExtractor {
  public:
+  /// 64 dimensions: random places score 0 +- 0.125 against each other; 256: +- 0.06.
+  explicit WorldExtractor(int dimension = 64) : dimension_(dimension) {}
   std::string name() const override { return "world"; }
-  int globalDimension() const override { return kDimension; }
+  int globalDimension() const override { return dimension_; }
   ImageDescriptor describe(const cv::Mat& image) const override {
     const int place = image.at<uchar>(0, 0);
     const bool bays = image.at<uchar>(0, 1) == 1;
+    const bool stretch = image.at<uchar>(0, 1) == 2;
     const bool revisit = image.at<uchar>(0, 2) == 1;
     std::vector<float> look = randomVector(place);
+    if (stretch) {
+      look.assign(dimension_, 0.0f);
+      for (int k = place - kStretch; k <= place; ++k) {
+        const std::vector<float> part = randomVector(3000 + k);
+        for (int i = 0; i < dimension_; ++i) look[i] += part[i];
+      }
+    }
     if (bays) {
       const std::vector<float> bay = randomVector(1000 + place % 4);
       const float own = 0.35f + 0.1f * static_cast<float>(place % 7);
-      for (int i = 0; i < kDimension; ++i) look[i] = bay[i] + own * look[i];
+      for (int i = 0; i < dimension_; ++i) look[i] = bay[i] + own * look[i];
     }
     normalise(&look);
     if (revisit) {
       const std::vector<float> light = randomVector(2000 + place);
-      for (int i = 0; i < kDimension; ++i) look[i] += light[i];
+      for (int i = 0; i < dimension_; ++i) look[i] += light[i];
       normalise(&look);
     }
     ImageDescriptor descriptor;
@@ -104,11 +139,12 @@ class WorldExtractor : public DescriptorExtractor {
   }
 
  private:
-  static constexpr int kDimension = 64;
-  static std::vector<float> randomVector(int seed) {
+  int dimension_;
+  static constexpr int kStretch = 30;
+  std::vector<float> randomVector(int seed) const {
     std::mt19937 random(static_cast<uint32_t>(seed) * 7919u + 13u);
     std::normal_distribution<float> normal;
-    std::vector<float> v(kDimension);
+    std::vector<float> v(dimension_);
     for (float& x : v) x = normal(random);
     normalise(&v);
     return v;
@@ -120,9 +156,9 @@ class WorldExtractor : public DescriptorExtractor {
   }
 };
 
-cv::Mat worldImage(int place, bool bays, bool revisit) {
+cv::Mat worldImage(int place, bool bays, bool revisit, bool stretch = false) {
   cv::Mat image = test_support::place(place);
-  image.at<uchar>(0, 1) = bays ? 1 : 0;
+  image.at<uchar>(0, 1) = stretch ? 2 : bays ? 1 : 0;
   image.at<uchar>(0, 2) = revisit ? 1 : 0;
   return image;
 }
@@ -172,10 +208,63 @@ TEST(CalibratedDecision, AbsoluteThresholdAcceptsBothWorlds) {
 TEST(CalibratedDecision, TheSameRevisitNeedsMoreAmongLookAlikes) {
   const Drive varied = drive(false, 0.01);
   const Drive bays = drive(true, 0.01);
+  // (A revisit in the run that mapped it: the places between left it, as leftThePlace asks.)
   EXPECT_GT(varied.loops, 0) << "a revisit that stands out of a varied map is believed";
   EXPECT_LT(varied.fewest_false_alarms, 0.01);
   EXPECT_EQ(bays.loops, 0) << "among bays that look alike the same revisit is not";
   EXPECT_GT(bays.fewest_false_alarms, 0.01);
+}
+
+// Maps 60 varied places, then drives a slow stretch of 40 frames of one look drifting: frames
+// just beyond the exclusion window still look like the query, the robot never left them.
+int slowStretchLoops(double max_false_alarms, std::vector<std::string>* refusals) {
+  LoopDetectorOptions options = test_support::smallOptions();
+  options.acceptance.min_score = 0.3;
+  options.acceptance.max_false_alarms = max_false_alarms;
+  options.acceptance.sequence.length = 1;
+  options.acceptance.min_place_ratio = 0.0;
+  options.acceptance.place_window = 5;
+  options.database.exclude_recent_keyframes = 12;
+  // 256 dimensions: at 64 a drifting look happens to stay near one random place for a while.
+  LoopDetector detector(options, std::make_shared<WorldExtractor>(256));
+  int frame = 0;
+  for (int place = 0; place < 60; ++place, ++frame) {
+    detector.process(frame, planarPose(frame, 0, 0), worldImage(place, false, false));
+  }
+  int loops = 0;
+  for (int step = 0; step < 40; ++step, ++frame) {
+    const FrameResult result = detector.process(frame, planarPose(frame, 0, 0),
+                                                worldImage(100 + step, false, false, true));
+    if (!result.keyframe) continue;
+    if (result.keyframe->loop) ++loops;
+    for (const CandidateReport& candidate : result.keyframe->candidates) {
+      if (candidate.detail.find("places just passed") != std::string::npos ||
+          candidate.detail.rfind("not a revisit", 0) == 0) {
+        refusals->push_back(candidate.detail);
+      }
+    }
+  }
+  return loops;
+}
+
+TEST(CalibratedDecision, ASlowStretchOfLookAlikeFramesIsNotARevisit) {
+  std::vector<std::string> refusals;
+  // The failure it guards against: an absolute threshold believes frames of the stretch just past
+  // the exclusion window (they score 0.6 against the query, other places 0.0-0.3).
+  EXPECT_GT(slowStretchLoops(0.0, &refusals), 0);
+  EXPECT_TRUE(refusals.empty());
+  // The calibrated decision: they stand far out of the map's other places. Where the stretch
+  // begins, the places between them and the query never looked like an ordinary other place
+  // (the query has not left them); further on, they do not stand out of what the places just
+  // passed (12 to 24 keyframes back) score against each query.
+  EXPECT_EQ(slowStretchLoops(0.01, &refusals), 0);
+  ASSERT_FALSE(refusals.empty());
+  EXPECT_NE(refusals.front().find("not a revisit: every keyframe of this run since its place"),
+            std::string::npos)
+      << refusals.front();
+  EXPECT_NE(refusals.back().find("of the 12 places just passed expected to score as high"),
+            std::string::npos)
+      << refusals.back();
 }
 
 TEST(CalibratedDecision, OffLeavesEveryCandidateUntested) {
@@ -245,7 +334,10 @@ TEST(ScoreBackground, EachSampledPlaceScoresAsItWouldAsACandidate) {
   ASSERT_GE(candidates.size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
     EXPECT_NEAR(candidates[i].score, expected[i], 1e-6) << "position " << candidates[i].index;
+    // And one at a time, as the calibrated decision's departure check reads them.
+    EXPECT_NEAR(matcher.pathScore(candidates[i].index, database, extractor), expected[i], 1e-6);
   }
+  EXPECT_EQ(matcher.pathScore(database.size(), database, extractor), -1.0);
   // A place the exclusion leaves out is not in the background.
   const ScoreBackground without_recent =
       matcher.background(database, extractor, [](size_t index) { return index < 2900; });

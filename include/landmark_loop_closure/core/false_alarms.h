@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <deque>
 #include <vector>
 
 namespace landmark_loop_closure {
@@ -39,5 +40,25 @@ struct ScoreTail {
 /// Fits the tail of `scores` (any order; taken by value and partially sorted). Invalid when
 /// fewer than kMinSamples.
 ScoreTail fitScoreTail(std::vector<double> scores, double tail_fraction = 0.1);
+
+/// What the places just passed (the query's own run, just beyond the exclusion window) scored
+/// against the last kQueries queries. Along a route, places a few dozen keyframes back share
+/// more with the query than the map's other places do (the same landscape, the same building),
+/// so a candidate among them must stand out of their own tail, not only the map's.
+class PassedPlaceScores {
+ public:
+  static constexpr size_t kQueries = 200;     ///< Queries pooled.
+  static constexpr size_t kMinSamples = 200;  ///< Fewer scores: nothing to calibrate on yet.
+
+  /// One query's scores at the passed places.
+  void add(std::vector<double> scores);
+  void clear() { queries_.clear(); }
+  size_t samples() const;
+  /// Invalid while fewer than kMinSamples scores are pooled.
+  ScoreTail tail() const;
+
+ private:
+  std::deque<std::vector<double>> queries_;
+};
 
 }  // namespace landmark_loop_closure

@@ -15,6 +15,7 @@
 
 #include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/core/condition_standardiser.h"
+#include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/core/map_reading.h"
@@ -341,6 +342,13 @@ class LoopDetector {
   /// than the keyframes before it: it starts a new session, or the next keyframe does if this one
   /// never comes (process() marks them itself).
   void markOdometryRestart(uint64_t keyframe_id) { odometry_restarts_.insert(keyframe_id); }
+  /// process() callers (offline replays): the odometry was re-initialised before the next frame
+  /// (another run in its own odometry frame): the keyframe rule starts afresh and the next
+  /// keyframe starts a new session.
+  void restartOdometry() {
+    restartAdmission();
+    odometry_restart_pending_ = true;
+  }
   /// The session new keyframes get: 0 for the first run, +1 after each map loaded and each time
   /// the odometry was re-initialised. Poses of one session share one odometry frame.
   uint32_t session() const { return session_; }
@@ -412,10 +420,20 @@ class LoopDetector {
   bool calibrates() const;
   /// acceptance/max_false_alarms: whether so few wrong places are expected to score as high as
   /// the report over the map (ScoreTail of the pooled backgrounds_) that it may be believed;
-  /// sets its false_alarms, and its detail when not.
-  bool passesFalseAlarms(CandidateReport* report, const KeyframeRecord& query_keyframe) const;
-  /// Adds this keyframe's background to backgrounds_ (when calibrates()).
+  /// sets its false_alarms, and its detail when not. A candidate among the places the query has
+  /// just passed must also stand out of what those score (passed_places_), and one of the
+  /// query's own run must have been left (leftThePlace) at the tail's threshold.
+  bool passesFalseAlarms(CandidateReport* report, const KeyframeRecord& query_keyframe);
+  /// Whether, between `match` and the query in the query's own run, some keyframe outside the
+  /// match's place_window scores at most `level` as a candidate would (the query looked like an
+  /// ordinary other place there): a revisit leaves the place and comes back, a slow stretch of
+  /// look-alike frames never does. Says, in `detail`, the lowest score found when not.
+  bool leftThePlace(const KeyframeSummary& match, double level, std::string* detail);
+  /// Adds this keyframe's background to backgrounds_ and its passed places' scores to
+  /// passed_places_ (when calibrates()).
   void recordBackground(const KeyframeRecord& query_keyframe);
+  /// Whether `match` is among the places the query has just passed (passed_places_).
+  bool justPassed(const KeyframeSummary& match, uint64_t query_id) const;
   /// The first of `leaders` (best-scoring candidates of their places, in score order) whose place
   /// (place_window ids, same session) the report's match is in; null when it leads its own.
   const CandidateReport* placeLeader(const CandidateReport& report,
@@ -497,11 +515,17 @@ class LoopDetector {
   };
   static constexpr size_t kPooledBackgrounds = 5;
   std::deque<std::vector<PlaceScore>> backgrounds_;
+  /// acceptance/max_false_alarms: places of the query's run from E + 1 to 2E keyframes back
+  /// (E = exclude_recent_keyframes: as far beyond the exclusion as it reaches) are "just
+  /// passed": their scores, pooled over queries, are the tail a candidate among them must stand
+  /// out of.
+  PassedPlaceScores passed_places_;
   size_t background_places_ = 0;  ///< Eligible places of the newest background.
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
   uint32_t session_ = 0;
   std::set<uint64_t> odometry_restarts_;                 ///< Keyframe ids that start a new session.
+  bool odometry_restart_pending_ = false;                ///< restartOdometry(), for process().
   uint64_t memory_map_id_ = KeyframeStore::drawMapId();  ///< mapId() without a map file.
   std::string descriptor_identity_;
   std::optional<Pose> camera_mount_;

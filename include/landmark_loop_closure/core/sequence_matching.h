@@ -84,6 +84,10 @@ class SequenceMatcher {
   /// similarities only: not for a descriptor that re-ranks.
   ScoreBackground background(const KeyframeDatabase& database, const DescriptorExtractor& extractor,
                              const std::function<bool(size_t index)>& eligible);
+  /// The best path score ending at `index`, as score() scores a candidate there, whether or not
+  /// it is eligible; remembers nothing for projection. -1 without history.
+  double pathScore(size_t index, const KeyframeDatabase& database,
+                   const DescriptorExtractor& extractor);
 
  private:
   struct Slot {
@@ -96,6 +100,10 @@ class SequenceMatcher {
     /// start + kBackgroundBlock, NaN until computed.
     std::unordered_map<size_t, std::vector<float>> blocks;
   };
+  /// The best mean over the speeds of the path ending at `index` (-1 when no path is complete);
+  /// its speed in `best_speed` when given.
+  double bestPath(size_t index, const KeyframeDatabase& database,
+                  const DescriptorExtractor& extractor, double* best_speed);
   /// Slot's similarity to `index`, read from (or computed into) its row for `block_start`.
   double blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,
                          const KeyframeDatabase& database,

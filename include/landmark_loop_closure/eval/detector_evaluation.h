@@ -24,6 +24,9 @@ struct DetectorFrame {
   Pose pose;      ///< Odometry (or an index path): the keyframe rule and the odometry gate.
   cv::Mat image;  ///< Grey, or BGR for a descriptor that wants colour.
   CameraIntrinsics intrinsics;  ///< Invalid: loops go unverified (or are refused when required).
+  /// The first frame of a later run (the next traversal): DetectorEvaluationOptions::protocol
+  /// says what it starts.
+  bool new_run = false;
 };
 
 /// Plays every frame in order into `sink` (index counts from 0). Called once per pass: the
@@ -59,6 +62,7 @@ struct CandidateRow {
   bool correct = false;
   double place_ratio = 0.0;    ///< CandidateReport::place_ratio.
   double false_alarms = -1.0;  ///< CandidateReport::false_alarms (-1: not tested).
+  std::string detail;          ///< CandidateReport::detail: why it was refused, when said.
 };
 
 /// What the detector published at one acceptance/min_score.
@@ -91,7 +95,20 @@ struct DetectorEvaluation {
   Percentiles keyframe_ms;  ///< Of the configured pass (descriptions computed there, not cached).
 };
 
+/// How the runs (traversals) of a replay meet: DetectorFrame::new_run.
+enum class RunProtocol {
+  kOneSequence,   ///< One session: every run continues the last (the image-only sequence).
+  kSessions,      ///< Each run its own session, its odometry restarted at its first frame: loops
+                  ///< into earlier runs skip the odometry gate, as loops into a loaded map do.
+  kLocalisation,  ///< The runs before are the map: later runs are searched in it, nothing stored
+                  ///< (mode localization).
+};
+const char* toString(RunProtocol protocol);
+/// "one-sequence", "sessions" or "localisation"; throws std::invalid_argument otherwise.
+RunProtocol runProtocol(const std::string& name);
+
 struct DetectorEvaluationOptions {
+  RunProtocol protocol = RunProtocol::kOneSequence;
   /// Thresholds on the grid (quantiles of the best candidate scores); 0 = the configured
   /// threshold alone, no sweep.
   int sweep_steps = 16;

@@ -55,6 +55,11 @@ class CorridorWorld {
     double wall_height = 2.6;
     double pixels_per_metre = 80.0;
     uint32_t seed = 7;
+    /// > 0: the walls are bays of this many metres that look alike (the same door, lockers and
+    /// notice board in each, told apart only by a small room-number plate), as in an office or
+    /// school corridor: the case where a threshold that suits a varied route publishes false
+    /// loops.
+    double bay_length = 0.0;
   };
 
   explicit CorridorWorld(const Options& options);
@@ -88,6 +93,8 @@ class CorridorWorld {
   Hit castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction) const;
   Eigen::Vector2d centreAt(double s, Eigen::Vector2d* tangent) const;
   void buildWall(int wall, double offset);
+  /// Walls of options_.bay_length bays: one bay drawn, repeated, each with its own plate.
+  cv::Mat bayTexture(int wall, int cols, int rows) const;
 
   Options options_;
   double centre_length_ = 0.0;
