@@ -32,6 +32,32 @@ TEST(CorridorWorld, RendersTexturedImagesThatDependOnPlace) {
   EXPECT_GT(cv::norm(a, b, cv::NORM_L1) / a.total(), 10.0);
 }
 
+TEST(CorridorWorld, BaysLookAlikeOneBayApart) {
+  // Facing the left wall on the first straight: 4 m further on, the aliasing world shows the
+  // same door, lockers and notice board (only the room-number plate differs); the ordinary world
+  // shows another stretch of wall.
+  const CameraModel camera;
+  const auto difference = [&camera](const CorridorWorld& world, double s, double step) {
+    Pose2D a = world.poseAt(s, 0.0);
+    Pose2D b = world.poseAt(s + step, 0.0);
+    a.yaw += M_PI / 2.0;
+    b.yaw += M_PI / 2.0;
+    const cv::Mat first = world.render(a, camera, Lighting{1.0, 0.0, 0.0}, 1);
+    const cv::Mat second = world.render(b, camera, Lighting{1.0, 0.0, 0.0}, 1);
+    return cv::norm(first, second, cv::NORM_L1) / static_cast<double>(first.total());
+  };
+  CorridorWorld::Options options;
+  options.bay_length = 4.0;
+  const CorridorWorld bays(options);
+  const CorridorWorld varied;
+  // Wall coordinates start where the wall's texture does, so one bay along the centre line is
+  // one bay along the inner wall only on a straight: 4 m, on the first straight (12 m long).
+  EXPECT_LT(difference(bays, 2.0, 4.0), 8.0);
+  EXPECT_GT(difference(bays, 2.0, 2.0), 2.0 * difference(bays, 2.0, 4.0))
+      << "half a bay on, another part of the bay";
+  EXPECT_GT(difference(varied, 2.0, 4.0), 3.0 * difference(bays, 2.0, 4.0));
+}
+
 TEST(CorridorWorld, DepthImageGivesDistancesAlongTheOpticalAxis) {
   const CorridorWorld world;
   const CameraModel camera;
