@@ -222,6 +222,17 @@ LoopDetector::~LoopDetector() {
   }
 }
 
+void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
+  // Published now but stored once the window fills: a restart after a crash must not give the
+  // id to another frame.
+  if (!store_ || !map_damage_.empty()) return;
+  try {
+    store_->reserveIdsThrough(id);
+  } catch (const std::exception& error) {
+    result->store_error = error.what();
+  }
+}
+
 void LoopDetector::storeWarmedUp(KeyframeResult* result) {
   std::vector<WarmingKeyframe> warming = std::move(warming_);
   warming_.clear();
@@ -368,6 +379,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kMapping) {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
+      reserveId(keyframe.id, &result);
       warming_.push_back({std::move(keyframe), std::move(raw_global)});
       result.stored = true;  // Kept, and stored once the window is full.
     } else {

@@ -128,9 +128,14 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   database_ = std::move(map.database);
   store_ = std::move(map.store);
   session_ = map.keyframes == 0 ? 0 : map.last_session + 1;
+  // After the map's last keyframe, and after any id it published before storing (warm-up).
+  const std::optional<uint64_t> reserved =
+      store_ ? store_->idsReservedThrough() : std::optional<uint64_t>();
+  const bool any = map.keyframes > 0 || reserved.has_value();
+  const uint64_t after =
+      std::max(map.keyframes > 0 ? map.last_id + 1 : 0, reserved ? *reserved + 1 : 0);
   uint64_t next = next_keyframe_id_.load();
-  while (map.keyframes > 0 && next <= map.last_id &&
-         !next_keyframe_id_.compare_exchange_weak(next, map.last_id + 1)) {
+  while (any && next < after && !next_keyframe_id_.compare_exchange_weak(next, after)) {
   }
   consistency_.reset();
   sequence_.reset();

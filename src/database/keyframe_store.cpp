@@ -228,6 +228,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   store->global_dimension_ = global_dimension;
   store->map_id_ = map_id.value_or(drawMapId());
   store->map_id_unsaved_ = !map_id;
+  store->reserved_through_ = store->connection_->metaNumber("ids_reserved_through");
   if (existed) {
     store->check_ = std::make_unique<IntegrityCheck>();
     store->check_->map_path = path;
@@ -353,6 +354,24 @@ uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
   if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
   return checksum;
 }
+
+void KeyframeStore::reserveIdsThrough(uint64_t id) {
+  if (reserved_through_ && id <= *reserved_through_) return;
+  reserved_through_ = id;
+  reservation_unsaved_ = true;
+  if (integrityCheck() == MapCheck::kPassed) saveReservation();
+}
+
+void KeyframeStore::saveReservation() {
+  if (!reservation_unsaved_ || !reserved_through_) return;
+  Connection& c = *connection_;
+  c.setMeta("ids_reserved_through", std::to_string(*reserved_through_));
+  if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
+  map_id_unsaved_ = false;
+  reservation_unsaved_ = false;
+}
+
+std::optional<uint64_t> KeyframeStore::idsReservedThrough() const { return reserved_through_; }
 
 void KeyframeStore::add(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;

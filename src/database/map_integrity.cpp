@@ -135,6 +135,7 @@ std::string KeyframeStore::integrityProblem() const {
 }
 
 void KeyframeStore::commitHeld() {
+  saveReservation();
   if (held_.empty()) return;
   insertInOneTransaction(held_.size(), [this](size_t i) { return &held_[i]; });
   held_.clear();

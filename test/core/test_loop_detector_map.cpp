@@ -76,6 +76,39 @@ TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
   removeMap(path);
 }
 
+// Keyframes published while the standardisation warms up are stored only once its window fills:
+// killed before that, the map must still keep their ids from the next run (issue 67 point 3).
+TEST(LoopDetector, IdsPublishedDuringTheWarmUpAreNotGivenAgainAfterACrash) {
+  const std::string path = temporaryPath("warm_up_ids.lcdb");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.descriptor.condition_window = 6;
+  uint64_t map_id = 0;
+  {
+    LoopDetector mapped(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(mapped.openMap(path), "");
+    for (int i = 0; i < 8; ++i) feed(&mapped, i, 100 + i);  // Ids 0-4 held, stored at id 5.
+    map_id = mapped.mapId();
+  }
+  auto store = KeyframeStore::openExisting(path);
+  ASSERT_TRUE(store->idsReservedThrough());
+  EXPECT_EQ(*store->idsReservedThrough(), 4u);
+  store.reset();
+  {
+    // A crash in the warm-up of a run on that map: ids 8-10 published, none stored. Simulated by
+    // marking them as the warm-up does, without the detector's clean stop.
+    auto crashed = KeyframeStore::openExisting(path);
+    crashed->reserveIdsThrough(10);
+  }
+  LoopDetector next_run(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(next_run.openMap(path), "");
+  EXPECT_EQ(next_run.mapId(), map_id);
+  const FrameResult first = feed(&next_run, 20, 200);
+  ASSERT_TRUE(first.keyframe);
+  EXPECT_EQ(first.keyframe->keyframe_id, 11u) << "not 8: ids 8-10 went out before the crash";
+  removeMap(path);
+}
+
 // A backend keys its graph on (map id, keyframe id): a map loaded mid-run keeps ids that were
 // published before (it was stored with them), so the map id must change with the map.
 TEST(LoopDetector, AMapLoadedMidRunKeepsItsIdsUnderItsOwnMapId) {

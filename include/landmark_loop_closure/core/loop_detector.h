@@ -501,6 +501,8 @@ class LoopDetector {
     std::vector<float> raw_global;
   };
   std::vector<WarmingKeyframe> warming_;
+  /// Marks `id` published in the map before its keyframe is stored (KeyframeStore's reserve).
+  void reserveId(uint64_t id, KeyframeResult* result);
   /// The last keyframe's global vector (score_normalisation previous_keyframe).
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;

@@ -115,6 +115,13 @@ class KeyframeStore {
   /// it is held instead, and a pending check is run first. Throws std::runtime_error (disk full,
   /// id not greater than the last, the map found damaged) with the store unchanged.
   void add(const KeyframeRecord& keyframe);
+  /// Keyframe ids up to `id` have been published (a keyframe held back before it is stored, as
+  /// while the standardisation warms up): the map keeps the mark, so a run on it after a crash
+  /// does not give them again. Written now, or once the integrity check passes; a damaged map is
+  /// not written. Throws std::runtime_error when the disk refuses it.
+  void reserveIdsThrough(uint64_t id);
+  /// The highest id reserved so far (this run's or the map's), if any.
+  std::optional<uint64_t> idsReservedThrough() const;
   /// Writes every keyframe of `database` in one transaction: all or none.
   void addAll(const KeyframeDatabase& database);
   /// The keyframe with this id, read from disk; nullopt when there is none. Throws
@@ -210,7 +217,10 @@ class KeyframeStore {
   std::string descriptor_identity_;
   int global_dimension_ = 0;
   uint64_t map_id_ = 0;
-  bool map_id_unsaved_ = false;  ///< Drawn at this open, written with the next commit.
+  bool map_id_unsaved_ = false;               ///< Drawn at this open, written with the next commit.
+  std::optional<uint64_t> reserved_through_;  ///< reserveIdsThrough(), the map's mark at open.
+  bool reservation_unsaved_ = false;          ///< Not written yet (the check had not passed).
+  void saveReservation();
   std::unique_ptr<Connection> connection_;
   std::unique_ptr<vector_file::Writer> rows_;
   /// Commits the held keyframes in one transaction (the check passed, or was given up at close).
