@@ -122,6 +122,23 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
   return table;
 }
 
+std::string NodeOptions::defaultMountWarning() const {
+  const CameraMount& mount = detector.camera_mount;
+  const CameraMount default_mount;
+  const bool is_default = mount.x == default_mount.x && mount.y == default_mount.y &&
+                          mount.z == default_mount.z && mount.roll == default_mount.roll &&
+                          mount.pitch == default_mount.pitch && mount.yaw == default_mount.yaw;
+  if (!is_default || camera_mount_from_tf || use_depth ||
+      !detector.metric_pose.triangulate_from_odometry) {
+    return "";
+  }
+  return "camera_mount is the default (the camera at " +
+         (base_frame.empty() ? std::string("the base frame") : "'" + base_frame + "'") +
+         "'s origin, looking along its x axis) and keypoint depths are triangulated from the "
+         "odometry: set camera_mount/x, y, z, roll, pitch, yaw to where the camera sits on the "
+         "robot, or camera_mount/from_tf: true, else metric loops carry the mount's error";
+}
+
 std::string NodeOptions::validate() const {
   std::ostringstream errors;
   errors << parameters().check(*this);

@@ -113,6 +113,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
+  const std::string mount_warning = options_.defaultMountWarning();
+  if (!mount_warning.empty()) ROS_WARN("%s", mount_warning.c_str());
   if (!options_.database_path.empty()) {
     // Refusing to start leaves a map that cannot be opened as it is.
     const auto load_start = std::chrono::steady_clock::now();

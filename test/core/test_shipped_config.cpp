@@ -82,6 +82,30 @@ TEST(NodeOptions, ValidateCatchesNonsense) {
   EXPECT_NE(errors.find("acceptance/min_score"), std::string::npos) << errors;
 }
 
+TEST(NodeOptions, TheDefaultMountWithTriangulationIsWarnedAbout) {
+  NodeOptions options;
+  options.base_frame = "base_link";
+  const std::string warning = options.defaultMountWarning();
+  EXPECT_NE(warning.find("camera_mount is the default (the camera at 'base_link''s origin"),
+            std::string::npos)
+      << warning;
+  EXPECT_NE(warning.find("camera_mount/from_tf: true"), std::string::npos) << warning;
+  // Not when the mount was set, comes from tf, depths come from a depth image, or nothing is
+  // triangulated.
+  NodeOptions set = options;
+  set.detector.camera_mount.z = 0.4;
+  EXPECT_EQ(set.defaultMountWarning(), "");
+  NodeOptions from_tf = options;
+  from_tf.camera_mount_from_tf = true;
+  EXPECT_EQ(from_tf.defaultMountWarning(), "");
+  NodeOptions depth = options;
+  depth.use_depth = true;
+  EXPECT_EQ(depth.defaultMountWarning(), "");
+  NodeOptions appearance_only = options;
+  appearance_only.detector.metric_pose.triangulate_from_odometry = false;
+  EXPECT_EQ(appearance_only.defaultMountWarning(), "");
+}
+
 TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
   const YamlParameterSource source(YAML::Load(
       "pose_source: tf\nrelative_pose_frame: base\ntime_jump_back: reset\nmode: localization\n"

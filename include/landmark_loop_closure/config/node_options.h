@@ -81,6 +81,10 @@ struct NodeOptions {
   static const ParameterTable<NodeOptions>& parameters();
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
+  /// A warning when keypoint depths are triangulated from the odometry with camera_mount left at
+  /// its default (the camera at base_frame's origin): a mount the robot does not have skews every
+  /// metric loop, silently. Empty otherwise.
+  std::string defaultMountWarning() const;
 };
 
 /// Reads every option; absent keys keep their defaults.
