@@ -54,6 +54,16 @@ class KeyframeStoreTest : public MapFolderTest {
     return path;
   }
 
+  // The map at path_: keyframes 1-5 sealed by a clean shutdown, then 6..last committed after the
+  // seal (session 1), as a run killed before its next clean stop leaves them.
+  void sealThenCommit(uint64_t last) {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeDatabase database(kDimension, graphOptions());
+    addBoth(store.get(), &database, 1, 5, 0);
+    store->saveGraph("hnsw M=8", database);
+    for (uint64_t id = 6; id <= last; ++id) store->add(makeKeyframe(id, 1));
+  }
+
   void execute(const std::string& sql) {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
@@ -302,13 +312,7 @@ TEST_F(KeyframeStoreTest, ACleanShutdownKeepsTheSummariesSoOpeningNeedNotReadThe
 
 TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIsCut) {
   const size_t entry_bytes = sizeof(float) + kDimension + 92;
-  {
-    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 0);
-    store->saveGraph("hnsw M=8", database);
-    for (uint64_t id = 6; id <= 8; ++id) store->add(makeKeyframe(id, 1));
-  }
+  sealThenCommit(8);
   // A keyframe whose commit never came left its entry past the map's keyframes.
   {
     std::ofstream append(path_ + "-vectors", std::ios::binary | std::ios::app);
@@ -355,13 +359,7 @@ TEST_F(KeyframeStoreTest, RowsLostAfterTheSealAreRepairedAndAnUncommittedEntryIs
 
 TEST_F(KeyframeStoreTest, ARowDamagedBeforeIntactOnesIsDamageNotAPowerCut) {
   const size_t entry_bytes = sizeof(float) + kDimension + 92;
-  {
-    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
-    KeyframeDatabase database(kDimension, graphOptions());
-    addBoth(store.get(), &database, 1, 5, 0);
-    store->saveGraph("hnsw M=8", database);
-    for (uint64_t id = 6; id <= 9; ++id) store->add(makeKeyframe(id, 1));
-  }
+  sealThenCommit(9);
   // Bytes flipped inside keyframe 7's row (entry 6); keyframes 8 and 9's rows are intact.
   {
     std::fstream damage(path_ + "-vectors", std::ios::in | std::ios::out | std::ios::binary);
