@@ -33,6 +33,7 @@ set(CORE_TESTS
   test_geometric_verification
   test_lens_distortion
   test_metric_pose
+  test_covariance_conventions
   test_shipped_config
   test_sim)
 foreach(name ${CORE_TESTS})
