@@ -141,6 +141,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       loop.score = report.score;
       loop.consistent_keyframes = report.consistent_keyframes;
       result->loop = loop;
+      last_loop_ = PublishedLoop{query_keyframe.id, session_, match->id, match->session};
     }
   }
 }
@@ -256,8 +257,14 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
                 1, static_cast<size_t>(std::llround(static_cast<double>(background_places_) *
                                                     static_cast<double>(newest_searchable) /
                                                     static_cast<double>(sampled))));
-  report->false_alarms = tail.expectedFalseAlarms(report->score, places);
-  const double bound = options_.acceptance.max_false_alarms;
+  const bool continues = match && continuesLastLoop(*match, query_keyframe.id);
+  // Continuing the last keyframe's loop, it is one of the few places that would continue it.
+  const size_t tested =
+      continues ? std::min(places, 2 * static_cast<size_t>(options_.acceptance.index_window) + 1)
+                : places;
+  report->false_alarms = tail.expectedFalseAlarms(report->score, tested);
+  report->false_alarm_places = tested;
+  const double bound = falseAlarmBound(match, query_keyframe);
   if (match && mode_ == DetectorMode::kMapping && justPassed(*match, query_keyframe.id)) {
     // Among the places just passed it must also stand out of what they score.
     const ScoreTail passed = passed_places_.tail();
@@ -284,10 +291,32 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
     return leftThePlace(*match, tail.threshold, &report->detail);
   }
   detail.precision(3);
-  detail << report->false_alarms << " wrong places expected to score as high among " << places
-         << ", more than " << bound << " (it needs " << tail.scoreFor(bound, places) << ")";
+  detail << report->false_alarms << " wrong places expected to score as high among " << tested
+         << (continues ? " continuing the last loop" : "") << ", more than " << bound
+         << " (it needs " << tail.scoreFor(bound, tested) << ")";
   report->detail = detail.str();
   return false;
+}
+
+bool LoopDetector::continuesLastLoop(const KeyframeSummary& match, uint64_t query_id) const {
+  return last_loop_ && last_loop_->query_session == session_ &&
+         last_loop_->query_id + 1 == query_id && last_loop_->match_session == match.session &&
+         idGap(match.id, last_loop_->match_id) <=
+             static_cast<uint64_t>(options_.acceptance.index_window);
+}
+
+double LoopDetector::falseAlarmBound(const KeyframeSummary* match,
+                                     const KeyframeRecord& query_keyframe) const {
+  const AcceptanceOptions& acceptance = options_.acceptance;
+  const OdometryGateOptions& gate = options_.odometry_gate;
+  if (acceptance.max_false_alarms_within_reach <= 0.0 || !match || !gate.enabled ||
+      mode_ != DetectorMode::kMapping || match->session != session_) {
+    return acceptance.max_false_alarms;
+  }
+  const bool within_reach =
+      checkOdometry(gate, query_keyframe.pose, query_keyframe.path, match->pose, match->path)
+          .consistent;
+  return within_reach ? acceptance.max_false_alarms_within_reach : acceptance.max_false_alarms;
 }
 
 bool LoopDetector::leftThePlace(const KeyframeSummary& match, double level, std::string* detail) {

@@ -16,30 +16,43 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
       ParameterTable<O>("acceptance/", "precision first.")
           .number(
               "min_score", &O::min_score, between(0, 100),
-              "final similarity a candidate needs (with sequence matching, the best path's mean); "
-              "its scale depends on descriptor/type, descriptor/condition_window and "
-              "sequence_length. backbone with the window and L = 5 (default): chosen on the "
-              "first halves of Gardens Point's three pairs and Nordland, whose highest wrong "
-              "loop scored 0.33 (two stations of one traversal), rounded up "
-              "(bench/README.md). L = 1 with the window: 0.3; without the window "
-              "(condition_window 0): 0.6. Set 0.25 for landmarks (the node does when it falls "
-              "back to it), 0.7 for hog, 0.97 for calc (those three measured without the "
-              "window, L = 1). At most 1, except with score_normalisation local_contrast or "
-              "z_score (standard deviations).")
+              "final similarity a candidate needs (with sequence matching, the best path's mean): "
+              "with max_false_alarms a floor under the calibrated decision, 0.1 (the loops it "
+              "believes on Gardens Point and Nordland score 0.117 and up, bench/README.md); "
+              "without it "
+              "the whole decision, whose scale depends on descriptor/type, "
+              "descriptor/condition_window and sequence_length: backbone with the window and "
+              "L = 5, 0.34 (the highest wrong loop of Gardens Point's and Nordland's first "
+              "halves scored 0.33); L = 1 with the window: 0.3; without the window "
+              "(condition_window 0): 0.6. A descriptor that re-ranks is not calibrated: 0.25 "
+              "for landmarks (the node sets it when it falls back to it); 0.7 for hog, 0.97 for "
+              "calc (those three measured without the window, L = 1). At most 1, except with "
+              "score_normalisation local_contrast or z_score (standard deviations).")
           .number("max_false_alarms", &O::max_false_alarms, between(0, 1000000),
                   "calibrated decision (a-contrario), 0 = off: a candidate that reached the "
                   "k-chain is believed only where fewer wrong places than this are expected to "
                   "score as high, from an exponential tail fitted to what the map's other places "
                   "(outside the candidate's place_window and the odometry's reach) scored against "
                   "the last 5 keyframes; the places counted are those the odometry does not rule "
-                  "out. A candidate of the query's own run must also stand out of what the places "
+                  "out, or, for a candidate within index_window of the match of the loop the "
+                  "keyframe before published, the 2 * index_window + 1 places that would continue "
+                  "it. A candidate of the query's own run must also stand out of what the places "
                   "just passed (exclude_recent_keyframes to twice that back) scored against the "
                   "last 200 keyframes, and the run must have left it (some keyframe between "
                   "scoring like an ordinary other place). A map of look-alike places needs more "
-                  "than a varied route; min_score becomes a floor (0.1 with it). Not the default: "
-                  "0.003 (chosen on the first halves) lifts recall on Gardens Point and Nordland "
-                  "without a wrong loop but refuses a third of the corridor's loops "
-                  "(bench/README.md). Off with a descriptor that re-ranks.")
+                  "than a varied route. 0.003: the largest of 0.001-0.03 without a wrong loop on "
+                  "Nordland's first half played as one sequence (it transfers to Gardens Point; "
+                  "bench/README.md). Off with a descriptor that re-ranks (min_score decides "
+                  "alone).")
+          .number("max_false_alarms_within_reach", &O::max_false_alarms_within_reach,
+                  between(0, 1000000),
+                  "max_false_alarms for a candidate that the odometry puts within its reach (a "
+                  "place of the query's own session, odometry_gate on, mapping): the odometry "
+                  "is a second witness besides appearance, so appearance may need less. 0 = "
+                  "max_false_alarms for these too. 0.3: the largest of 0.1, 0.3, 1 without a "
+                  "wrong loop on Gardens Point's first halves played as one robot run and the "
+                  "generated aliasing corridor (1 publishes 3 wrong loops there; "
+                  "bench/README.md).")
           .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
                   "how a place must stay matched before a loop is believed: \"keyframes\": "
                   "consistent_keyframes keyframes in a row, matches within index_window ids; "
@@ -151,6 +164,15 @@ std::string LoopDetectorOptions::validate() const {
   errors << keyframe.validate() << descriptor.validate() << database.validate()
          << acceptance.validate() << odometry_gate.validate() << verification.validate()
          << appearance.validate() << metric_pose.validate() << camera_mount.validate();
+  if (acceptance.max_false_alarms > 0.0 && descriptor.reranks() &&
+      acceptance.min_score < kLandmarksMinScore) {
+    // The calibrated decision is off for it: min_score alone decides, and a floor is no decision.
+    errors << "acceptance/min_score " << acceptance.min_score
+           << " decides alone for descriptor/type " << descriptor.type
+           << ", which re-ranks its shortlist (the calibrated decision, max_false_alarms, does not "
+              "apply to a re-ranked score): set it to that descriptor's threshold (landmarks "
+           << kLandmarksMinScore << ")\n";
+  }
   if (acceptance.score_normalisation != ScoreNormalisation::kNone && descriptor.reranks()) {
     // Its population is the query's global similarities to the map; a re-ranked score is
     // another measure, and re-ranking the whole map would cost what the shortlist saves.
@@ -306,6 +328,7 @@ void LoopDetector::setMode(DetectorMode mode) {
     consistency_.reset();
     sequence_.reset();
     backgrounds_.clear();
+    last_loop_.reset();
     passed_places_.clear();
   }
   mode_ = mode;

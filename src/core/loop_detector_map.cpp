@@ -140,6 +140,7 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   consistency_.reset();
   sequence_.reset();
   backgrounds_.clear();
+  last_loop_.reset();
   passed_places_.clear();
   last_keyframe_.reset();
   return "";
@@ -211,6 +212,7 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   consistency_.reset();
   sequence_.reset();
   backgrounds_.clear();
+  last_loop_.reset();
   passed_places_.clear();
   last_keyframe_.reset();
   ResetOutcome outcome;

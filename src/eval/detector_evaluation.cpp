@@ -223,17 +223,19 @@ const char* toString(RunProtocol protocol) {
       return "sessions";
     case RunProtocol::kLocalisation:
       return "localisation";
+    case RunProtocol::kOneRun:
+      return "one-run";
   }
   return "?";
 }
 
 RunProtocol runProtocol(const std::string& name) {
-  for (const RunProtocol protocol :
-       {RunProtocol::kOneSequence, RunProtocol::kSessions, RunProtocol::kLocalisation}) {
+  for (const RunProtocol protocol : {RunProtocol::kOneSequence, RunProtocol::kSessions,
+                                     RunProtocol::kLocalisation, RunProtocol::kOneRun}) {
     if (name == toString(protocol)) return protocol;
   }
   throw std::invalid_argument("unknown protocol '" + name +
-                              "' (one-sequence, sessions or localisation)");
+                              "' (one-sequence, sessions, localisation or one-run)");
 }
 
 DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,

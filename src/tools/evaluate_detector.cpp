@@ -151,6 +151,7 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
   source.protocol =
       poses.empty() && !runs.starts.empty() ? runs.protocol : eval::RunProtocol::kOneSequence;
   const bool sessions = source.protocol == eval::RunProtocol::kSessions;
+  const bool one_run = source.protocol == eval::RunProtocol::kOneRun;
   source.has_intrinsics = intrinsics.valid();
   if (!poses.empty() && (poses.size() != paths.size() || stamps.size() != paths.size())) {
     throw std::invalid_argument("there are " + std::to_string(paths.size()) + " images but " +
@@ -174,12 +175,18 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                             "heading drifting " +
                                 std::to_string(runs.heading_drift).substr(0, 6) +
                                 " rad per step (random walk), the odometry gate on"
+                 : one_run
+                     ? "one session, one odometry throughout: the route taken as a closed loop "
+                       "of the first traversal's steps, so the next begins where it began, the "
+                       "heading drifting " +
+                           std::to_string(runs.heading_drift).substr(0, 6) +
+                           " rad per step (random walk) all the way, the odometry gate on"
                  : source.protocol == eval::RunProtocol::kLocalisation
                      ? "the first traversal mapped, the next localised in it (mode "
                        "localization)"
                      : "one session, no odometry, so the odometry gate is off") +
                 "; resized to the first image's size";
-  source.gate_without_poses = sessions;
+  source.gate_without_poses = sessions || one_run;
   if (source.has_intrinsics) {
     std::ostringstream camera;
     camera << "; pinhole fx " << intrinsics.fx << " fy " << intrinsics.fy << " cx " << intrinsics.cx
@@ -197,11 +204,21 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
     cv::Size size;
     StandstillDetector standstill(still_threshold);
     double travelled = -1.0;
-    // kSessions: each run's own drifting odometry, the same in every pass.
+    // kSessions, kOneRun: drifting odometry, the same in every pass.
     std::mt19937 random(7);
     std::normal_distribution<double> heading_error(0.0, runs.heading_drift);
     Eigen::Vector2d position(-1.0, 0.0);
     double heading = 0.0;
+    // kOneRun: the route is a closed loop of as many 1 m steps as the first run moves, so the
+    // next run begins where the first began, the odometry drifting on all the way round.
+    size_t lap_steps = 0;
+    if (protocol == eval::RunProtocol::kOneRun && !runs.starts.empty()) {
+      lap_steps = runs.starts.front();
+      for (size_t i = 0; i < std::min(standing.size(), runs.starts.front()); ++i) {
+        if (standing[i]) --lap_steps;
+      }
+    }
+    const double turn_per_step = lap_steps > 0 ? 2.0 * M_PI / static_cast<double>(lap_steps) : 0.0;
     for (size_t i = 0; i < paths.size(); ++i) {
       eval::DetectorFrame frame;
       frame.new_run = protocol != eval::RunProtocol::kOneSequence &&
@@ -222,9 +239,9 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                             : !(i < standing.size() && standing[i]);
         if (moved) travelled += 1.0;
         frame.pose.position = Eigen::Vector3d(travelled, 0.0, 0.0);
-        if (protocol == eval::RunProtocol::kSessions) {
+        if (protocol == eval::RunProtocol::kSessions || protocol == eval::RunProtocol::kOneRun) {
           if (moved) {
-            heading += heading_error(random);
+            heading += turn_per_step + heading_error(random);
             position += Eigen::Vector2d(std::cos(heading), std::sin(heading));
           }
           frame.pose = planarPose(position.x(), position.y(), heading);

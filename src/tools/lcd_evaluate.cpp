@@ -344,10 +344,17 @@ int run(const Arguments& arguments) {
     if (runs.protocol != RunProtocol::kOneSequence) {
       if (first_traversal == 0 || !poses.empty()) {
         throw std::invalid_argument(
-            "--protocol sessions|localisation plays --database then --queries (--as-sequence) "
+            "--protocol sessions|localisation|one-run plays --database then --queries "
+            "(--as-sequence) "
             "as two runs of an image-only sequence");
       }
       runs.starts = {first_traversal};
+    }
+    if (runs.protocol == RunProtocol::kOneRun && !arguments.has("--still-joint") &&
+        arguments.number("--still-threshold", 5.0) != 0.0) {
+      throw std::invalid_argument(
+          "--protocol one-run closes the route after the first traversal's steps, which must "
+          "be known before it plays: --still-threshold 0 (every image a step) or --still-joint");
     }
     runs.heading_drift = arguments.number("--odometry-drift", runs.heading_drift);
     return runDetectorMode(arguments,

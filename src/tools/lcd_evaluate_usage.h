@@ -37,14 +37,19 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
                        same place at the same frame, so a frame stands still exactly where both
                        stand (the stops --gt-stops finds), instead of where each one's own
                        picture barely changes (--still-threshold); one step per frame elsewhere
-  --protocol P         --as-sequence or --corridor, how the two traversals (laps) meet: one-sequence (default: one
-                       session, no odometry, the odometry gate off), sessions (as a robot
+  --protocol P         --as-sequence or --corridor, how the two traversals (laps) meet:
+                       one-sequence (default: one session; image folders have no odometry, the
+                       odometry gate off; the corridor plays its own), sessions (as a robot
                        runs: each traversal its own session with its own odometry, one step a
                        frame, its heading drifting by --odometry-drift rad per step, default
                        0.01, as a random walk; loops within a traversal meet the odometry gate,
-                       loops into the first skip it, as loops into a loaded map do), or
-                       localisation (the first traversal mapped, the second searched in it,
-                       nothing stored: mode localization)
+                       loops into the first skip it, as loops into a loaded map do), one-run (as
+                       a robot that comes back: one session and one odometry throughout, the
+                       route a closed loop of the first traversal's steps, drifting all the way
+                       round; loops into the first traversal meet the odometry gate; needs
+                       --still-threshold 0 or --still-joint), or localisation (the
+                       first traversal mapped, the second searched in it, nothing stored: mode
+                       localization)
   --camera-info FILE   image folders: the camera's intrinsics as a ROS camera_info YAML
                        (image_width, image_height, camera_matrix), scaled to the played size
                        (another aspect ratio than the images' stops the run); the geometric

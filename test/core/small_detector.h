@@ -27,6 +27,9 @@ inline LoopDetectorOptions smallOptions() {
   options.descriptor.condition_window = 0;
   // Single-image scores and the k-keyframe chain; sequence matching has its own tests.
   options.acceptance.sequence.length = 1;
+  // A few dozen places that score exactly 1 or 0: min_score decides; the calibrated decision
+  // has its own tests (test_false_alarms) and the corridor's (test_loop_detector_sim).
+  options.acceptance.max_false_alarms = 0.0;
   return options;
 }
 

@@ -413,16 +413,25 @@ TEST(DetectorEvaluation, RunProtocolsPlayTheSecondRunAsARobotWould) {
   // Run 1: places 0..39; run 2 (frame 40 on): places 10..29 again, its own odometry from the
   // origin. The odometry gate is on: in one sequence the revisits lie 30 m behind on a straight
   // path, so it refuses them; as a new session (a robot whose odometry restarted, as into a loaded
-  // map) they skip it; localising in run 1's map finds them without storing run 2.
+  // map) they skip it; localising in run 1's map finds them without storing run 2; a robot that
+  // came back (one run, its odometry at places 10..29 again) finds them within the gate's reach.
   LoopDetectorOptions options = smallDetector();
   options.odometry_gate.enabled = true;
-  const auto player = [](bool restart_odometry) -> FramePlayer {
-    return [restart_odometry](const std::function<void(size_t, const DetectorFrame&)>& sink) {
+  enum class Odometry { kStraightOn, kRestarted, kCameBack };
+  const auto player = [](Odometry odometry) -> FramePlayer {
+    return [odometry](const std::function<void(size_t, const DetectorFrame&)>& sink) {
       for (size_t i = 0; i < 60; ++i) {
         DetectorFrame frame;
         frame.stamp = 1.0 + i;
-        const double x = restart_odometry && i >= 40 ? double(i) - 40.0 : double(i);
+        const double x = i >= 40 && odometry == Odometry::kRestarted ? double(i) - 40.0 : double(i);
         frame.pose = planarPose(x, 0, 0);
+        if (odometry == Odometry::kCameBack) {
+          // Round a loop of 30 steps: frame 40 is back at frame 10's place.
+          const double angle = 2.0 * M_PI * double(i) / 30.0;
+          const double radius = 30.0 / (2.0 * M_PI);
+          frame.pose =
+              planarPose(radius * std::sin(angle), radius * (1.0 - std::cos(angle)), angle);
+        }
         frame.image = test_support::place(placeOfFrame(i));
         frame.new_run = i == 40;
         sink(i, frame);
@@ -432,24 +441,31 @@ TEST(DetectorEvaluation, RunProtocolsPlayTheSecondRunAsARobotWould) {
   const SamePlace same = [](size_t q, size_t m) { return placeOfFrame(q) == placeOfFrame(m); };
   DetectorEvaluationOptions evaluation;
   evaluation.sweep_steps = 0;
-  const auto run = [&](RunProtocol protocol, bool restart_odometry) {
+  const auto run = [&](RunProtocol protocol, Odometry odometry) {
     evaluation.protocol = protocol;
-    return evaluateDetector(options, std::make_shared<PlaceExtractor>(), player(restart_odometry),
-                            same, evaluation);
+    return evaluateDetector(options, std::make_shared<PlaceExtractor>(), player(odometry), same,
+                            evaluation);
   };
-  const DetectorEvaluation one = run(RunProtocol::kOneSequence, false);
+  const DetectorEvaluation one = run(RunProtocol::kOneSequence, Odometry::kStraightOn);
   EXPECT_EQ(one.configured.loops.size(), 0u);
   EXPECT_GT(one.configured.refused.at("odometry_rejected"), 0u);
-  const DetectorEvaluation sessions = run(RunProtocol::kSessions, true);
+  const DetectorEvaluation sessions = run(RunProtocol::kSessions, Odometry::kRestarted);
   EXPECT_EQ(sessions.keyframes, 60u) << "the odometry's restart is not a jump";
   EXPECT_EQ(sessions.configured.loops.size(), 18u);
   EXPECT_EQ(sessions.configured.true_loops, 18u);
-  const DetectorEvaluation localisation = run(RunProtocol::kLocalisation, false);
+  const DetectorEvaluation localisation = run(RunProtocol::kLocalisation, Odometry::kStraightOn);
   EXPECT_EQ(localisation.configured.true_loops, localisation.configured.loops.size());
   EXPECT_GE(localisation.configured.loops.size(), 18u);
+  const DetectorEvaluation came_back = run(RunProtocol::kOneRun, Odometry::kCameBack);
+  EXPECT_EQ(came_back.keyframes, 60u);
+  EXPECT_EQ(came_back.configured.loops.size(), 18u);
+  EXPECT_EQ(came_back.configured.true_loops, 18u);
+  const auto gate_refused = came_back.configured.refused.find("odometry_rejected");
+  EXPECT_TRUE(gate_refused == came_back.configured.refused.end() || gate_refused->second == 0u);
 
   EXPECT_EQ(runProtocol("sessions"), RunProtocol::kSessions);
   EXPECT_STREQ(toString(runProtocol("localisation")), "localisation");
+  EXPECT_EQ(runProtocol("one-run"), RunProtocol::kOneRun);
   EXPECT_THROW(runProtocol("robot"), std::invalid_argument);
 }
 

@@ -170,10 +170,18 @@ struct Drive {
   double fewest_false_alarms = HUGE_VAL;
 };
 
-Drive drive(bool bays, double max_false_alarms) {
+struct Odometry {
+  bool gate = false;          ///< odometry_gate on.
+  bool came_back = false;     ///< The revisit's odometry at the places' own poses (else 30 m on).
+  double within_reach = 0.0;  ///< acceptance/max_false_alarms_within_reach.
+};
+
+Drive drive(bool bays, double max_false_alarms, const Odometry& odometry = {}) {
   LoopDetectorOptions options = test_support::smallOptions();
   options.acceptance.min_score = 0.3;
   options.acceptance.max_false_alarms = max_false_alarms;
+  options.acceptance.max_false_alarms_within_reach = odometry.within_reach;
+  options.odometry_gate.enabled = odometry.gate;
   options.acceptance.sequence.length = 1;
   options.acceptance.min_place_ratio = 0.0;
   LoopDetector detector(options, std::make_shared<WorldExtractor>());
@@ -182,9 +190,22 @@ Drive drive(bool bays, double max_false_alarms) {
   for (int place = 0; place < 60; ++place, ++frame) {
     detector.process(frame, planarPose(frame, 0, 0), worldImage(place, bays, false));
   }
+  if (odometry.came_back) {
+    // Round the block, past places never seen before, back to the start of place 30.
+    std::vector<Eigen::Vector2d> way;
+    for (int y = 1; y <= 5; ++y) way.emplace_back(59, y);
+    for (int x = 58; x >= 25; --x) way.emplace_back(x, 5);
+    for (int y = 4; y >= 0; --y) way.emplace_back(25, y);
+    for (int x = 26; x < 30; ++x) way.emplace_back(x, 0);
+    for (size_t i = 0; i < way.size(); ++i, ++frame) {
+      detector.process(frame, planarPose(way[i].x(), way[i].y(), 0),
+                       worldImage(300 + static_cast<int>(i), bays, false));
+    }
+  }
   for (int place = 30; place < 35; ++place, ++frame) {
+    const double x = odometry.came_back ? place : frame;
     const FrameResult step =
-        detector.process(frame, planarPose(frame, 0, 0), worldImage(place, bays, true));
+        detector.process(frame, planarPose(x, 0, 0), worldImage(place, bays, true));
     if (!step.keyframe) continue;
     if (step.keyframe->loop) ++result.loops;
     for (const CandidateReport& candidate : step.keyframe->candidates) {
@@ -213,6 +234,72 @@ TEST(CalibratedDecision, TheSameRevisitNeedsMoreAmongLookAlikes) {
   EXPECT_LT(varied.fewest_false_alarms, 0.01);
   EXPECT_EQ(bays.loops, 0) << "among bays that look alike the same revisit is not";
   EXPECT_GT(bays.fewest_false_alarms, 0.01);
+}
+
+TEST(CalibratedDecision, ARevisitTheOdometryPutsWithinReachMayNeedLess) {
+  // Among bays that look alike the revisit alone is not believed (above), nor with the odometry
+  // gate on and no bound of its own.
+  const Drive alone = drive(true, 0.01, {true, true, 0.0});
+  EXPECT_EQ(alone.loops, 0);
+  const double needed = alone.fewest_false_alarms;
+  ASSERT_GT(needed, 0.01);
+  ASSERT_LT(needed, 1000.0);
+  // The odometry brought the robot back there: within its reach the bound of its own applies.
+  EXPECT_GT(drive(true, 0.01, {true, true, 2.0 * needed}).loops, 0);
+  // The same bound changes nothing where the odometry cannot witness: the gate off (image-only),
+  // or the robot 30 m on (the gate refuses it, whatever it scores).
+  EXPECT_EQ(drive(true, 0.01, {false, true, 2.0 * needed}).loops, 0);
+  EXPECT_EQ(drive(true, 0.01, {true, false, 2.0 * needed}).loops, 0);
+}
+
+TEST(CalibratedDecision, ARevisitContinuingThePublishedLoopIsOneOfFewPlaces) {
+  // A revisit of 25 places under other light after a varied map: once a keyframe published a
+  // loop, the next keyframe's candidate continuing it (within index_window of its match) is
+  // counted among the 2 * index_window + 1 places that would continue it, not the whole map's.
+  LoopDetectorOptions options = test_support::smallOptions();
+  options.acceptance.min_score = 0.3;
+  options.acceptance.max_false_alarms = 1e-4;
+  options.acceptance.sequence.length = 1;
+  options.acceptance.min_place_ratio = 0.0;
+  LoopDetector detector(options, std::make_shared<WorldExtractor>());
+  int frame = 0;
+  for (int place = 0; place < 60; ++place, ++frame) {
+    detector.process(frame, planarPose(frame, 0, 0), worldImage(place, false, false));
+  }
+  const size_t continuing = 2 * static_cast<size_t>(options.acceptance.index_window) + 1;
+  bool last_published = false;
+  size_t map_places = 0;  // What the last candidate tested over the map counted.
+  int loops = 0;
+  int believed_only_as_continuation = 0;
+  for (int place = 20; place < 45; ++place, ++frame) {
+    const FrameResult step =
+        detector.process(frame, planarPose(frame, 0, 0), worldImage(place, false, true));
+    ASSERT_TRUE(step.keyframe);
+    for (const CandidateReport& candidate : step.keyframe->candidates) {
+      if (candidate.false_alarm_places > continuing) map_places = candidate.false_alarm_places;
+    }
+    for (const CandidateReport& candidate : step.keyframe->candidates) {
+      if (candidate.false_alarm_places == 0) continue;
+      const bool continues = last_published && static_cast<int>(candidate.match_id) == place;
+      if (!last_published) {
+        EXPECT_GT(candidate.false_alarm_places, continuing);
+      }
+      if (continues) {
+        EXPECT_EQ(candidate.false_alarm_places, continuing);
+        // Over the whole map it would have been refused.
+        const double over_the_map = candidate.false_alarms * static_cast<double>(map_places) /
+                                    static_cast<double>(continuing);
+        if (candidate.verdict == CandidateVerdict::kAccepted && map_places > continuing &&
+            over_the_map > options.acceptance.max_false_alarms) {
+          ++believed_only_as_continuation;
+        }
+      }
+    }
+    last_published = step.keyframe->loop.has_value();
+    if (last_published) ++loops;
+  }
+  EXPECT_GE(loops, 15);
+  EXPECT_GT(believed_only_as_continuation, 0);
 }
 
 // Maps 60 varied places, then drives a slow stretch of 40 frames of one look drifting: frames
@@ -269,6 +356,7 @@ TEST(CalibratedDecision, ASlowStretchOfLookAlikeFramesIsNotARevisit) {
 
 TEST(CalibratedDecision, OffLeavesEveryCandidateUntested) {
   LoopDetectorOptions options = test_support::smallOptions();
+  ASSERT_EQ(options.acceptance.max_false_alarms, 0.0);
   LoopDetector detector(options, std::make_shared<WorldExtractor>());
   for (int frame = 0; frame < 40; ++frame) {
     const FrameResult step =

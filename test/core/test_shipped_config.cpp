@@ -82,6 +82,22 @@ TEST(NodeOptions, ValidateCatchesNonsense) {
   EXPECT_NE(errors.find("acceptance/min_score"), std::string::npos) << errors;
 }
 
+TEST(NodeOptions, AReRankingDescriptorNeedsItsOwnThresholdNotTheCalibratedFloor) {
+  // The calibrated decision does not apply to a re-ranked score: min_score's floor would decide
+  // alone.
+  NodeOptions options;
+  options.detector.descriptor.type = "landmarks";
+  ASSERT_GT(options.detector.acceptance.max_false_alarms, 0.0);
+  const std::string errors = options.validate();
+  EXPECT_NE(errors.find("acceptance/min_score 0.1 decides alone for descriptor/type landmarks"),
+            std::string::npos)
+      << errors;
+  options.detector.acceptance.min_score = kLandmarksMinScore;
+  EXPECT_EQ(options.validate(), "");
+  // The default backbone does not re-rank: the floor is a floor.
+  EXPECT_EQ(NodeOptions().validate(), "");
+}
+
 TEST(NodeOptions, TheDefaultMountWithTriangulationIsWarnedAbout) {
   NodeOptions options;
   options.base_frame = "base_link";

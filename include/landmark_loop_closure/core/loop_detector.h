@@ -36,10 +36,15 @@ namespace landmark_loop_closure {
 constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
-  double min_score = 0.34;  ///< Final similarity a candidate needs (in [-1, 1]; see default.yaml).
+  /// Final similarity a candidate needs (in [-1, 1]; see default.yaml): with the calibrated
+  /// decision a floor, without it (max_false_alarms 0, a re-ranking descriptor) the decision.
+  double min_score = 0.1;
   /// A candidate is believed only where fewer non-loop places than this are expected to score as
   /// high over the map, from the tail of the query's scores against it (ScoreTail); 0 = off.
-  double max_false_alarms = 0.0;
+  double max_false_alarms = 0.003;
+  /// The same bound for a candidate of the query's own session that the odometry puts within
+  /// its reach (odometry gate on, mapping): the odometry is a second, independent witness.
+  double max_false_alarms_within_reach = 0.3;
   /// kKeyframes: a loop needs consistent_keyframes consecutive keyframes whose matches agree
   /// within index_window ids; kMetres: the query must travel consistent_distance_m while its
   /// matches agree within match_window_m of path (see TemporalConsistency).
@@ -131,6 +136,9 @@ struct CandidateReport {
   /// Non-loop places expected to score as high, over the map (acceptance/max_false_alarms); -1
   /// when not tested.
   double false_alarms = -1.0;
+  /// The places those were counted over: the map's that the odometry does not rule out, or the
+  /// few that would continue the last keyframe's loop (0 when not tested).
+  size_t false_alarm_places = 0;
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
   std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
@@ -432,6 +440,11 @@ class LoopDetector {
   /// Adds this keyframe's background to backgrounds_ and its passed places' scores to
   /// passed_places_ (when calibrates()).
   void recordBackground(const KeyframeRecord& query_keyframe);
+  /// Whether `match` continues the loop the keyframe before `query_id` published (last_loop_).
+  bool continuesLastLoop(const KeyframeSummary& match, uint64_t query_id) const;
+  /// acceptance/max_false_alarms, or max_false_alarms_within_reach where the odometry puts the
+  /// match within its reach.
+  double falseAlarmBound(const KeyframeSummary* match, const KeyframeRecord& query_keyframe) const;
   /// Whether `match` is among the places the query has just passed (passed_places_).
   bool justPassed(const KeyframeSummary& match, uint64_t query_id) const;
   /// The first of `leaders` (best-scoring candidates of their places, in score order) whose place
@@ -522,6 +535,16 @@ class LoopDetector {
   /// passed": their scores, pooled over queries, are the tail a candidate among them must stand
   /// out of.
   PassedPlaceScores passed_places_;
+  /// acceptance/max_false_alarms: the loop the last keyframe published. A candidate of the next
+  /// keyframe that continues it (within index_window of its match) is one of the few places
+  /// that would continue it, not one of the whole map's.
+  struct PublishedLoop {
+    uint64_t query_id = 0;
+    uint32_t query_session = 0;
+    uint64_t match_id = 0;
+    uint32_t match_session = 0;
+  };
+  std::optional<PublishedLoop> last_loop_;
   size_t background_places_ = 0;  ///< Eligible places of the newest background.
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;

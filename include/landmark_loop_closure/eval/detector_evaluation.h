@@ -102,9 +102,12 @@ enum class RunProtocol {
                   ///< into earlier runs skip the odometry gate, as loops into a loaded map do.
   kLocalisation,  ///< The runs before are the map: later runs are searched in it, nothing stored
                   ///< (mode localization).
+  kOneRun,        ///< One session and one odometry throughout: the robot drives back to where the
+                  ///< first run began (the odometry drifting on) and goes again, so loops into
+                  ///< the earlier run meet the odometry gate.
 };
 const char* toString(RunProtocol protocol);
-/// "one-sequence", "sessions" or "localisation"; throws std::invalid_argument otherwise.
+/// "one-sequence", "sessions", "localisation" or "one-run"; throws std::invalid_argument otherwise.
 RunProtocol runProtocol(const std::string& name);
 
 struct DetectorEvaluationOptions {
