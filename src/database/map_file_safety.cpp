@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/database/map_file_safety.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -56,6 +57,33 @@ bool moveNoClobber(const std::string& from, const std::string& to) {
 
 }  // namespace
 
+// The process whose lock on `file` conflicts with a write lock on [start, start + length), or 0
+// (this process's own locks never conflict).
+pid_t lockHolder(const std::string& file, off_t start, off_t length) {
+  const int descriptor = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (descriptor < 0) return 0;
+  struct flock probe {};
+  probe.l_type = F_WRLCK;
+  probe.l_whence = SEEK_SET;
+  probe.l_start = start;
+  probe.l_len = length;
+  const bool asked = ::fcntl(descriptor, F_GETLK, &probe) == 0;
+  ::close(descriptor);
+  return asked && probe.l_type != F_UNLCK ? probe.l_pid : 0;
+}
+
+// The process that has the map at `path` open, or 0. SQLite locks bytes of the file from 1 GiB
+// on (the pending and reserved bytes, then 510 shared ones): the node's store, in exclusive
+// locking mode, holds them from its first write until it closes; an ordinary connection in WAL
+// mode holds a read lock on the "dead man switch" byte of PATH-shm (offset 128, after the index
+// header and the lock slots) while it is open.
+pid_t processHoldingMap(const std::string& path) {
+  constexpr off_t kPendingByte = 0x40000000;
+  constexpr off_t kDeadManSwitch = 128;
+  if (const pid_t holder = lockHolder(path, kPendingByte, 512)) return holder;
+  return lockHolder(path + "-shm", kDeadManSwitch, 1);
+}
+
 FileStart fileStartOf(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) return FileStart::kUnreadable;
@@ -105,6 +133,10 @@ std::string saveTargetProblem(const std::string& target, const std::string& live
     }
     if (fileStartOf(target) != FileStart::kSqlite) {
       return target + " exists and is not a map; it is never replaced";
+    }
+    if (const pid_t holder = processHoldingMap(target)) {
+      return target + " is open in another process (pid " + std::to_string(holder) +
+             "), which is still writing it; nothing was written (stop it first)";
     }
   }
   const std::vector<std::string> files = mapFiles(target);

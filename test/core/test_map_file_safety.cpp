@@ -274,3 +274,51 @@ TEST_F(MapFileSafety, AJournalWithoutItsMapIsNeverDeleted) {
   EXPECT_EQ(read(path("stray.db-wal")), "another map's last commits");
   EXPECT_FALSE(fs::exists(path("stray.db")));
 }
+
+TEST_F(MapFileSafety, AMapAnotherProcessStillWritesIsNotReplaced) {
+  // A node still mapping to A.db in another process: a save with overwrite must not move its
+  // map from under it.
+  int ready[2];
+  int finish[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  ASSERT_EQ(::pipe(finish), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::close(ready[0]);
+    ::close(finish[1]);
+    try {
+      auto store = KeyframeStore::open(path("A.db"), kIdentity, kDimension);
+      for (uint64_t id = 0; id < 20; ++id) store->add(makeKeyframe(id, 0));
+      const char byte = 1;
+      if (::write(ready[1], &byte, 1) != 1) ::_exit(1);
+      char done;
+      while (::read(finish[0], &done, 1) > 0) {
+      }
+      ::_exit(0);
+    } catch (...) {
+      ::_exit(1);
+    }
+  }
+  ::close(ready[1]);
+  ::close(finish[0]);
+  char byte = 0;
+  ASSERT_EQ(::read(ready[0], &byte, 1), 1);
+  auto detector = detectorWithKeyframes();
+  const std::set<std::string> before = entries();
+  std::string kept;
+  const std::string refused = detector->saveDatabase(path("A.db"), true, &kept);
+  EXPECT_NE(refused.find("is open in another process (pid " + std::to_string(child) + ")"),
+            std::string::npos)
+      << refused;
+  EXPECT_TRUE(kept.empty());
+  EXPECT_EQ(entries(), before);
+  // Once it has stopped, the map it left is kept aside whole and the save goes ahead.
+  ::close(finish[1]);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  ASSERT_EQ(detector->saveDatabase(path("A.db"), true, &kept), "");
+  EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 20u);
+  ::close(ready[0]);
+}

@@ -24,7 +24,8 @@ std::vector<std::string> mapFiles(const std::string& map);
 /// when it may. Checked before anything is created, so a refused save leaves nothing behind:
 /// - the open map itself under any name (same device and inode: a relative path, a symlink);
 /// - anything that is not a regular file (a FIFO, a device, a directory, a socket);
-/// - an existing file unless `overwrite`, and even then only a map (an SQLite file);
+/// - an existing file unless `overwrite`, and even then only a map (an SQLite file) that no
+///   other process has open (a node still mapping to it);
 /// - a companion file (PATH-vectors, ...) that is not a regular file, or present without its map;
 /// - a folder that does not exist or cannot be written.
 std::string saveTargetProblem(const std::string& target, const std::string& live_map,
