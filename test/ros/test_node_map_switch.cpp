@@ -76,10 +76,11 @@ TEST(LoopClosureNode, SaveLoadAndResetWhileFramesStreamKeepEveryKeyframeNamedOnc
   size_t load_answered_at = 0;  // The second-lap frame at which the load had answered.
   size_t keyframes_before_save = 0;
   std::set<uint64_t> in_copy;
-  // From frame 20 of the second lap frames go out as fast as they can, faster than the worker
+  // From frame 10 of the second lap frames go out as fast as they can, faster than the worker
   // describes them, the load is asked for at frame 35 and the burst lasts until it answers: the
-  // worker still has keyframes queued against the first map when the load switches maps.
-  constexpr size_t kBurstStart = 20, kBurstEnd = 35;
+  // worker still has keyframes queued against the first map when the load switches maps (with a
+  // burst of 15 frames before the load, a busy machine's worker once emptied its queue first).
+  constexpr size_t kBurstStart = 10, kBurstEnd = 35;
   // The reset comes this many paced frames after the load answered, however long the load took
   // on a busy machine, so that the second lap has time to close loops into the loaded copy.
   constexpr size_t kLoadedFrames = 265;
