@@ -55,8 +55,6 @@ bool moveNoClobber(const std::string& from, const std::string& to) {
   return ::rename(from.c_str(), to.c_str()) == 0;
 }
 
-}  // namespace
-
 // The process whose lock on `file` conflicts with a write lock on [start, start + length), or 0
 // (this process's own locks never conflict).
 pid_t lockHolder(const std::string& file, off_t start, off_t length) {
@@ -83,6 +81,8 @@ pid_t processHoldingMap(const std::string& path) {
   if (const pid_t holder = lockHolder(path, kPendingByte, 512)) return holder;
   return lockHolder(path + "-shm", kDeadManSwitch, 1);
 }
+
+}  // namespace
 
 FileStart fileStartOf(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
