@@ -245,8 +245,8 @@ LoopDetector::~LoopDetector() {
 }
 
 void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
-  // Published now but stored once the window fills: a restart after a crash must not give the
-  // id to another frame.
+  // Published now but stored later (the warm-up) or never (localisation): a restart, or a later
+  // mapping run on the map, must not give the id to another frame.
   if (!store_ || !map_damage_.empty()) return;
   try {
     store_->reserveIdsThrough(id);
@@ -399,7 +399,10 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_stamp = stamp;
     result.loop->query_pose = keyframe.pose;
   }
-  if (mode_ == DetectorMode::kMapping) {
+  if (mode_ == DetectorMode::kLocalization) {
+    // Published under the map's id but never stored: a later mapping run must not reuse it.
+    reserveId(keyframe.id, &result);
+  } else {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
       reserveId(keyframe.id, &result);

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <memory>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -106,6 +107,45 @@ TEST(LoopDetector, IdsPublishedDuringTheWarmUpAreNotGivenAgainAfterACrash) {
   const FrameResult first = feed(&next_run, 20, 200);
   ASSERT_TRUE(first.keyframe);
   EXPECT_EQ(first.keyframe->keyframe_id, 11u) << "not 8: ids 8-10 went out before the crash";
+  removeMap(path);
+}
+
+// Issue 67 point 3: a localisation run publishes keyframes under the map's id without storing
+// them; a mapping run on that map later must not publish those ids again for other frames.
+TEST(LoopDetector, IdsALocalisationRunPublishedAreNeverGivenAgainByMapping) {
+  const std::string path = temporaryPath("localisation_ids.lcdb");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  {
+    LoopDetector mapped(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(mapped.openMap(path), "");
+    for (int i = 0; i < 12; ++i) feed(&mapped, i, 100 + i);  // Ids 0-11 stored.
+  }
+  std::set<uint64_t> published;
+  uint64_t map_id = 0;
+  {
+    LoopDetector localising(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(localising.openMap(path), "");
+    localising.setMode(DetectorMode::kLocalization);
+    map_id = localising.mapId();
+    for (int i = 0; i < 8; ++i) {
+      const FrameResult result = feed(&localising, 20 + i, 300 + i);
+      ASSERT_TRUE(result.keyframe);
+      EXPECT_TRUE(result.keyframe->store_error.empty()) << result.keyframe->store_error;
+      published.insert(result.keyframe->keyframe_id);
+    }
+    EXPECT_EQ(localising.database().size(), 12u) << "localisation stores nothing";
+  }  // Stopped without a save, as a kill would.
+  ASSERT_EQ(published.size(), 8u);
+  LoopDetector mapping(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(mapping.openMap(path), "");
+  EXPECT_EQ(mapping.mapId(), map_id);
+  for (int i = 0; i < 8; ++i) {
+    const FrameResult result = feed(&mapping, 40 + i, 400 + i);
+    ASSERT_TRUE(result.keyframe);
+    EXPECT_EQ(published.count(result.keyframe->keyframe_id), 0u)
+        << "keyframe id " << result.keyframe->keyframe_id << " went out in localisation";
+  }
   removeMap(path);
 }
 
