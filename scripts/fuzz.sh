@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the database loader, the image/depth conversion, the pose graph and the pose_graph
-# node's bookkeeping for a bounded time each:
+# Fuzzes the database loader, the image/depth conversion, the pose graph, the pose_graph node's
+# bookkeeping and the detector's worker path (admit, addKeyframe) for a bounded time each:
 #   scripts/fuzz.sh [seconds per target, default 60]
 # Builds the libFuzzer targets with clang, AddressSanitizer and UndefinedBehaviorSanitizer in
 # _fuzz/, starts each from its seeds in fuzz/seeds/<target>/ (kept regression inputs included),
@@ -21,7 +21,8 @@ cmake -S . -B _fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCATKIN_ENABLE_TESTING=OF
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > _fuzz.log 2>&1 \
   || { cat _fuzz.log; exit 1; }
-TARGETS=(fuzz_old_map_file fuzz_image_message fuzz_pose_graph fuzz_pose_graph_session)
+TARGETS=(fuzz_old_map_file fuzz_image_message fuzz_pose_graph fuzz_pose_graph_session
+  fuzz_loop_detector)
 cmake --build _fuzz --target "${TARGETS[@]}" -- -j"$(nproc)" >> _fuzz.log 2>&1 \
   || { tail -50 _fuzz.log; exit 1; }
 mkdir -p _fuzz/crashes

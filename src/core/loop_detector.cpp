@@ -244,28 +244,6 @@ LoopDetector::~LoopDetector() {
   }
 }
 
-void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
-  // Published now but stored later (the warm-up) or never (localisation): a restart, or a later
-  // mapping run on the map, must not give the id to another frame.
-  if (!store_ || !map_damage_.empty()) return;
-  try {
-    store_->reserveIdsThrough(id);
-  } catch (const std::exception& error) {
-    result->store_error = error.what();
-  }
-}
-
-void LoopDetector::storeWarmedUp(KeyframeResult* result) {
-  std::vector<WarmingKeyframe> warming = std::move(warming_);
-  warming_.clear();
-  for (WarmingKeyframe& waiting : warming) {
-    if (!standardiser_.warmingUp()) {
-      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
-    }
-    store(std::move(waiting.keyframe), result);
-  }
-}
-
 KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
   KeyframeResult result;
   result.keyframe_id = keyframe.id;
@@ -402,6 +380,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kLocalization) {
     // Published under the map's id but never stored: a later mapping run must not reuse it.
     reserveId(keyframe.id, &result);
+    announce(keyframe, false);
   } else {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
@@ -512,37 +491,6 @@ std::string LoopDetector::takeNewMapDamage() {
 void LoopDetector::noteMapDamage(KeyframeResult* result) {
   if (std::string damage = takeNewMapDamage(); !damage.empty()) {
     result->map_damage = std::move(damage);
-  }
-}
-
-void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
-  noteMapDamage(result);
-  if (!map_damage_.empty()) {
-    // A damaged map is left as it is: keyframes stay in memory (mapDamage() said so once).
-    ++map_unwritten_;
-    result->stored = true;
-    database_.addUnstored(std::move(keyframe));
-    return;
-  }
-  const bool over_budget = overMemoryBudget();
-  if (over_budget && !store_) return;
-  if (store_) {
-    try {
-      store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
-    } catch (const std::exception& error) {
-      result->store_error = error.what();
-      ++map_unwritten_;
-      if (over_budget) return;
-    }
-  }
-  result->stored = true;
-  if (over_budget) {
-    // The budget bounds search's RAM, not the map: the keyframe went to disk only.
-    result->written_not_searched = true;
-  } else if (result->store_error.empty()) {
-    database_.add(std::move(keyframe));
-  } else {
-    database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
   }
 }
 

@@ -1,5 +1,6 @@
 // LoopDetector and its map file: opening it (search within the memory budget, the rows checked
-// beside search), saving, copying and resetting it.
+// beside search), storing keyframes in it and announcing them once committed, saving, copying
+// and resetting it.
 #include <algorithm>
 #include <filesystem>
 #include <optional>
@@ -247,6 +248,107 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
 bool LoopDetector::overMemoryBudget() const {
   const double budget = options_.database.memory_budget_mb;
   return budget > 0.0 && static_cast<double>(database_.bytes()) >= budget * 1e6;
+}
+
+void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
+  // Published now but stored later (the warm-up) or never (localisation): a restart, or a later
+  // mapping run on the map, must not give the id to another frame.
+  if (!store_ || !map_damage_.empty()) return;
+  try {
+    store_->reserveIdsThrough(id);
+  } catch (const std::exception& error) {
+    result->store_error = error.what();
+  }
+}
+
+void LoopDetector::announce(const KeyframeRecord& keyframe, bool wait_for_commit) {
+  if (!announcing_) return;
+  AnnouncedKeyframe announced{mapId(), static_cast<const KeyframeSummary&>(keyframe)};
+  // In id order: behind keyframes that still wait, whatever this one's state.
+  if (wait_for_commit || !waiting_for_commit_.empty()) {
+    waiting_for_commit_.push_back(std::move(announced));
+  } else {
+    announced_.push_back(std::move(announced));
+  }
+}
+
+std::vector<AnnouncedKeyframe> LoopDetector::takeAnnounced() {
+  if (store_ && map_damage_.empty() && store_->heldKeyframes() > 0) {
+    try {
+      store_->commitHeldIfChecked();
+    } catch (const std::exception&) {
+      // The disk refused them: they stay held, and the next keyframe's store says why.
+    }
+  }
+  const std::optional<uint64_t> committed =
+      store_ ? store_->lastCommittedId() : std::optional<uint64_t>();
+  while (!waiting_for_commit_.empty()) {
+    const AnnouncedKeyframe& next = waiting_for_commit_.front();
+    // Released once committed, or once no file will take it: the map switched (closing it
+    // commits what it held), was found damaged, or holds nothing back any more.
+    const bool settled = !store_ || next.map_id != store_->mapId() || !map_damage_.empty() ||
+                         store_->heldKeyframes() == 0 ||
+                         (committed && next.summary.id <= *committed);
+    if (!settled) break;
+    announced_.push_back(std::move(waiting_for_commit_.front()));
+    waiting_for_commit_.pop_front();
+  }
+  std::vector<AnnouncedKeyframe> ready = std::move(announced_);
+  announced_.clear();
+  return ready;
+}
+
+void LoopDetector::storeWarmedUp(KeyframeResult* result) {
+  std::vector<WarmingKeyframe> warming = std::move(warming_);
+  warming_.clear();
+  for (WarmingKeyframe& waiting : warming) {
+    if (!standardiser_.warmingUp()) {
+      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
+    }
+    store(std::move(waiting.keyframe), result);
+  }
+}
+
+void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
+  noteMapDamage(result);
+  if (!map_damage_.empty()) {
+    // A damaged map is left as it is: keyframes stay in memory (mapDamage() said so once).
+    ++map_unwritten_;
+    result->stored = true;
+    announce(keyframe, false);
+    database_.addUnstored(std::move(keyframe));
+    return;
+  }
+  const bool over_budget = overMemoryBudget();
+  if (over_budget && !store_) {
+    announce(keyframe, false);
+    return;
+  }
+  if (store_) {
+    bool written = false;
+    try {
+      store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
+      written = true;
+    } catch (const std::exception& error) {
+      result->store_error = error.what();
+      ++map_unwritten_;
+    }
+    // Held by the map's check: announced once committed.
+    const std::optional<uint64_t> committed = store_->lastCommittedId();
+    announce(keyframe, written && (!committed || *committed < keyframe.id));
+    if (!written && over_budget) return;
+  } else {
+    announce(keyframe, false);
+  }
+  result->stored = true;
+  if (over_budget) {
+    // The budget bounds search's RAM, not the map: the keyframe went to disk only.
+    result->written_not_searched = true;
+  } else if (result->store_error.empty()) {
+    database_.add(std::move(keyframe));
+  } else {
+    database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
+  }
 }
 
 }  // namespace landmark_loop_closure

@@ -373,6 +373,8 @@ void KeyframeStore::saveReservation() {
 
 std::optional<uint64_t> KeyframeStore::idsReservedThrough() const { return reserved_through_; }
 
+std::optional<uint64_t> KeyframeStore::lastCommittedId() const { return connection_->last_id; }
+
 void KeyframeStore::add(const KeyframeRecord& keyframe) {
   Connection& c = *connection_;
   const std::string not_stored = "keyframe " + std::to_string(keyframe.id) + " not stored";

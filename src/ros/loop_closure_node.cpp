@@ -105,12 +105,17 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
         // The map's check ends on its own thread: said without a keyframe.
         runtime_->tryWithDetector([this](LoopDetector& detector) {
           reportMapDamage(detector.takeNewMapDamage());
+          // Keyframes the map's check held are committed, and published, without waiting for
+          // the next keyframe.
+          publishAnnouncedKeyframes();
           noteMapSize(detector);
           return false;
         });
         diagnostics_.force_update();
       });
 
+  // A keyframe is published once the map file holds it (after the warm-up and the map's check).
+  detector_.announceKeyframes(true);
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
   const std::string mount_warning = options_.defaultMountWarning();

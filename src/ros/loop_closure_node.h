@@ -132,6 +132,9 @@ class LoopClosureNode {
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
   /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
   ros::Time stampOf(uint64_t id) const;
+  /// Worker thread (detector held): publishes the keyframes the detector says are committed
+  /// (LoopDetector::takeAnnounced), so no published (map_id, id) is lost to a crash.
+  void publishAnnouncedKeyframes();
 
   ros::NodeHandle node_;
   ros::NodeHandle private_node_;
@@ -171,7 +174,8 @@ class LoopClosureNode {
   image_transport::Publisher match_image_publisher_;
   bool loop_shown_ = false;  ///< The match view holds the latest loop; worker thread only.
   LoopMarkers markers_;      // Thread-safe: the worker draws, a connecting viewer reads.
-  std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // Worker thread only.
+  std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // With the detector held.
+  std::string keyframes_frame_id_;  ///< The last keyframe's odometry frame; detector held.
 
   // Database services.
   ros::CallbackQueue service_queue_;

@@ -170,6 +170,19 @@ ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   return summary ? ros::Time(summary->stamp) : ros::Time();
 }
 
+void LoopClosureNode::publishAnnouncedKeyframes() {
+  for (const AnnouncedKeyframe& keyframe : detector_.takeAnnounced()) {
+    // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
+    // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted,
+    // and said at shutdown.
+    if (!ros::ok() || ros::isShuttingDown()) ++keyframes_unpublished_at_shutdown_;
+    const KeyframeSummary& summary = keyframe.summary;
+    keyframe_publisher_.publish(toKeyframeMsg(summary.id, summary.session, keyframe.map_id,
+                                              stampOf(summary.id), summary.pose,
+                                              keyframes_frame_id_));
+  }
+}
+
 void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
                                            const std::vector<ReleasedKeyframe>& held) {
   if (!detector_.extractor()) {
@@ -185,13 +198,11 @@ void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const Keyfra
            result.training_summary.c_str(), held.size() + 1);
   // The keyframes held during training are stored now: they go out as keyframes (their loops
   // among themselves are not published), so later loops into them refer to known keyframes.
+  keyframes_frame_id_ = job.frame_id;
+  publishAnnouncedKeyframes();
   for (const ReleasedKeyframe& keyframe : held) {
     const KeyframeSummary* record = detector_.database().findSummary(keyframe.id);
-    if (!record) continue;
-    keyframe_publisher_.publish(toKeyframeMsg(keyframe.id, record->session, detector_.mapId(),
-                                              keyframe_stamps_.at(keyframe.id), record->pose,
-                                              job.frame_id));
-    markers_.addKeyframe(record->pose);
+    if (record) markers_.addKeyframe(record->pose);
   }
   noteMapSize(detector_);
 }

@@ -105,9 +105,8 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
   // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
   // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted, and
   // said at shutdown.
-  if (!ros::ok() || ros::isShuttingDown()) ++keyframes_unpublished_at_shutdown_;
-  keyframe_publisher_.publish(toKeyframeMsg(job.id, detector_.session(), detector_.mapId(),
-                                            job.stamp, job.pose, job.frame_id));
+  keyframes_frame_id_ = job.frame_id;
+  publishAnnouncedKeyframes();
   if (result.loop) {
     AcceptedLoop loop = *result.loop;
     const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);

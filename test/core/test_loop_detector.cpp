@@ -2,9 +2,12 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include <gtest/gtest.h>
 
+#include "../../fuzz/loop_detector_input.h"
+#include "kept_fuzz_inputs.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "small_detector.h"
 
@@ -367,4 +370,22 @@ TEST(LoopDetector, ConditionWindowStandardisesWhatIsSearchedAndStored) {
   const FrameResult revisit = feed(&detector, 32, 12);
   ASSERT_TRUE(revisit.keyframe->loop);
   EXPECT_EQ(revisit.keyframe->loop->match_id, 12u);
+}
+
+// fuzz_loop_detector's kept inputs (issue 67 point 4): images, depths, poses and intrinsics of any
+// kind through admit() and addKeyframe(), replayed on every test run; the clean lap must still
+// reach loops, or the fuzzer would start from inputs that never get past search.
+TEST(LoopDetector, KeptFuzzInputsOfTheWorkerPathNeitherCrashNorBreakAnInvariant) {
+  const std::vector<KeptFuzzInput> inputs = keptFuzzInputs("fuzz_loop_detector");
+  ASSERT_GE(inputs.size(), 3u);
+  for (const KeptFuzzInput& input : inputs) {
+    fuzz::LoopDetectorReplay reached;
+    EXPECT_TRUE(fuzz::replayLoopDetectorInput(input.bytes.data(), input.bytes.size(), &reached))
+        << input.path;
+    EXPECT_GT(reached.keyframes, 0) << input.path;
+    if (input.path.filename() == "two_laps_grey") {
+      EXPECT_GE(reached.keyframes, 25) << input.path;
+      EXPECT_GE(reached.loops, 1) << input.path;
+    }
+  }
 }

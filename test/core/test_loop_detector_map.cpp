@@ -11,6 +11,8 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "map_damage.h"
@@ -596,4 +598,74 @@ TEST(LoopDetector, ASaveInStepsTakesKeyframesAddedMeanwhileAndAResetAbandonsIt) 
   EXPECT_TRUE(detector.continueSave(1)) << "said once; nothing is being saved now";
   removeMap(path);
   removeMap(outcome.kept_as);
+}
+
+// Issue 67 point 3: a keyframe published and lost to a crash leaves a (map_id, id) a backend holds
+// and no map has. The node publishes what takeAnnounced() gives: only keyframes the file holds,
+// so the warm-up's are announced when the window fills and the check's once it passes. A child
+// process maps and dies as a kill would (no destructor, nothing flushed); every keyframe it
+// announced must be in the file it left.
+TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
+  const std::string path = temporaryPath("announced.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.descriptor.condition_window = 4;
+  {
+    LoopDetector earlier(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(earlier.openMap(path), "");
+    for (int i = 0; i < 20; ++i) feed(&earlier, i, 100 + i);
+  }
+  for (const int killed_after : {21, 26}) {
+    int pipe_ends[2];
+    ASSERT_EQ(pipe(pipe_ends), 0);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      close(pipe_ends[0]);
+      LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+      detector.announceKeyframes(true);
+      if (!detector.openMap(path).empty()) _exit(2);
+      const int first =
+          static_cast<int>(detector.database().summary(detector.database().size() - 1).id) + 1;
+      for (int i = first; i <= killed_after + first - 20; ++i) {
+        feed(&detector, i, i - 15);
+        for (const AnnouncedKeyframe& keyframe : detector.takeAnnounced()) {
+          const uint64_t id = keyframe.summary.id;
+          if (write(pipe_ends[1], &id, sizeof(id)) != sizeof(id)) _exit(3);
+        }
+      }
+      _exit(0);  // As SIGKILL: no destructor stores or flushes anything.
+    }
+    close(pipe_ends[1]);
+    std::vector<uint64_t> announced;
+    uint64_t id = 0;
+    while (read(pipe_ends[0], &id, sizeof(id)) == sizeof(id)) announced.push_back(id);
+    close(pipe_ends[0]);
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+    const std::unique_ptr<KeyframeStore> left = KeyframeStore::openExisting(path);
+    for (const uint64_t published : announced) {
+      EXPECT_TRUE(left->get(published).has_value())
+          << "keyframe " << published << " was announced and is not in the map a kill left";
+    }
+    if (killed_after == 21) {
+      EXPECT_TRUE(announced.empty()) << "the first keyframes wait for the condition window";
+    } else {
+      EXPECT_GE(announced.size(), 1u);
+    }
+  }
+
+  // Localising stores nothing: announced at once, its id reserved.
+  LoopDetector localising(options, std::make_shared<PlaceExtractor>());
+  localising.announceKeyframes(true);
+  ASSERT_EQ(localising.openMap(path), "");
+  localising.setMode(DetectorMode::kLocalization);
+  const FrameResult result = feed(&localising, 100, 3);
+  ASSERT_TRUE(result.keyframe);
+  const std::vector<AnnouncedKeyframe> localised = localising.takeAnnounced();
+  ASSERT_EQ(localised.size(), 1u);
+  EXPECT_EQ(localised[0].summary.id, result.keyframe->keyframe_id);
+  EXPECT_EQ(localised[0].map_id, localising.mapId());
+  removeMap(path);
 }

@@ -207,6 +207,12 @@ struct KeyframeResult {
   std::string map_damage;
 };
 
+/// A keyframe safe to publish: committed to the map file (or kept where no file will hold it).
+struct AnnouncedKeyframe {
+  uint64_t map_id = 0;  ///< The map it is stored in (LoopDetector::mapId() when it was stored).
+  KeyframeSummary summary;
+};
+
 struct FrameResult {
   FrameAdmission admission;
   std::optional<KeyframeResult> keyframe;  ///< Present when the frame was a keyframe.
@@ -376,6 +382,17 @@ class LoopDetector {
   /// the map file, if one is open, but not added to search.
   bool overMemoryBudget() const;
 
+  /// Worker thread: from now on, keyframes are collected for takeAnnounced() (off by default, so
+  /// offline replays keep nothing extra).
+  void announceKeyframes(bool on) { announcing_ = on; }
+  /// Worker thread: the keyframes that became safe to publish since the last call, in id order.
+  /// With a map file a keyframe is announced once it is committed to it (the standardisation's
+  /// warm-up and the map's integrity check hold keyframes back; a crash before loses them
+  /// unannounced), or once it is clear the file will not hold it (damaged map, write failed);
+  /// without one, once stored in memory; localising, at once (its id is reserved in the map).
+  /// Keyframes the check held are committed here when it has passed meanwhile.
+  std::vector<AnnouncedKeyframe> takeAnnounced();
+
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);
   DetectorMode mode() const { return mode_; }
@@ -514,6 +531,11 @@ class LoopDetector {
     std::vector<float> raw_global;
   };
   std::vector<WarmingKeyframe> warming_;
+  /// announceKeyframes(): keyframes waiting for the map's check to commit them, and those ready.
+  bool announcing_ = false;
+  std::deque<AnnouncedKeyframe> waiting_for_commit_;
+  std::vector<AnnouncedKeyframe> announced_;
+  void announce(const KeyframeRecord& keyframe, bool wait_for_commit);
   /// Marks `id` published in the map before its keyframe is stored (KeyframeStore's reserve).
   void reserveId(uint64_t id, KeyframeResult* result);
   /// The last keyframe's global vector (score_normalisation previous_keyframe).

@@ -110,6 +110,13 @@ class KeyframeStore {
   std::string integrityProblem() const;
   /// Keyframes added while the check runs, not yet committed.
   size_t heldKeyframes() const { return held_.size(); }
+  /// Commits the held keyframes once the check has passed (add() does too, with the next one).
+  /// Throws std::runtime_error when the disk refuses them; they stay held.
+  void commitHeldIfChecked() {
+    if (integrityCheck() == MapCheck::kPassed) commitHeld();
+  }
+  /// The id of the last keyframe committed to the file, if any.
+  std::optional<uint64_t> lastCommittedId() const;
 
   /// Writes and commits one keyframe (with those held before it); while the integrity check runs
   /// it is held instead, and a pending check is run first. Throws std::runtime_error (disk full,
