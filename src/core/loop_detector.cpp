@@ -275,8 +275,8 @@ KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
     pending_map_path_.clear();
   }
   for (const HeldKeyframe& frame : held) {
-    result =
-        addKeyframe(frame.id, frame.stamp, frame.pose, frame.image, frame.intrinsics, frame.depth);
+    result = addKeyframe(frame.id, frame.stamp, frame.pose, frame.image, frame.intrinsics,
+                         frame.depth, frame.stamp_ns);
   }
   result.training_summary = summary;
   if (!map_error.empty()) result.store_error = map_error;
@@ -350,11 +350,13 @@ FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_wid
 
 KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
                                          const cv::Mat& image, const CameraIntrinsics& intrinsics,
-                                         const cv::Mat& depth) {
+                                         const cv::Mat& depth, int64_t stamp_ns) {
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
-  if (training_) return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth});
+  if (training_) {
+    return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth, stamp_ns});
+  }
   // Held keyframes come back here in order, so the session changes where the odometry did; a
   // marked keyframe that never came (refused, dropped) passes its mark to the next. After a load
   // or a reset (no keyframe yet) the session is new already.
@@ -368,6 +370,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   const QueryResult query = search(keyframe_id, stamp, descriptor, &result);
   KeyframeRecord keyframe =
       makeKeyframe(keyframe_id, stamp, pose, image, intrinsics, depth, &result.times);
+  keyframe.stamp_ns = stamp_ns != 0 ? stamp_ns : std::llround(stamp * 1e9);
   decide(&result, descriptor, query, keyframe, intrinsics);
   previous_global_ = descriptor.global;
   if (result.loop) {

@@ -351,4 +351,12 @@ void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
   }
 }
 
+std::optional<int64_t> LoopDetector::keyframeStampNs(uint64_t id) const {
+  const std::optional<size_t> index = database_.indexOf(id);
+  if (!index) return std::nullopt;
+  const std::shared_ptr<const KeyframeRecord> record = database_.record(*index);
+  if (!record) return std::nullopt;
+  return record->stamp_ns;
+}
+
 }  // namespace landmark_loop_closure

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -24,6 +25,12 @@
 namespace landmark_loop_closure {
 
 namespace {
+
+// The exact stamps beside `keyframes` (REAL seconds there, kept for maps read by earlier
+// versions): a table of its own, so an earlier version still opens a map that has it.
+constexpr const char* kCreateStampsTable =
+    "CREATE TABLE IF NOT EXISTS keyframe_stamps (id INTEGER PRIMARY KEY, stamp_ns INTEGER NOT "
+    "NULL)";
 
 /// Refuses what is not a regular file before SQLite opens it: opening a FIFO blocks until a
 /// writer comes, a device or directory is never a map.
@@ -168,6 +175,7 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
     throw storeError(path, "is not a keyframe map (it has no settings)");
   }
   if (!version) {
+    connection->execute(kCreateStampsTable, "cannot be written");
     connection->setMeta("format_version", std::to_string(kFormatVersion));
     connection->setMeta("descriptor_identity", *descriptor_identity);
     connection->setMeta("global_dimension", std::to_string(global_dimension));
@@ -217,9 +225,8 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
       "INSERT INTO keyframes (id, session, stamp, motion, search_row, row_checksum) "
       "VALUES (?, ?, ?, ?, ?, ?)");
   connection->insert_record = connection->prepare("INSERT INTO records (id, record) VALUES (?, ?)");
-  connection->select = connection->prepare(
-      "SELECT k.session, k.stamp, k.motion, k.search_row, k.row_checksum, r.record FROM "
-      "keyframes k JOIN records r ON r.id = k.id WHERE k.id = ?");
+  connection->has_stamps = connection->hasTable("keyframe_stamps");
+  prepareSelect(connection.get());
   const std::string identity = descriptor_identity != nullptr
                                    ? *descriptor_identity
                                    : connection->meta("descriptor_identity").value_or("");
@@ -260,6 +267,14 @@ KeyframeStore::~KeyframeStore() {
 
 namespace {
 
+// The columns readRow() reads, after `prefix` (the id, or nothing), for keyframes `where`.
+std::string selectKeyframes(bool has_stamps, const char* prefix, const char* where) {
+  return std::string("SELECT ") + prefix +
+         "k.session, k.stamp, k.motion, k.search_row, k.row_checksum, r.record, " +
+         (has_stamps ? "s.stamp_ns" : "NULL") + " FROM keyframes k JOIN records r ON r.id = k.id " +
+         (has_stamps ? "LEFT JOIN keyframe_stamps s ON s.id = k.id " : "") + where;
+}
+
 // Runs a prepared insert once with its bindings and clears it; true when it stored the row.
 bool insertRow(sqlite3_stmt* statement) {
   const int status = sqlite3_step(statement);
@@ -299,8 +314,27 @@ KeyframeRecord readFormat2Row(sqlite3_stmt* row, int first_column, uint64_t id) 
 
 }  // namespace
 
+void KeyframeStore::prepareSelect(Connection* c) {
+  sqlite3_finalize(c->select);
+  c->select = nullptr;
+  c->select = c->prepare(selectKeyframes(c->has_stamps, "", "WHERE k.id = ?").c_str());
+}
+
+void KeyframeStore::addStampTable() {
+  Connection& c = *connection_;
+  if (c.has_stamps) return;
+  // Its own transaction, before the keyframe's: a map of an earlier version gets it with its
+  // first keyframe after the check, so a damaged map is never written to.
+  c.execute(kCreateStampsTable, "cannot be written");
+  c.has_stamps = true;
+  prepareSelect(&c);
+}
+
 KeyframeRecord KeyframeStore::readRow(sqlite3_stmt* row, int first_column, uint64_t id) const {
   KeyframeRecord keyframe = readSummaryColumns(row, first_column, id);
+  keyframe.stamp_ns = sqlite3_column_type(row, first_column + 6) == SQLITE_INTEGER
+                          ? sqlite3_column_int64(row, first_column + 6)
+                          : std::llround(keyframe.stamp * 1e9);
   const auto position = static_cast<size_t>(sqlite3_column_int64(row, first_column + 3));
   const auto checksum = static_cast<uint32_t>(sqlite3_column_int64(row, first_column + 4));
   const std::vector<uint8_t> entry = rows_->read(position);
@@ -348,7 +382,15 @@ uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
   sqlite3_bind_int64(c.insert_record, 1, id);
   sqlite3_bind_blob(c.insert_record, 2, record.data(), static_cast<int>(record.size()),
                     SQLITE_STATIC);
-  if (!insertRow(c.insert) || !insertRow(c.insert_record)) {
+  // OR REPLACE: an earlier version repairing the map removes keyframes, not their stamps.
+  if (c.insert_stamp == nullptr) {
+    c.insert_stamp = c.prepare("INSERT OR REPLACE INTO keyframe_stamps (id, stamp_ns) VALUES (?, ?)");
+  }
+  sqlite3_bind_int64(c.insert_stamp, 1, id);
+  sqlite3_bind_int64(
+      c.insert_stamp, 2,
+      keyframe.stamp_ns != 0 ? keyframe.stamp_ns : std::llround(keyframe.stamp * 1e9));
+  if (!insertRow(c.insert) || !insertRow(c.insert_record) || !insertRow(c.insert_stamp)) {
     c.fail("keyframe " + std::to_string(keyframe.id) + " not stored");
   }
   if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
@@ -402,6 +444,7 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
       commitHeld();
       break;
   }
+  addStampTable();
   c.execute("BEGIN IMMEDIATE", not_stored);
   uint32_t checksum = 0;
   try {
@@ -440,6 +483,7 @@ void KeyframeStore::insertInOneTransaction(
   const std::optional<uint64_t> last_id = c.last_id;
   const size_t committed = c.count;
   uint32_t entries_checksum = entries_checksum_;
+  addStampTable();
   c.execute("BEGIN IMMEDIATE", "cannot be written");
   try {
     for (size_t i = 0; i < count; ++i) {
@@ -463,9 +507,8 @@ void KeyframeStore::insertInOneTransaction(
 
 void KeyframeStore::forEach(const std::function<void(KeyframeRecord)>& visit) const {
   Connection& c = *connection_;
-  sqlite3_stmt* statement = c.prepare(
-      "SELECT k.id, k.session, k.stamp, k.motion, k.search_row, k.row_checksum, r.record FROM "
-      "keyframes k JOIN records r ON r.id = k.id ORDER BY k.id");
+  sqlite3_stmt* statement =
+      c.prepare(selectKeyframes(c.has_stamps, "k.id, ", "ORDER BY k.id").c_str());
   int status;
   while ((status = sqlite3_step(statement)) == SQLITE_ROW) {
     const auto id = static_cast<uint64_t>(sqlite3_column_int64(statement, 0));

@@ -148,8 +148,10 @@ void KeyframeStore::openRows() {
     // pages lost, the database's kept) gets here: those keyframes cannot be searched.
     const size_t lost = c.count - checked;
     c.execute("BEGIN IMMEDIATE", "cannot be repaired");
-    for (const char* sql :
-         {"DELETE FROM keyframes WHERE id >= ?", "DELETE FROM records WHERE id >= ?"}) {
+    std::vector<const char*> removals = {"DELETE FROM keyframes WHERE id >= ?",
+                                         "DELETE FROM records WHERE id >= ?"};
+    if (c.has_stamps) removals.push_back("DELETE FROM keyframe_stamps WHERE id >= ?");
+    for (const char* sql : removals) {
       sqlite3_stmt* statement = c.prepare(sql);
       sqlite3_bind_int64(statement, 1, static_cast<sqlite3_int64>(*first_lost));
       const int removed = sqlite3_step(statement);

@@ -28,6 +28,10 @@ struct KeyframeStore::Connection {
   sqlite3_stmt* insert = nullptr;
   sqlite3_stmt* insert_record = nullptr;
   sqlite3_stmt* select = nullptr;
+  sqlite3_stmt* insert_stamp = nullptr;
+  /// The map has its keyframe_stamps table (exact stamps; maps written before lack it until
+  /// their next keyframe).
+  bool has_stamps = false;
   std::string path;
   size_t count = 0;
   std::optional<uint64_t> last_id;
@@ -36,6 +40,7 @@ struct KeyframeStore::Connection {
     sqlite3_finalize(insert);
     sqlite3_finalize(insert_record);
     sqlite3_finalize(select);
+    sqlite3_finalize(insert_stamp);
     if (db != nullptr) sqlite3_close(db);  // The last connection checkpoints the WAL.
   }
 

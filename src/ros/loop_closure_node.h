@@ -130,7 +130,7 @@ class LoopClosureNode {
   void noteDroppedAtMapSwitch(size_t dropped, const char* service, std::string* message);
   bool onLoadDatabase(DatabaseFile::Request& request, DatabaseFile::Response& response);
   bool onResetDatabase(ResetDatabase::Request& request, ResetDatabase::Response& response);
-  /// The original stamp of a keyframe of this run; a loaded one's from its stored seconds.
+  /// The original stamp of a keyframe, to the nanosecond (a loaded one's as its map keeps it).
   ros::Time stampOf(uint64_t id) const;
   /// Worker thread (detector held): publishes the keyframes the detector says are committed
   /// (LoopDetector::takeAnnounced), so no published (map_id, id) is lost to a crash.

@@ -166,6 +166,13 @@ bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Re
 ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   const auto known = keyframe_stamps_.find(id);
   if (known != keyframe_stamps_.end()) return known->second;
+  // A loaded keyframe's from its record: the map keeps stamps to the nanosecond.
+  if (const std::optional<int64_t> stamp_ns = detector_.keyframeStampNs(id);
+      stamp_ns && *stamp_ns >= 0) {
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<uint64_t>(*stamp_ns));
+    return stamp;
+  }
   const KeyframeSummary* summary = detector_.database().findSummary(id);
   return summary ? ros::Time(summary->stamp) : ros::Time();
 }

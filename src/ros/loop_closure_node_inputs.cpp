@@ -161,6 +161,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   }
   FrameInput frame;
   frame.stamp = toSeconds(image->header.stamp);
+  frame.stamp_ns = static_cast<int64_t>(image->header.stamp.toNSec());
   frame.pose = pose;
   frame.width = static_cast<int>(image->width);
   frame.height = static_cast<int>(image->height);

@@ -79,6 +79,7 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
   KeyframeJob job;
   job.id = result.admission.keyframe_id;
   job.stamp = frame.stamp;
+  job.stamp_ns = frame.stamp_ns;
   job.pose = normalisedPose(frame.pose);  // Within tolerance of unit length once admitted.
   job.intrinsics = frame.intrinsics;
   job.source = std::move(frame.source);
@@ -205,8 +206,8 @@ void DetectorRuntime::process(KeyframeJob& job) {
     reject(error);
     return;
   }
-  const KeyframeResult result = detector_->addKeyframe(job.id, job.stamp, job.pose, prepared.image,
-                                                       job.intrinsics, prepared.depth);
+  const KeyframeResult result = detector_->addKeyframe(
+      job.id, job.stamp, job.pose, prepared.image, job.intrinsics, prepared.depth, job.stamp_ns);
   if (result.error) {
     reject(*result.error);
     return;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -90,6 +91,61 @@ TEST_F(KeyframeStoreTest, EveryFieldSurvivesAReopen) {
   });
   EXPECT_EQ(ids.size(), 10u);
   EXPECT_EQ(ids.front(), 10u);
+}
+
+// Issue 67 point 6: a stamp in seconds as a double is about 0.2 us apart at today's times; a
+// backend matching a loaded keyframe's stamp with its own messages needs the camera's exactly.
+TEST_F(KeyframeStoreTest, StampsAreKeptToTheNanosecondAndEarlierMapsGainThemWithTheirNextWrite) {
+  const int64_t exact = 1700000000123456789;  // Not a double's value: 1700000000.1234567165 is.
+  ASSERT_NE(std::llround((exact * 1e-9) * 1e9), exact);
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeRecord keyframe = makeKeyframe(1, 0);
+    keyframe.stamp = exact * 1e-9;
+    keyframe.stamp_ns = exact;
+    store->add(keyframe);
+    store->add(makeKeyframe(2, 0));  // No exact stamp given: its seconds, rounded.
+  }
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    EXPECT_EQ(store->get(1)->stamp_ns, exact);
+    EXPECT_EQ(store->get(2)->stamp_ns, std::llround(makeKeyframe(2, 0).stamp * 1e9));
+    std::vector<int64_t> stamps;
+    store->forEach([&stamps](KeyframeRecord keyframe) { stamps.push_back(keyframe.stamp_ns); });
+    EXPECT_EQ(stamps.front(), exact);
+  }
+  // A map written before maps kept exact stamps: the table is absent; its keyframes' stamps are
+  // their seconds, rounded, and opening it writes nothing (a damaged map is never written to).
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "DROP TABLE keyframe_stamps", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  const auto has_stamps_table = [this] {
+    sqlite3* reader = nullptr;
+    sqlite3_open_v2(path_.c_str(), &reader, SQLITE_OPEN_READONLY, nullptr);
+    sqlite3_stmt* query = nullptr;
+    sqlite3_prepare_v2(reader, "SELECT 1 FROM sqlite_schema WHERE name = 'keyframe_stamps'", -1,
+                       &query, nullptr);
+    const bool found = query != nullptr && sqlite3_step(query) == SQLITE_ROW;
+    sqlite3_finalize(query);
+    sqlite3_close(reader);
+    return found;
+  };
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    EXPECT_EQ(store->get(1)->stamp_ns, std::llround(exact * 1e-9 * 1e9));
+  }
+  EXPECT_FALSE(has_stamps_table()) << "opened and read: nothing written";
+  {
+    auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+    KeyframeRecord later = makeKeyframe(3, 1);
+    later.stamp_ns = exact + 3000000000;
+    store->add(later);
+  }
+  EXPECT_TRUE(has_stamps_table());
+  auto store = KeyframeStore::open(path_, kIdentity, kDimension);
+  EXPECT_EQ(store->get(3)->stamp_ns, exact + 3000000000);
+  EXPECT_EQ(store->size(), 3u);
 }
 
 TEST_F(KeyframeStoreTest, RefusesAnIdNotAfterTheLastAndKeepsWhatItHas) {

@@ -669,3 +669,32 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
   EXPECT_EQ(localised[0].map_id, localising.mapId());
   removeMap(path);
 }
+
+// The node publishes a loaded keyframe's stamp from its map: the camera's to the nanosecond.
+TEST(LoopDetector, ALoadedKeyframeKeepsItsStampToTheNanosecond) {
+  const std::string path = temporaryPath("exact_stamps.db");
+  removeMap(path);
+  const int64_t first_ns = 1700000000123456789;
+  {
+    LoopDetector mapped(smallOptions(), std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(mapped.openMap(path), "");
+    for (int i = 0; i < 3; ++i) {
+      const int64_t stamp_ns = first_ns + i * 1000000001LL;
+      const double stamp = static_cast<double>(stamp_ns) * 1e-9;
+      const FrameAdmission admission =
+          mapped.admit(stamp, planarPose(i, 0, 0), place(i).cols, place(i).rows, place(i).type());
+      ASSERT_TRUE(admission.isKeyframe());
+      mapped.addKeyframe(admission.keyframe_id, stamp, planarPose(i, 0, 0), place(i), {}, {},
+                         stamp_ns);
+    }
+    EXPECT_EQ(mapped.keyframeStampNs(2), first_ns + 2000000002LL) << "this run's, from memory";
+  }
+  LoopDetector loaded(smallOptions(), std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(loaded.openMap(path), "");
+  for (uint64_t id = 0; id < 3; ++id) {
+    ASSERT_TRUE(loaded.keyframeStampNs(id)) << id;
+    EXPECT_EQ(*loaded.keyframeStampNs(id), first_ns + static_cast<int64_t>(id) * 1000000001LL);
+  }
+  EXPECT_FALSE(loaded.keyframeStampNs(7));
+  removeMap(path);
+}

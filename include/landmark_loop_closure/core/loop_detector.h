@@ -243,9 +243,11 @@ class LoopDetector {
   /// ones: loops are not verified, or refused when verification/required).
   /// `depth`: optional depth image registered to `image` (16-bit or float, see MetricPoseOptions);
   /// without one, keypoint depths are triangulated from the odometry when enabled.
+  /// `stamp_ns`: the image's stamp exactly (ns since the epoch) as the map keeps it; 0: `stamp`
+  /// rounded to the nanosecond.
   KeyframeResult addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
                              const cv::Mat& image, const CameraIntrinsics& intrinsics = {},
-                             const cv::Mat& depth = {});
+                             const cv::Mat& depth = {}, int64_t stamp_ns = 0);
 
   FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
                       const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {});
@@ -398,6 +400,9 @@ class LoopDetector {
   DetectorMode mode() const { return mode_; }
 
   const KeyframeDatabase& database() const { return database_; }
+  /// Worker thread: the exact stamp (ns) of a stored keyframe, as its record keeps it (read from
+  /// the map for a loaded one); nullopt when it is not in search or its record cannot be read.
+  std::optional<int64_t> keyframeStampNs(uint64_t id) const;
   const LoopDetectorOptions& options() const { return options_; }
   /// Worker thread, offline replays: waits up to `seconds` for online training that has started
   /// in the background; true when it has finished (the next keyframe then stores every held one)

@@ -25,6 +25,7 @@ struct HeldKeyframe {
   cv::Mat image;
   CameraIntrinsics intrinsics;
   cv::Mat depth;
+  int64_t stamp_ns = 0;  ///< LoopDetector::addKeyframe's.
 };
 
 /// Online mode of the broad autoencoder: holds the first N keyframes, trains on them in a

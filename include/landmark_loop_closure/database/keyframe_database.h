@@ -31,6 +31,10 @@ struct KeyframeSummary {
 };
 
 struct KeyframeRecord : KeyframeSummary {
+  /// The image's stamp exactly, in nanoseconds since the epoch, as the camera driver gave it
+  /// (`stamp` in seconds is a double: about 0.2 us apart at today's times). 0 when unknown: read
+  /// from a map written before maps kept it, it is `stamp` rounded.
+  int64_t stamp_ns = 0;
   /// The global vector is the database's 8-bit copy of the described one once stored.
   ImageDescriptor descriptor;
   LocalFeatures local_features;  ///< For geometric verification; empty when it is off.

@@ -36,7 +36,10 @@ class Writer;
 ///     pose and odometry path (9 little-endian doubles) - and which entry of PATH-vectors holds
 ///     the keyframe's global descriptor (a QuantizedVectors row), with that entry's CRC-32C;
 ///   records(id, record): the rest of the keyframe (keyframe_codec.h's encodeRecord), read for
-///     the candidates of a query.
+///     the candidates of a query;
+///   keyframe_stamps(id, stamp_ns): the image's stamp exactly, in integer nanoseconds (the
+///     `stamp` column is REAL seconds, about 0.2 us apart); a map written before it gains the
+///     table with its next keyframe, and its earlier keyframes read their seconds, rounded.
 /// One process at a time: the file is locked while open. Not thread-safe; one owner.
 ///
 /// Opening checks each row written since the last clean shutdown against its keyframe, and of
@@ -200,6 +203,10 @@ class KeyframeStore {
   /// A keyframe from a row of (session, stamp, motion, search_row, row_checksum, record) at
   /// `first_column`, its global row read from the rows file.
   KeyframeRecord readRow(sqlite3_stmt* row, int first_column, uint64_t id) const;
+  /// Prepares the connection's select by id, with the exact stamps when the map has them.
+  static void prepareSelect(Connection* c);
+  /// Creates the exact stamps' table in a map of an earlier version (once, before a write).
+  void addStampTable();
   /// Opens the rows file and checks it against the map: the later entries against their
   /// keyframes' checksums here, the sealed ones by the integrity check (set up here). Throws
   /// std::runtime_error when it is missing or damaged; removes the last keyframes when a power cut

@@ -48,6 +48,7 @@ struct RuntimeOptions {
 struct KeyframeJob {
   uint64_t id = 0;
   double stamp = 0.0;
+  int64_t stamp_ns = 0;  ///< FrameInput::stamp_ns.
   Pose pose;
   CameraIntrinsics intrinsics;
   std::any source;
@@ -59,6 +60,8 @@ struct KeyframeJob {
 /// A frame as the caller receives it.
 struct FrameInput {
   double stamp = 0.0;
+  /// The stamp exactly, in nanoseconds (a message's stamp), kept in the map; 0: `stamp` rounded.
+  int64_t stamp_ns = 0;
   Pose pose;
   int width = 0;
   int height = 0;
