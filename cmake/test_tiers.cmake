@@ -97,12 +97,12 @@ foreach(test ${llc_tests})
   endif()
 endforeach()
 
-# The demo, rviz and the README's commands share _demo/ (its bag, made by whichever comes first)
-# and the demo's ROS master port: one at a time. The demo and rviz play a bag in real time and
+# The demo, rviz, the README's commands and the kill soak share _demo/ (its bag, made by whichever
+# comes first) and (but the soak) the demo's ROS master port: one at a time. The demo and rviz play a bag in real time and
 # check every loop: each has both cores (ctest -j2), as a user's laptop gives them; beside another
 # test the detector drops keyframes (measured: 385 of 473) and a loop lands 3.6 m off.
-set_tests_properties(tool_demo_script tool_rviz_screenshot tool_readme_commands PROPERTIES
-  RESOURCE_LOCK demo_folder)
+set_tests_properties(tool_demo_script tool_rviz_screenshot tool_readme_commands tool_kill_soak
+  PROPERTIES RESOURCE_LOCK demo_folder)
 set_tests_properties(tool_demo_script tool_rviz_screenshot PROPERTIES PROCESSORS 2)
 
 # Without the timings of an earlier run (a clean clone), ctest starts entries by COST: the longest

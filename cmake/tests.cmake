@@ -114,6 +114,13 @@ add_test(NAME tool_demo_script
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/demo_script.sh ${CMAKE_CURRENT_SOURCE_DIR})
 set_tests_properties(tool_demo_script PROPERTIES TIMEOUT 900)
 
+# Mapping nodes killed at random moments, maps saved over and loaded: every published keyframe is
+# in one map file (scripts/kill_soak.sh; 3 kills here, 20 by hand).
+add_test(NAME tool_kill_soak
+  COMMAND ${CMAKE_COMMAND} -E env ROS_MASTER_URI=http://localhost:11471 PATH=/usr/bin:$ENV{PATH}
+    ${CMAKE_CURRENT_SOURCE_DIR}/scripts/kill_soak.sh --kills 3 --seed 1 --no-setup)
+set_tests_properties(tool_kill_soak PROPERTIES TIMEOUT 600)
+
 # The demo in the real rviz under Xvfb: no display in error from start to end, loops green, an
 # accepted loop in the match view. Its last screenshot is the README's picture (docs/rviz_demo.png).
 find_package(X11)

@@ -17,6 +17,7 @@ PACKAGES=(
   ocl-icd-opencl-dev  # libdnnl-dev only recommends it, yet its CMake config needs it
   python3-std-srvs ros-std-srvs  # rosservice resumes the demo's paused bag player
   python3-onnx python3-numpy python3-matplotlib
+  python3-geometry-msgs  # rostopic reads the Keyframe message (scripts/kill_soak.sh)
   rviz xvfb libx11-dev
 )
 # npm fetches the pretrained backbone; a Node.js that brings its own npm is enough.

@@ -59,8 +59,9 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "published on tf.")
           .text("base_frame", &O::base_frame,
                 "the robot's body frame, as the detector's base_frame: loops whose "
-                "relative_pose_frame is another frame are taken as the camera's and turned into "
-                "it with camera_mount (or through tf: camera_mount/from_tf).")
+                "relative_pose_frame is another frame (not the detector's base_frame) are taken "
+                "as the camera's and turned into it with camera_mount (or through tf: "
+                "camera_mount/from_tf).")
           .flag("publish_tf", &O::publish_tf, "publish that correction on tf.")
           .number("tf_rate_hz", &O::tf_rate_hz, between(0, 1000),
                   "how often the correction is sent (Hz), stamped tf_future_s ahead of the "
@@ -69,12 +70,18 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                   "once per keyframe, stamped with it.")
           .number("tf_future_s", &O::tf_future_s, between(0, 1),
                   "how far ahead of the clock each sending is stamped (s).")
+          .text("detector", &O::detector,
+                "the detector node (its name, resolved in this node's namespace) whose "
+                "camera_mount, camera_mount/from_tf and base_frame are used here, so the camera "
+                "mount is set once, for both; the values below only when it is empty or that "
+                "node has no parameters (said at start). A loop in the detector's base_frame "
+                "other than base_frame is left out, named in the log.")
           .group(&O::camera_mount, CameraMount::parameters())
           .flag("camera_mount/from_tf", &O::camera_mount_from_tf,
                 "turn loops whose relative_pose_frame is not base_frame through tf instead of "
                 "the values above (base_frame -> that frame, latest: the camera's optical frame "
                 "as the detector names it, or any other); a loop whose frame tf does not know "
-                "yet is left out, named in the log.")
+                "yet is left out, named in the log. With `detector`, the detector's setting.")
           .group(&O::graph, PoseGraphOptions::parameters());
   return table;
 }

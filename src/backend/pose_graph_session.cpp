@@ -159,7 +159,14 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   std::optional<Eigen::Isometry3d> mount;
   std::string mount_problem;
   if (!left_out && loop.relative_pose_frame != options_.base_frame) {
-    if (mount_) {
+    if (!options_.detector_base_frame.empty() &&
+        loop.relative_pose_frame == options_.detector_base_frame) {
+      // The detector's body frame under another name than ours: the mount must not be applied.
+      mount_problem = "its frame is the detector's base_frame '" + loop.relative_pose_frame +
+                      "', not this graph's base_frame '" + options_.base_frame +
+                      "': set the two alike";
+      left_out = "its frame is the detector's base_frame, another than the graph's";
+    } else if (mount_) {
       mount = mount_(loop.relative_pose_frame, &mount_problem);
       if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
     } else {

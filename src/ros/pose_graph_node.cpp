@@ -37,6 +37,48 @@ PoseGraphNodeOptions loadPoseGraphOptions(const ros::NodeHandle& private_node) {
   return options;
 }
 
+// The camera mount and base frame of the detector named by options->detector, from its
+// parameters: the mount is set once, for both nodes. Says at start which values are used.
+void takeDetectorsMount(const ros::NodeHandle& node, PoseGraphNodeOptions* options) {
+  if (options->detector.empty()) return;
+  const ros::NodeHandle detector(node, options->detector);
+  if (!detector.hasParam("camera_mount")) {
+    ROS_WARN(
+        "Pose graph: the detector %s has no camera_mount parameters (another name? set "
+        "detector); this node's own camera_mount values are used",
+        detector.getNamespace().c_str());
+    return;
+  }
+  CameraMount mount;
+  bool from_tf = false;
+  detector.param("camera_mount/x", mount.x, mount.x);
+  detector.param("camera_mount/y", mount.y, mount.y);
+  detector.param("camera_mount/z", mount.z, mount.z);
+  detector.param("camera_mount/roll", mount.roll, mount.roll);
+  detector.param("camera_mount/pitch", mount.pitch, mount.pitch);
+  detector.param("camera_mount/yaw", mount.yaw, mount.yaw);
+  detector.param("camera_mount/from_tf", from_tf, false);
+  if (const std::string problem = mount.validate(); !problem.empty()) {
+    ROS_ERROR(
+        "Pose graph: the detector %s's camera_mount is not usable (%s); this node's own "
+        "values are used",
+        detector.getNamespace().c_str(), problem.c_str());
+    return;
+  }
+  options->camera_mount = mount;
+  options->camera_mount_from_tf = from_tf;
+  detector.param("base_frame", options->detector_base_frame, std::string());
+  ROS_INFO("Pose graph: camera mount from the detector %s (%s)", detector.getNamespace().c_str(),
+           from_tf ? "through tf" : "its camera_mount values");
+  if (!options->detector_base_frame.empty() &&
+      options->detector_base_frame != options->base_frame) {
+    ROS_WARN(
+        "Pose graph: the detector's base_frame is '%s', this node's '%s': loops it publishes in "
+        "its base frame are left out; set the two alike",
+        options->detector_base_frame.c_str(), options->base_frame.c_str());
+  }
+}
+
 geometry_msgs::PoseStamped stampedPose(const Pose& pose, const std::string& frame,
                                        const ros::Time& stamp) {
   geometry_msgs::PoseStamped stamped;
@@ -152,8 +194,7 @@ class PoseGraphNode {
     const auto known = mounts_.find(frame);
     if (known != mounts_.end()) return known->second;
     if (!options_.camera_mount_from_tf) {
-      // Said once per frame: a detector's base frame under another name would be taken for the
-      // camera's here.
+      // Said once per frame: which frame is taken for the camera's.
       const CameraMount& mount = options_.camera_mount;
       ROS_INFO(
           "Pose graph: loops in '%s' are taken as the camera's and turned into %s with "
@@ -299,6 +340,7 @@ class PoseGraphNodelet : public nodelet::Nodelet {
       NODELET_FATAL("Refusing to start, fix these parameters:\n%s", problems.what());
       throw;
     }
+    takeDetectorsMount(getNodeHandle(), &options);
     node_ = std::make_unique<PoseGraphNode>(getNodeHandle(), getPrivateNodeHandle(), options);
   }
 

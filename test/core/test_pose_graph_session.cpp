@@ -151,6 +151,32 @@ TEST(PoseGraphSession, ALoopInTheCameraFrameIsTurnedIntoTheBaseFrame) {
   EXPECT_EQ(step.verdicts[0].decision, "accepted") << step.verdicts[0].detail;
 }
 
+// Issue 67 point 5: a detector on base_footprint publishing in its base frame, a graph on
+// base_link: the loop's frame is not the graph's base, but it is not the camera's either, and the
+// mount must not be applied to it (it was, silently, before the graph knew the detector's frame).
+TEST(PoseGraphSession, ALoopInTheDetectorsOtherBaseFrameIsLeftOutNotTakenForTheCamera) {
+  PoseGraphNodeOptions options = eachLoopOnItsOwn();
+  options.detector_base_frame = "base_footprint";
+  bool mount_asked = false;
+  PoseGraphSession session(options, [&](const std::string& frame, std::string* problem) {
+    mount_asked = true;
+    return cameraOnly(frame, problem);
+  });
+  session.process(keyframes(0, 20));
+  GraphLoop detector_base_loop = loopBetween(19, 3);
+  detector_base_loop.relative_pose_frame = "base_footprint";
+  GraphLoop camera_loop = loopBetween(18, 2);
+  camera_loop.relative_pose_frame = "camera";
+  const GraphStep step = session.process({detector_base_loop, camera_loop});
+  ASSERT_EQ(step.verdicts.size(), 2u);
+  EXPECT_EQ(step.verdicts[0].decision, "left_out");
+  EXPECT_NE(step.verdicts[0].detail.find("detector's base_frame 'base_footprint'"),
+            std::string::npos)
+      << step.verdicts[0].detail;
+  EXPECT_EQ(step.verdicts[1].decision, "accepted") << step.verdicts[1].detail;
+  EXPECT_TRUE(mount_asked) << "the camera's frame still goes through the mount";
+}
+
 TEST(PoseGraphSession, WithoutAMountLookupOnlyBaseFrameLoopsEnter) {
   PoseGraphSession session(eachLoopOnItsOwn(), MountLookup());
   session.process(keyframes(0, 20));

@@ -215,8 +215,15 @@ struct PoseGraphNodeOptions {
   bool publish_tf = true;
   double tf_rate_hz = 20.0;
   double tf_future_s = 0.1;
+  /// The detector node whose camera_mount (values and from_tf) and base_frame the node takes
+  /// from the parameter server, so the mount is set in one place for both; empty: the values
+  /// below.
+  std::string detector = "loop_closure";
+  /// The detector's base_frame, when known (read from its parameters, not a parameter here): a
+  /// loop in that frame is never taken for the camera's.
+  std::string detector_base_frame;
   /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
-  /// turned into the base frame with the mount; set it as for the detector.
+  /// turned into the base frame with the mount.
   CameraMount camera_mount;
   /// Turn loops in any frame but base_frame through tf (base_frame <- the loop's
   /// relative_pose_frame, latest) instead of camera_mount.
