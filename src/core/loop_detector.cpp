@@ -440,6 +440,7 @@ QueryResult LoopDetector::search(uint64_t keyframe_id, double stamp,
     }
   }
   noteMapDamage(result);
+  adoptBuiltGraph(false);
   if (!map_damage_.empty()) {
     query.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
   } else if (!replayed) {

@@ -104,7 +104,7 @@ std::string LoopDetector::openMap(const std::string& path) {
 
 MapReadSettings LoopDetector::mapReadSettings() const {
   MapReadSettings settings;
-  settings.index = database_.indexOptions();
+  settings.index = options_.database.index;  // The database's may be exact while its graph builds.
   settings.global_dimension = database_.globalDimension();
   settings.descriptor_identity = descriptor_identity_;
   settings.memory_budget_mb = options_.database.memory_budget_mb;
@@ -121,6 +121,7 @@ std::string LoopDetector::adoptMap(ReadMap map) {
   storeWarmedUp(&unreported);  // They belong to the map open until now.
   abandonSave();               // It copies the map replaced here.
   map_graph_reused_ = map.graph_reused;
+  graph_build_ = std::move(map.graph_build);
   map_leftovers_removed_ = map.store->leftoversRemoved();
   map_repairs_ = map.store->repairs();
   map_damage_.clear();
@@ -158,6 +159,7 @@ std::string LoopDetector::saveMapGraph() {
   if (!store_) return "";
   KeyframeResult unreported;
   storeWarmedUp(&unreported);  // The graph, and the counts said at a stop, include them.
+  adoptBuiltGraph(true);       // A graph still building is finished and kept for the next start.
   try {
     store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
   } catch (const std::exception& error) {
@@ -207,7 +209,8 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   map_damage_.clear();
   map_unsearched_ = 0;
   map_unwritten_ = 0;
-  database_ = KeyframeDatabase(database_.globalDimension(), database_.indexOptions());
+  graph_build_.reset();
+  database_ = KeyframeDatabase(database_.globalDimension(), options_.database.index);
   session_ = 0;
   memory_map_id_ = KeyframeStore::drawMapId();
   consistency_.reset();
@@ -357,6 +360,18 @@ std::optional<int64_t> LoopDetector::keyframeStampNs(uint64_t id) const {
   const std::shared_ptr<const KeyframeRecord> record = database_.record(*index);
   if (!record) return std::nullopt;
   return record->stamp_ns;
+}
+
+void LoopDetector::adoptBuiltGraph(bool wait) {
+  if (!graph_build_ || (!wait && !graph_build_->ready())) return;
+  std::unique_ptr<ApproximateIndex> graph = graph_build_->take();
+  if (graph) {
+    graph->rebind(database_.vectors());
+    database_.setIndex(options_.database.index, std::move(graph));  // Links the rows added since.
+  } else {
+    database_.setIndex(options_.database.index);  // The build failed: one more try, here.
+  }
+  graph_build_.reset();
 }
 
 }  // namespace landmark_loop_closure

@@ -75,7 +75,14 @@ ReadMap readMap(const std::string& path, const MapReadSettings& settings) {
                             settings.index.neighbors);
   }
   map.graph_reused = graph != nullptr;
-  map.database.setIndex(settings.index, std::move(graph));
+  const size_t unlinked = map.database.size() - (graph ? graph->size() : 0);
+  if (settings.index.buildsGraph() && unlinked > settings.graph_rows_built_inline) {
+    // Seconds of work: exact search until the graph is swapped in (LoopDetector).
+    map.graph_build = std::make_unique<BackgroundGraph>(
+        map.database.vectors()->snapshot(map.database.size()), std::move(graph), settings.index);
+  } else {
+    map.database.setIndex(settings.index, std::move(graph));
+  }
   // Reading the whole map would hold search back for seconds: it is checked meanwhile, and
   // keyframes are held from it until it passes.
   store.startIntegrityCheck();

@@ -71,6 +71,7 @@ class RowSpace : public hnswlib::SpaceInterface<float> {
   hnswlib::DISTFUNC<float> get_dist_func() override { return &distance; }
   void* get_dist_func_param() override { return &context_; }
   void setQuery(const uint8_t* query) { context_.query = query; }
+  void setVectors(const QuantizedVectors* vectors) { context_.vectors = vectors; }
 
  private:
   static const uint8_t* rowOf(const void* data, const Context& context) {
@@ -182,6 +183,14 @@ void ApproximateIndex::add() {
 size_t ApproximateIndex::size() const { return graph_->hnsw->cur_element_count; }
 
 const QuantizedVectors* ApproximateIndex::vectors() const { return graph_->vectors; }
+
+void ApproximateIndex::rebind(const QuantizedVectors* vectors) {
+  if (vectors == nullptr || vectors->size() < size()) {
+    throw std::invalid_argument("a graph rebound to vectors without its rows");
+  }
+  graph_->vectors = vectors;
+  graph_->space.setVectors(vectors);
+}
 
 std::vector<std::pair<size_t, float>> ApproximateIndex::search(const uint8_t* query, size_t k,
                                                                int ef_search) const {

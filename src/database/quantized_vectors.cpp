@@ -135,6 +135,15 @@ void QuantizedVectors::adopt(std::shared_ptr<const void> owner, const uint8_t* r
   }
 }
 
+std::unique_ptr<QuantizedVectors> QuantizedVectors::snapshot(size_t rows) const {
+  if (rows > size_) throw std::invalid_argument("a snapshot of more rows than held");
+  auto copy = std::make_unique<QuantizedVectors>(dimension_);
+  const size_t shared = std::min(rows, adopted_rows_);
+  if (shared > 0) copy->adopt(adopted_owner_, chunks_.front(), shared, row_stride_);
+  for (size_t index = shared; index < rows; ++index) copy->appendRow(row(index), row_bytes_);
+  return copy;
+}
+
 void QuantizedVectors::append(const float* vector) { encode(vector, dimension_, nextRow()); }
 
 void QuantizedVectors::appendRow(const uint8_t* row, size_t bytes) {

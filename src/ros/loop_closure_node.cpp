@@ -140,9 +140,11 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       ROS_INFO("Map %s is opened once online training has made the descriptor",
                options_.database_path.c_str());
     } else {
-      const char* graph = detector_.database().graph() == nullptr ? "off"
-                          : detector_.mapGraphReused()            ? "read"
-                                                                  : "built";
+      const char* graph = detector_.mapGraphBuilding()
+                              ? "being built in the background, exact search meanwhile"
+                          : detector_.database().graph() == nullptr ? "off"
+                          : detector_.mapGraphReused()              ? "read"
+                                                                    : "built";
       ROS_INFO(
           "Map %s: %zu keyframes loaded in %.2f s (search graph %s, integrity %s); this run "
           "is session %u, every keyframe committed as it is stored",

@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <memory>
 #include <random>
 #include <set>
 
+#include "landmark_loop_closure/database/approximate_index.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
@@ -60,6 +62,42 @@ TEST(QuantizedVectors, TheProductIsTheExactIntegerSumAtEveryLength) {
               scale_x * scale_y * static_cast<float>(sum))
         << dimension;
   }
+}
+
+// A graph built in the background reads a snapshot of the first rows while the database grows:
+// adopted rows (a mapped rows file) are shared, the rest copied, and the graph built over the
+// snapshot searches the database's own rows once rebound.
+TEST(QuantizedVectors, ASnapshotSharesAdoptedRowsAndAGraphOverItServesTheOriginal) {
+  constexpr int kDim = 8;
+  const size_t adopted = 2148;  // Two whole chunks of 1024 rows shared, the rest copied.
+  const size_t row_bytes = QuantizedVectors(kDim).rowBytes();
+  auto file = std::make_shared<std::vector<uint8_t>>(adopted * row_bytes);
+  std::mt19937 random(5);
+  std::normal_distribution<float> normal;
+  for (size_t row = 0; row < adopted; ++row) {
+    std::vector<float> vector(kDim);
+    for (float& value : vector) value = normal(random);
+    QuantizedVectors::encode(vector.data(), kDim, file->data() + row * row_bytes);
+  }
+  QuantizedVectors vectors(kDim);
+  vectors.adopt(file, file->data(), adopted, row_bytes);
+  const std::unique_ptr<QuantizedVectors> snapshot = vectors.snapshot(adopted);
+  ASSERT_EQ(snapshot->size(), adopted);
+  EXPECT_EQ(snapshot->row(5), vectors.row(5)) << "an adopted row is shared, not copied";
+  EXPECT_NE(snapshot->row(adopted - 1), vectors.row(adopted - 1)) << "an owned row is copied";
+  EXPECT_EQ(std::memcmp(snapshot->row(adopted - 1), vectors.row(adopted - 1), row_bytes), 0);
+  EXPECT_THROW(vectors.snapshot(adopted + 1), std::invalid_argument);
+
+  ApproximateIndex graph(snapshot.get(), 8, 64);
+  while (graph.size() < snapshot->size()) graph.add();
+  const std::vector<float> extra(kDim, 100.0f);  // Its own best match by inner product.
+  vectors.append(extra.data());                  // The database grows after the snapshot.
+  EXPECT_THROW(graph.rebind(snapshot->snapshot(10).get()), std::invalid_argument);
+  graph.rebind(&vectors);
+  graph.add();  // Links the row added since, read from the database's own vectors.
+  const auto found = graph.search(vectors.row(adopted), 1, 64);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].first, adopted);
 }
 
 TEST(KeyframeDatabase, ReturnsTopKBestFirst) {

@@ -698,3 +698,56 @@ TEST(LoopDetector, ALoadedKeyframeKeepsItsStampToTheNanosecond) {
   EXPECT_FALSE(loaded.keyframeStampNs(7));
   removeMap(path);
 }
+
+// Issue 67 point 6: a large map without its saved graph (a crash, a deleted PATH-graph) was
+// linked into a new graph inside the open, about 2 ms a keyframe, holding a nodelet manager's
+// thread at start. Past MapReadSettings::graph_rows_built_inline it is built in the background:
+// the open returns with exact search, loops are found meanwhile, and the graph is swapped in.
+TEST(LoopDetector, AMapWithoutItsGraphIsSearchedExactlyWhileTheGraphBuildsInTheBackground) {
+  const std::string path = temporaryPath("background_graph.db");
+  removeMap(path);
+  LoopDetectorOptions options = smallOptions();
+  options.database.index.type = "approximate";
+  options.odometry_gate.enabled = true;
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    ASSERT_EQ(detector.openMap(path), "");
+    for (int i = 0; i < 40; ++i) feed(&detector, i, i);
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  std::filesystem::remove(path + "-graph");
+
+  {
+    LoopDetector detector(options, std::make_shared<PlaceExtractor>());
+    MapReadSettings settings = detector.mapReadSettings();
+    settings.graph_rows_built_inline = 10;
+    ReadMap map = readMap(path, settings);
+    ASSERT_NE(map.graph_build, nullptr) << "40 keyframes to link, more than 10";
+    EXPECT_EQ(map.database.graph(), nullptr) << "exact search until it is ready";
+    ASSERT_EQ(detector.adoptMap(std::move(map)), "");
+    EXPECT_TRUE(detector.mapGraphBuilding());
+    std::optional<AcceptedLoop> loop;
+    for (int i = 0; i < 3; ++i) {
+      const FrameResult result =
+          detector.process(100000.0 + i, planarPose(500.0 + i, 0, 0), place(37 + i));
+      ASSERT_TRUE(result.keyframe);
+      if (result.keyframe->loop) loop = result.keyframe->loop;
+    }
+    ASSERT_TRUE(loop) << "found while (or after) the graph was built";
+    EXPECT_EQ(loop->match_id, 39u);
+    detector.awaitMapGraph();
+    EXPECT_FALSE(detector.mapGraphBuilding());
+    ASSERT_NE(detector.database().graph(), nullptr);
+    EXPECT_EQ(detector.database().graph()->size(), detector.database().size())
+        << "the keyframes added meanwhile are linked in too";
+    EXPECT_EQ(detector.database().size(), 43u);
+
+    // Saved at the stop: the next open reads it and builds nothing.
+    EXPECT_EQ(detector.saveMapGraph(), "");
+  }
+  LoopDetector next(options, std::make_shared<PlaceExtractor>());
+  ASSERT_EQ(next.openMap(path), "");
+  EXPECT_FALSE(next.mapGraphBuilding());
+  EXPECT_TRUE(next.mapGraphReused());
+  removeMap(path);
+}

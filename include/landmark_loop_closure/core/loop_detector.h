@@ -311,6 +311,11 @@ class LoopDetector {
   size_t mapKeyframesInFile() const;
   /// Whether the last openMap() found the map's saved search graph (else it was built).
   bool mapGraphReused() const { return map_graph_reused_; }
+  /// Worker thread: the open map's search graph is being built in the background (search is
+  /// exact until it is swapped in, at the first search after it is ready).
+  bool mapGraphBuilding() const { return graph_build_ != nullptr; }
+  /// Worker thread, tests and offline tools: waits for that graph and swaps it in.
+  void awaitMapGraph() { adoptBuiltGraph(true); }
   /// Temporary files of an interrupted save that opening the map removed.
   const std::vector<std::string>& mapLeftoversRemoved() const { return map_leftovers_removed_; }
   /// What opening the map repaired (keyframes a power cut left without their search rows).
@@ -522,6 +527,9 @@ class LoopDetector {
   bool save_abandoned_ = false;           ///< The map was replaced during that save.
   std::string pending_map_path_;          ///< Opened once online training has made the descriptor.
   bool map_graph_reused_ = false;
+  std::unique_ptr<BackgroundGraph> graph_build_;  ///< See mapGraphBuilding().
+  /// Swaps the background graph in when it is ready (or, `wait`, once it is).
+  void adoptBuiltGraph(bool wait);
   std::vector<std::string> map_leftovers_removed_;
   std::vector<std::string> map_repairs_;
   std::string map_damage_;

@@ -45,6 +45,9 @@ class ApproximateIndex {
 
   /// Links the next row of the vectors (row size()) into the graph.
   void add();
+  /// Reads its rows from `vectors` from now on: vectors whose first size() rows are the same
+  /// (a graph built over a snapshot, handed to the database it was taken from).
+  void rebind(const QuantizedVectors* vectors);
   size_t size() const;
   int neighbors() const { return neighbors_; }
   const QuantizedVectors* vectors() const;

@@ -46,6 +46,10 @@ class QuantizedVectors {
   }
   /// Inner product of a row built by encode() with row `index`.
   float dot(const uint8_t* query, size_t index) const { return dot(query, row(index), dimension_); }
+  /// The first `rows` rows as vectors of their own, for another thread to read while these grow:
+  /// adopted rows are shared (their owner kept alive), owned ones copied (at most kChunkRows when
+  /// the rows were adopted).
+  std::unique_ptr<QuantizedVectors> snapshot(size_t rows) const;
   /// Bytes held: the heap's and the adopted rows (memory once read, if the kernel's to reclaim).
   size_t bytes() const;
 
