@@ -102,9 +102,6 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
 
 void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
-  // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
-  // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted, and
-  // said at shutdown.
   keyframes_frame_id_ = job.frame_id;
   publishAnnouncedKeyframes();
   if (result.loop) {
