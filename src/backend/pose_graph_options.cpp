@@ -81,7 +81,9 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "turn loops whose relative_pose_frame is not base_frame through tf instead of "
                 "the values above (base_frame -> that frame, latest: the camera's optical frame "
                 "as the detector names it, or any other); a loop whose frame tf does not know "
-                "yet is left out, named in the log. With `detector`, the detector's setting.")
+                "yet is left out, named in the log. Off with none of the values above set: tf "
+                "is asked first all the same, the default values serve until it has the frame. "
+                "With `detector`, the detector's setting and values.")
           .group(&O::graph, PoseGraphOptions::parameters());
   return table;
 }

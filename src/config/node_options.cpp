@@ -118,25 +118,25 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
           .group(&O::detector, LoopDetectorOptions::parameters())
           .flag("camera_mount/from_tf", &O::camera_mount_from_tf,
                 "look the mount up in tf (base_frame -> the image's frame_id, latest) instead of "
-                "the values above; until tf has it, depths are not triangulated.");
+                "the values above; until tf has it, depths are not triangulated. Off with none "
+                "of the values above set: tf is asked first all the same, and the default "
+                "values serve until it has the mount (warned once).");
   return table;
 }
 
 std::string NodeOptions::defaultMountWarning() const {
-  const CameraMount& mount = detector.camera_mount;
-  const CameraMount default_mount;
-  const bool is_default = mount.x == default_mount.x && mount.y == default_mount.y &&
-                          mount.z == default_mount.z && mount.roll == default_mount.roll &&
-                          mount.pitch == default_mount.pitch && mount.yaw == default_mount.yaw;
-  if (!is_default || camera_mount_from_tf || use_depth ||
+  if (!detector.camera_mount.isDefault() || camera_mount_from_tf || use_depth ||
       !detector.metric_pose.triangulate_from_odometry) {
     return "";
   }
-  return "camera_mount is the default (the camera at " +
-         (base_frame.empty() ? std::string("the base frame") : "'" + base_frame + "'") +
-         "'s origin, looking along its x axis) and keypoint depths are triangulated from the "
-         "odometry: set camera_mount/x, y, z, roll, pitch, yaw to where the camera sits on the "
-         "robot, or camera_mount/from_tf: true, else metric loops carry the mount's error";
+  const std::string base = base_frame.empty() ? std::string("the base frame") : base_frame;
+  return "camera_mount is the default (the camera at '" + base +
+         "''s origin, looking along its x axis), tf has no " + base +
+         " -> the camera's frame, and keypoint depths are triangulated from the odometry: "
+         "publish that transform on tf (a URDF or static_transform_publisher) or set "
+         "camera_mount/x, y, z, roll, pitch, yaw to where the camera sits on the robot "
+         "(camera_mount/from_tf: true waits for tf instead), else metric loops carry the mount's "
+         "error";
 }
 
 std::string NodeOptions::validate() const {

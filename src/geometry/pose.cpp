@@ -94,6 +94,12 @@ const ParameterTable<CameraMount>& CameraMount::parameters() {
 
 std::string CameraMount::validate() const { return parameters().check(*this); }
 
+bool CameraMount::isDefault() const {
+  const CameraMount unset;
+  return x == unset.x && y == unset.y && z == unset.z && roll == unset.roll &&
+         pitch == unset.pitch && yaw == unset.yaw;
+}
+
 PathLength extendPath(const PathLength& path, const Pose& from, const Pose& to) {
   PathLength extended = path;
   extended.metres += (to.position - from.position).norm();

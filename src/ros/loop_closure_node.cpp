@@ -118,8 +118,12 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   detector_.announceKeyframes(true);
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
-  const std::string mount_warning = options_.defaultMountWarning();
-  if (!mount_warning.empty()) ROS_WARN("%s", mount_warning.c_str());
+  if (options_.mountFromTfWhereKnown()) {
+    ROS_INFO(
+        "camera_mount is not set: looked up in tf (%s -> the images' frame_id) where tf has "
+        "it, the default values until then",
+        options_.base_frame.c_str());
+  }
   if (!options_.database_path.empty()) {
     // Refusing to start leaves a map that cannot be opened as it is.
     const auto load_start = std::chrono::steady_clock::now();
@@ -270,7 +274,8 @@ void LoopClosureNode::subscribe() {
     depth_subscriber_ =
         image_transport_.subscribe("depth", kDepthQueue, &LoopClosureNode::onDepth, this);
   }
-  if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf) {
+  if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf ||
+      options_.mountFromTfWhereKnown()) {
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
   }

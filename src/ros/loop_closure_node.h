@@ -158,7 +158,8 @@ class LoopClosureNode {
   KindThrottle depth_warnings_{kWarningPeriod};  ///< The depth decoder's reasons, one silence each.
   std::atomic<bool> depth_silence_reported_{false};    ///< Warned of a silent depth publisher.
   KindThrottle camera_info_warnings_{kWarningPeriod};  ///< Under stats_mutex_; one per cause.
-  std::string camera_mount_frame_;  // Worker thread only: the frame the tf mount was found for.
+  std::string camera_mount_frame_;     // Worker thread only: the frame the tf mount was found for.
+  bool default_mount_warned_ = false;  // Worker thread only: defaultMountWarning() said.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::deque<PendingImage> pending_tf_;

@@ -278,7 +278,9 @@ bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
     return false;
   }
   const std::string& camera_frame = source.image->header.frame_id;
-  if (options_.camera_mount_from_tf) updateCameraMount(camera_frame);
+  if (options_.camera_mount_from_tf || options_.mountFromTfWhereKnown()) {
+    updateCameraMount(camera_frame);
+  }
   if (options_.use_depth) {
     prepared->depth = depthFor(source.image->header.stamp, camera_frame);
     ++(prepared->depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
@@ -340,8 +342,23 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
 }
 
 void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
-  if (camera_frame == camera_mount_frame_ && detector_.cameraMount()) return;
-  if (camera_frame.empty()) {
+  if (!camera_mount_frame_.empty() && camera_frame == camera_mount_frame_ &&
+      detector_.cameraMount()) {
+    return;
+  }
+  if (!options_.camera_mount_from_tf) {
+    // No value set: tf's mount where tf has it, else the default values, said once.
+    std::string error;
+    if (camera_frame.empty() ||
+        !tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
+      const std::string warning = options_.defaultMountWarning();
+      if (!warning.empty() && !default_mount_warned_) {
+        ROS_WARN("%s", warning.c_str());
+        default_mount_warned_ = true;
+      }
+      return;
+    }
+  } else if (camera_frame.empty()) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Images carry no frame_id, so camera_mount/from_tf cannot look the camera "
                       "up in tf: keypoint depths are not triangulated");

@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <utility>
 
 #include <nav_msgs/Path.h>
@@ -94,7 +95,7 @@ class PoseGraphNode {
  public:
   PoseGraphNode(ros::NodeHandle node, ros::NodeHandle private_node, PoseGraphNodeOptions options)
       : options_(options) {
-    if (options_.camera_mount_from_tf) {
+    if (options_.camera_mount_from_tf || options_.mountFromTfWhereKnown()) {
       tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
       tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
     }
@@ -193,16 +194,31 @@ class PoseGraphNode {
   std::optional<Eigen::Isometry3d> mountOf(const std::string& frame, std::string* problem) {
     const auto known = mounts_.find(frame);
     if (known != mounts_.end()) return known->second;
+    if (options_.mountFromTfWhereKnown() && !frame.empty() &&
+        tf_buffer_->canTransform(options_.base_frame, frame, ros::Time(0))) {
+      const Eigen::Isometry3d mount = tf2::transformToEigen(
+          tf_buffer_->lookupTransform(options_.base_frame, frame, ros::Time(0)));
+      ROS_INFO("Pose graph: loops in %s turned into %s through tf (camera_mount not set)",
+               frame.c_str(), options_.base_frame.c_str());
+      return mounts_[frame] = mount;
+    }
     if (!options_.camera_mount_from_tf) {
       // Said once per frame: which frame is taken for the camera's.
       const CameraMount& mount = options_.camera_mount;
-      ROS_INFO(
-          "Pose graph: loops in '%s' are taken as the camera's and turned into %s with "
-          "camera_mount (%.3f, %.3f, %.3f m; roll %.3f, pitch %.3f, yaw %.3f rad); "
-          "camera_mount/from_tf looks each loop's frame up in tf instead",
-          frame.c_str(), options_.base_frame.c_str(), mount.x, mount.y, mount.z, mount.roll,
-          mount.pitch, mount.yaw);
-      return mounts_[frame] = mount.toPose().toIsometry();
+      if (frames_said_.insert(frame).second) {
+        ROS_INFO(
+            "Pose graph: loops in '%s' are taken as the camera's and turned into %s with "
+            "camera_mount (%.3f, %.3f, %.3f m; roll %.3f, pitch %.3f, yaw %.3f rad)%s",
+            frame.c_str(), options_.base_frame.c_str(), mount.x, mount.y, mount.z, mount.roll,
+            mount.pitch, mount.yaw,
+            options_.mountFromTfWhereKnown() ? ", the default, until tf has that frame"
+                                             : "; camera_mount/from_tf looks each loop's frame "
+                                               "up in tf instead");
+      }
+      const Eigen::Isometry3d values = mount.toPose().toIsometry();
+      // Not kept when tf may still bring the mount: the next loop asks tf again.
+      if (!options_.mountFromTfWhereKnown()) mounts_[frame] = values;
+      return values;
     }
     std::string error;
     if (frame.empty()) {
@@ -318,6 +334,7 @@ class PoseGraphNode {
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< camera_mount/from_tf only.
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::map<std::string, Eigen::Isometry3d> mounts_;  ///< base_frame <- each loop frame seen.
+  std::set<std::string> frames_said_;  ///< Loop frames whose camera_mount use was logged.
 
   ros::Publisher corrected_publisher_;
   ros::Publisher odometry_publisher_;

@@ -177,6 +177,18 @@ TEST(PoseGraphSession, ALoopInTheDetectorsOtherBaseFrameIsLeftOutNotTakenForTheC
   EXPECT_TRUE(mount_asked) << "the camera's frame still goes through the mount";
 }
 
+// As the detector (test_shipped_config): with no camera_mount value set, tf is asked first.
+TEST(PoseGraphNodeOptions, WithNoMountValueSetTfIsAskedFirst) {
+  PoseGraphNodeOptions options;
+  EXPECT_TRUE(options.mountFromTfWhereKnown());
+  PoseGraphNodeOptions set = options;
+  set.camera_mount.x = 0.2;
+  EXPECT_FALSE(set.mountFromTfWhereKnown());
+  PoseGraphNodeOptions from_tf = options;
+  from_tf.camera_mount_from_tf = true;
+  EXPECT_FALSE(from_tf.mountFromTfWhereKnown());
+}
+
 TEST(PoseGraphSession, WithoutAMountLookupOnlyBaseFrameLoopsEnter) {
   PoseGraphSession session(eachLoopOnItsOwn(), MountLookup());
   session.process(keyframes(0, 20));

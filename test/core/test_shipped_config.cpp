@@ -122,6 +122,24 @@ TEST(NodeOptions, TheDefaultMountWithTriangulationIsWarnedAbout) {
   EXPECT_EQ(appearance_only.defaultMountWarning(), "");
 }
 
+// Issue 67 point 5: one source for the mount, tf by default where it has it. With no value set
+// (and from_tf off) the detector asks tf first and falls back to the defaults; a value set, or
+// from_tf, decides alone.
+TEST(NodeOptions, WithNoMountValueSetTfIsAskedFirstByBothNodes) {
+  NodeOptions options;
+  EXPECT_TRUE(options.mountFromTfWhereKnown());
+  NodeOptions set = options;
+  set.detector.camera_mount.yaw = 0.0;
+  EXPECT_FALSE(set.mountFromTfWhereKnown());
+  NodeOptions from_tf = options;
+  from_tf.camera_mount_from_tf = true;
+  EXPECT_FALSE(from_tf.mountFromTfWhereKnown()) << "tf only, no fallback";
+  NodeOptions no_base = options;
+  no_base.base_frame.clear();
+  EXPECT_FALSE(no_base.mountFromTfWhereKnown());
+  // The pose graph's side: test_pose_graph_session.
+}
+
 TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
   const YamlParameterSource source(YAML::Load(
       "pose_source: tf\nrelative_pose_frame: base\ntime_jump_back: reset\nmode: localization\n"

@@ -228,6 +228,9 @@ struct PoseGraphNodeOptions {
   /// Turn loops in any frame but base_frame through tf (base_frame <- the loop's
   /// relative_pose_frame, latest) instead of camera_mount.
   bool camera_mount_from_tf = false;
+  /// No camera_mount value set and from_tf off: tf's mount where tf has it, the default values
+  /// otherwise (as the detector does).
+  bool mountFromTfWhereKnown() const { return !camera_mount_from_tf && camera_mount.isDefault(); }
   PoseGraphOptions graph;
 
   static const ParameterTable<PoseGraphNodeOptions>& parameters();

@@ -66,6 +66,11 @@ struct NodeOptions {
   RelativePoseFrame relative_pose_frame = RelativePoseFrame::kCamera;
   /// Look the camera mount up in tf (base_frame <- the image's frame_id) instead of camera_mount/*.
   bool camera_mount_from_tf = false;
+  /// No camera_mount value set and from_tf off: the mount is taken from tf where tf has it, the
+  /// default values until then (one source by default: the robot's tf).
+  bool mountFromTfWhereKnown() const {
+    return !camera_mount_from_tf && detector.camera_mount.isDefault() && !base_frame.empty();
+  }
   /// The map (KeyframeStore): its keyframes are loaded at start as earlier sessions and every
   /// keyframe is committed to it when stored; "" = memory only.
   std::string database_path;
@@ -82,8 +87,9 @@ struct NodeOptions {
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
   /// A warning when keypoint depths are triangulated from the odometry with camera_mount left at
-  /// its default (the camera at base_frame's origin): a mount the robot does not have skews every
-  /// metric loop, silently. Empty otherwise.
+  /// its default (the camera at base_frame's origin) and tf lacking the mount: a mount the robot
+  /// does not have skews every metric loop, silently. Empty otherwise (said by the node when tf
+  /// has no base_frame -> the camera's frame).
   std::string defaultMountWarning() const;
 };
 

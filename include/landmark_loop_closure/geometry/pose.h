@@ -50,6 +50,8 @@ struct CameraMount {
   double yaw = -M_PI / 2.0;
 
   Pose toPose() const;
+  /// Every value is the default: none was set (tf is then asked first, where it has the mount).
+  bool isDefault() const;
   /// Keys under camera_mount/, documented in config/default.yaml.
   static const ParameterTable<CameraMount>& parameters();
   std::string validate() const;
