@@ -14,6 +14,7 @@ set(CORE_TESTS
   test_appearance_check
   test_loop_detector
   test_loop_detector_map
+  test_loop_detector_ids
   test_map_file_safety
   test_sequence_matching
   test_bounded_queue
@@ -21,6 +22,7 @@ set(CORE_TESTS
   test_input_monitor
   test_odometry_history
   test_keyframe_store
+  test_map_formats
   test_saved_search_rows
   test_match_image
   test_landmarks
@@ -47,9 +49,11 @@ endforeach()
 # layout; both map tests write the old map file through the private payload writer; the rows
 # test checks the rows file's own checksum.
 target_link_libraries(test_keyframe_store SQLite::SQLite3)
+target_link_libraries(test_map_formats SQLite::SQLite3)
 target_link_libraries(test_saved_search_rows SQLite::SQLite3)
 target_link_libraries(test_map_file_safety SQLite::SQLite3)
 target_include_directories(test_keyframe_store PRIVATE src)
+target_include_directories(test_map_formats PRIVATE src)
 target_include_directories(test_saved_search_rows PRIVATE src)
 target_include_directories(test_old_map_file PRIVATE src)
 

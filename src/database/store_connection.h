@@ -1,8 +1,9 @@
 #pragma once
 
-// The SQLite connection behind a KeyframeStore, shared by its two source files (keyframe_store.cpp:
-// opening, writing and reading keyframes; keyframe_store_search.cpp: what search reads at open
-// and the files saved beside the map). Private to the core library.
+// The SQLite connection behind a KeyframeStore, shared by its source files
+// (keyframe_store_open.cpp: opening and closing; keyframe_store.cpp: writing and reading keyframes;
+// keyframe_store_search.cpp: what search reads at open and the files saved beside the map).
+// Private to the core library.
 
 #include <sqlite3.h>
 
@@ -22,6 +23,15 @@ namespace landmark_loop_closure {
 inline std::runtime_error storeError(const std::string& path, const std::string& reason) {
   return std::runtime_error("map " + path + ": " + reason);
 }
+
+/// Refuses what is not a regular file before SQLite opens it (keyframe_store_open.cpp).
+void checkMapPath(const std::string& path);
+
+// The exact stamps beside `keyframes` (REAL seconds there, kept for maps read by earlier
+// versions): a table of its own, so an earlier version still opens a map that has it.
+inline constexpr const char* kCreateStampsTable =
+    "CREATE TABLE IF NOT EXISTS keyframe_stamps (id INTEGER PRIMARY KEY, stamp_ns INTEGER NOT "
+    "NULL)";
 
 struct KeyframeStore::Connection {
   sqlite3* db = nullptr;

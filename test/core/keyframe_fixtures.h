@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
 namespace landmark_loop_closure {
@@ -114,6 +115,17 @@ inline void expectSame(const KeyframeRecord& a, const KeyframeRecord& b) {
         << i << ": deviation " << sd << " against " << other;
   }
   EXPECT_EQ(a.thumbnail, b.thumbnail);
+}
+
+/// Why KeyframeStore::open refuses `path` ("" when it opens).
+inline std::string openRefusal(const std::string& path, const std::string& identity = kIdentity,
+                               int dimension = kDimension) {
+  try {
+    KeyframeStore::open(path, identity, dimension);
+  } catch (const std::runtime_error& error) {
+    return error.what();
+  }
+  return "";
 }
 
 /// A folder of its own for each test (named after it, removed after it) with a map path in it.
