@@ -70,6 +70,9 @@ catkin_add_gtest(test_pose_graph test/core/test_pose_graph.cpp)
 target_link_libraries(test_pose_graph ${PROJECT_NAME}_backend ${PROJECT_NAME}_config ${PROJECT_NAME}_sim
   ${PROJECT_NAME}_eval GTest::gtest_main)
 target_compile_definitions(test_pose_graph PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+catkin_add_gtest(test_pose_graph_chains test/core/test_pose_graph_chains.cpp)
+target_link_libraries(test_pose_graph_chains ${PROJECT_NAME}_backend ${PROJECT_NAME}_sim
+  GTest::gtest_main)
 catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)
 target_link_libraries(test_pose_graph_session ${PROJECT_NAME}_backend GTest::gtest_main)
 target_compile_definitions(test_pose_graph_session PRIVATE

@@ -200,31 +200,121 @@ std::string PoseGraph::odometryPoseProblem(uint64_t id, const Pose& odometry_pos
 }
 
 std::string PoseGraph::addKeyframe(uint64_t id, const Pose& odometry_pose) {
+  return addNode(id, odometry_pose, nodes_.empty() ? kNone : nodes_.back().chain,
+                 initial_map_from_odometry_);
+}
+
+std::string PoseGraph::startChain(uint64_t id, const Pose& odometry_pose,
+                                  const Eigen::Isometry3d& map_from_odometry) {
+  return addNode(id, odometry_pose, kNone, map_from_odometry);
+}
+
+std::string PoseGraph::addToChain(size_t chain, uint64_t id, const Pose& odometry_pose) {
+  if (chain >= chains_.size()) {
+    return "keyframe " + std::to_string(id) + ": chain " + std::to_string(chain) +
+           " does not exist";
+  }
+  return addNode(id, odometry_pose, chain, Eigen::Isometry3d::Identity());
+}
+
+std::string PoseGraph::addNode(uint64_t id, const Pose& odometry_pose, size_t chain,
+                               const Eigen::Isometry3d& new_chain_from_odometry) {
   if (!ids_.empty() && id <= ids_.back()) {
     return "keyframe id " + std::to_string(id) + " is not after the last one (" +
            std::to_string(ids_.back()) + ")";
   }
   const std::string problem = odometryPoseProblem(id, odometry_pose);
   if (!problem.empty()) return problem;
+  const bool new_chain = chain == kNone;
+  if (new_chain && !new_chain_from_odometry.matrix().allFinite()) {
+    return "keyframe " + std::to_string(id) + ": its chain's placement is not finite";
+  }
+  const size_t index = nodes_.size();
   Node node;
   node.odometry = odometry_pose;
   node.odometry.orientation.normalize();
-  if (!nodes_.empty()) {
-    node.metres_travelled = nodes_.back().metres_travelled +
-                            (node.odometry.position - nodes_.back().odometry.position).norm();
+  if (new_chain) {
+    node.chain = chains_.size();
+    chains_.push_back({index, index});
+  } else {
+    node.chain = chain;
+    node.previous = chains_[chain].last;
+    chains_[chain].last = index;
+    const Node& previous = nodes_[node.previous];
+    node.metres_travelled =
+        previous.metres_travelled + (node.odometry.position - previous.odometry.position).norm();
   }
   ids_.push_back(id);
   nodes_.push_back(node);
-  // Placed by the odometry from the last keyframe's estimate, the estimated drift taken out.
-  setEstimate(nodes_.size() - 1,
-              nodes_.size() == 1 ? initial_map_from_odometry_ * node.odometry.toIsometry()
-                                 : estimate(nodes_.size() - 2) * odometryStep(nodes_.size() - 2));
+  // Placed by the odometry from its chain's last keyframe's estimate, the estimated drift taken
+  // out; a chain's first keyframe where its caller puts it.
+  setEstimate(index, new_chain ? new_chain_from_odometry * node.odometry.toIsometry()
+                               : estimate(node.previous) * odometryStep(index));
   return "";
 }
 
+std::optional<size_t> PoseGraph::chainOf(uint64_t id) const {
+  const std::optional<size_t> index = indexOf(id);
+  if (!index) return std::nullopt;
+  return chainAt(*index);
+}
+
+std::vector<size_t> PoseGraph::chainGroups(bool optimised_only) const {
+  std::vector<size_t> group(chains_.size());
+  for (size_t c = 0; c < group.size(); ++c) group[c] = c;
+  const auto root = [&group](size_t c) {
+    while (group[c] != c) c = group[c];
+    return c;
+  };
+  for (const LoopEdge& edge : loops_) {
+    if (!edge.active || (optimised_only && !edge.optimised)) continue;
+    const size_t a = root(chainAt(*indexOf(edge.constraint.query_id)));
+    const size_t b = root(chainAt(*indexOf(edge.constraint.match_id)));
+    // The smaller chain index is the group's name: the first chain's group is 0.
+    group[std::max(a, b)] = std::min(a, b);
+  }
+  for (size_t c = 0; c < group.size(); ++c) group[c] = root(c);
+  return group;
+}
+
+size_t PoseGraph::chainsJoinedToFirst() const {
+  const std::vector<size_t> group = chainGroups(false);
+  return static_cast<size_t>(std::count(group.begin(), group.end(), 0u));
+}
+
+size_t PoseGraph::placeJoinedChains() {
+  std::vector<size_t> group = chainGroups(true);
+  size_t first_moved = nodes_.size();
+  for (const LoopEdge& edge : loops_) {
+    if (!edge.active || edge.optimised) continue;
+    const size_t query = *indexOf(edge.constraint.query_id);
+    const size_t match = *indexOf(edge.constraint.match_id);
+    const size_t query_group = group[chainAt(query)];
+    const size_t match_group = group[chainAt(match)];
+    if (query_group == match_group) continue;
+    // The later group moves onto the loop (the first chain's never does), so that the solve
+    // starts where this loop puts it, not where the chain floated.
+    const bool move_query = query_group > match_group;
+    const Eigen::Isometry3d moved_to =
+        move_query ? estimate(match) * edge.constraint.query_T_match.inverse()
+                   : estimate(query) * edge.constraint.query_T_match;
+    const size_t moved_group = move_query ? query_group : match_group;
+    const Eigen::Isometry3d correction = moved_to * estimate(move_query ? query : match).inverse();
+    for (size_t i = 0; i < nodes_.size(); ++i) {
+      if (group[chainAt(i)] != moved_group) continue;
+      setEstimate(i, correction * estimate(i));
+      first_moved = std::min(first_moved, i);
+    }
+    for (size_t& g : group) {
+      if (g == moved_group) g = std::min(query_group, match_group);
+    }
+  }
+  return first_moved;
+}
+
 Eigen::Isometry3d PoseGraph::odometryStep(size_t index) const {
-  Eigen::Isometry3d step =
-      nodes_[index].odometry.toIsometry().inverse() * nodes_[index + 1].odometry.toIsometry();
+  Eigen::Isometry3d step = nodes_[nodes_[index].previous].odometry.toIsometry().inverse() *
+                           nodes_[index].odometry.toIsometry();
   step.linear() = headingTurn(-heading_drift_per_m_ * step.translation().norm()) * step.rotation();
   return step;
 }
@@ -265,6 +355,16 @@ std::optional<PoseGraph::LoopCheck> PoseGraph::check(const LoopConstraint& loop,
   const std::optional<size_t> match = indexOf(loop.match_id);
   if (!query || !match) return std::nullopt;
   const Eigen::Vector2d path = pathVariance(*match, *query, excluded);
+  if (!std::isfinite(path.x())) {
+    // Two chains no loop joins yet: their estimates say nothing about each other. The loops
+    // that agree with it (loop_confirmations) screen it; it then places the later chain.
+    LoopCheck joining;
+    joining.detail = "joins chain " + std::to_string(chainAt(*query)) + " to chain " +
+                     std::to_string(chainAt(*match)) +
+                     ", which no accepted loop joins yet: screened by the loops that agree "
+                     "with it";
+    return joining;
+  }
   const Eigen::Isometry3d estimated = estimate(*query).inverse() * estimate(*match);
   const double translation_error =
       (estimated.translation() - loop.query_T_match.translation()).norm();
@@ -358,18 +458,20 @@ bool PoseGraph::solve(size_t first_free, OptimisationReport* report) {
     present[a] = present[b] = true;
   };
   const bool estimate_drift = options_.heading_drift_prior_sd_per_m > 0.0;
-  for (size_t i = first_free - 1; i + 1 < nodes_.size(); ++i) {
+  for (size_t j = first_free; j < nodes_.size(); ++j) {
+    const size_t i = nodes_[j].previous;
+    if (i == kNone) continue;  // A chain's first keyframe.
     const Eigen::Isometry3d motion =
-        nodes_[i].odometry.toIsometry().inverse() * nodes_[i + 1].odometry.toIsometry();
-    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
+        nodes_[i].odometry.toIsometry().inverse() * nodes_[j].odometry.toIsometry();
+    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, j);
     const Eigen::Matrix<double, 6, 6> sqrt_information = sd.cwiseInverse().asDiagonal();
     if (estimate_drift) {
       problem.AddResidualBlock(DriftingOdometryResidual::create(motion, sqrt_information), nullptr,
-                               nodes_[i].position, nodes_[i].orientation, nodes_[i + 1].position,
-                               nodes_[i + 1].orientation, &heading_drift_per_m_);
-      present[i] = present[i + 1] = true;
+                               nodes_[i].position, nodes_[i].orientation, nodes_[j].position,
+                               nodes_[j].orientation, &heading_drift_per_m_);
+      present[i] = present[j] = true;
     } else {
-      add(i, i + 1, RelativePoseResidual::create(motion, sqrt_information), nullptr);
+      add(i, j, RelativePoseResidual::create(motion, sqrt_information), nullptr);
     }
   }
   if (estimate_drift) {
@@ -389,10 +491,18 @@ bool PoseGraph::solve(size_t first_free, OptimisationReport* report) {
     ++active;
   }
   if (active == 0 || nodes_.size() < 2) return false;
+  // A group of chains no loop joins to the held keyframes floats: its first keyframe is held.
+  // Chains come in keyframe order, so every keyframe of such a group is free.
+  std::vector<bool> held(nodes_.size(), false);
+  for (size_t i = 0; i < std::min(first_free, nodes_.size()); ++i) held[i] = true;
+  const std::vector<size_t> group = chainGroups(false);
+  for (size_t c = 0; c < group.size(); ++c) {
+    if (group[c] == c) held[chains_[c].first] = true;
+  }
   for (size_t i = 0; i < nodes_.size(); ++i) {
     if (!present[i]) continue;
     problem.SetManifold(nodes_[i].orientation, &quaternion);
-    if (i < first_free) {
+    if (held[i]) {
       problem.SetParameterBlockConstant(nodes_[i].position);
       problem.SetParameterBlockConstant(nodes_[i].orientation);
     }
@@ -415,8 +525,9 @@ OptimisationReport PoseGraph::optimise() {
   OptimisationReport report;
   const auto start = Clock::now();
   constexpr int kRounds = 3;
-  // The earliest keyframe a loop the estimate has not seen yet touches.
-  size_t first_free = nodes_.size();
+  // The earliest keyframe a loop the estimate has not seen yet touches, or that a loop joining
+  // two chains moved.
+  size_t first_free = placeJoinedChains();
   for (const LoopEdge& edge : loops_) {
     if (!edge.active || edge.optimised) continue;
     first_free = std::min(
@@ -470,18 +581,34 @@ void PoseGraph::replaceUnloopedStart() {
   // are never freed by the incremental solve; held, they keep the drift of the start in their
   // headings, and everything after them turns with it. With the drift estimated, they are placed
   // again from the first keyframe, and the rest moves rigidly with the last of them, which leaves
-  // every residual after it as it was.
-  size_t earliest = nodes_.size();
+  // every residual after it as it was. The first chain's start only: another chain's first
+  // keyframe is placed by its loops.
+  size_t earliest = kNone;
   for (const LoopEdge& edge : loops_) {
     if (!edge.active) continue;
-    earliest = std::min(
-        {earliest, *indexOf(edge.constraint.query_id), *indexOf(edge.constraint.match_id)});
+    for (const uint64_t end : {edge.constraint.query_id, edge.constraint.match_id}) {
+      const size_t index = *indexOf(end);
+      if (nodes_[index].chain == 0) earliest = std::min(earliest, index);
+    }
   }
-  if (earliest < 2 || earliest >= nodes_.size()) return;
-  const Eigen::Isometry3d before = estimate(earliest - 1);
-  for (size_t i = 1; i < earliest; ++i) setEstimate(i, estimate(i - 1) * odometryStep(i - 1));
-  const Eigen::Isometry3d correction = estimate(earliest - 1) * before.inverse();
-  for (size_t i = earliest; i < nodes_.size(); ++i) setEstimate(i, correction * estimate(i));
+  if (earliest == kNone || nodes_[earliest].previous == kNone) return;
+  // The first chain before `earliest`, in order.
+  std::vector<size_t> start;
+  for (size_t i = nodes_[earliest].previous; i != kNone; i = nodes_[i].previous) {
+    start.push_back(i);
+  }
+  std::reverse(start.begin(), start.end());
+  if (start.size() < 2) return;
+  const Eigen::Isometry3d before = estimate(start.back());
+  for (size_t k = 1; k < start.size(); ++k) {
+    setEstimate(start[k], estimate(start[k - 1]) * odometryStep(start[k]));
+  }
+  const Eigen::Isometry3d correction = estimate(start.back()) * before.inverse();
+  // Everything joined to the first chain moves with it; chains still floating stay.
+  const std::vector<size_t> group = chainGroups(false);
+  for (size_t i = earliest; i < nodes_.size(); ++i) {
+    if (group[nodes_[i].chain] == 0) setEstimate(i, correction * estimate(i));
+  }
 }
 
 void PoseGraph::setEstimate(size_t index, const Eigen::Isometry3d& pose) {

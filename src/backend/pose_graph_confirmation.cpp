@@ -2,6 +2,7 @@
 // two loops whose ends lie close along the odometry close a cycle with the odometry between
 // their queries and between their matches; true loops close it, a wrong one seldom does.
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -10,11 +11,13 @@
 namespace landmark_loop_closure {
 
 PoseGraph::OdometryLeg PoseGraph::odometryLeg(size_t from, size_t to) const {
+  // Along the chain (both ends in one chain), walked back from the later end.
   OdometryLeg leg;
-  for (size_t i = std::min(from, to); i < std::max(from, to); ++i) {
+  const size_t first = std::min(from, to);
+  for (size_t i = std::max(from, to); i != first && i != kNone; i = nodes_[i].previous) {
     const Eigen::Isometry3d step = odometryStep(i);
-    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
-    leg.motion = leg.motion * step;
+    const Eigen::Matrix<double, 6, 1> sd = odometrySd(nodes_[i].previous, i);
+    leg.motion = step * leg.motion;
     leg.translation_variance += sd[0] * sd[0];
     leg.rotation_variance += sd[3] * sd[3];
     leg.metres += step.translation().norm();
@@ -28,6 +31,10 @@ double PoseGraph::pairError(const LoopConstraint& a, const LoopConstraint& b) co
   const size_t match_a = *indexOf(a.match_id);
   const size_t query_b = *indexOf(b.query_id);
   const size_t match_b = *indexOf(b.match_id);
+  // The cycle needs the odometry between the two queries and between the two matches.
+  if (chainAt(query_a) != chainAt(query_b) || chainAt(match_a) != chainAt(match_b)) {
+    return std::numeric_limits<double>::infinity();
+  }
   const OdometryLeg queries = odometryLeg(query_a, query_b);
   const OdometryLeg matches = odometryLeg(match_b, match_a);
   // query_a -> match_a -> match_b -> query_b -> query_a is the identity when both loops are true.

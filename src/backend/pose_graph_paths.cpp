@@ -18,13 +18,15 @@ Eigen::Vector2d PoseGraph::pathVariance(size_t from, size_t to,
   };
   const size_t count = nodes_.size();
   std::vector<std::vector<Step>> steps(count);
-  for (size_t i = 0; i + 1 < count; ++i) {
-    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, i + 1);
-    const double metres = (nodes_[i + 1].odometry.position - nodes_[i].odometry.position).norm();
+  for (size_t j = 0; j < count; ++j) {
+    const size_t i = nodes_[j].previous;
+    if (i == kNone) continue;  // A chain's first keyframe.
+    const Eigen::Matrix<double, 6, 1> sd = odometrySd(i, j);
+    const double metres = (nodes_[j].odometry.position - nodes_[i].odometry.position).norm();
     const double translation = sd[0] * sd[0];
     const double rotation = sd[3] * sd[3];
-    steps[i].push_back({i + 1, translation, rotation, metres});
-    steps[i + 1].push_back({i, translation, rotation, metres});
+    steps[i].push_back({j, translation, rotation, metres});
+    steps[j].push_back({i, translation, rotation, metres});
   }
   for (size_t k = 0; k < loops_.size(); ++k) {
     if (!loops_[k].active || !loops_[k].optimised || (excluded && *excluded == k)) continue;

@@ -34,8 +34,10 @@ GraphStep PoseGraphSession::process(const std::vector<Input>& batch) {
   std::vector<GraphLoop> still_waiting;
   for (const GraphLoop& loop : waiting_loops_) {
     const uint64_t query_id = loop.constraint.query_id;
-    if (graph_->hasKeyframe(query_id) || graph_->keyframes() == 0 ||
-        graph_->ids().back() > query_id + kLoopWaitKeyframes) {
+    const auto last_of_map = last_id_of_map_.find(loop.map_id);
+    if (graphId(loop.map_id, query_id) || graph_->keyframes() == 0 ||
+        (last_of_map != last_id_of_map_.end() &&
+         last_of_map->second > query_id + kLoopWaitKeyframes)) {
       new_loops |= addLoop(loop, &step);
     } else {
       still_waiting.push_back(loop);
@@ -72,70 +74,123 @@ bool PoseGraphSession::pathsPublished() {
   return new_graph;
 }
 
+std::optional<uint64_t> PoseGraphSession::graphId(uint64_t map_id, uint64_t id) const {
+  const auto found = graph_ids_.find({map_id, id});
+  if (found == graph_ids_.end()) return std::nullopt;
+  return found->second;
+}
+
+std::optional<Pose> PoseGraphSession::optimisedPose(uint64_t map_id, uint64_t id) const {
+  const std::optional<uint64_t> graph_id = graphId(map_id, id);
+  if (!graph_id) return std::nullopt;
+  return graph_->optimisedPose(*graph_id);
+}
+
+std::optional<size_t> PoseGraphSession::currentChain() const {
+  if (graph_->keyframes() == 0) return std::nullopt;
+  return graph_->chainOf(graph_->ids().back());
+}
+
 bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* step) {
-  // A keyframe the graph would refuse must not replace the graph (nor place the new one).
+  // A keyframe the graph would refuse must not replace the graph (nor start a chain).
   std::string problem = PoseGraph::odometryPoseProblem(keyframe.id, keyframe.odometry);
-  if (problem.empty() && map_id_ && (*map_id_ != keyframe.map_id || session_ != keyframe.session)) {
+  // Time going back is a new timeline (a bag played again), unless the keyframe continues a map
+  // the graph holds in a new session: a detector that loaded its map, replaying a bag on it.
+  const bool continues_a_map = last_id_of_map_.count(keyframe.map_id) > 0 &&
+                               chain_of_run_.count({keyframe.map_id, keyframe.session}) == 0;
+  if (problem.empty() && !stamps_ns_.empty() && keyframe.stamp_ns < stamps_ns_.back() &&
+      !continues_a_map) {
     startOver(keyframe, step);
   }
-  if (problem.empty()) problem = graph_->addKeyframe(keyframe.id, keyframe.odometry);
+  const auto last_of_map = last_id_of_map_.find(keyframe.map_id);
+  if (problem.empty() && last_of_map != last_id_of_map_.end() &&
+      keyframe.id <= last_of_map->second) {
+    problem = "keyframe id " + std::to_string(keyframe.id) + " of map " +
+              std::to_string(keyframe.map_id) + " is not after the last one (" +
+              std::to_string(last_of_map->second) + ")";
+  }
+  const Run run{keyframe.map_id, keyframe.session};
+  const uint64_t graph_id = keys_.size();
+  const auto chain = chain_of_run_.find(run);
+  const char* placed = "";
+  if (problem.empty()) {
+    if (chain != chain_of_run_.end()) {
+      problem = graph_->addToChain(chain->second, graph_id, keyframe.odometry);
+    } else {
+      problem =
+          graph_->startChain(graph_id, keyframe.odometry, newChainPlacement(keyframe, &placed));
+    }
+  }
   if (!problem.empty()) {
     step->notices.push_back({GraphNotice::Kind::kKeyframeDropped, "keyframe dropped: " + problem});
     return false;
   }
-  map_id_ = keyframe.map_id;
-  session_ = keyframe.session;
+  if (chain == chain_of_run_.end()) {
+    chain_of_run_[run] = graph_->chains() - 1;
+    if (graph_->chains() > 1) {
+      char text[400];
+      std::snprintf(text, sizeof(text),
+                    "keyframe %llu starts chain %zu (map %llu, session %u: another odometry "
+                    "frame), %s; it floats until loops join it to the others",
+                    static_cast<unsigned long long>(keyframe.id), graph_->chains() - 1,
+                    static_cast<unsigned long long>(keyframe.map_id), keyframe.session, placed);
+      step->notices.push_back({GraphNotice::Kind::kNewChain, text});
+      paths_stale_ = true;
+    }
+  }
+  graph_ids_[{keyframe.map_id, keyframe.id}] = graph_id;
+  keys_.emplace_back(keyframe.map_id, keyframe.id);
+  last_id_of_map_[keyframe.map_id] = keyframe.id;
+  current_run_ = run;
   odometry_frame_ = keyframe.odometry_frame;
   stamps_ns_.push_back(keyframe.stamp_ns);
   return true;
 }
 
-// The detector went on in another map (it was reset, loaded one, or restarted) or session (its
-// odometry was re-initialised): a new graph. While time goes on in another map the odometry frame
-// is the same, so the new graph starts from the old one's correction (map -> odom does not jump);
-// a new session's odometry frame is another, so the new graph starts where the old one last saw
-// the robot; after time went back (a bag played again) the odometry starts afresh, and so does
-// the correction.
+// While time goes on in another map the odometry frame may be the same (the detector was reset
+// or loaded a map), so the new chain starts from the current correction (map -> odom does not
+// jump); a new session's odometry frame is another, so the chain starts where the graph last saw
+// the robot.
+Eigen::Isometry3d PoseGraphSession::newChainPlacement(const GraphKeyframe& keyframe,
+                                                      const char** how) const {
+  if (graph_->keyframes() == 0) {
+    *how = "at its odometry pose";
+    return Eigen::Isometry3d::Identity();
+  }
+  if (current_run_ && current_run_->first != keyframe.map_id) {
+    *how = "map -> odom where the graph left it";
+    return graph_->mapFromOdometry();
+  }
+  *how = "placed where the graph last saw the robot";
+  return graph_->optimisedPose(graph_->ids().back())->toIsometry() *
+         keyframe.odometry.toIsometry().inverse();
+}
+
+// Time went back (a bag played again, the detector on a map of its own): another timeline, whose
+// odometry starts afresh; the graph of the one before is dropped and the correction starts from
+// identity.
 void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step) {
-  const bool time_went_back = !stamps_ns_.empty() && keyframe.stamp_ns < stamps_ns_.back();
-  const bool new_map = *map_id_ != keyframe.map_id;
-  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
-  const char* start = "map -> odom from identity (time went back: a new timeline)";
-  if (!time_went_back && new_map) {
-    correction = graph_->mapFromOdometry();
-    start = "map -> odom where the old graph left it";
-  } else if (!time_went_back) {
-    correction = graph_->optimisedPose(graph_->ids().back())->toIsometry() *
-                 keyframe.odometry.toIsometry().inverse();
-    start = "placed where the old graph last saw the robot";
-  }
-  char cause[160];
-  if (new_map) {
-    std::snprintf(cause, sizeof(cause),
-                  "is of map %llu, not %llu (the detector was reset, loaded a map or restarted)",
-                  static_cast<unsigned long long>(keyframe.map_id),
-                  static_cast<unsigned long long>(*map_id_));
-  } else {
-    std::snprintf(cause, sizeof(cause),
-                  "starts session %u after %u (the odometry was re-initialised: another odometry "
-                  "frame)",
-                  keyframe.session, session_);
-  }
-  char text[480];
+  char text[400];
   std::snprintf(text, sizeof(text),
-                "keyframe %llu %s: a new graph starts with it, %s; the old graph's %zu keyframes "
-                "and %zu loops are dropped",
-                static_cast<unsigned long long>(keyframe.id), cause, start, graph_->keyframes(),
-                graph_->loopVerdicts().size());
-  // Throttled when the old graph had a single keyframe: two detectors on one topic would start a
-  // graph at every keyframe.
+                "keyframe %llu (map %llu) is stamped before the last one: time went back (a bag "
+                "played again?), a new graph starts with it, map -> odom from identity; the old "
+                "graph's %zu keyframes, %zu chains and %zu loops are dropped",
+                static_cast<unsigned long long>(keyframe.id),
+                static_cast<unsigned long long>(keyframe.map_id), graph_->keyframes(),
+                graph_->chains(), graph_->loopVerdicts().size());
+  // Throttled when the old graph had a single keyframe: two detectors on one topic with their
+  // own clocks would start a graph at every keyframe.
   step->notices.push_back({GraphNotice::Kind::kNewGraph, text, graph_->keyframes() <= 1});
   for (const LoopVerdict& verdict : graph_->loopVerdicts()) {
     ++earlier_decisions_[toString(verdict.decision)];
   }
   ++graphs_dropped_;
-  graph_ = std::make_unique<PoseGraph>(options_.graph, correction);
-  map_id_.reset();
+  graph_ = std::make_unique<PoseGraph>(options_.graph);
+  chain_of_run_.clear();
+  graph_ids_.clear();
+  keys_.clear();
+  last_id_of_map_.clear();
+  current_run_.reset();
   stamps_ns_.clear();
   graph_loops_.clear();
   paths_stale_ = true;
@@ -147,14 +202,13 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
     left_out = "no relative pose (verified by appearance, or the pose was ambiguous)";
   } else if (!loop.relative_pose_metric) {
     left_out = "scale-free relative pose (a metric graph takes metric loops only)";
-  } else if (loop.query_session != loop.match_session) {
-    left_out =
-        "it joins another session (an earlier run, or the odometry before it was "
-        "re-initialised), whose odometry frame is not this one";
-  } else if (map_id_ && loop.map_id != *map_id_) {
-    left_out = "another map than the keyframes'";
-  } else if (map_id_ && loop.query_session != session_) {
-    left_out = "another session than the keyframes'";
+  }
+  const std::optional<uint64_t> query = graphId(loop.map_id, loop.constraint.query_id);
+  const std::optional<uint64_t> match = graphId(loop.map_id, loop.constraint.match_id);
+  if (!left_out && query && !match && loop.match_session != loop.query_session) {
+    // A map loaded from a file: its keyframes were published by an earlier run, not to this
+    // graph.
+    left_out = "its match is a keyframe of an earlier run this graph never received";
   }
   std::optional<Eigen::Isometry3d> mount;
   std::string mount_problem;
@@ -181,6 +235,19 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   }
   LoopConstraint constraint = loop.constraint;
   if (mount) constraint = loopInBaseFrame(constraint, *mount);
+  if (!query || !match) {
+    const std::string detail =
+        "keyframe " + std::to_string(query ? loop.constraint.match_id : loop.constraint.query_id) +
+        " of map " + std::to_string(loop.map_id) + " is not in the graph";
+    const std::string decision = toString(LoopDecision::kUnknownKeyframe);
+    step->verdicts.push_back({loop, decision, 0.0, detail});
+    step->notices.push_back(
+        {GraphNotice::Kind::kLoopBadInput,
+         loopName(loop) + " dropped as bad input (" + decision + "): " + detail});
+    return false;
+  }
+  constraint.query_id = *query;
+  constraint.match_id = *match;
   graph_loops_.push_back(loop);
   const LoopVerdict verdict = graph_->addLoop(constraint);
   step->verdicts.push_back({loop, toString(verdict.decision), verdict.error_sd, verdict.detail});
@@ -227,14 +294,15 @@ std::string PoseGraphSession::summary() const {
   }
   char earlier[96] = "";
   if (graphs_dropped_ > 0) {
-    std::snprintf(earlier, sizeof(earlier),
-                  " (%zu earlier graph(s) of other maps or sessions dropped)", graphs_dropped_);
+    std::snprintf(earlier, sizeof(earlier), " (%zu earlier graph(s) dropped: time went back)",
+                  graphs_dropped_);
   }
-  char line[320];
+  char line[400];
   std::snprintf(line, sizeof(line),
-                "Pose graph: %zu keyframes%s; %zu optimisations, median %.1f ms; odometry "
-                "heading drift %s; loops:",
-                graph_->keyframes(), earlier, times.size(), median, drift);
+                "Pose graph: %zu keyframes in %zu chain(s), %zu joined by loops to the first%s; "
+                "%zu optimisations, median %.1f ms; odometry heading drift %s; loops:",
+                graph_->keyframes(), graph_->chains(), graph_->chainsJoinedToFirst(), earlier,
+                times.size(), median, drift);
   return line + loops;
 }
 

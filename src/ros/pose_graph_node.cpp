@@ -176,6 +176,9 @@ class PoseGraphNode {
           ROS_WARN("Pose graph: %s", text);
         }
         break;
+      case GraphNotice::Kind::kNewChain:
+        ROS_INFO_THROTTLE(10.0, "Pose graph: %s", text);
+        break;
       case GraphNotice::Kind::kLoopBadInput:
         ROS_WARN_THROTTLE(10.0, "Pose graph: %s", text);
         break;
@@ -268,12 +271,16 @@ class PoseGraphNode {
     corrected.header.frame_id = options_.map_frame;
     odometry.header.frame_id = odometry_frame;
     corrected.header.stamp = odometry.header.stamp = stamp;
+    // Every chain's keyframes are in the map frame; the odometry path is the current chain's,
+    // the only one in odometry_frame.
     const std::vector<uint64_t>& ids = graph.ids();
+    const std::optional<size_t> current_chain = session.currentChain();
     for (size_t i = 0; i < ids.size(); ++i) {
       ros::Time keyframe_stamp;
       keyframe_stamp.fromNSec(session.stampsNs()[i]);
       corrected.poses.push_back(
           stampedPose(*graph.optimisedPose(ids[i]), options_.map_frame, keyframe_stamp));
+      if (graph.chainOf(ids[i]) != current_chain) continue;
       odometry.poses.push_back(
           stampedPose(*graph.odometryPose(ids[i]), odometry_frame, keyframe_stamp));
     }
@@ -313,10 +320,11 @@ class PoseGraphNode {
           verdicts[k].decision == LoopDecision::kAwaitingConfirmation) {
         continue;
       }
+      const GraphLoop& loop = session.graphLoops()[k];
       const std::optional<Pose> query =
-          graph.optimisedPose(session.graphLoops()[k].constraint.query_id);
+          session.optimisedPose(loop.map_id, loop.constraint.query_id);
       const std::optional<Pose> match =
-          graph.optimisedPose(session.graphLoops()[k].constraint.match_id);
+          session.optimisedPose(loop.map_id, loop.constraint.match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;

@@ -1,5 +1,6 @@
 // The pose_graph node's bookkeeping (PoseGraphSession) and its thread (PoseGraphRuntime), without
-// ROS: what enters the graph, what waits, what is left out and why, and a new graph per map.
+// ROS: what enters the graph, what waits, what is left out and why, and a chain per map and
+// session.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -113,25 +114,25 @@ TEST(PoseGraphSession, LoopsTheMetricGraphCannotTakeAreLeftOutWithTheirReason) {
   appearance_only.has_relative_pose = false;
   GraphLoop scale_free = loopBetween(16, 2);
   scale_free.relative_pose_metric = false;
+  // Its match is a keyframe of a loaded map: published by the run that stored it, not to this
+  // graph.
   GraphLoop earlier_run = loopBetween(17, 2);
-  earlier_run.match_session = 1;
-  earlier_run.query_session = 2;
-  GraphLoop other_map = loopBetween(18, 2);
-  other_map.map_id = kMap + 1;
+  earlier_run.constraint.match_id = 500;
+  earlier_run.match_session = 0;
+  earlier_run.query_session = 1;
   GraphLoop unknown_frame = loopBetween(19, 2);
   unknown_frame.relative_pose_frame = "rear_camera";
-  const GraphStep step =
-      session.process({appearance_only, scale_free, earlier_run, other_map, unknown_frame});
-  ASSERT_EQ(step.verdicts.size(), 5u);
+  const GraphStep step = session.process({appearance_only, scale_free, earlier_run, unknown_frame});
+  ASSERT_EQ(step.verdicts.size(), 4u);
   for (const GraphLoopVerdict& verdict : step.verdicts) {
     EXPECT_EQ(verdict.decision, "left_out") << verdict.loop.constraint.query_id;
     EXPECT_EQ(verdict.error_sd, 0.0);
   }
   EXPECT_NE(step.verdicts[0].detail.find("no relative pose"), std::string::npos);
   EXPECT_NE(step.verdicts[1].detail.find("scale-free"), std::string::npos);
-  EXPECT_NE(step.verdicts[2].detail.find("another session (an earlier run"), std::string::npos);
-  EXPECT_NE(step.verdicts[3].detail.find("another map"), std::string::npos);
-  EXPECT_EQ(step.verdicts[4].detail, "no tf base_link -> 'rear_camera'");  // The lookup's words.
+  EXPECT_EQ(step.verdicts[2].detail,
+            "its match is a keyframe of an earlier run this graph never received");
+  EXPECT_EQ(step.verdicts[3].detail, "no tf base_link -> 'rear_camera'");  // The lookup's words.
   EXPECT_FALSE(step.changed);
   EXPECT_EQ(session.graph().loops(), 0u);
   const std::string summary = session.summary();
@@ -242,83 +243,135 @@ TEST(PoseGraphSession, LoopsForKeyframesThatNeverComeDoNotPileUp) {
     EXPECT_EQ(verdict.decision, "unknown_keyframe");
   }
   EXPECT_EQ(step.verdicts.front().loop.constraint.query_id, 1000u);
-  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput, "keyframe 1000 is not in"));
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput, "keyframe 1000 of map 7 is not in the graph"));
 }
 
-TEST(PoseGraphSession, AKeyframeOfAnotherMapStartsANewGraph) {
+// Issue 68: nothing is dropped at a new map. The detector was reset (a new map, its ids from 0
+// again, time going on): a chain of its own, starting from the correction the robot had.
+TEST(PoseGraphSession, AKeyframeOfAnotherMapStartsAChainOfItsOwn) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
   ASSERT_TRUE(correctTwelveKeyframes(&session));
   const Eigen::Isometry3d correction = session.graph().mapFromOdometry();
   EXPECT_GT(correction.translation().norm(), 0.1);
-  EXPECT_FALSE(session.pathsPublished());  // The first graph: nothing to clear.
+  EXPECT_FALSE(session.pathsPublished());  // The first chain: nothing to clear.
   EXPECT_FALSE(session.pathsBehind());
+  const Pose before = *session.optimisedPose(kMap, 11);
 
-  // The detector was reset: a new map, time going on.
-  const GraphStep reset = session.process({keyframeAt(0, kMap + 1, 20 * kSecond)});
-  EXPECT_TRUE(hasNotice(reset, GraphNotice::Kind::kNewGraph,
-                        "map -> odom where the old graph left it; the old graph's 12 keyframes "
-                        "and 1 loops are dropped"));
-  EXPECT_FALSE(reset.notices[0].throttle);
-  EXPECT_TRUE(reset.publish_paths);  // The old graph's paths are replaced at once...
-  EXPECT_EQ(session.graph().keyframes(), 1u);
+  GraphKeyframe other_map_first = keyframeAt(0, kMap + 1, 20 * kSecond);
+  other_map_first.odometry.position.x() = 12.0;
+  const GraphStep reset = session.process({other_map_first});
+  EXPECT_FALSE(hasNotice(reset, GraphNotice::Kind::kNewGraph, ""));
+  EXPECT_TRUE(hasNotice(reset, GraphNotice::Kind::kNewChain,
+                        "keyframe 0 starts chain 1 (map 8, session 0: another odometry frame), "
+                        "map -> odom where the graph left it"));
+  EXPECT_TRUE(reset.publish_paths);
+  EXPECT_EQ(session.graph().keyframes(), 13u);
+  EXPECT_EQ(session.graph().chains(), 2u);
   EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(correction));  // map -> odom holds.
-  EXPECT_TRUE(session.pathsPublished());  // ...and its refusals cleared, once.
-  EXPECT_FALSE(session.pathsPublished());
-
-  // The bag played again: time went back, the odometry starts afresh.
-  const GraphStep replay = session.process({keyframeAt(0, kMap, 1 * kSecond)});
-  EXPECT_TRUE(hasNotice(replay, GraphNotice::Kind::kNewGraph, "from identity (time went back"));
-  EXPECT_TRUE(replay.notices[0].throttle);  // The graph it replaced held one keyframe.
-  EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(Eigen::Isometry3d::Identity()));
+  // Both maps' keyframe 0 are in the graph, each under its own map.
+  ASSERT_TRUE(session.optimisedPose(kMap, 0));
+  ASSERT_TRUE(session.optimisedPose(kMap + 1, 0));
+  EXPECT_TRUE(session.optimisedPose(kMap, 11)->position.isApprox(before.position, 1e-9));
+  EXPECT_EQ(session.keyOf(*session.graphId(kMap + 1, 0)), std::make_pair(kMap + 1, uint64_t{0}));
+  EXPECT_EQ(*session.currentChain(), 1u);
   const std::string summary = session.summary();
-  EXPECT_NE(summary.find("1 keyframes (2 earlier graph(s) of other maps or sessions dropped)"),
+  EXPECT_NE(summary.find("13 keyframes in 2 chain(s), 1 joined by loops to the first;"),
             std::string::npos)
       << summary;
   EXPECT_NE(summary.find("accepted 1"), std::string::npos) << summary;
 }
 
-TEST(PoseGraphSession, ANewSessionOfTheMapStartsAGraphWhereTheRobotWasLastSeen) {
+TEST(PoseGraphSession, TimeGoingBackStartsANewGraph) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
   ASSERT_TRUE(correctTwelveKeyframes(&session));
-  const Eigen::Vector3d last_seen = session.graph().optimisedPose(11)->position;
-
-  // The odometry was re-initialised at its origin, 1 m on: keyframe 12 is at (0, 0, 0) in a new
-  // odometry frame. An odometry edge from keyframe 11 would say the robot went 11 m back.
-  GraphKeyframe restarted = keyframeAt(12);
-  restarted.session = 1;
-  restarted.odometry.position.setZero();
-  const GraphStep step = session.process({restarted});
-  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kNewGraph,
-                        "keyframe 12 starts session 1 after 0 (the odometry was re-initialised"));
-  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kNewGraph,
-                        "placed where the old graph last saw the robot"));
+  // The bag played again: time went back, the odometry starts afresh.
+  const GraphStep replay = session.process({keyframeAt(0, kMap, 1 * kSecond / 2)});
+  EXPECT_TRUE(hasNotice(replay, GraphNotice::Kind::kNewGraph,
+                        "time went back (a bag played again?), a new graph starts with it, "
+                        "map -> odom from identity; the old graph's 12 keyframes, 1 chains and 1 "
+                        "loops are dropped"));
+  EXPECT_FALSE(replay.notices[0].throttle);
+  EXPECT_TRUE(session.pathsPublished());  // The old graph's refusals are cleared, once.
+  EXPECT_FALSE(session.pathsPublished());
   EXPECT_EQ(session.graph().keyframes(), 1u);
-  EXPECT_TRUE(session.graph().optimisedPose(12)->position.isApprox(last_seen, 1e-9));
-  EXPECT_TRUE(session.graph().mapFromOdometry().translation().isApprox(last_seen, 1e-9));
+  EXPECT_TRUE(session.graph().mapFromOdometry().isApprox(Eigen::Isometry3d::Identity()));
+  // Two detectors with their own clocks on one topic: throttled once the graph holds one.
+  const GraphStep again = session.process({keyframeAt(0, kMap + 1, 1 * kSecond / 4)});
+  EXPECT_TRUE(again.notices[0].throttle);
+  const std::string summary = session.summary();
+  EXPECT_NE(summary.find("1 keyframes in 1 chain(s), 1 joined by loops to the first (2 earlier "
+                         "graph(s) dropped: time went back)"),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("accepted 1"), std::string::npos) << summary;
 
-  // The new frame goes on from there; a loop into the earlier session cannot join two frames.
-  GraphKeyframe next = keyframeAt(13);
-  next.session = 1;
-  next.odometry.position = Eigen::Vector3d(1.0, 0.0, 0.0);
-  GraphLoop into_earlier = loopBetween(13, 2);
-  into_earlier.query_session = 1;
-  const GraphStep later = session.process({next, into_earlier});
-  ASSERT_EQ(later.verdicts.size(), 1u);
-  EXPECT_EQ(later.verdicts[0].decision, "left_out");
-  EXPECT_NE(later.verdicts[0].detail.find("another session"), std::string::npos);
-  EXPECT_TRUE(session.graph().optimisedPose(13)->position.isApprox(
-      last_seen + Eigen::Vector3d(1.0, 0.0, 0.0), 1e-9));
-  // A loop of the old session that comes late is not this graph's either (once it has waited
-  // for its keyframe as any loop does).
-  std::vector<PoseGraphSession::Input> late_inputs{loopBetween(11, 3)};
-  for (uint64_t id = 14; id < 24; ++id) {
+  // A detector that loaded its map replays the bag on it: a new session of a map the graph holds
+  // is a chain of it, whatever the stamps say.
+  PoseGraphSession mapped(eachLoopOnItsOwn(), cameraOnly);
+  mapped.process(keyframes(0, 12));
+  GraphKeyframe second_run = keyframeAt(12, kMap, 1 * kSecond);
+  second_run.session = 1;
+  const GraphStep continued = mapped.process({second_run});
+  EXPECT_FALSE(hasNotice(continued, GraphNotice::Kind::kNewGraph, ""));
+  EXPECT_TRUE(hasNotice(continued, GraphNotice::Kind::kNewChain, "keyframe 12 starts chain 1"));
+  EXPECT_EQ(mapped.graph().keyframes(), 13u);
+}
+
+// Issue 68: the odometry re-initialised (tracking lost): the new session floats where the robot
+// was last seen until loops into the earlier session join it, then lies where they put it.
+TEST(PoseGraphSession, ANewSessionFloatsWhereTheRobotWasLastSeenUntilLoopsJoinIt) {
+  PoseGraphSession session(PoseGraphNodeOptions{}, cameraOnly);  // Loops confirmed in pairs.
+  session.process(keyframes(0, 20));
+  const Eigen::Vector3d last_seen = session.graph().optimisedPose(19)->position;
+  // The odometry re-initialised at its origin while the robot drove back to x = 0: keyframe 20
+  // is at (0, 0, 0) truly and in its new odometry frame, turned 90 degrees.
+  const Eigen::Isometry3d new_frame(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  std::vector<PoseGraphSession::Input> second_run;
+  for (uint64_t id = 20; id < 30; ++id) {
     GraphKeyframe keyframe = keyframeAt(id);
     keyframe.session = 1;
-    late_inputs.emplace_back(keyframe);
+    keyframe.odometry = Pose::fromIsometry(
+        new_frame * Eigen::Isometry3d(Eigen::Translation3d(static_cast<double>(id - 20), 0, 0)));
+    second_run.emplace_back(keyframe);
   }
-  const GraphStep late = session.process(late_inputs);
-  ASSERT_EQ(late.verdicts.size(), 1u);
-  EXPECT_EQ(late.verdicts[0].detail, "another session than the keyframes'");
+  const GraphStep started = session.process(second_run);
+  EXPECT_TRUE(hasNotice(started, GraphNotice::Kind::kNewChain,
+                        "keyframe 20 starts chain 1 (map 7, session 1: another odometry frame), "
+                        "placed where the graph last saw the robot"));
+  EXPECT_TRUE(session.optimisedPose(kMap, 20)->position.isApprox(last_seen, 1e-9));
+  EXPECT_EQ(session.graph().chainsJoinedToFirst(), 1u);
+
+  // Keyframe 20 + k is where keyframe k was: loops at the same place, pose identity.
+  const auto samePlace = [](uint64_t query, uint64_t match) {
+    GraphLoop loop = loopBetween(query, match);
+    loop.query_session = 1;
+    loop.constraint.query_T_match.setIdentity();
+    return loop;
+  };
+  const GraphStep first = session.process({samePlace(24, 4)});
+  ASSERT_EQ(first.verdicts.size(), 1u);
+  EXPECT_EQ(first.verdicts[0].decision, "awaiting_confirmation");
+  EXPECT_NE(first.verdicts[0].detail.find("joins chain 1 to chain 0"), std::string::npos)
+      << first.verdicts[0].detail;
+  const GraphStep second = session.process({samePlace(26, 6)});
+  ASSERT_EQ(second.verdicts.size(), 2u);
+  EXPECT_EQ(second.verdicts[0].decision, "accepted");
+  EXPECT_EQ(second.verdicts[1].decision, "accepted");  // The first, confirmed.
+  EXPECT_TRUE(second.publish_paths);
+  EXPECT_EQ(session.graph().chainsJoinedToFirst(), 2u);
+  for (uint64_t id = 20; id < 30; ++id) {
+    EXPECT_LT((session.optimisedPose(kMap, id)->position -
+               Eigen::Vector3d(static_cast<double>(id - 20), 0.0, 0.0))
+                  .norm(),
+              0.02)
+        << id;
+  }
+  // The robot's map -> odom takes the new odometry frame onto the first.
+  const Eigen::Isometry3d correction = session.graph().mapFromOdometry();
+  EXPECT_TRUE((correction * new_frame).isApprox(Eigen::Isometry3d::Identity(), 1e-3));
+  EXPECT_NE(session.summary().find("30 keyframes in 2 chain(s), 2 joined by loops to the first"),
+            std::string::npos)
+      << session.summary();
 }
 
 TEST(PoseGraphSession, ABadKeyframeOfAnotherSessionOrMapDoesNotReplaceTheGraph) {

@@ -16,9 +16,10 @@
 namespace landmark_loop_closure {
 
 /// The reference pose-graph backend: keyframe poses from odometry, odometry edges between
-/// consecutive keyframes, loop edges from the detector's metric relative poses. Optimised with
-/// Ceres (6 DoF, the first keyframe held fixed); wrong loops are screened before they enter and
-/// switched off when the optimised graph disagrees with them.
+/// consecutive keyframes of one chain (a run's odometry frame), loop edges from the detector's
+/// metric relative poses, within a chain or joining two. Optimised with Ceres (6 DoF, the first
+/// keyframe held fixed, and the first of each chain no loop joins to it yet); wrong loops are
+/// screened before they enter and switched off when the optimised graph disagrees with them.
 struct PoseGraphOptions {
   /// Odometry edge uncertainty (one standard deviation): a floor plus a share of the motion.
   double odometry_translation_sd_m = 0.01;
@@ -107,9 +108,19 @@ class PoseGraph {
   PoseGraph(const PoseGraph&) = delete;
   PoseGraph& operator=(const PoseGraph&) = delete;
 
-  /// Adds a keyframe at its odometry pose; ids must increase. Its estimate starts at the last
-  /// keyframe's estimate moved by the odometry between them. Returns why it was refused, or "".
+  /// Adds a keyframe at its odometry pose to the last chain; ids must increase. Its estimate
+  /// starts at the last keyframe's estimate moved by the odometry between them. Returns why it
+  /// was refused, or "".
   std::string addKeyframe(uint64_t id, const Pose& odometry_pose);
+  /// Starts another chain with this keyframe: an odometry frame no odometry edge joins to the
+  /// others (another run, the odometry re-initialised). It floats, its first keyframe held at
+  /// `map_from_odometry` times its odometry pose, until an accepted loop joins it to the rest:
+  /// the optimisation then moves it whole onto that loop first. Returns why it was refused, or "".
+  std::string startChain(uint64_t id, const Pose& odometry_pose,
+                         const Eigen::Isometry3d& map_from_odometry);
+  /// Adds a keyframe to chain `chain` (chains are numbered as they start, the first 0): chains
+  /// may interleave (robots sharing one graph). Returns why it was refused, or "".
+  std::string addToChain(size_t chain, uint64_t id, const Pose& odometry_pose);
   /// Why addKeyframe would refuse this odometry pose whatever the graph holds, or "".
   static std::string odometryPoseProblem(uint64_t id, const Pose& odometry_pose);
 
@@ -124,6 +135,11 @@ class PoseGraph {
   OptimisationReport optimise();
 
   size_t keyframes() const { return ids_.size(); }
+  size_t chains() const { return chains_.size(); }
+  /// The chain of keyframe `id` (0 for the first), nullopt when it is not in the graph.
+  std::optional<size_t> chainOf(uint64_t id) const;
+  /// Chains the accepted loops join to the first one (the first counted).
+  size_t chainsJoinedToFirst() const;
   bool hasKeyframe(uint64_t id) const { return indexOf(id).has_value(); }
   size_t loops() const { return loops_.size(); }
   size_t activeLoops() const;
@@ -132,8 +148,8 @@ class PoseGraph {
   const std::vector<uint64_t>& ids() const { return ids_; }
   std::optional<Pose> odometryPose(uint64_t id) const;
   std::optional<Pose> optimisedPose(uint64_t id) const;
-  /// map_T_odom: the correction that takes the odometry frame onto the optimised one at the
-  /// newest keyframe (the one it was built with before any keyframe).
+  /// map_T_odom: the correction that takes the newest keyframe's odometry frame onto the
+  /// optimised one at that keyframe (the one it was built with before any keyframe).
   Eigen::Isometry3d mapFromOdometry() const;
   /// The odometry's heading drift the graph has estimated (rad per metre; 0 when not estimated).
   double headingDriftPerMetre() const { return heading_drift_per_m_; }
@@ -141,7 +157,9 @@ class PoseGraph {
  private:
   struct Node {
     Pose odometry;
-    double metres_travelled = 0.0;  ///< Along the odometry from the first keyframe.
+    size_t chain = 0;
+    size_t previous = kNone;        ///< Its chain's keyframe before it (an odometry edge).
+    double metres_travelled = 0.0;  ///< Along the odometry from its chain's first keyframe.
     double position[3];
     double orientation[4];  ///< x, y, z, w (Eigen's storage order).
   };
@@ -155,14 +173,30 @@ class PoseGraph {
     int agreements = 0;  ///< Other loops nearby that agree with it.
   };
 
+  static constexpr size_t kNone = static_cast<size_t>(-1);
+  struct Chain {
+    size_t first = 0;  ///< Node indices.
+    size_t last = 0;
+  };
+  /// To `chain`, or to a new chain placed at `new_chain_from_odometry` when it is kNone.
+  std::string addNode(uint64_t id, const Pose& odometry_pose, size_t chain,
+                      const Eigen::Isometry3d& new_chain_from_odometry);
   std::optional<size_t> indexOf(uint64_t id) const;
+  size_t chainAt(size_t index) const { return nodes_[index].chain; }
+  /// For each chain, the first chain of the group the loops `use` (active ones, and optimised ones
+  /// when `optimised_only`) join it to.
+  std::vector<size_t> chainGroups(bool optimised_only) const;
+  /// Moves the groups a loop new to the estimate joins onto that loop (the later group onto the
+  /// one of the first chain, or of the earlier chain); returns the first keyframe moved, or
+  /// nodes_.size().
+  size_t placeJoinedChains();
   Eigen::Isometry3d estimate(size_t index) const;
   void setEstimate(size_t index, const Eigen::Isometry3d& pose);
   /// With the drift estimated: the keyframes no loop reaches are placed again (see there).
   void replaceUnloopedStart();
   Eigen::Matrix<double, 6, 1> odometrySd(size_t from, size_t to) const;
-  /// The odometry's motion from keyframe `index` to the next, its estimated heading drift taken
-  /// out.
+  /// The odometry's motion to keyframe `index` from the one before it in its chain, its
+  /// estimated heading drift taken out.
   Eigen::Isometry3d odometryStep(size_t index) const;
   /// Variance per axis (translation m^2, rotation rad^2) of the relative pose between two
   /// keyframes along the graph's most certain path: odometry edges and active, optimised loops,
@@ -199,6 +233,7 @@ class PoseGraph {
   Eigen::Isometry3d initial_map_from_odometry_;
   std::vector<uint64_t> ids_;
   std::vector<Node> nodes_;
+  std::vector<Chain> chains_;
   std::vector<LoopEdge> loops_;
   std::vector<LoopVerdict> verdicts_;
   double heading_drift_per_m_ = 0.0;  ///< A Ceres parameter block of one.

@@ -1,8 +1,10 @@
 // The pose_graph node's bookkeeping without ROS or threads: keyframes and loops, in the order they
 // come, into the reference PoseGraph. A loop waits for its query keyframe (the detector may
-// publish it first); a keyframe of another map or session starts a new graph (no odometry edge
-// joins two odometry frames); a loop the metric graph cannot take is left out with its reason.
-// The node converts messages and publishes what it is told.
+// publish it first). Each (map, session) is a chain of its own (no odometry edge joins two
+// odometry frames): a new chain floats, placed where the robot was last seen, until loops join it
+// to the others; nothing is dropped at a new session or map, only when time goes back (a bag
+// played again: another timeline). A loop the metric graph cannot take is left out with its
+// reason. The node converts messages and publishes what it is told.
 #pragma once
 
 #include <cstdint>
@@ -11,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -59,7 +62,9 @@ struct GraphLoopVerdict {
 struct GraphNotice {
   enum class Kind {
     kKeyframeDropped,  ///< Bad input: a warning, throttled.
-    kNewGraph,         ///< A warning; `throttle` when the old graph held a single keyframe.
+    kNewGraph,         ///< A warning (time went back); `throttle` when the old graph held one
+                       ///< keyframe.
+    kNewChain,         ///< Info: another map or session started a chain of its own.
     kLoopBadInput,     ///< A warning, throttled.
     kLoopRefused,      ///< A warning.
     kLoopSwitchedOff,  ///< A warning.
@@ -80,7 +85,8 @@ struct GraphStep {
   std::vector<GraphLoopVerdict> verdicts;  ///< In the order they were made.
   std::vector<GraphNotice> notices;
   bool changed = false;        ///< A keyframe or a loop entered: map -> odom may have moved.
-  bool publish_paths = false;  ///< After an optimisation, a new graph, or every 10 keyframes.
+  bool publish_paths = false;  ///< After an optimisation, a new graph or chain, every 10
+                               ///< keyframes.
 };
 
 class PoseGraphSession {
@@ -100,20 +106,35 @@ class PoseGraphSession {
   /// The graph holds keyframes the paths last published do not show.
   bool pathsBehind() const { return graph_->keyframes() != keyframes_in_paths_; }
 
+  /// The graph numbers keyframes in the order they came (keyframes of several maps may share an
+  /// id): graphId() and keyOf() translate.
   const PoseGraph& graph() const { return *graph_; }
+  std::optional<uint64_t> graphId(uint64_t map_id, uint64_t id) const;
+  /// (map_id, id) of a graph keyframe id.
+  std::pair<uint64_t, uint64_t> keyOf(uint64_t graph_id) const { return keys_.at(graph_id); }
+  /// The optimised pose of the detector's keyframe (map_id, id), nullopt when not in the graph.
+  std::optional<Pose> optimisedPose(uint64_t map_id, uint64_t id) const;
+  /// The chain of the newest keyframe: the one the robot is on now (its odometry frame).
+  std::optional<size_t> currentChain() const;
   /// Each keyframe's stamp, in the graph's keyframe order.
   const std::vector<uint64_t>& stampsNs() const { return stamps_ns_; }
-  /// The loops given to the graph, in its loop order (PoseGraph::loopVerdicts' indices).
+  /// The loops given to the graph, in its loop order (PoseGraph::loopVerdicts' indices), with the
+  /// detector's ids.
   const std::vector<GraphLoop>& graphLoops() const { return graph_loops_; }
-  /// The odometry frame of the keyframes; empty before the first.
+  /// The odometry frame of the newest keyframe; empty before the first.
   const std::string& odometryFrame() const { return odometry_frame_; }
   /// One line: keyframes, optimisations and their median time, the heading drift, every
   /// decision and every reason for leaving a loop out, earlier maps' graphs included.
   std::string summary() const;
 
+  /// A (map, session): one odometry frame, one chain.
+  using Run = std::pair<uint64_t, uint32_t>;
+
  private:
   bool addKeyframe(const GraphKeyframe& keyframe, GraphStep* step);
   void startOver(const GraphKeyframe& keyframe, GraphStep* step);
+  /// Where a new chain's first keyframe is put: map -> odom of the robot as last seen.
+  Eigen::Isometry3d newChainPlacement(const GraphKeyframe& keyframe, const char** how) const;
   bool addLoop(const GraphLoop& loop, GraphStep* step);
 
   static constexpr uint64_t kLoopWaitKeyframes = 10;
@@ -123,8 +144,11 @@ class PoseGraphSession {
   MountLookup mount_;
   std::unique_ptr<PoseGraph> graph_;
   std::vector<GraphLoop> waiting_loops_;
-  std::optional<uint64_t> map_id_;
-  uint32_t session_ = 0;  ///< Of the graph's keyframes (when map_id_ is set).
+  std::map<Run, size_t> chain_of_run_;
+  std::map<std::pair<uint64_t, uint64_t>, uint64_t> graph_ids_;  ///< (map_id, id) -> graph id.
+  std::vector<std::pair<uint64_t, uint64_t>> keys_;              ///< Graph id -> (map_id, id).
+  std::map<uint64_t, uint64_t> last_id_of_map_;
+  std::optional<Run> current_run_;  ///< Of the newest keyframe.
   std::string odometry_frame_;
   std::vector<uint64_t> stamps_ns_;
   std::vector<GraphLoop> graph_loops_;
