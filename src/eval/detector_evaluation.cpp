@@ -107,6 +107,7 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
   pass.min_score = min_score;
   std::vector<size_t> keyframe_frames;
   std::vector<Pose> keyframe_poses;
+  std::vector<uint32_t> keyframe_sessions;
   size_t frames = 0;
   size_t refused_frames = 0;
   (*input.play)([&](size_t index, const DetectorFrame& frame) {
@@ -135,6 +136,10 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
       keyframe_poses.resize(keyframe.keyframe_id + 1);
     }
     keyframe_poses[keyframe.keyframe_id] = frame.pose;
+    if (keyframe_sessions.size() <= keyframe.keyframe_id) {
+      keyframe_sessions.resize(keyframe.keyframe_id + 1, 0);
+    }
+    keyframe_sessions[keyframe.keyframe_id] = detector.session();
     if (record_keyframes) {
       for (const CandidateReport& candidate : keyframe.candidates) {
         CandidateRow row;
@@ -189,6 +194,7 @@ DetectorPass runPass(const PassInput& input, double min_score, DetectorEvaluatio
     evaluation->keyframes = pass.keyframe_ms.size();
     evaluation->keyframe_frames = keyframe_frames;
     evaluation->keyframe_poses = keyframe_poses;
+    evaluation->keyframe_sessions = keyframe_sessions;
   }
   return pass;
 }

@@ -36,6 +36,27 @@ TrajectoryError trajectoryError(const std::vector<Pose>& estimated,
   return error;
 }
 
+std::vector<double> similarityAlignedErrors(const std::vector<Pose>& estimated,
+                                            const std::vector<Pose>& truth) {
+  const size_t count = std::min(estimated.size(), truth.size());
+  if (count < 3) return {};
+  Eigen::Matrix3Xd from(3, count);
+  Eigen::Matrix3Xd to(3, count);
+  for (size_t i = 0; i < count; ++i) {
+    from.col(static_cast<Eigen::Index>(i)) = estimated[i].position;
+    to.col(static_cast<Eigen::Index>(i)) = truth[i].position;
+  }
+  const Eigen::Matrix4d similarity = Eigen::umeyama(from, to, true);
+  const Eigen::Matrix3Xd moved =
+      (similarity.topLeftCorner<3, 3>() * from).colwise() + similarity.topRightCorner<3, 1>();
+  std::vector<double> errors(count);
+  for (size_t i = 0; i < count; ++i) {
+    errors[i] =
+        (moved.col(static_cast<Eigen::Index>(i)) - to.col(static_cast<Eigen::Index>(i))).norm();
+  }
+  return errors;
+}
+
 PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
                                     const PoseGraphOptions& options) {
   PoseGraphReplay replay;
@@ -48,10 +69,14 @@ PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
     if (loop.metric_pose) loops.push_back(&loop);
   }
   constexpr uint64_t kSecond = 1000000000ull;
+  const auto sessionOf = [&evaluation](uint64_t id) -> uint32_t {
+    return id < evaluation.keyframe_sessions.size() ? evaluation.keyframe_sessions[id] : 0;
+  };
   size_t next = 0;
   for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
     GraphKeyframe keyframe;
     keyframe.id = id;
+    keyframe.session = sessionOf(id);
     keyframe.odometry = evaluation.keyframe_poses[id];
     keyframe.stamp_ns = (id + 1) * kSecond;
     keyframe.odometry_frame = "odom";
@@ -61,23 +86,33 @@ PoseGraphReplay replayIntoPoseGraph(const DetectorEvaluation& evaluation,
       loop.has_relative_pose = loop.relative_pose_metric = true;
       loop.relative_pose_frame = node_options.base_frame;
       loop.constraint = *loops[next]->metric_pose;
+      loop.query_session = sessionOf(loop.constraint.query_id);
+      loop.match_session = sessionOf(loop.constraint.match_id);
       batch.emplace_back(loop);
       ++replay.metric_loops;
     }
     session.process(batch);
   }
-  // Every loop of one map and session in the base frame enters the graph: its loop order is
-  // `loops`'.
+  // Every loop of the one map in the base frame enters the graph (both its keyframes came
+  // before it): its loop order is `loops`'.
   const PoseGraph& graph = session.graph();
   const std::vector<LoopVerdict>& verdicts = graph.loopVerdicts();
   for (size_t k = 0; k < verdicts.size(); ++k) {
-    if (verdicts[k].decision == LoopDecision::kAccepted) continue;
+    const bool accepted = verdicts[k].decision == LoopDecision::kAccepted;
+    if (sessionOf(loops[k]->query_id) != sessionOf(loops[k]->match_id)) {
+      ++replay.cross_session_loops;
+      replay.cross_session_loops_accepted += accepted ? 1 : 0;
+    }
+    if (accepted) continue;
     ++replay.refused_loops;
     replay.refused_true_loops += loops[k]->correct ? 1 : 0;
   }
   replay.heading_drift_per_m = graph.headingDriftPerMetre();
+  replay.chains = graph.chains();
+  replay.chains_joined = graph.chainsJoinedToFirst();
   for (uint64_t id = 0; id < evaluation.keyframe_poses.size(); ++id) {
-    replay.corrected.push_back(graph.optimisedPose(id).value_or(evaluation.keyframe_poses[id]));
+    replay.corrected.push_back(
+        session.optimisedPose(0, id).value_or(evaluation.keyframe_poses[id]));
   }
   return replay;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -299,6 +300,10 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
        : run.protocol == eval::RunProtocol::kLocalisation
            ? "the second lap localised in the first lap's map (mode localization); "
            : "") +
+      (run.odometry_jump_at_laps > 0.0
+           ? "tracking lost at " + std::to_string(run.odometry_jump_at_laps).substr(0, 4) +
+                 " laps (the odometry jumps into another frame); "
+           : std::string()) +
       "a loop is true " + eval::TrueLoopRule{}.describe() + " (the truth's positions)";
   source.protocol = run.protocol;
   source.has_intrinsics = true;
@@ -320,6 +325,12 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
                                                   std::vector<double>{-0.3, 0.1, 0.0, 0.0, 0.0});
     }
     const CameraIntrinsics intrinsics = lens ? lens->intrinsics() : camera.intrinsics();
+    const size_t jump_frame = run.odometry_jump_at_laps > 0.0
+                                  ? static_cast<size_t>(static_cast<double>(sequence.size()) *
+                                                        run.odometry_jump_at_laps / laps)
+                                  : sequence.size();
+    const Eigen::Isometry3d jumped_frame = Eigen::Translation3d(40.0, -25.0, 0.0) *
+                                           Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
     sim::SequenceFrame frame;
     int lap = 0;
     Eigen::Isometry3d run_origin = Eigen::Isometry3d::Identity();
@@ -336,6 +347,9 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
         run_origin = odometry.toIsometry();
       }
       played.pose = Pose::fromIsometry(run_origin.inverse() * odometry.toIsometry());
+      if (frame.index >= jump_frame) {
+        played.pose = Pose::fromIsometry(jumped_frame * played.pose.toIsometry());
+      }
       const cv::Mat image = lens ? lens->render(frame) : frame.image;
       if (colour) {
         cv::cvtColor(image, played.image, cv::COLOR_GRAY2BGR);
@@ -386,6 +400,40 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
   return source;
 }
 
+// Several sessions (odometry frames) in one graph: each session's keyframes in the frame of the
+// whole (one similarity fit of every keyframe), against each session on its own (its odometry
+// fitted alone: what a graph per session gives when no loop corrects it).
+void printSessions(const eval::DetectorEvaluation& result, const eval::PoseGraphReplay& replay,
+                   const std::vector<Pose>& truth) {
+  std::printf(
+      "  sessions: %zu chains in the pose graph, %zu joined to the first by loops; %zu metric "
+      "loops between sessions, %zu accepted\n",
+      replay.chains, replay.chains_joined, replay.cross_session_loops,
+      replay.cross_session_loops_accepted);
+  const std::vector<double> in_one_frame = eval::similarityAlignedErrors(replay.corrected, truth);
+  std::map<uint32_t, std::vector<size_t>> keyframes_of;
+  for (size_t id = 0; id < result.keyframe_sessions.size() && id < truth.size(); ++id) {
+    keyframes_of[result.keyframe_sessions[id]].push_back(id);
+  }
+  for (const auto& [session, ids] : keyframes_of) {
+    double sum = 0.0, worst = 0.0;
+    std::vector<Pose> odometry, session_truth;
+    for (const size_t id : ids) {
+      sum += in_one_frame[id] * in_one_frame[id];
+      worst = std::max(worst, in_one_frame[id]);
+      odometry.push_back(result.keyframe_poses[id]);
+      session_truth.push_back(truth[id]);
+    }
+    const eval::TrajectoryError alone = eval::trajectoryError(odometry, session_truth);
+    std::printf(
+        "  session %u: %zu keyframes; corrected, in one frame with the others (similarity fit "
+        "of all): RMSE %.3f m, largest %.3f m; its odometry fitted alone: RMSE %.3f m (first "
+        "pose aligned %.3f m)\n",
+        session, ids.size(), std::sqrt(sum / static_cast<double>(ids.size())), worst,
+        alone.similarity_rmse, alone.first_pose_rmse);
+  }
+}
+
 // The keyframes' odometry, and the same corrected by the reference pose graph with the metric
 // loops of the configured pass, against the truth (what the demo's summary reports).
 void printTrajectoryError(const eval::DetectorEvaluation& result,
@@ -403,6 +451,7 @@ void printTrajectoryError(const eval::DetectorEvaluation& result,
       odometry.first_pose_rmse, corrected.first_pose_rmse, odometry.similarity_rmse,
       corrected.similarity_rmse, odometry.scale, corrected.scale, replay.metric_loops,
       replay.refused_loops, replay.refused_true_loops);
+  if (replay.chains > 1) printSessions(result, replay, truth);
   if (graph_options.heading_drift_prior_sd_per_m > 0.0) {
     std::printf("  odometry heading drift estimated by the pose graph: %.5f rad/m\n",
                 replay.heading_drift_per_m);

@@ -69,6 +69,9 @@ struct CorridorRun {
   /// kSessions: the second lap is a new run whose odometry restarts at the origin;
   /// kLocalisation: the second lap localises in the first lap's map.
   eval::RunProtocol protocol = eval::RunProtocol::kOneSequence;
+  /// Tracking lost: from this many laps on, the odometry is in another frame (40 m, -25 m and 90
+  /// degrees away), which the detector must notice by itself (a new session). 0: never.
+  double odometry_jump_at_laps = 0.0;
 };
 
 /// The generated corridor as the demo bag holds it: drifting odometry, intrinsics, and a loop is

@@ -131,6 +131,7 @@ int run(const Arguments& arguments) {
     CorridorRun run;
     run.aliasing = arguments.has("--aliasing");
     run.protocol = runProtocol(arguments.get("--protocol", "one-sequence"));
+    run.odometry_jump_at_laps = arguments.number("--odometry-jump-at", 0.0);
     return runDetectorMode(arguments, corridorSource(arguments.number("--corridor", 2.0), run),
                            arguments.get("--name", run.aliasing ? "generated aliasing corridor"
                                                                 : "generated corridor"),

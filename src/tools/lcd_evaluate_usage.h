@@ -15,6 +15,8 @@ SOURCE, one of:
   --corridor LAPS               the generated corridor (ground truth from its true poses);
       [--aliasing]              ...its aliasing form: bays that look alike every 4 m (door,
                                 lockers, notice board) through a wide lens
+      [--odometry-jump-at L]    ...tracking lost after L laps: the odometry jumps into another
+                                frame (40 m, -25 m, 90 degrees away) for the detector to notice
   --bag FILE                    the keyframes a node would keep from a bag (images + odometry,
                                 keyframe rule of config/default.yaml); topics: --image-topic
                                 (/camera/image_raw), --odom-topic (/odom), --truth-topic (none);

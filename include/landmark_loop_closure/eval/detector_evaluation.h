@@ -87,6 +87,9 @@ struct DetectorEvaluation {
   size_t revisits = 0;        ///< Keyframes with a true place among the earlier keyframes.
   std::vector<size_t> keyframe_frames;  ///< Frame index of each keyframe, by keyframe id.
   std::vector<Pose> keyframe_poses;     ///< Odometry pose of each keyframe, by keyframe id.
+  /// The session of each keyframe, by keyframe id: its odometry frame (a new run, or the
+  /// odometry re-initialised).
+  std::vector<uint32_t> keyframe_sessions;
   DetectorPass configured;          ///< At the configuration's min_score: what the node publishes.
   std::vector<DetectorPass> sweep;  ///< Other thresholds, high to low.
   /// Best recall of a pass without a false loop; -1 when not swept (sweep_steps 0).
