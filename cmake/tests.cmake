@@ -73,6 +73,8 @@ target_compile_definitions(test_pose_graph PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_C
 catkin_add_gtest(test_pose_graph_chains test/core/test_pose_graph_chains.cpp)
 target_link_libraries(test_pose_graph_chains ${PROJECT_NAME}_backend ${PROJECT_NAME}_sim
   GTest::gtest_main)
+catkin_add_gtest(test_pose_graph_file test/core/test_pose_graph_file.cpp)
+target_link_libraries(test_pose_graph_file ${PROJECT_NAME}_backend GTest::gtest_main)
 catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)
 target_link_libraries(test_pose_graph_session ${PROJECT_NAME}_backend GTest::gtest_main)
 target_compile_definitions(test_pose_graph_session PRIVATE

@@ -75,7 +75,8 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "camera_mount, camera_mount/from_tf and base_frame are used here, so the camera "
                 "mount is set once, for both; the values below only when it is empty or that "
                 "node has no parameters (said at start). A loop in the detector's base_frame "
-                "other than base_frame is left out, named in the log.")
+                "other than base_frame is left out, named in the log. The graph is saved beside "
+                "that node's database_path (as MAP-pose_graph) and restored from it at start.")
           .group(&O::camera_mount, CameraMount::parameters())
           .flag("camera_mount/from_tf", &O::camera_mount_from_tf,
                 "turn loops whose relative_pose_frame is not base_frame through tf instead of "

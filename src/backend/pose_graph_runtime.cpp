@@ -1,14 +1,20 @@
 #include "landmark_loop_closure/backend/pose_graph_runtime.h"
 
+#include <cstdio>
+#include <filesystem>
+
+#include "landmark_loop_closure/backend/pose_graph_file.h"
 #include "landmark_loop_closure/common/caught.h"
 
 namespace landmark_loop_closure {
 
 PoseGraphRuntime::PoseGraphRuntime(PoseGraphNodeOptions options, MountLookup mount,
                                    PoseGraphListener listener, std::chrono::milliseconds catch_up)
-    : session_(std::move(options), std::move(mount)),
+    : session_(options, std::move(mount)),
       listener_(std::move(listener)),
-      catch_up_(catch_up) {
+      catch_up_(catch_up),
+      graph_file_(options.graph_file),
+      last_save_(std::chrono::steady_clock::now()) {
   worker_ = std::thread([this] { work(); });
 }
 
@@ -33,12 +39,68 @@ void PoseGraphRuntime::stop() {
     stopping_ = true;
   }
   wake_.notify_all();
-  if (worker_.joinable()) worker_.join();
+  if (!worker_.joinable()) return;
+  worker_.join();
+  reportCaught([&] { save(); });
+}
+
+void PoseGraphRuntime::tell(const std::string& text, bool problem) {
+  if (listener_.graph_file) reportCaught([&] { listener_.graph_file(text, problem); });
+}
+
+void PoseGraphRuntime::restore() {
+  if (graph_file_.empty()) return;
+  std::error_code error;
+  if (!std::filesystem::exists(graph_file_, error)) {
+    tell("no saved graph at " + graph_file_ + " yet: the graph starts empty", false);
+    return;
+  }
+  std::vector<PoseGraphSession::Input> inputs;
+  const std::string problem = readGraphFile(graph_file_, &inputs);
+  if (!problem.empty()) {
+    graph_file_refused_ = true;
+    tell("the saved graph " + graph_file_ + " cannot be used (" + problem +
+             "): the graph starts empty, and that file is left as it is, never written",
+         true);
+    return;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  publish(session_.restore(inputs));
+  saved_inputs_ = session_.kept().size();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "restored %zu keyframes in %zu chain(s) (%zu joined to the first) and %zu loops "
+                "from %s in %.2f s",
+                session_.graph().keyframes(), session_.graph().chains(),
+                session_.graph().chainsJoinedToFirst(), session_.graph().loops(),
+                graph_file_.c_str(), seconds);
+  tell(text, false);
+}
+
+void PoseGraphRuntime::save() {
+  if (graph_file_.empty() || graph_file_refused_ || session_.kept().size() == saved_inputs_) {
+    return;
+  }
+  last_save_ = std::chrono::steady_clock::now();
+  const std::string problem = saveGraphFile(graph_file_, session_.kept());
+  if (!problem.empty()) {
+    tell("the graph could not be saved to " + graph_file_ + ": " + problem, true);
+    return;
+  }
+  saved_inputs_ = session_.kept().size();
 }
 
 std::string PoseGraphRuntime::summary() const { return session_.summary(); }
 
 void PoseGraphRuntime::work() {
+  if (const std::optional<std::string> what = runCaught([&] { restore(); })) {
+    graph_file_refused_ = true;
+    tell("the saved graph " + graph_file_ + " could not be restored (" + *what +
+             "): that file is left as it is, never written",
+         true);
+  }
   for (;;) {
     std::vector<PoseGraphSession::Input> batch;
     bool woken = false;
@@ -56,6 +118,8 @@ void PoseGraphRuntime::work() {
       } else if (session_.pathsBehind() && listener_.catch_up) {
         listener_.catch_up(session_);
       }
+      // A crash loses at most the last few seconds of the graph.
+      if (std::chrono::steady_clock::now() - last_save_ >= kSaveInterval) save();
     });
     if (!what) continue;
     ++failures_;
@@ -64,7 +128,10 @@ void PoseGraphRuntime::work() {
 }
 
 void PoseGraphRuntime::process(const std::vector<PoseGraphSession::Input>& batch) {
-  const GraphStep step = session_.process(batch);
+  publish(session_.process(batch));
+}
+
+void PoseGraphRuntime::publish(const GraphStep& step) {
   if (step.changed && !session_.odometryFrame().empty()) {
     std::lock_guard<std::mutex> lock(correction_mutex_);
     correction_ = GraphCorrection{session_.graph().mapFromOdometry(), session_.odometryFrame()};

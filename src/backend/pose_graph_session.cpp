@@ -144,6 +144,7 @@ bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* ste
   current_run_ = run;
   odometry_frame_ = keyframe.odometry_frame;
   stamps_ns_.push_back(keyframe.stamp_ns);
+  kept_.emplace_back(keyframe);
   return true;
 }
 
@@ -193,7 +194,27 @@ void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step)
   current_run_.reset();
   stamps_ns_.clear();
   graph_loops_.clear();
+  kept_.clear();
   paths_stale_ = true;
+}
+
+GraphStep PoseGraphSession::restore(const std::vector<Input>& inputs) {
+  GraphStep restored;
+  std::vector<Input> batch;
+  const auto replay = [&] {
+    if (batch.empty()) return;
+    GraphStep step = process(batch);
+    restored.changed |= step.changed;
+    for (GraphNotice& notice : step.notices) restored.notices.push_back(std::move(notice));
+    batch.clear();
+  };
+  for (const Input& input : inputs) {
+    if (std::holds_alternative<GraphKeyframe>(input)) replay();
+    batch.push_back(input);
+  }
+  replay();
+  restored.publish_paths = restored.changed;
+  return restored;
 }
 
 bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
@@ -249,6 +270,12 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   constraint.query_id = *query;
   constraint.match_id = *match;
   graph_loops_.push_back(loop);
+  GraphLoop in_base_frame = loop;
+  in_base_frame.relative_pose_frame = options_.base_frame;
+  in_base_frame.constraint = constraint;
+  in_base_frame.constraint.query_id = loop.constraint.query_id;
+  in_base_frame.constraint.match_id = loop.constraint.match_id;
+  kept_.emplace_back(in_base_frame);
   const LoopVerdict verdict = graph_->addLoop(constraint);
   step->verdicts.push_back({loop, toString(verdict.decision), verdict.error_sd, verdict.detail});
   for (const size_t index : verdict.confirmed) {

@@ -195,6 +195,8 @@ class LoopClosureNode {
   std::atomic<uint64_t> map_keyframes_{0};  ///< The database's size, set wherever it changes.
   std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};
+  /// Held until online training has made the descriptor (published then): for diagnostics.
+  std::atomic<int> keyframes_held_for_training_{0};
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};

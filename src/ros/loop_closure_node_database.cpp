@@ -192,6 +192,7 @@ void LoopClosureNode::publishAnnouncedKeyframes() {
 
 void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
                                            const std::vector<ReleasedKeyframe>& held) {
+  keyframes_held_for_training_ = 0;
   if (!detector_.extractor()) {
     ROS_ERROR("%s", result.training_summary.c_str());
     for (const ReleasedKeyframe& keyframe : held) keyframe_stamps_.erase(keyframe.id);

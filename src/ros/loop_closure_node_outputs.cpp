@@ -49,6 +49,7 @@ void LoopClosureNode::onTimelineReset() {
 
 void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result) {
   keyframe_stamps_[job.id] = nodeKeyframe(job).stamp;
+  keyframes_held_for_training_ = result.held_for_training;
   ROS_INFO_THROTTLE(
       kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
       result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);

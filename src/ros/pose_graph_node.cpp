@@ -43,6 +43,10 @@ PoseGraphNodeOptions loadPoseGraphOptions(const ros::NodeHandle& private_node) {
 void takeDetectorsMount(const ros::NodeHandle& node, PoseGraphNodeOptions* options) {
   if (options->detector.empty()) return;
   const ros::NodeHandle detector(node, options->detector);
+  // The graph lives beside the detector's map: saved with it, restored with it.
+  std::string database_path;
+  detector.param("database_path", database_path, std::string());
+  if (!database_path.empty()) options->graph_file = database_path + "-pose_graph";
   if (!detector.hasParam("camera_mount")) {
     ROS_WARN(
         "Pose graph: the detector %s has no camera_mount parameters (another name? set "
@@ -117,6 +121,13 @@ class PoseGraphNode {
                          "where it was; the graph goes on with the next (%lu so far)",
                          what.c_str(),
                          static_cast<unsigned long>(runtime_ ? runtime_->failures() : 0));
+    };
+    listener.graph_file = [](const std::string& text, bool problem) {
+      if (problem) {
+        ROS_WARN("Pose graph: %s", text.c_str());
+      } else {
+        ROS_INFO("Pose graph: %s", text.c_str());
+      }
     };
     runtime_ = std::make_unique<PoseGraphRuntime>(
         std::move(options),

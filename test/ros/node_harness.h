@@ -177,8 +177,19 @@ class NodeHarness {
   void waitUntilQuiet(double quiet = 2.0, double timeout = 60.0) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
     last_output_ = ros::WallTime::now();
+    // Silence alone is not the end: online training holds keyframes for seconds on a busy
+    // machine, and the worker may still have a queue; the diagnostics say both.
+    const auto busy = [this] {
+      // A node that is gone (killed by the test) says nothing more: its last word is not held.
+      if ((ros::WallTime::now() - last_diagnostics_).toSec() > 3.0) return false;
+      for (const char* key : {"keyframes held for training", "queued keyframes"}) {
+        const std::string value = diagnostic(key);
+        if (!value.empty() && value != "0") return true;
+      }
+      return false;
+    };
     while (ros::ok() && ros::WallTime::now() < end &&
-           (ros::WallTime::now() - last_output_).toSec() < quiet) {
+           ((ros::WallTime::now() - last_output_).toSec() < quiet || busy())) {
       ros::spinOnce();
       ros::WallDuration(0.01).sleep();
     }
@@ -249,6 +260,7 @@ class NodeHarness {
     if (log->name.find("loop_closure") != std::string::npos) log_lines_.push_back(log->msg);
   }
   void onDiagnostics(const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
+    last_diagnostics_ = ros::WallTime::now();
     for (const auto& status : array->status) {
       if (status.name.find("loop closure") == std::string::npos) continue;
       for (const auto& value : status.values) diagnostics_[value.key] = value.value;
@@ -277,6 +289,7 @@ class NodeHarness {
   std::map<std::string, std::string> diagnostics_;
   std::set<std::string> summaries_;
   ros::WallTime last_output_;
+  ros::WallTime last_diagnostics_;
 };
 
 }  // namespace test_support

@@ -257,6 +257,10 @@ struct PoseGraphNodeOptions {
   /// The detector's base_frame, when known (read from its parameters, not a parameter here): a
   /// loop in that frame is never taken for the camera's.
   std::string detector_base_frame;
+  /// Where the graph is saved and restored from: beside the detector's map (its database_path
+  /// followed by "-pose_graph", read from its parameters, not a parameter here); empty: not
+  /// saved.
+  std::string graph_file;
   /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
   /// turned into the base frame with the mount.
   CameraMount camera_mount;

@@ -28,6 +28,9 @@ struct PoseGraphListener {
   /// An exception escaped a batch (Ceres, a listener): the batch's remaining work is dropped and
   /// the worker goes on with the next one. `what` is the exception's.
   std::function<void(const std::string& what)> failed;
+  /// A line about the saved graph (options.graph_file): restored from it, or why it is not used
+  /// or could not be written (`problem` true: a warning).
+  std::function<void(const std::string& text, bool problem)> graph_file;
 };
 
 /// map_frame -> the odometry frame, and that frame's name.
@@ -50,7 +53,8 @@ class PoseGraphRuntime {
   void push(PoseGraphSession::Input input);
   /// Any thread: the correction after the last keyframe that entered; nullopt before the first.
   std::optional<GraphCorrection> correction() const;
-  /// Joins the worker; inputs still queued are not processed. Idempotent.
+  /// Joins the worker; inputs still queued are not processed; the graph is saved
+  /// (options.graph_file). Idempotent.
   void stop();
   /// After stop(): PoseGraphSession::summary().
   std::string summary() const;
@@ -60,10 +64,24 @@ class PoseGraphRuntime {
  private:
   void work();
   void process(const std::vector<PoseGraphSession::Input>& batch);
+  /// On the worker, before any input: the saved graph replayed.
+  void restore();
+  /// Writes the graph to options.graph_file unless that file could not be read at start (it is
+  /// left as it was found) or nothing is in the graph.
+  void save();
+  void tell(const std::string& text, bool problem);
+
+  /// The correction and the listener after a step.
+  void publish(const GraphStep& step);
 
   PoseGraphSession session_;
   PoseGraphListener listener_;
   const std::chrono::milliseconds catch_up_;
+  static constexpr std::chrono::seconds kSaveInterval{10};
+  const std::string graph_file_;
+  bool graph_file_refused_ = false;  ///< Unreadable at start: never written.
+  std::chrono::steady_clock::time_point last_save_;
+  size_t saved_inputs_ = 0;  ///< kept() inputs in the file already.
 
   mutable std::mutex correction_mutex_;
   std::optional<GraphCorrection> correction_;

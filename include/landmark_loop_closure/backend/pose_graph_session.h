@@ -127,6 +127,13 @@ class PoseGraphSession {
   /// decision and every reason for leaving a loop out, earlier maps' graphs included.
   std::string summary() const;
 
+  /// The inputs that entered the graph, in the order they entered (loops turned into the base
+  /// frame): what a saved graph holds.
+  const std::vector<Input>& kept() const { return kept_; }
+  /// Replays saved inputs into this session (before any other): each keyframe with the loops
+  /// after it, one batch each, as they came. Verdicts are not repeated; notices are.
+  GraphStep restore(const std::vector<Input>& inputs);
+
   /// A (map, session): one odometry frame, one chain.
   using Run = std::pair<uint64_t, uint32_t>;
 
@@ -152,6 +159,7 @@ class PoseGraphSession {
   std::string odometry_frame_;
   std::vector<uint64_t> stamps_ns_;
   std::vector<GraphLoop> graph_loops_;
+  std::vector<Input> kept_;
   std::map<std::string, size_t> left_out_;
   std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
   size_t graphs_dropped_ = 0;
