@@ -50,6 +50,7 @@ bool readKeyframe(LittleEndianReader* in, GraphKeyframe* keyframe) {
 
 void writeLoop(LittleEndianWriter* out, const GraphLoop& loop) {
   out->u64(loop.map_id);
+  out->u64(loop.match_map_id);
   out->u32(loop.query_session);
   out->u32(loop.match_session);
   out->u64(loop.query_stamp_ns);
@@ -63,10 +64,10 @@ void writeLoop(LittleEndianWriter* out, const GraphLoop& loop) {
 }
 
 bool readLoop(LittleEndianReader* in, GraphLoop* loop) {
-  if (!in->u64(&loop->map_id) || !in->u32(&loop->query_session) || !in->u32(&loop->match_session) ||
-      !in->u64(&loop->query_stamp_ns) || !in->u64(&loop->match_stamp_ns) ||
-      !in->text(&loop->relative_pose_frame) || !in->u64(&loop->constraint.query_id) ||
-      !in->u64(&loop->constraint.match_id)) {
+  if (!in->u64(&loop->map_id) || !in->u64(&loop->match_map_id) || !in->u32(&loop->query_session) ||
+      !in->u32(&loop->match_session) || !in->u64(&loop->query_stamp_ns) ||
+      !in->u64(&loop->match_stamp_ns) || !in->text(&loop->relative_pose_frame) ||
+      !in->u64(&loop->constraint.query_id) || !in->u64(&loop->constraint.match_id)) {
     return false;
   }
   Eigen::Vector3d position;

@@ -225,8 +225,9 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
     left_out = "scale-free relative pose (a metric graph takes metric loops only)";
   }
   const std::optional<uint64_t> query = graphId(loop.map_id, loop.constraint.query_id);
-  const std::optional<uint64_t> match = graphId(loop.map_id, loop.constraint.match_id);
-  if (!left_out && query && !match && loop.match_session != loop.query_session) {
+  const std::optional<uint64_t> match = graphId(loop.matchMap(), loop.constraint.match_id);
+  if (!left_out && query && !match && loop.matchMap() == loop.map_id &&
+      loop.match_session != loop.query_session) {
     // A map loaded from a file: its keyframes were published by an earlier run, not to this
     // graph.
     left_out = "its match is a keyframe of an earlier run this graph never received";
@@ -259,7 +260,7 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   if (!query || !match) {
     const std::string detail =
         "keyframe " + std::to_string(query ? loop.constraint.match_id : loop.constraint.query_id) +
-        " of map " + std::to_string(loop.map_id) + " is not in the graph";
+        " of map " + std::to_string(query ? loop.matchMap() : loop.map_id) + " is not in the graph";
     const std::string decision = toString(LoopDecision::kUnknownKeyframe);
     step->verdicts.push_back({loop, decision, 0.0, detail});
     step->notices.push_back(

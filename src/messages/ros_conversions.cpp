@@ -156,6 +156,7 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
   msg.map_id = loop.map_id;
+  msg.match_map_id = loop.map_id;  // The detector's loops stay within its map.
   msg.query_id = loop.query_id;
   msg.query_session = loop.query_session;
   msg.match_session = loop.match_session;
@@ -288,6 +289,7 @@ LoopCandidateArray toCandidatesMsg(const KeyframeResult& result, uint64_t map_id
 GraphLoop graphLoopFromMsg(const LoopClosure& loop) {
   GraphLoop graph_loop;
   graph_loop.map_id = loop.map_id;
+  graph_loop.match_map_id = loop.match_map_id;
   graph_loop.query_session = loop.query_session;
   graph_loop.match_session = loop.match_session;
   graph_loop.query_stamp_ns = loop.query_stamp.toNSec();
@@ -325,6 +327,7 @@ PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::str
   msg.header.stamp = msg.query_stamp;
   msg.header.frame_id = map_frame;
   msg.map_id = verdict.loop.map_id;
+  msg.match_map_id = verdict.loop.match_map_id;
   msg.query_id = verdict.loop.constraint.query_id;
   msg.match_id = verdict.loop.constraint.match_id;
   msg.decision = verdict.decision;

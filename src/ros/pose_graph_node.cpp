@@ -335,7 +335,7 @@ class PoseGraphNode {
       const std::optional<Pose> query =
           session.optimisedPose(loop.map_id, loop.constraint.query_id);
       const std::optional<Pose> match =
-          session.optimisedPose(loop.map_id, loop.constraint.match_id);
+          session.optimisedPose(loop.matchMap(), loop.constraint.match_id);
       if (!query || !match) continue;
       for (const Pose* end : {&*query, &*match}) {
         geometry_msgs::Point point;

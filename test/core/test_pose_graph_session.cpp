@@ -243,7 +243,8 @@ TEST(PoseGraphSession, LoopsForKeyframesThatNeverComeDoNotPileUp) {
     EXPECT_EQ(verdict.decision, "unknown_keyframe");
   }
   EXPECT_EQ(step.verdicts.front().loop.constraint.query_id, 1000u);
-  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput, "keyframe 1000 of map 7 is not in the graph"));
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kLoopBadInput,
+                        "keyframe 1000 of map 7 is not in the graph"));
 }
 
 // Issue 68: nothing is dropped at a new map. The detector was reset (a new map, its ids from 0
@@ -372,6 +373,41 @@ TEST(PoseGraphSession, ANewSessionFloatsWhereTheRobotWasLastSeenUntilLoopsJoinIt
   EXPECT_NE(session.summary().find("30 keyframes in 2 chain(s), 2 joined by loops to the first"),
             std::string::npos)
       << session.summary();
+}
+
+// Issue 68 point 3: two robots' keyframes, interleaved, each robot a map and a chain; a loop
+// between their maps (LoopClosure.match_map_id) joins robot B's chain to robot A's, and B's
+// path lies in A's frame.
+TEST(PoseGraphSession, LoopsBetweenTwoRobotsMapsJoinTheirChains) {
+  PoseGraphSession session(PoseGraphNodeOptions{}, cameraOnly);
+  constexpr uint64_t kRobotA = kMap, kRobotB = kMap + 100;
+  // Both drive x = 0..19; B's odometry frame is turned 90 degrees and 5 m off A's.
+  const Eigen::Isometry3d b_frame =
+      Eigen::Translation3d(0.0, 5.0, 0.0) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  for (uint64_t id = 0; id < 20; ++id) {
+    GraphKeyframe a = keyframeAt(id, kRobotA, (2 * id + 1) * kSecond);
+    GraphKeyframe b = keyframeAt(id, kRobotB, (2 * id + 2) * kSecond);
+    b.odometry = Pose::fromIsometry(b_frame * a.odometry.toIsometry());
+    std::vector<PoseGraphSession::Input> inputs{a, b};
+    if (id == 8 || id == 10) {
+      GraphLoop between = loopBetween(id, id);  // B's keyframe id at A's keyframe id.
+      between.map_id = kRobotB;
+      between.match_map_id = kRobotA;
+      between.constraint.query_T_match.setIdentity();
+      inputs.emplace_back(between);
+    }
+    session.process(inputs);
+  }
+  EXPECT_EQ(session.graph().chains(), 2u);
+  EXPECT_EQ(session.graph().chainsJoinedToFirst(), 2u) << session.summary();
+  for (uint64_t id = 0; id < 20; ++id) {
+    EXPECT_LT((session.optimisedPose(kRobotB, id)->position -
+               session.optimisedPose(kRobotA, id)->position)
+                  .norm(),
+              0.02)
+        << id;
+  }
+  EXPECT_EQ(session.summary().find("left out"), std::string::npos) << session.summary();
 }
 
 TEST(PoseGraphSession, ABadKeyframeOfAnotherSessionOrMapDoesNotReplaceTheGraph) {

@@ -29,6 +29,7 @@ TEST(PoseGraphMessages, ALoopsQuaternionIsNotNormalisedOnItsWayToTheGraph) {
 TEST(PoseGraphMessages, ALoopsVerdictCarriesItsIdsAndExactStamps) {
   LoopClosure message;
   message.map_id = 9;
+  message.match_map_id = 11;  // Another robot's map.
   message.query_id = 40;
   message.match_id = 3;
   message.query_session = message.match_session = 2;
@@ -40,6 +41,7 @@ TEST(PoseGraphMessages, ALoopsVerdictCarriesItsIdsAndExactStamps) {
   EXPECT_EQ(loop.constraint.query_id, 40u);
   EXPECT_EQ(loop.constraint.match_id, 3u);
   EXPECT_EQ(loop.query_session, 2u);
+  EXPECT_EQ(loop.matchMap(), 11u);
   EXPECT_TRUE(loop.has_relative_pose && loop.relative_pose_metric);
   EXPECT_EQ(loop.relative_pose_frame, "camera");
   const PoseGraphLoop verdict =
@@ -49,6 +51,7 @@ TEST(PoseGraphMessages, ALoopsVerdictCarriesItsIdsAndExactStamps) {
   EXPECT_EQ(verdict.match_stamp, message.match_stamp);
   EXPECT_EQ(verdict.header.frame_id, "map");
   EXPECT_EQ(verdict.map_id, 9u);
+  EXPECT_EQ(verdict.match_map_id, 11u);
   EXPECT_EQ(verdict.query_id, 40u);
   EXPECT_EQ(verdict.match_id, 3u);
   EXPECT_EQ(verdict.decision, "inconsistent");

@@ -554,5 +554,6 @@ TEST(RosConversions, KeyframesAndLoopsCarryTheirMap) {
   loop.match_id = 3;
   const LoopClosure message = toLoopMsg(loop, ros::Time(3.0), ros::Time(1.0), "odom", "camera");
   EXPECT_EQ(message.map_id, 0xFEDCBA9876543210ull);
+  EXPECT_EQ(message.match_map_id, message.map_id);  // A detector's loops stay in its map.
   EXPECT_EQ(message.match_id, 3u);
 }

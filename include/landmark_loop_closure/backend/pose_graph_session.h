@@ -37,7 +37,10 @@ struct GraphKeyframe {
 
 /// What the graph reads of a loop the detector publishes (LoopClosure.msg).
 struct GraphLoop {
-  uint64_t map_id = 0;
+  uint64_t map_id = 0;  ///< The query keyframe's map.
+  /// The match keyframe's map: another robot's for a loop between two maps; 0: map_id.
+  uint64_t match_map_id = 0;
+  uint64_t matchMap() const { return match_map_id != 0 ? match_map_id : map_id; }
   uint32_t query_session = 0;
   uint32_t match_session = 0;
   uint64_t query_stamp_ns = 0;
