@@ -33,6 +33,11 @@ std::optional<GraphCorrection> PoseGraphRuntime::correction() const {
   return correction_;
 }
 
+std::vector<GraphCorrection> PoseGraphRuntime::corrections() const {
+  std::lock_guard<std::mutex> lock(correction_mutex_);
+  return corrections_;
+}
+
 void PoseGraphRuntime::stop() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -133,8 +138,13 @@ void PoseGraphRuntime::process(const std::vector<PoseGraphSession::Input>& batch
 
 void PoseGraphRuntime::publish(const GraphStep& step) {
   if (step.changed && !session_.odometryFrame().empty()) {
+    std::vector<GraphCorrection> corrections;
+    for (const auto& [frame, correction] : session_.corrections()) {
+      corrections.push_back({correction, frame});
+    }
     std::lock_guard<std::mutex> lock(correction_mutex_);
     correction_ = GraphCorrection{session_.graph().mapFromOdometry(), session_.odometryFrame()};
+    corrections_ = std::move(corrections);
   }
   if (listener_.step) listener_.step(session_, step);
 }

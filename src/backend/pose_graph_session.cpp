@@ -86,6 +86,15 @@ std::optional<Pose> PoseGraphSession::optimisedPose(uint64_t map_id, uint64_t id
   return graph_->optimisedPose(*graph_id);
 }
 
+std::map<std::string, Eigen::Isometry3d> PoseGraphSession::corrections() const {
+  std::map<std::string, Eigen::Isometry3d> corrections;
+  for (const auto& [frame, graph_id] : newest_in_frame_) {
+    corrections[frame] = graph_->optimisedPose(graph_id)->toIsometry() *
+                         graph_->odometryPose(graph_id)->toIsometry().inverse();
+  }
+  return corrections;
+}
+
 std::optional<size_t> PoseGraphSession::currentChain() const {
   if (graph_->keyframes() == 0) return std::nullopt;
   return graph_->chainOf(graph_->ids().back());
@@ -143,6 +152,7 @@ bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* ste
   last_id_of_map_[keyframe.map_id] = keyframe.id;
   current_run_ = run;
   odometry_frame_ = keyframe.odometry_frame;
+  newest_in_frame_[keyframe.odometry_frame] = graph_id;
   stamps_ns_.push_back(keyframe.stamp_ns);
   kept_.emplace_back(keyframe);
   return true;
@@ -192,6 +202,7 @@ void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step)
   keys_.clear();
   last_id_of_map_.clear();
   current_run_.reset();
+  newest_in_frame_.clear();
   stamps_ns_.clear();
   graph_loops_.clear();
   kept_.clear();

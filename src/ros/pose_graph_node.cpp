@@ -255,16 +255,19 @@ class PoseGraphNode {
 
   /// map_frame -> odometry frame, as the last keyframe left it; stamped tf_future_s ahead of
   /// the clock unless a stamp is given.
+  /// map -> each odometry frame the keyframes came in (one per robot sharing the graph).
   void sendCorrection(std::optional<ros::Time> stamp = std::nullopt) {
-    const std::optional<GraphCorrection> correction = runtime_->correction();
-    if (!correction) return;
-    geometry_msgs::TransformStamped transform =
-        tf2::eigenToTransform(correction->map_from_odometry);
-    transform.header.stamp =
-        stamp ? *stamp : ros::Time::now() + ros::Duration(options_.tf_future_s);
-    transform.header.frame_id = options_.map_frame;
-    transform.child_frame_id = correction->odometry_frame;
-    broadcaster_.sendTransform(transform);
+    std::vector<geometry_msgs::TransformStamped> transforms;
+    for (const GraphCorrection& correction : runtime_->corrections()) {
+      geometry_msgs::TransformStamped transform =
+          tf2::eigenToTransform(correction.map_from_odometry);
+      transform.header.stamp =
+          stamp ? *stamp : ros::Time::now() + ros::Duration(options_.tf_future_s);
+      transform.header.frame_id = options_.map_frame;
+      transform.child_frame_id = correction.odometry_frame;
+      transforms.push_back(transform);
+    }
+    if (!transforms.empty()) broadcaster_.sendTransform(transforms);
   }
 
   static ros::Time pathStamp(const PoseGraphSession& session) {

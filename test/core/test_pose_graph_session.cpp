@@ -387,6 +387,8 @@ TEST(PoseGraphSession, LoopsBetweenTwoRobotsMapsJoinTheirChains) {
   for (uint64_t id = 0; id < 20; ++id) {
     GraphKeyframe a = keyframeAt(id, kRobotA, (2 * id + 1) * kSecond);
     GraphKeyframe b = keyframeAt(id, kRobotB, (2 * id + 2) * kSecond);
+    a.odometry_frame = "a/odom";
+    b.odometry_frame = "b/odom";
     b.odometry = Pose::fromIsometry(b_frame * a.odometry.toIsometry());
     std::vector<PoseGraphSession::Input> inputs{a, b};
     if (id == 8 || id == 10) {
@@ -408,6 +410,11 @@ TEST(PoseGraphSession, LoopsBetweenTwoRobotsMapsJoinTheirChains) {
         << id;
   }
   EXPECT_EQ(session.summary().find("left out"), std::string::npos) << session.summary();
+  // map -> each robot's odometry frame: B's takes its frame onto A's (A's is about identity).
+  const std::map<std::string, Eigen::Isometry3d> corrections = session.corrections();
+  ASSERT_EQ(corrections.size(), 2u);
+  EXPECT_TRUE((corrections.at("b/odom") * b_frame).isApprox(corrections.at("a/odom"), 1e-2))
+      << corrections.at("b/odom").matrix();
 }
 
 TEST(PoseGraphSession, ABadKeyframeOfAnotherSessionOrMapDoesNotReplaceTheGraph) {

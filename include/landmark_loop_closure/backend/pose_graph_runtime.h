@@ -53,6 +53,9 @@ class PoseGraphRuntime {
   void push(PoseGraphSession::Input input);
   /// Any thread: the correction after the last keyframe that entered; nullopt before the first.
   std::optional<GraphCorrection> correction() const;
+  /// Any thread: the correction of every odometry frame keyframes came in (robots sharing the
+  /// graph), each at its newest keyframe.
+  std::vector<GraphCorrection> corrections() const;
   /// Joins the worker; inputs still queued are not processed; the graph is saved
   /// (options.graph_file). Idempotent.
   void stop();
@@ -85,6 +88,7 @@ class PoseGraphRuntime {
 
   mutable std::mutex correction_mutex_;
   std::optional<GraphCorrection> correction_;
+  std::vector<GraphCorrection> corrections_;
 
   std::mutex mutex_;
   std::condition_variable wake_;

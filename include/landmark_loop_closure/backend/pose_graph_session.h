@@ -124,6 +124,9 @@ class PoseGraphSession {
   /// The loops given to the graph, in its loop order (PoseGraph::loopVerdicts' indices), with the
   /// detector's ids.
   const std::vector<GraphLoop>& graphLoops() const { return graph_loops_; }
+  /// map -> each odometry frame the keyframes came in (robots sharing the graph have one each):
+  /// the correction at that frame's newest keyframe, by frame name.
+  std::map<std::string, Eigen::Isometry3d> corrections() const;
   /// The odometry frame of the newest keyframe; empty before the first.
   const std::string& odometryFrame() const { return odometry_frame_; }
   /// One line: keyframes, optimisations and their median time, the heading drift, every
@@ -158,7 +161,8 @@ class PoseGraphSession {
   std::map<std::pair<uint64_t, uint64_t>, uint64_t> graph_ids_;  ///< (map_id, id) -> graph id.
   std::vector<std::pair<uint64_t, uint64_t>> keys_;              ///< Graph id -> (map_id, id).
   std::map<uint64_t, uint64_t> last_id_of_map_;
-  std::optional<Run> current_run_;  ///< Of the newest keyframe.
+  std::optional<Run> current_run_;                   ///< Of the newest keyframe.
+  std::map<std::string, uint64_t> newest_in_frame_;  ///< Graph id, by odometry frame.
   std::string odometry_frame_;
   std::vector<uint64_t> stamps_ns_;
   std::vector<GraphLoop> graph_loops_;
