@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "../../fuzz/pose_graph_input.h"
+#include "driven_loops.h"
 #include "kept_fuzz_inputs.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
@@ -16,23 +17,14 @@
 namespace landmark_loop_closure {
 namespace {
 
+using test_support::trueLoop;
+
 using Drive = sim::DrivenLaps;
 
 Drive driveLaps(int laps) {
   sim::DrivenLapsOptions options;
   options.laps = laps;
   return sim::driveLaps(options);
-}
-
-LoopConstraint trueLoop(const Drive& drive, size_t query, size_t match) {
-  LoopConstraint loop;
-  loop.query_id = query;
-  loop.match_id = match;
-  loop.query_T_match = drive.truth[query].toIsometry().inverse() * drive.truth[match].toIsometry();
-  loop.covariance.setZero();
-  loop.covariance.diagonal() << 0.03 * 0.03, 0.03 * 0.03, 0.03 * 0.03, 0.01 * 0.01, 0.01 * 0.01,
-      0.01 * 0.01;
-  return loop;
 }
 
 double positionRmse(const std::vector<Pose>& truth, const std::vector<Pose>& estimate) {

@@ -6,11 +6,14 @@
 
 #include <gtest/gtest.h>
 
+#include "driven_loops.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/sim/driven_laps.h"
 
 namespace landmark_loop_closure {
 namespace {
+
+using test_support::trueLoop;
 
 /// Two laps of the rectangle: the first in odometry frame A (chain 0), the second in a frame B
 /// the odometry re-initialised into, far from A (40 m, -25 m, turned 90 degrees).
@@ -34,17 +37,6 @@ TwoRuns twoRuns() {
         Pose::fromIsometry(frame_b * rebase * runs.drive.odometry[i].toIsometry()));
   }
   return runs;
-}
-
-LoopConstraint trueLoop(const sim::DrivenLaps& drive, size_t query, size_t match) {
-  LoopConstraint loop;
-  loop.query_id = query;
-  loop.match_id = match;
-  loop.query_T_match = drive.truth[query].toIsometry().inverse() * drive.truth[match].toIsometry();
-  loop.covariance.setZero();
-  loop.covariance.diagonal() << 0.03 * 0.03, 0.03 * 0.03, 0.03 * 0.03, 0.01 * 0.01, 0.01 * 0.01,
-      0.01 * 0.01;
-  return loop;
 }
 
 /// How far the second lap's keyframes lie from where the first lap's estimate puts the same
