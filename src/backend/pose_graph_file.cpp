@@ -111,26 +111,25 @@ std::string readGraphFile(const std::string& path, std::vector<PoseGraphSession:
   if (!problem.empty()) return problem;
   LittleEndianReader in(body.data(), body.size());
   uint64_t count = 0;
-  if (!in.u64(&count) || count > kMaxInputs) return path + ": its input count is damaged";
+  if (!in.u64(&count) || count > kMaxInputs) return "its input count is damaged";
   inputs->clear();
   for (uint64_t k = 0; k < count; ++k) {
     uint32_t kind = 0;
-    if (!in.u32(&kind)) return path + ": it ends inside input " + std::to_string(k);
+    if (!in.u32(&kind)) return "it ends inside input " + std::to_string(k);
     if (kind == kKeyframe) {
       GraphKeyframe keyframe;
       if (!readKeyframe(&in, &keyframe))
-        return path + ": keyframe input " + std::to_string(k) + " is cut short";
+        return "keyframe input " + std::to_string(k) + " is cut short";
       inputs->emplace_back(keyframe);
     } else if (kind == kLoop) {
       GraphLoop loop;
-      if (!readLoop(&in, &loop))
-        return path + ": loop input " + std::to_string(k) + " is cut short";
+      if (!readLoop(&in, &loop)) return "loop input " + std::to_string(k) + " is cut short";
       inputs->emplace_back(loop);
     } else {
-      return path + ": input " + std::to_string(k) + " is of no known kind";
+      return "input " + std::to_string(k) + " is of no known kind";
     }
   }
-  if (in.remaining() != 0) return path + ": bytes after its last input";
+  if (in.remaining() != 0) return "bytes after its last input";
   return "";
 }
 

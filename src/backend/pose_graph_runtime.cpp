@@ -71,7 +71,7 @@ void PoseGraphRuntime::restore() {
   }
   const auto start = std::chrono::steady_clock::now();
   publish(session_.restore(inputs));
-  saved_inputs_ = session_.kept().size();
+  saved_revision_ = session_.keptRevision();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   char text[320];
@@ -85,7 +85,7 @@ void PoseGraphRuntime::restore() {
 }
 
 void PoseGraphRuntime::save() {
-  if (graph_file_.empty() || graph_file_refused_ || session_.kept().size() == saved_inputs_) {
+  if (graph_file_.empty() || graph_file_refused_ || session_.keptRevision() == saved_revision_) {
     return;
   }
   last_save_ = std::chrono::steady_clock::now();
@@ -94,7 +94,7 @@ void PoseGraphRuntime::save() {
     tell("the graph could not be saved to " + graph_file_ + ": " + problem, true);
     return;
   }
-  saved_inputs_ = session_.kept().size();
+  saved_revision_ = session_.keptRevision();
 }
 
 std::string PoseGraphRuntime::summary() const { return session_.summary(); }

@@ -155,6 +155,7 @@ bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* ste
   newest_in_frame_[keyframe.odometry_frame] = graph_id;
   stamps_ns_.push_back(keyframe.stamp_ns);
   kept_.emplace_back(keyframe);
+  ++kept_revision_;
   return true;
 }
 
@@ -206,6 +207,7 @@ void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step)
   stamps_ns_.clear();
   graph_loops_.clear();
   kept_.clear();
+  ++kept_revision_;
   paths_stale_ = true;
 }
 
@@ -288,6 +290,7 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
   in_base_frame.constraint.query_id = loop.constraint.query_id;
   in_base_frame.constraint.match_id = loop.constraint.match_id;
   kept_.emplace_back(in_base_frame);
+  ++kept_revision_;
   const LoopVerdict verdict = graph_->addLoop(constraint);
   step->verdicts.push_back({loop, toString(verdict.decision), verdict.error_sd, verdict.detail});
   for (const size_t index : verdict.confirmed) {

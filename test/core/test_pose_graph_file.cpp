@@ -174,6 +174,24 @@ TEST_F(PoseGraphFileTest, TheNextRunsGraphRestoresTheSavedOneAndJoinsItsSessionT
       << third[0];
 }
 
+// A bag played again into a detector on a new map: a new graph, as many inputs as the saved one
+// held; it is still saved (the file follows the graph, not its size).
+TEST_F(PoseGraphFileTest, ANewTimelineOfTheSameSizeIsSavedOverTheOld) {
+  run(firstRun(), 20);
+  std::vector<PoseGraphSession::Input> replayed;
+  for (uint64_t id = 0; id < 20; ++id) {
+    GraphKeyframe again = keyframe(id, 0, double(id));
+    again.map_id = kMap + 1;
+    again.stamp_ns = again.stamp_ns / 2;  // Before the saved graph's: time went back.
+    replayed.emplace_back(again);
+  }
+  run(replayed, 20);
+  std::vector<PoseGraphSession::Input> read;
+  ASSERT_EQ(readGraphFile(path_, &read), "");
+  ASSERT_EQ(read.size(), 20u);
+  EXPECT_EQ(std::get<GraphKeyframe>(read.front()).map_id, kMap + 1);
+}
+
 TEST_F(PoseGraphFileTest, ADamagedFileIsReportedAndNeverWrittenTo) {
   run(firstRun(), 20);
   std::string bytes;

@@ -84,7 +84,7 @@ class PoseGraphRuntime {
   const std::string graph_file_;
   bool graph_file_refused_ = false;  ///< Unreadable at start: never written.
   std::chrono::steady_clock::time_point last_save_;
-  size_t saved_inputs_ = 0;  ///< kept() inputs in the file already.
+  uint64_t saved_revision_ = 0;  ///< keptRevision() the file holds.
 
   mutable std::mutex correction_mutex_;
   std::optional<GraphCorrection> correction_;

@@ -136,6 +136,8 @@ class PoseGraphSession {
   /// The inputs that entered the graph, in the order they entered (loops turned into the base
   /// frame): what a saved graph holds.
   const std::vector<Input>& kept() const { return kept_; }
+  /// Changes whenever kept() does (grows, or is emptied when time goes back).
+  uint64_t keptRevision() const { return kept_revision_; }
   /// Replays saved inputs into this session (before any other): each keyframe with the loops
   /// after it, one batch each, as they came. Verdicts are not repeated; notices are.
   GraphStep restore(const std::vector<Input>& inputs);
@@ -167,6 +169,7 @@ class PoseGraphSession {
   std::vector<uint64_t> stamps_ns_;
   std::vector<GraphLoop> graph_loops_;
   std::vector<Input> kept_;
+  uint64_t kept_revision_ = 0;
   std::map<std::string, size_t> left_out_;
   std::map<std::string, size_t> earlier_decisions_;  ///< Of the graphs of earlier maps.
   size_t graphs_dropped_ = 0;
