@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,17 +82,25 @@ class PoseGraphFileTest : public ::testing::Test {
   void TearDown() override { std::filesystem::remove_all(folder_); }
 
   /// A runtime on path_ fed `inputs`, stopped once its graph holds `keyframes` (what it
-  /// restored and `inputs`' own); the lines it said about the file.
+  /// restored and `inputs`' own) and the last of `inputs`' keyframes; the lines it said about
+  /// the file. (A restored graph may already be as large as the one awaited.)
   std::vector<std::string> run(const std::vector<PoseGraphSession::Input>& inputs, size_t keyframes,
                                std::string* summary = nullptr) {
+    std::optional<std::pair<uint64_t, uint64_t>> last_keyframe;
+    for (const PoseGraphSession::Input& input : inputs) {
+      if (const auto* keyframe = std::get_if<GraphKeyframe>(&input)) {
+        last_keyframe = {keyframe->map_id, keyframe->id};
+      }
+    }
     std::mutex mutex;
     std::condition_variable changed;
-    size_t entered = 0;
+    bool entered = false;
     std::vector<std::string> lines;
     PoseGraphListener listener;
     listener.step = [&](PoseGraphSession& session, const GraphStep&) {
       std::lock_guard<std::mutex> lock(mutex);
-      entered = session.graph().keyframes();
+      entered = session.graph().keyframes() >= keyframes &&
+                (!last_keyframe || session.graphId(last_keyframe->first, last_keyframe->second));
       changed.notify_all();
     };
     listener.graph_file = [&](const std::string& text, bool problem) {
@@ -104,7 +113,7 @@ class PoseGraphFileTest : public ::testing::Test {
     for (const PoseGraphSession::Input& input : inputs) runtime.push(input);
     {
       std::unique_lock<std::mutex> lock(mutex);
-      changed.wait_for(lock, std::chrono::seconds(20), [&] { return entered >= keyframes; });
+      changed.wait_for(lock, std::chrono::seconds(20), [&] { return entered; });
     }
     runtime.stop();
     if (summary) *summary = runtime.summary();
