@@ -24,6 +24,7 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_closure_node_inputs.cpp
   src/ros/loop_closure_node_outputs.cpp
   src/ros/loop_closure_node_database.cpp
+  src/ros/fleet_link.cpp
   src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

@@ -37,6 +37,7 @@ set(CORE_TESTS
   test_metric_pose
   test_covariance_conventions
   test_shipped_config
+  test_fleet_matcher
   test_sim)
 foreach(name ${CORE_TESTS})
   catkin_add_gtest(${name} test/core/${name}.cpp)
@@ -73,6 +74,10 @@ target_compile_definitions(test_pose_graph PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_C
 catkin_add_gtest(test_pose_graph_chains test/core/test_pose_graph_chains.cpp)
 target_link_libraries(test_pose_graph_chains ${PROJECT_NAME}_backend ${PROJECT_NAME}_sim
   GTest::gtest_main)
+# Two robots on the corridor: their detectors, the loops between them and the pose graph.
+catkin_add_gtest(test_fleet_corridor test/core/test_fleet_corridor.cpp)
+target_link_libraries(test_fleet_corridor ${PROJECT_NAME}_backend ${PROJECT_NAME}_sim
+  ${PROJECT_NAME}_eval GTest::gtest_main)
 catkin_add_gtest(test_pose_graph_file test/core/test_pose_graph_file.cpp)
 target_link_libraries(test_pose_graph_file ${PROJECT_NAME}_backend GTest::gtest_main)
 catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)

@@ -120,7 +120,9 @@ const ParameterTable<NodeOptions>& NodeOptions::parameters() {
                 "look the mount up in tf (base_frame -> the image's frame_id, latest) instead of "
                 "the values above; until tf has it, depths are not triangulated. Off with none "
                 "of the values above set: tf is asked first all the same, and the default "
-                "values serve until it has the mount (warned once).");
+                "values serve until it has the mount (warned once).")
+          .section("Other robots")
+          .group(&O::fleet, FleetOptions::parameters());
   return table;
 }
 
@@ -154,7 +156,7 @@ std::string NodeOptions::validate() const {
       errors << "odom_frame and base_frame are both '" << odom_frame << "'\n";
     }
   }
-  errors << detector.validate();
+  errors << detector.validate() << fleet.validate();
   return errors.str();
 }
 

@@ -1,6 +1,8 @@
 #include "messages/ros_conversions.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 #include <sensor_msgs/image_encodings.h>
@@ -334,6 +336,113 @@ PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::str
   msg.error_sd = verdict.error_sd;
   msg.detail = verdict.detail;
   return msg;
+}
+
+}  // namespace landmark_loop_closure
+
+namespace landmark_loop_closure {
+
+FleetKeyframe toFleetKeyframeMsg(const SharedKeyframe& row) {
+  FleetKeyframe msg;
+  msg.header.stamp.fromNSec(static_cast<uint64_t>(std::max<int64_t>(row.stamp_ns, 0)));
+  msg.header.frame_id = row.odometry_frame;
+  msg.robot = row.robot;
+  msg.map_id = row.map_id;
+  msg.id = row.id;
+  msg.session = row.session;
+  msg.pose = toRos(row.pose);
+  msg.descriptor_fingerprint = row.descriptor_fingerprint;
+  if (row.global_row.size() >= sizeof(float)) {
+    std::memcpy(&msg.global_scale, row.global_row.data(), sizeof(float));
+    msg.global_values.resize(row.global_row.size() - sizeof(float));
+    std::memcpy(msg.global_values.data(), row.global_row.data() + sizeof(float),
+                msg.global_values.size());
+  }
+  return msg;
+}
+
+SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg) {
+  SharedKeyframe row;
+  row.robot = msg.robot;
+  row.map_id = msg.map_id;
+  row.id = msg.id;
+  row.session = msg.session;
+  row.stamp_ns = static_cast<int64_t>(msg.header.stamp.toNSec());
+  row.odometry_frame = msg.header.frame_id;
+  // Not normalised: SharedKeyframe::problem() refuses an orientation that is not a unit one.
+  row.pose.position = Eigen::Vector3d(msg.pose.position.x, msg.pose.position.y,
+                                      msg.pose.position.z);
+  row.pose.orientation = Eigen::Quaterniond(msg.pose.orientation.w, msg.pose.orientation.x,
+                                            msg.pose.orientation.y, msg.pose.orientation.z);
+  row.descriptor_fingerprint = msg.descriptor_fingerprint;
+  row.global_row.resize(sizeof(float) + msg.global_values.size());
+  std::memcpy(row.global_row.data(), &msg.global_scale, sizeof(float));
+  std::memcpy(row.global_row.data() + sizeof(float), msg.global_values.data(),
+              msg.global_values.size());
+  return row;
+}
+
+void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse* response) {
+  const LocalFeatures& features = evidence.local_features;
+  response->found = true;
+  response->keypoints.reserve(2 * features.points.size());
+  for (const cv::Point2f& point : features.points) {
+    response->keypoints.push_back(point.x);
+    response->keypoints.push_back(point.y);
+  }
+  if (!features.descriptors.empty()) {
+    const cv::Mat descriptors = features.descriptors.isContinuous()
+                                    ? features.descriptors
+                                    : features.descriptors.clone();
+    response->descriptors.assign(descriptors.data, descriptors.data + descriptors.total());
+  }
+  for (const cv::Point3f& point : features.points3d) {
+    response->points3d.push_back(point.x);
+    response->points3d.push_back(point.y);
+    response->points3d.push_back(point.z);
+  }
+  response->depth_sd = features.depth_sd;
+  response->image_width = static_cast<uint32_t>(std::max(features.image_size.width, 0));
+  response->image_height = static_cast<uint32_t>(std::max(features.image_size.height, 0));
+  response->intrinsics = {evidence.intrinsics.fx, evidence.intrinsics.fy, evidence.intrinsics.cx,
+                          evidence.intrinsics.cy};
+  response->thumbnail = evidence.thumbnail;
+}
+
+KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
+                                      const FleetEvidenceResponse& response) {
+  KeyframeEvidence evidence;
+  evidence.map_id = request.map_id;
+  evidence.id = request.id;
+  LocalFeatures& features = evidence.local_features;
+  for (size_t k = 0; k + 1 < response.keypoints.size(); k += 2) {
+    features.points.emplace_back(response.keypoints[k], response.keypoints[k + 1]);
+  }
+  // A length that does not fit the keypoints is kept as it is, for problem() to refuse.
+  const int rows = static_cast<int>(response.descriptors.size() / 32);
+  if (response.descriptors.size() % 32 == 0 && rows > 0) {
+    features.descriptors = cv::Mat(rows, 32, CV_8U);
+    std::memcpy(features.descriptors.data, response.descriptors.data(),
+                response.descriptors.size());
+  } else if (!response.descriptors.empty()) {
+    features.descriptors = cv::Mat(1, static_cast<int>(response.descriptors.size()), CV_8U);
+    std::memcpy(features.descriptors.data, response.descriptors.data(),
+                response.descriptors.size());
+  }
+  for (size_t k = 0; k + 2 < response.points3d.size(); k += 3) {
+    features.points3d.emplace_back(response.points3d[k], response.points3d[k + 1],
+                                   response.points3d[k + 2]);
+  }
+  features.depth_sd = response.depth_sd;
+  features.image_size = cv::Size(static_cast<int>(response.image_width),
+                                 static_cast<int>(response.image_height));
+  evidence.intrinsics.fx = response.intrinsics[0];
+  evidence.intrinsics.fy = response.intrinsics[1];
+  evidence.intrinsics.cx = response.intrinsics[2];
+  evidence.intrinsics.cy = response.intrinsics[3];
+  evidence.intrinsics.image_size = features.image_size;
+  evidence.thumbnail = response.thumbnail;
+  return evidence;
 }
 
 }  // namespace landmark_loop_closure

@@ -11,6 +11,8 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
+#include "landmark_loop_closure/FleetEvidence.h"
+#include "landmark_loop_closure/FleetKeyframe.h"
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
 #include "landmark_loop_closure/LoopClosure.h"
@@ -18,6 +20,7 @@
 #include "landmark_loop_closure/backend/pose_graph_session.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/fleet/shared_keyframe.h"
 
 namespace landmark_loop_closure {
 
@@ -69,5 +72,14 @@ GraphLoop graphLoopFromMsg(const LoopClosure& loop);
 GraphKeyframe graphKeyframeFromMsg(const Keyframe& keyframe);
 /// A pose graph's decision about a loop, stamped with the loop's query stamp, in `map_frame`.
 PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::string& map_frame);
+
+/// Rows robots share (fleet/): the message carries the vector's scale and values apart.
+FleetKeyframe toFleetKeyframeMsg(const SharedKeyframe& row);
+SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg);
+/// A keyframe's verification data in the service's answer, and back (checked by
+/// KeyframeEvidence::problem() where it is used).
+void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse* response);
+KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
+                                      const FleetEvidenceResponse& response);
 
 }  // namespace landmark_loop_closure

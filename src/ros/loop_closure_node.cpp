@@ -198,6 +198,28 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                        static_cast<unsigned long>(runtime_ ? runtime_->keyframesFailed() : 0));
   };
   runtime_ = std::make_unique<DetectorRuntime>(&detector_, runtime_options, std::move(listener));
+  if (options_.fleet.share || !options_.fleet.peerList().empty()) {
+    FleetLink::Hooks hooks;
+    hooks.with_detector = [this](const std::function<void(LoopDetector&)>& action) {
+      runtime_->withDetector([&action](LoopDetector& detector) {
+        action(detector);
+        return false;
+      });
+    };
+    hooks.intrinsics = [this] {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      return camera_intrinsics_;
+    };
+    hooks.express_relative_pose = [this](AcceptedLoop* loop) {
+      return expressRelativePose(loop, keyframes_camera_frame_);
+    };
+    hooks.publish_loop = [this](const LoopClosure& loop) {
+      loop_publisher_.publish(loop);
+      ++loops_published_;
+    };
+    fleet_ = std::make_unique<FleetLink>(node_, private_node_, options_.fleet, detector_,
+                                         std::move(hooks));
+  }
   advertiseServices();
   subscribe();
   const std::string descriptor =
@@ -220,6 +242,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
 }
 
 LoopClosureNode::~LoopClosureNode() {
+  if (fleet_) fleet_->stop();
   if (service_spinner_) service_spinner_->stop();
   const size_t unprocessed = runtime_->queued();
   runtime_->stop();

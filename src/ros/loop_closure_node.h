@@ -27,6 +27,7 @@
 #include "landmark_loop_closure/runtime/input_monitor.h"
 #include "landmark_loop_closure/runtime/odometry_history.h"
 #include "landmark_loop_closure/runtime/stamped_buffer.h"
+#include "fleet_link.h"
 #include "loop_markers.h"
 
 namespace landmark_loop_closure {
@@ -177,6 +178,7 @@ class LoopClosureNode {
   LoopMarkers markers_;      // Thread-safe: the worker draws, a connecting viewer reads.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // With the detector held.
   std::string keyframes_frame_id_;  ///< The last keyframe's odometry frame; detector held.
+  std::string keyframes_camera_frame_;  ///< The last keyframe's image frame; detector held.
 
   // Database services.
   ros::CallbackQueue service_queue_;
@@ -217,6 +219,8 @@ class LoopClosureNode {
   std::string map_check_;                        ///< LoopDetector::mapCheck().
   std::string map_damage_;                       ///< LoopDetector::mapDamage().
 
+  // Other robots (fleet/): null without fleet/share and fleet/peers; stopped before the worker.
+  std::unique_ptr<FleetLink> fleet_;
   // The worker, its queue and the detector lock; started last, stopped first.
   std::unique_ptr<DetectorRuntime> runtime_;
 };

@@ -187,6 +187,7 @@ void LoopClosureNode::publishAnnouncedKeyframes() {
     keyframe_publisher_.publish(toKeyframeMsg(summary.id, summary.session, keyframe.map_id,
                                               stampOf(summary.id), summary.pose,
                                               keyframes_frame_id_));
+    if (fleet_) fleet_->onAnnounced(detector_, summary.id, keyframes_frame_id_);
   }
 }
 

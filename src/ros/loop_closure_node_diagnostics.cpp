@@ -65,6 +65,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
                          "the worker dropped keyframes in the last %.0f s", kDropWarningS);
   }
 
+  if (fleet_) fleet_->diagnose(status);
   const InputMonitor::Rates rates = inputs_.takeRates(now);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   if (!map_damage_.empty()) {

@@ -104,6 +104,7 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
 void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
                                      const cv::Mat& grey) {
   keyframes_frame_id_ = job.frame_id;
+  keyframes_camera_frame_ = job.image->header.frame_id;
   publishAnnouncedKeyframes();
   if (result.loop) {
     AcceptedLoop loop = *result.loop;

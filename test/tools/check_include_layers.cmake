@@ -1,6 +1,6 @@
 # Fails when a file of the ROS-free library includes a folder that sits above its own in the
 # layering (README "Layout and design"): common, geometry, then backend and descriptors side by
-# side, database, core, runtime, config, then eval and sim side by side. Run: cmake -DSOURCE_DIR=<package> -P this file.
+# side, database, core, runtime and fleet side by side, config, then eval and sim side by side. Run: cmake -DSOURCE_DIR=<package> -P this file.
 set(layer_common 0)
 set(layer_geometry 1)
 set(layer_backend 2)
@@ -8,6 +8,7 @@ set(layer_descriptors 2)
 set(layer_database 3)
 set(layer_core 4)
 set(layer_runtime 5)
+set(layer_fleet 5)
 set(layer_config 6)
 set(layer_eval 7)
 set(layer_sim 7)

@@ -6,6 +6,7 @@
 
 #include "landmark_loop_closure/common/parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/fleet/fleet_matcher.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
 
 namespace landmark_loop_closure {
@@ -75,6 +76,7 @@ struct NodeOptions {
   /// keyframe is committed to it when stored; "" = memory only.
   std::string database_path;
   LoopDetectorOptions detector;
+  FleetOptions fleet;  ///< Loops between robots while they run.
   /// Set when the options had to change to run at all (the pretrained backbone was never
   /// fetched): one line for the node to warn with. Empty otherwise.
   std::string fallback_warning;

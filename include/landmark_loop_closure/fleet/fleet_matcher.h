@@ -1,0 +1,123 @@
+// Loops between robots (issue 68): a detector keeps the search rows other robots share as maps
+// of their own, searches each of its keyframes in them, and checks a candidate with the same
+// stages as its own loops: the score, the k-keyframe chain, then the verification of the place
+// on the other keyframe's fetched keypoints (a loop between robots has no odometry between them:
+// only a confirmed place is accepted).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "landmark_loop_closure/common/parameter_table.h"
+#include "landmark_loop_closure/core/place_check.h"
+#include "landmark_loop_closure/core/temporal_consistency.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
+#include "landmark_loop_closure/fleet/shared_keyframe.h"
+
+namespace landmark_loop_closure {
+
+struct FleetOptions {
+  bool share = false;  ///< Publish this detector's rows and answer for its keyframes' evidence.
+  std::string robot;   ///< This robot's name in the rows it shares; empty: the node's namespace.
+  /// Other robots' detector namespaces, separated by spaces or commas: their rows are kept and
+  /// searched. Empty: no loops between robots.
+  std::string peers;
+  double min_score = 0.3;          ///< Cosine of the global vectors a candidate needs.
+  int consistent_keyframes = 3;    ///< Consecutive own keyframes matching one stretch of a map.
+  int place_window = 10;           ///< Ids within which two matches are one stretch.
+  int top_k = 5;                   ///< Candidates kept per keyframe over every other map.
+  int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
+  double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
+  double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
+  /// The appearance check alone (ORB could not confirm the place) may confirm a loop between
+  /// robots. Off: in look-alike corridors it confirmed wrong places, and no odometry between two
+  /// robots rules them out.
+  bool appearance_confirms = false;
+
+  /// Keys under fleet/, documented in config/default.yaml.
+  static const ParameterTable<FleetOptions>& parameters();
+  std::string validate() const;
+  /// peers, split.
+  std::vector<std::string> peerList() const;
+};
+
+/// A candidate of another robot's map that passed the score and the chain: its evidence is
+/// fetched, then checkFleetCandidate() decides.
+struct FleetCandidate {
+  uint64_t query_map_id = 0;
+  uint64_t query_id = 0;
+  uint32_t query_session = 0;
+  SharedKeyframe match;  ///< The other robot's row, its vector left out.
+  double score = 0.0;    ///< Cosine of the global vectors.
+  int consistent_keyframes = 0;
+};
+
+/// Per robot heard from: for diagnostics and the silence lines.
+struct FleetRobot {
+  std::string robot;
+  std::set<uint64_t> map_ids;
+  size_t rows = 0;             ///< Kept and searched.
+  size_t rows_refused = 0;     ///< Malformed, of another descriptor, or past max_rows_per_robot.
+  size_t rows_repeated = 0;    ///< Already held (a peer that re-sends after a restart).
+  size_t rows_past_bound = 0;  ///< Of rows_refused: past max_rows_per_robot.
+  double last_heard_s = 0.0;
+  bool silent = false;
+};
+
+class FleetMatcher {
+ public:
+  /// Rows must be of `descriptor_identity` (its fingerprint) and `dimension` values.
+  FleetMatcher(FleetOptions options, const std::string& descriptor_identity, int dimension);
+
+  /// A row from another robot, heard at `now_s`: kept (returns "") or refused, with one line
+  /// saying why. Rows of the map `own_map_id` (this detector's own, echoed back) are ignored.
+  /// A row from a robot that was silent also returns a line saying it is back.
+  std::string addRow(const SharedKeyframe& row, double now_s, uint64_t own_map_id);
+  /// One of this detector's own keyframes (its own row): the other maps' rows scoring at least
+  /// min_score, chained with the previous keyframes' matches; the best whose chain is long
+  /// enough, if any. Call it for every own keyframe in order.
+  std::optional<FleetCandidate> query(const SharedKeyframe& own);
+  /// Lines for robots that went silent since the last call (once each).
+  std::vector<std::string> checkSilence(double now_s);
+
+  std::vector<FleetRobot> robots() const;
+  size_t rows() const;
+  /// Memory held by the rows (vectors and what a loop names).
+  size_t bytes() const;
+  const FleetOptions& options() const { return options_; }
+
+ private:
+  struct ForeignMap {
+    std::string robot;
+    uint64_t ordinal = 0;  ///< Keeps chain ids of two maps apart.
+    std::unique_ptr<QuantizedVectors> vectors;
+    std::vector<SharedKeyframe> rows;  ///< Without their vectors.
+    std::set<uint64_t> ids;
+  };
+
+  FleetOptions options_;
+  uint64_t fingerprint_;
+  std::string identity_;
+  int dimension_;
+  std::map<uint64_t, ForeignMap> maps_;  ///< By map_id.
+  std::map<std::string, FleetRobot> robots_;
+  TemporalConsistency consistency_;
+  std::optional<uint32_t> query_session_;
+};
+
+/// Checks a fetched candidate against the own keyframe's keypoints, as the detector checks its
+/// own loops (checkPlace), except that only a confirmed place passes (no odometry relates two
+/// robots), by ORB unless `appearance_confirms`, and both cameras must be the same (intrinsics
+/// within 1 %, keypoints found in images of one size).
+PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
+                               const PlaceCheckSettings& settings, const LocalFeatures& query,
+                               const CameraIntrinsics& query_intrinsics,
+                               const KeyframeEvidence& match, const CellsOfKeyframe& query_cells_of,
+                               const CellsOfKeyframe& match_cells_of, bool appearance_confirms);
+
+}  // namespace landmark_loop_closure

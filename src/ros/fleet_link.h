@@ -1,0 +1,108 @@
+// The detector's link to other robots over ROS (fleet/): its stored keyframes' rows published on
+// ~shared_keyframes and its keyframes' evidence answered on ~keyframe_evidence; the peers' rows
+// kept and searched (FleetMatcher), a chained candidate's evidence fetched from its robot on a
+// thread of its own, checked with the detector held, and the loop published as any other.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+
+#include "landmark_loop_closure/FleetEvidence.h"
+#include "landmark_loop_closure/FleetKeyframe.h"
+#include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/fleet/fleet_matcher.h"
+
+namespace landmark_loop_closure {
+
+class FleetLink {
+ public:
+  /// What the link asks of the node.
+  struct Hooks {
+    /// Runs `action` with the detector held (DetectorRuntime::withDetector).
+    std::function<void(const std::function<void(LoopDetector&)>&)> with_detector;
+    /// The latest camera_info's intrinsics (invalid until one came).
+    std::function<CameraIntrinsics()> intrinsics;
+    /// Puts the loop's relative pose in the frame relative_pose_frame asks for; returns it.
+    std::function<std::string(AcceptedLoop*)> express_relative_pose;
+    /// Publishes a loop between robots on loop_closures.
+    std::function<void(const LoopClosure&)> publish_loop;
+  };
+
+  /// `detector` (held by the caller, no worker running yet) gives the descriptor identity.
+  FleetLink(ros::NodeHandle node, ros::NodeHandle private_node, const FleetOptions& options,
+            const LoopDetector& detector, Hooks hooks);
+  ~FleetLink();
+  FleetLink(const FleetLink&) = delete;
+  FleetLink& operator=(const FleetLink&) = delete;
+
+  /// Stops answering and fetching (before the detector's worker stops).
+  void stop();
+
+  /// Worker thread, detector held: keyframe `id` was just announced (committed): shared with
+  /// the peers, and searched in theirs.
+  void onAnnounced(LoopDetector& detector, uint64_t id, const std::string& odometry_frame);
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+ private:
+  struct Fetch {
+    FleetCandidate candidate;
+    std::string peer;            ///< The namespace whose ~keyframe_evidence answers for it.
+    std::string odometry_frame;  ///< The query keyframe's.
+  };
+  void onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg);
+  bool onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response);
+  void fetchLoop();
+  /// Fetch thread: the candidate's evidence from its robot, checked with the detector held.
+  void fetchAndCheck(const Fetch& fetch);
+  /// Creates the matcher once the detector's descriptor is known (online training).
+  bool ensureMatcher(const LoopDetector& detector);
+
+  ros::NodeHandle node_;
+  ros::NodeHandle private_node_;
+  FleetOptions options_;
+  std::string robot_;
+  Hooks hooks_;
+  ros::Publisher row_publisher_;
+  std::vector<ros::Subscriber> row_subscribers_;
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  ros::ServiceServer evidence_service_;
+  ros::WallTimer silence_timer_;
+
+  std::mutex matcher_mutex_;  ///< Guards matcher_ and peer_of_map_.
+  std::unique_ptr<FleetMatcher> matcher_;
+  std::map<uint64_t, std::string> peer_of_map_;  ///< Which peer shared each map.
+  std::atomic<uint64_t> own_map_id_{0};
+
+  std::mutex fetch_mutex_;
+  std::condition_variable fetch_ready_;
+  std::deque<Fetch> fetches_;
+  bool stopping_ = false;
+  std::thread fetch_thread_;
+
+  std::atomic<uint64_t> rows_shared_{0};
+  std::atomic<uint64_t> candidates_dropped_{0};  ///< A fetch was still waiting.
+  std::atomic<uint64_t> fetches_made_{0};
+  std::atomic<uint64_t> fetches_failed_{0};
+  std::atomic<uint64_t> evidence_bytes_{0};
+  std::atomic<uint64_t> loops_refused_{0};
+  std::atomic<uint64_t> loops_published_{0};
+  std::atomic<uint64_t> evidence_answered_{0};
+};
+
+}  // namespace landmark_loop_closure

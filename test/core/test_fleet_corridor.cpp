@@ -1,0 +1,270 @@
+// Two robots on the generated corridor (issue 68, Done-when line 3): robot A maps lap 1 (and
+// closes it), robot B drives one lap from another start, each with a detector and a map of its
+// own; B keeps A's shared rows, searches each of its keyframes in them, fetches A's evidence for
+// a chained candidate and checks it. Every loop between them must be true, most of B's revisited
+// keyframes must find one, and the pose graph fed both robots' keyframes and the loops puts B's
+// path in A's frame.
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/backend/pose_graph_session.h"
+#include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/eval/trajectory_error.h"
+#include "landmark_loop_closure/eval/true_loop.h"
+#include "landmark_loop_closure/fleet/fleet_matcher.h"
+#include "landmark_loop_closure/sim/sequence.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+using sim::CameraModel;
+using sim::CorridorWorld;
+using sim::SequenceFrame;
+using sim::SequenceGenerator;
+using sim::SequenceOptions;
+
+struct Robot {
+  std::string name;
+  std::unique_ptr<LoopDetector> detector;
+  std::map<uint64_t, SequenceFrame> truth;  ///< By keyframe id.
+  std::vector<uint64_t> announced;          ///< Keyframe ids, as they became safe to share.
+  std::map<uint64_t, GraphLoop> own_loops;  ///< Its detector's metric loops, by query id.
+};
+
+/// A metric loop as the pose graph node receives it (relative pose in the base frame).
+GraphLoop graphLoop(uint64_t map_id, uint64_t match_map_id, uint64_t query_id,
+                    uint32_t query_session, uint64_t match_id, uint32_t match_session,
+                    const RelativePose& relative) {
+  GraphLoop loop;
+  loop.map_id = map_id;
+  loop.match_map_id = match_map_id;
+  loop.query_session = query_session;
+  loop.match_session = match_session;
+  loop.has_relative_pose = loop.relative_pose_metric = true;
+  loop.relative_pose_frame = PoseGraphNodeOptions{}.base_frame;
+  LoopConstraint camera;
+  camera.query_id = query_id;
+  camera.match_id = match_id;
+  camera.query_T_match.linear() = relative.rotation;
+  camera.query_T_match.translation() = relative.translation;
+  camera.covariance = relative.covariance;
+  loop.constraint =
+      loopInBaseFrame(camera, LoopDetectorOptions{}.camera_mount.toPose().toIsometry());
+  return loop;
+}
+
+/// Drives frames [first, last) of `sequence` through the robot's detector; its odometry starts
+/// at the identity at `first` (an odometry frame of its own).
+void drive(SequenceGenerator& sequence, size_t first, size_t last, Robot* robot) {
+  std::optional<Eigen::Isometry3d> start;
+  robot->detector->announceKeyframes(true);
+  SequenceFrame frame;
+  while (sequence.next(&frame)) {
+    if (frame.index < first) continue;
+    if (frame.index >= last) break;
+    Eigen::Isometry3d odometry =
+        planarPose(frame.odom.x, frame.odom.y, frame.odom.yaw).toIsometry();
+    if (!start) start = odometry;
+    const Pose pose = Pose::fromIsometry(start->inverse() * odometry);
+    const FrameResult result =
+        robot->detector->process(frame.stamp, pose, frame.image, CameraModel{}.intrinsics());
+    if (result.admission.isKeyframe()) robot->truth[result.admission.keyframe_id] = frame;
+    if (result.keyframe && result.keyframe->loop && result.keyframe->loop->relative_pose &&
+        result.keyframe->loop->relative_pose->metric) {
+      const AcceptedLoop& loop = *result.keyframe->loop;
+      robot->own_loops[loop.query_id] =
+          graphLoop(loop.map_id, loop.map_id, loop.query_id, loop.query_session, loop.match_id,
+                    loop.match_session, *loop.relative_pose);
+    }
+    for (const AnnouncedKeyframe& announced : robot->detector->takeAnnounced()) {
+      robot->announced.push_back(announced.summary.id);
+    }
+  }
+}
+
+Pose truthPose(const SequenceFrame& frame) {
+  return planarPose(frame.truth.x, frame.truth.y, frame.truth.yaw);
+}
+
+GraphKeyframe graphKeyframe(const Robot& robot, uint64_t id) {
+  const KeyframeSummary& summary =
+      robot.detector->database().summary(*robot.detector->database().indexOf(id));
+  GraphKeyframe keyframe;
+  keyframe.id = id;
+  keyframe.map_id = robot.detector->mapId();
+  keyframe.session = summary.session;
+  keyframe.odometry = summary.pose;
+  keyframe.stamp_ns = static_cast<uint64_t>(summary.stamp * 1e9);
+  keyframe.odometry_frame = robot.name + "/odom";
+  return keyframe;
+}
+
+TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
+  const CorridorWorld world;
+  SequenceOptions sequence_options;
+  sequence_options.laps = 2.3;
+  SequenceGenerator sequence(world, CameraModel{}, sequence_options);
+  const size_t lap = static_cast<size_t>(sequence.size() / 2.3);
+
+  const LoopDetectorOptions detector_options;
+  Robot a, b;
+  a.name = "robot_a";
+  b.name = "robot_b";
+  for (Robot* robot : {&a, &b}) {
+    robot->detector = std::make_unique<LoopDetector>(
+        detector_options, makeDescriptorExtractor(detector_options.descriptor));
+  }
+  // A maps lap 1 and drives on to where it started, its own loops closing its lap; B drives
+  // one lap from 0.3 laps on, after A.
+  drive(sequence, 0, lap * 12 / 10, &a);
+  SequenceGenerator second(world, CameraModel{}, sequence_options);
+  drive(second, lap * 13 / 10, lap * 23 / 10, &b);
+  ASSERT_GT(a.announced.size(), 100u);
+  ASSERT_GT(b.announced.size(), 100u);
+
+  // B keeps every row A shared.
+  FleetMatcher matcher(FleetOptions{}, b.detector->descriptorIdentity(),
+                       b.detector->database().globalDimension());
+  size_t row_bytes = 0;
+  for (const uint64_t id : a.announced) {
+    const std::optional<SharedKeyframe> row =
+        sharedKeyframeOf(*a.detector, id, a.name, a.name + "/odom");
+    ASSERT_TRUE(row);
+    row_bytes += row->wireBytes();
+    ASSERT_EQ(matcher.addRow(*row, 0.0, b.detector->mapId()), "");
+  }
+
+  // B searches each of its keyframes in them, in the order it shares them.
+  const GeometricVerifier verifier(detector_options.verification);
+  const PlaceCheckSettings settings{detector_options.verification, detector_options.appearance,
+                                    detector_options.metric_pose};
+  const auto cells_of = [](const LoopDetector& detector, const std::vector<uint8_t>& thumbnail) {
+    return [&detector, &thumbnail] {
+      const cv::Mat image = decodeThumbnail(thumbnail);
+      return image.empty() ? CellFeatures{}
+                           : cellFeatures(detector.extractor()->appearanceMaps(image));
+    };
+  };
+  const eval::TrueLoopRule rule;
+  const auto true_loop = [&](const SequenceFrame& query, const SequenceFrame& match) {
+    return rule.isTrueLoop({query.truth.x, query.truth.y, 0.0}, query.stamp,
+                           {match.truth.x, match.truth.y, 0.0}, match.stamp);
+  };
+  int revisited = 0, found = 0, loops = 0, false_loops = 0, fetched = 0, with_pose = 0;
+  size_t evidence_bytes = 0;
+  std::vector<PoseGraphSession::Input> inputs;
+  for (const uint64_t id : a.announced) {
+    inputs.emplace_back(graphKeyframe(a, id));
+    if (a.own_loops.count(id) > 0) inputs.emplace_back(a.own_loops.at(id));
+  }
+  for (const uint64_t id : b.announced) {
+    const SequenceFrame& frame = b.truth.at(id);
+    bool revisit = false;
+    for (const auto& [a_id, a_frame] : a.truth) revisit = revisit || true_loop(frame, a_frame);
+    revisited += revisit ? 1 : 0;
+    inputs.emplace_back(graphKeyframe(b, id));
+    if (b.own_loops.count(id) > 0) inputs.emplace_back(b.own_loops.at(id));
+    const std::optional<SharedKeyframe> own =
+        sharedKeyframeOf(*b.detector, id, b.name, b.name + "/odom");
+    ASSERT_TRUE(own);
+    const std::optional<FleetCandidate> candidate = matcher.query(*own);
+    if (!candidate) continue;
+    const std::optional<KeyframeEvidence> evidence =
+        evidenceOf(*a.detector, candidate->match.id, CameraModel{}.intrinsics());
+    ASSERT_TRUE(evidence);
+    ++fetched;
+    evidence_bytes += evidence->wireBytes();
+    const std::shared_ptr<const KeyframeRecord> query = b.detector->database().findRecord(id);
+    ASSERT_TRUE(query);
+    const PlaceCheck check = checkFleetCandidate(
+        verifier, settings, query->local_features, CameraModel{}.intrinsics(), *evidence,
+        cells_of(*b.detector, query->thumbnail), cells_of(*a.detector, evidence->thumbnail),
+        FleetOptions{}.appearance_confirms);
+    if (!check.accepted) continue;
+    ++loops;
+    const bool is_true = true_loop(frame, a.truth.at(candidate->match.id));
+    false_loops += is_true ? 0 : 1;
+    found += (is_true && revisit) ? 1 : 0;
+    if (!check.relative_pose || !check.relative_pose->metric) continue;
+    ++with_pose;
+    inputs.emplace_back(graphLoop(b.detector->mapId(), a.detector->mapId(), id,
+                                  candidate->query_session, candidate->match.id,
+                                  candidate->match.session, *check.relative_pose));
+  }
+
+  PoseGraphSession graph(PoseGraphNodeOptions{}, MountLookup());
+  for (const PoseGraphSession::Input& input : inputs) graph.process({input});
+  EXPECT_EQ(graph.graph().chains(), 2u);
+  EXPECT_EQ(graph.graph().chainsJoinedToFirst(), 2u) << graph.summary();
+
+  // B's path in A's frame: each B keyframe where the truth puts it relative to A's nearest
+  // keyframe, as A's graph placed that one (A's own drift over its lap is A's map, not B's error).
+  std::map<uint64_t, Pose> corrected_a;
+  for (const uint64_t id : a.announced) {
+    const std::optional<Pose> pose = graph.optimisedPose(a.detector->mapId(), id);
+    ASSERT_TRUE(pose);
+    corrected_a[id] = *pose;
+  }
+  double squares_in_a = 0.0;
+  size_t placed = 0;
+  std::vector<Pose> corrected, truth;
+  for (const auto& [robot, ids] : {std::pair{&a, &a.announced}, std::pair{&b, &b.announced}}) {
+    for (const uint64_t id : *ids) {
+      const std::optional<Pose> pose = graph.optimisedPose(robot->detector->mapId(), id);
+      ASSERT_TRUE(pose);
+      corrected.push_back(*pose);
+      truth.push_back(truthPose(robot->truth.at(id)));
+    }
+  }
+  for (const uint64_t id : b.announced) {
+    const SequenceFrame& frame = b.truth.at(id);
+    std::optional<uint64_t> nearest;
+    double nearest_m = 2.5;
+    for (const auto& [a_id, a_pose] : corrected_a) {
+      const SequenceFrame& a_frame = a.truth.at(a_id);
+      const double metres =
+          std::hypot(a_frame.truth.x - frame.truth.x, a_frame.truth.y - frame.truth.y);
+      if (metres <= nearest_m) {
+        nearest_m = metres;
+        nearest = a_id;
+      }
+    }
+    if (!nearest) continue;
+    const Eigen::Isometry3d expected = corrected_a.at(*nearest).toIsometry() *
+                                       truthPose(a.truth.at(*nearest)).toIsometry().inverse() *
+                                       truthPose(frame).toIsometry();
+    const Eigen::Vector3d error =
+        graph.optimisedPose(b.detector->mapId(), id)->position - expected.translation();
+    squares_in_a += error.head<2>().squaredNorm();
+    ++placed;
+  }
+  ASSERT_GT(placed, b.announced.size() / 2);
+  const double b_rmse = std::sqrt(squares_in_a / placed);
+  const std::vector<double> errors = eval::similarityAlignedErrors(corrected, truth);
+  double all_squares = 0.0;
+  for (const double error : errors) all_squares += error * error;
+  const double recall = revisited > 0 ? double(found) / revisited : 0.0;
+  std::printf(
+      "robot A %zu keyframes, robot B %zu (%d revisit A's places); %d candidates fetched, %d "
+      "loops between them (%d false, %d with a metric pose), %d of the revisited keyframes found "
+      "(%.0f %%); a shared row %.0f bytes, a fetched candidate's evidence %.0f bytes; B's RMSE "
+      "in A's frame %.3f m (%zu keyframes; both robots against the truth, similarity-aligned, "
+      "%.3f m); %s\n",
+      a.announced.size(), b.announced.size(), revisited, fetched, loops, false_loops, with_pose,
+      found, 100.0 * recall, double(row_bytes) / a.announced.size(),
+      fetched > 0 ? double(evidence_bytes) / fetched : 0.0, b_rmse, placed,
+      std::sqrt(all_squares / errors.size()), graph.summary().c_str());
+  EXPECT_EQ(false_loops, 0);
+  EXPECT_GE(recall, 0.8);
+  EXPECT_LE(b_rmse, 0.05);
+  EXPECT_LE(double(row_bytes) / a.announced.size(), 5000.0);
+}
+
+}  // namespace
+}  // namespace landmark_loop_closure

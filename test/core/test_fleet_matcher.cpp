@@ -1,0 +1,214 @@
+// Loops between robots (issue 68): another robot's shared rows kept, refused with one line when
+// they cannot be used, searched and chained; a candidate's fetched evidence checked as the
+// detector's own loops are.
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "landmark_loop_closure/fleet/fleet_matcher.h"
+
+namespace landmark_loop_closure {
+namespace {
+
+constexpr int kDimension = 8;
+const std::string kIdentity = "test descriptor";
+
+/// A unit vector pointing mostly along axis `place` (places 0..7 are far apart).
+std::vector<float> placeVector(int place, float noise = 0.0f) {
+  std::vector<float> vector(kDimension, noise);
+  vector[place % kDimension] = 1.0f;
+  float norm = 0.0f;
+  for (const float value : vector) norm += value * value;
+  for (float& value : vector) value /= std::sqrt(norm);
+  return vector;
+}
+
+SharedKeyframe row(const std::string& robot, uint64_t map_id, uint64_t id, int place) {
+  SharedKeyframe shared;
+  shared.robot = robot;
+  shared.map_id = map_id;
+  shared.id = id;
+  shared.stamp_ns = static_cast<int64_t>(id + 1) * 1000000000;
+  shared.odometry_frame = robot + "/odom";
+  shared.descriptor_fingerprint = descriptorFingerprint(kIdentity);
+  shared.global_row = QuantizedVectors::encode(placeVector(place, 0.05f));
+  return shared;
+}
+
+FleetOptions options() {
+  FleetOptions fleet;
+  fleet.min_score = 0.9;
+  fleet.consistent_keyframes = 3;
+  fleet.place_window = 2;
+  return fleet;
+}
+
+TEST(FleetMatcher, ACandidateNeedsItsChainOfConsecutiveKeyframes) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  // Robot a's map 1: ids 0..7 at places 0..7.
+  for (uint64_t id = 0; id < 8; ++id) {
+    EXPECT_EQ(matcher.addRow(row("a", 1, id, static_cast<int>(id)), 0.0, 2), "");
+  }
+  EXPECT_EQ(matcher.rows(), 8u);
+  // Robot b (map 2) drives places 2, 3, 4, 5: a candidate from the third keyframe on.
+  std::vector<std::optional<FleetCandidate>> found;
+  for (uint64_t id = 0; id < 4; ++id) {
+    found.push_back(matcher.query(row("b", 2, id, static_cast<int>(id + 2))));
+  }
+  EXPECT_FALSE(found[0]);
+  EXPECT_FALSE(found[1]);
+  ASSERT_TRUE(found[2]);
+  EXPECT_EQ(found[2]->match.map_id, 1u);
+  EXPECT_EQ(found[2]->match.id, 4u);
+  EXPECT_EQ(found[2]->match.robot, "a");
+  EXPECT_EQ(found[2]->query_id, 2u);
+  EXPECT_EQ(found[2]->query_map_id, 2u);
+  EXPECT_EQ(found[2]->consistent_keyframes, 3);
+  EXPECT_GT(found[2]->score, 0.9);
+  ASSERT_TRUE(found[3]);
+  EXPECT_EQ(found[3]->match.id, 5u);
+}
+
+TEST(FleetMatcher, MatchesJumpingAcrossTheOtherMapBreakTheChain) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 40; ++id) {
+    matcher.addRow(row("a", 1, id, static_cast<int>(id % kDimension)), 0.0, 2);
+  }
+  // Places 0, 1, 2 of a's map repeat every 8 ids: the best match of each query is one of them,
+  // but consecutive queries of places 0 then 4 then 0 never chain within place_window ids.
+  int candidates = 0;
+  for (uint64_t id = 0; id < 12; ++id) {
+    candidates += matcher.query(row("b", 2, id, id % 2 == 0 ? 0 : 4)) ? 1 : 0;
+  }
+  EXPECT_EQ(candidates, 0);
+}
+
+TEST(FleetMatcher, RowsThatCannotBeUsedAreRefusedWithOneLineEach) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  SharedKeyframe other_descriptor = row("a", 1, 0, 0);
+  other_descriptor.descriptor_fingerprint = descriptorFingerprint("another network");
+  std::string line = matcher.addRow(other_descriptor, 0.0, 2);
+  EXPECT_NE(line.find("robot 'a' (map 1, id 0) was refused: it was described by another "
+                      "descriptor"),
+            std::string::npos)
+      << line;
+  EXPECT_NE(line.find(kIdentity), std::string::npos) << line;
+
+  SharedKeyframe short_vector = row("a", 1, 1, 0);
+  short_vector.global_row.resize(6);
+  line = matcher.addRow(short_vector, 0.0, 2);
+  EXPECT_NE(line.find("a global vector of 2 values where this detector's have 8"),
+            std::string::npos)
+      << line;
+
+  SharedKeyframe bad_scale = row("a", 1, 2, 0);
+  const float nan = std::nanf("");
+  std::memcpy(bad_scale.global_row.data(), &nan, sizeof(float));
+  EXPECT_NE(matcher.addRow(bad_scale, 0.0, 2).find("scale that is not finite"), std::string::npos);
+
+  SharedKeyframe bad_pose = row("a", 1, 3, 0);
+  bad_pose.pose.orientation = Eigen::Quaterniond(0, 0, 0, 0);
+  EXPECT_NE(matcher.addRow(bad_pose, 0.0, 2).find("not a unit quaternion"), std::string::npos);
+  SharedKeyframe nameless = row("", 1, 4, 0);
+  EXPECT_NE(matcher.addRow(nameless, 0.0, 2).find("no robot name"), std::string::npos);
+
+  EXPECT_EQ(matcher.rows(), 0u);
+  ASSERT_EQ(matcher.robots().size(), 2u);
+  EXPECT_EQ(matcher.robots()[1].rows_refused, 4u);
+  // A good row after them is kept.
+  EXPECT_EQ(matcher.addRow(row("a", 1, 5, 0), 0.0, 2), "");
+  EXPECT_EQ(matcher.rows(), 1u);
+}
+
+TEST(FleetMatcher, OwnRowsRepeatsAndRowsPastTheBoundAreNotKept) {
+  FleetOptions bounded = options();
+  bounded.max_rows_per_robot = 3;
+  FleetMatcher matcher(bounded, kIdentity, kDimension);
+  EXPECT_EQ(matcher.addRow(row("b", 2, 0, 0), 0.0, 2), "");  // Its own map, echoed back.
+  EXPECT_EQ(matcher.rows(), 0u);
+  for (uint64_t id = 0; id < 3; ++id) EXPECT_EQ(matcher.addRow(row("a", 1, id, 0), 0.0, 2), "");
+  EXPECT_EQ(matcher.addRow(row("a", 1, 1, 0), 0.0, 2), "");  // Sent again after a restart.
+  const std::string past = matcher.addRow(row("a", 1, 3, 0), 0.0, 2);
+  EXPECT_NE(past.find("robot 'a' has shared 3 keyframes, fleet/max_rows_per_robot"),
+            std::string::npos)
+      << past;
+  EXPECT_EQ(matcher.addRow(row("a", 1, 4, 0), 0.0, 2), "");  // Said once.
+  EXPECT_EQ(matcher.rows(), 3u);
+  const FleetRobot robot = matcher.robots().front();
+  EXPECT_EQ(robot.rows_repeated, 1u);
+  EXPECT_EQ(robot.rows_refused, 2u);
+  EXPECT_GT(matcher.bytes(), 3u * (4 + kDimension));
+}
+
+TEST(FleetMatcher, ASilentRobotIsReportedOnceAndWelcomedBack) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 8; ++id) matcher.addRow(row("a", 1, id, static_cast<int>(id)), 5.0, 2);
+  EXPECT_TRUE(matcher.checkSilence(20.0).empty());
+  const std::vector<std::string> silent = matcher.checkSilence(66.0);
+  ASSERT_EQ(silent.size(), 1u);
+  EXPECT_EQ(silent[0],
+            "robot 'a' has shared nothing for 61 s: its 8 keyframes are kept and "
+            "still searched");
+  EXPECT_TRUE(matcher.checkSilence(90.0).empty());
+  // Its rows are still searched while it is silent.
+  int candidates = 0;
+  for (uint64_t id = 0; id < 4; ++id) {
+    candidates += matcher.query(row("b", 2, id, static_cast<int>(id))) ? 1 : 0;
+  }
+  EXPECT_EQ(candidates, 2);
+  const std::string back = matcher.addRow(row("a", 1, 8, 0), 125.0, 2);
+  EXPECT_EQ(back, "robot 'a' is heard again after 120 s; its 8 keyframes were kept");
+  EXPECT_EQ(matcher.rows(), 9u);
+}
+
+TEST(FleetMatcher, PeerListsSplitOnSpacesAndCommas) {
+  FleetOptions fleet;
+  fleet.peers = " /robot_b/loop_closure,/robot_c/loop_closure  /robot_b/loop_closure ";
+  EXPECT_EQ(fleet.peerList(),
+            (std::vector<std::string>{"/robot_b/loop_closure", "/robot_c/loop_closure"}));
+  EXPECT_EQ(fleet.validate(), "");
+  fleet.min_score = 2.0;
+  EXPECT_NE(fleet.validate(), "");
+}
+
+TEST(FleetCandidateCheck, MalformedEvidenceAndOtherCamerasAreRefused) {
+  const VerificationOptions verification;
+  const AppearanceCheckOptions appearance;
+  const MetricPoseOptions metric;
+  const GeometricVerifier verifier(verification);
+  CameraIntrinsics camera;
+  camera.fx = camera.fy = 300;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.image_size = cv::Size(640, 480);
+  LocalFeatures query;
+  KeyframeEvidence evidence;
+  evidence.intrinsics = camera;
+  evidence.local_features.points.resize(5);
+  const auto no_cells = [] { return CellFeatures{}; };
+  PlaceCheck check = checkFleetCandidate(verifier, {verification, appearance, metric}, query,
+                                         camera, evidence, no_cells, no_cells, false);
+  EXPECT_FALSE(check.accepted);
+  EXPECT_EQ(check.detail,
+            "its evidence is malformed: 5 keypoints without a 32-byte descriptor each");
+
+  evidence.local_features = LocalFeatures{};
+  evidence.intrinsics.fx = 400;
+  check = checkFleetCandidate(verifier, {verification, appearance, metric}, query, camera, evidence,
+                              no_cells, no_cells, false);
+  EXPECT_FALSE(check.accepted);
+  EXPECT_NE(check.detail.find("cameras differ"), std::string::npos);
+
+  // Without camera_info the detector may publish its own loop unverified; between robots never.
+  const CameraIntrinsics unknown;
+  evidence.intrinsics = unknown;
+  check = checkFleetCandidate(verifier, {verification, appearance, metric}, query, unknown,
+                              evidence, no_cells, no_cells, false);
+  EXPECT_FALSE(check.accepted);
+  EXPECT_NE(check.detail.find("could not be confirmed"), std::string::npos) << check.detail;
+}
+
+}  // namespace
+}  // namespace landmark_loop_closure
