@@ -122,3 +122,6 @@ set_tests_properties(_ctest_${PROJECT_NAME}_gtest_test_baselines_regression_shar
 # entry that spinning takes the other core (measured, the corridor's revisit case alone: 21.9 s of
 # CPU for 15.2 s, 16.4 s with passive waiting, the same wall time).
 set_property(TEST ${llc_tests} APPEND PROPERTY ENVIRONMENT OMP_WAIT_POLICY=PASSIVE)
+set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_ros_node_two_robots.test PROPERTIES
+  COST 45)
+set_tests_properties(_ctest_${PROJECT_NAME}_gtest_test_fleet_corridor PROPERTIES COST 30)

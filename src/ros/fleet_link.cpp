@@ -68,8 +68,8 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
     row_publisher_ = private_node_.advertise<FleetKeyframe>("shared_keyframes", 1000);
     ros::AdvertiseServiceOptions service;
     service.init<FleetEvidence::Request, FleetEvidence::Response>(
-        "keyframe_evidence", [this](FleetEvidence::Request& request,
-                                    FleetEvidence::Response& response) {
+        "keyframe_evidence",
+        [this](FleetEvidence::Request& request, FleetEvidence::Response& response) {
           return onEvidence(request, response);
         });
     service.callback_queue = &service_queue_;
@@ -80,8 +80,7 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
   for (const std::string& peer : options_.peerList()) {
     const std::string topic = ros::names::resolve(peer + "/shared_keyframes");
     row_subscribers_.push_back(node_.subscribe<FleetKeyframe>(
-        topic, 1000,
-        [this, peer](const FleetKeyframe::ConstPtr& msg) { onRow(peer, msg); }));
+        topic, 1000, [this, peer](const FleetKeyframe::ConstPtr& msg) { onRow(peer, msg); }));
     ROS_INFO("fleet: keeping and searching the keyframes robot %s shares on %s", peer.c_str(),
              topic.c_str());
   }
@@ -136,8 +135,12 @@ void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& ms
     peer_of_map_.emplace(msg->map_id, peer);
   }
   if (line.empty()) return;
-  if (line.find("refused") != std::string::npos) {
-    ROS_WARN_THROTTLE(kWarningPeriod, "fleet: %s", line.c_str());
+  if (const size_t refused = line.find("refused: "); refused != std::string::npos) {
+    // One line per robot and reason a period: a robot sending bad rows at 10 Hz is said once.
+    const std::string kind = msg->robot + ":" + line.substr(refused, 40);
+    if (refusals_.allow(kind, ros::WallTime::now().toSec())) {
+      ROS_WARN("fleet: %s", line.c_str());
+    }
   } else {
     ROS_INFO("fleet: %s", line.c_str());
   }
@@ -229,8 +232,8 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "fleet: the evidence of keyframe %lu of robot %s could not be fetched from "
                       "%s: %s",
-                      static_cast<unsigned long>(candidate.match.id),
-                      candidate.match.robot.c_str(), service.c_str(), problem.c_str());
+                      static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
+                      service.c_str(), problem.c_str());
     return;
   }
   const KeyframeEvidence evidence = evidenceFromResponse(request, answer->response);
@@ -289,20 +292,20 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     ROS_INFO_THROTTLE(kWarningPeriod,
                       "fleet: keyframe %lu and keyframe %lu of robot %s refused: %s",
                       static_cast<unsigned long>(candidate.query_id),
-                      static_cast<unsigned long>(candidate.match.id),
-                      candidate.match.robot.c_str(),
+                      static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
                       refused.empty() ? "the keyframe left this detector's map" : refused.c_str());
     return;
   }
   hooks_.publish_loop(*message);
   ++loops_published_;
-  ROS_INFO("Loop between robots: keyframe %lu matches keyframe %lu of robot %s (map %lu, score "
-           "%.3f, %d consistent keyframes, %u inliers%s)",
-           static_cast<unsigned long>(candidate.query_id),
-           static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
-           static_cast<unsigned long>(candidate.match.map_id), candidate.score,
-           candidate.consistent_keyframes, message->inliers,
-           message->has_relative_pose ? ", with a relative pose" : "");
+  ROS_INFO(
+      "Loop between robots: keyframe %lu matches keyframe %lu of robot %s (map %lu, score "
+      "%.3f, %d consistent keyframes, %u inliers%s)",
+      static_cast<unsigned long>(candidate.query_id),
+      static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
+      static_cast<unsigned long>(candidate.match.map_id), candidate.score,
+      candidate.consistent_keyframes, message->inliers,
+      message->has_relative_pose ? ", with a relative pose" : "");
 }
 
 void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -316,8 +319,8 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
       bytes = matcher_->bytes();
       for (const FleetRobot& robot : matcher_->robots()) {
         refused += robot.rows_refused;
-        robots += (robots.empty() ? "" : ", ") + robot.robot + " (" +
-                  std::to_string(robot.rows) + (robot.silent ? ", silent)" : ")");
+        robots += (robots.empty() ? "" : ", ") + robot.robot + " (" + std::to_string(robot.rows) +
+                  (robot.silent ? ", silent)" : ")");
       }
     }
   }

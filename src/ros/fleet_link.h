@@ -23,6 +23,7 @@
 #include "landmark_loop_closure/FleetEvidence.h"
 #include "landmark_loop_closure/FleetKeyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
 
@@ -87,6 +88,7 @@ class FleetLink {
   std::mutex matcher_mutex_;  ///< Guards matcher_ and peer_of_map_.
   std::unique_ptr<FleetMatcher> matcher_;
   std::map<uint64_t, std::string> peer_of_map_;  ///< Which peer shared each map.
+  KindThrottle refusals_{10.0};  ///< Callback thread only: refused rows, by robot and reason.
   std::atomic<uint64_t> own_map_id_{0};
 
   std::mutex fetch_mutex_;
