@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/backend/pose_graph.h"
+#include "landmark_loop_closure/common/text_and_files.h"
 
 namespace landmark_loop_closure {
 
@@ -77,6 +78,13 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "node has no parameters (said at start). A loop in the detector's base_frame "
                 "other than base_frame is left out, named in the log. The graph is saved beside "
                 "that node's database_path (as MAP-pose_graph) and restored from it at start.")
+          .text("robots", &O::robots,
+                "several robots' detectors in one graph (README \"Several robots\"): their "
+                "namespaces, separated by spaces or commas (e.g. \"/robot_a /robot_b\"), whose "
+                "keyframes and loop_closures are read; each robot's corrected path is published "
+                "on ~ROBOT/corrected_path and map -> each robot's odometry frame on tf. Time "
+                "going back then starts a new graph only within one map. Empty: this "
+                "namespace's keyframes and loop_closures.")
           .group(&O::camera_mount, CameraMount::parameters())
           .flag("camera_mount/from_tf", &O::camera_mount_from_tf,
                 "turn loops whose relative_pose_frame is not base_frame through tf instead of "
@@ -88,6 +96,8 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
           .group(&O::graph, PoseGraphOptions::parameters());
   return table;
 }
+
+std::vector<std::string> PoseGraphNodeOptions::robotList() const { return parseNameList(robots); }
 
 std::string PoseGraphNodeOptions::validate() const {
   std::string problems = parameters().check(*this);

@@ -17,7 +17,8 @@ std::string loopName(const GraphLoop& loop) {
 PoseGraphSession::PoseGraphSession(PoseGraphNodeOptions options, MountLookup mount)
     : options_(std::move(options)),
       mount_(std::move(mount)),
-      graph_(std::make_unique<PoseGraph>(options_.graph)) {}
+      graph_(std::make_unique<PoseGraph>(options_.graph)),
+      fleet_(!options_.robotList().empty()) {}
 
 GraphStep PoseGraphSession::process(const std::vector<Input>& batch) {
   GraphStep step;
@@ -107,10 +108,12 @@ bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* ste
   // the graph holds in a new session: a detector that loaded its map, replaying a bag on it.
   const bool continues_a_map = last_id_of_map_.count(keyframe.map_id) > 0 &&
                                chain_of_run_.count({keyframe.map_id, keyframe.session}) == 0;
-  if (problem.empty() && !stamps_ns_.empty() && keyframe.stamp_ns < stamps_ns_.back() &&
-      !continues_a_map) {
-    startOver(keyframe, step);
-  }
+  // Several robots' keyframes interleave: time goes back only within one of their maps.
+  const auto last_stamp_of_map = last_stamp_of_map_.find(keyframe.map_id);
+  const bool time_went_back = fleet_ ? last_stamp_of_map != last_stamp_of_map_.end() &&
+                                           keyframe.stamp_ns < last_stamp_of_map->second
+                                     : !stamps_ns_.empty() && keyframe.stamp_ns < stamps_ns_.back();
+  if (problem.empty() && time_went_back && !continues_a_map) startOver(keyframe, step);
   const auto last_of_map = last_id_of_map_.find(keyframe.map_id);
   if (problem.empty() && last_of_map != last_id_of_map_.end() &&
       keyframe.id <= last_of_map->second) {
@@ -154,6 +157,7 @@ bool PoseGraphSession::addKeyframe(const GraphKeyframe& keyframe, GraphStep* ste
   odometry_frame_ = keyframe.odometry_frame;
   newest_in_frame_[keyframe.odometry_frame] = graph_id;
   stamps_ns_.push_back(keyframe.stamp_ns);
+  last_stamp_of_map_[keyframe.map_id] = keyframe.stamp_ns;
   kept_.emplace_back(keyframe);
   ++kept_revision_;
   return true;
@@ -205,6 +209,7 @@ void PoseGraphSession::startOver(const GraphKeyframe& keyframe, GraphStep* step)
   current_run_.reset();
   newest_in_frame_.clear();
   stamps_ns_.clear();
+  last_stamp_of_map_.clear();
   graph_loops_.clear();
   kept_.clear();
   ++kept_revision_;

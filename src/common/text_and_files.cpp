@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/common/text_and_files.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -28,6 +29,19 @@ std::string fileHash(const std::string& path) {
   char text[17];
   std::snprintf(text, sizeof(text), "%llx", static_cast<unsigned long long>(hash));
   return text;
+}
+
+std::vector<std::string> parseNameList(const std::string& text) {
+  std::string spaced = text;
+  for (char& c : spaced) {
+    if (c == ',') c = ' ';
+  }
+  std::istringstream stream(spaced);
+  std::vector<std::string> names;
+  for (std::string word; stream >> word;) {
+    if (std::find(names.begin(), names.end(), word) == names.end()) names.push_back(word);
+  }
+  return names;
 }
 
 std::vector<double> parseNumberList(const std::string& text) {

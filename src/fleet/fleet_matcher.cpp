@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "landmark_loop_closure/common/text_and_files.h"
+
 namespace landmark_loop_closure {
 
 namespace {
@@ -69,16 +71,7 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
 
 std::string FleetOptions::validate() const { return parameters().check(*this); }
 
-std::vector<std::string> FleetOptions::peerList() const {
-  std::string spaced = peers;
-  std::replace(spaced.begin(), spaced.end(), ',', ' ');
-  std::istringstream words(spaced);
-  std::vector<std::string> list;
-  for (std::string word; words >> word;) {
-    if (std::find(list.begin(), list.end(), word) == list.end()) list.push_back(word);
-  }
-  return list;
-}
+std::vector<std::string> FleetOptions::peerList() const { return parseNameList(peers); }
 
 FleetMatcher::FleetMatcher(FleetOptions options, const std::string& descriptor_identity,
                            int dimension)

@@ -5,9 +5,11 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <utility>
+#include <vector>
 
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
@@ -133,8 +135,33 @@ class PoseGraphNode {
         std::move(options),
         [this](const std::string& frame, std::string* problem) { return mountOf(frame, problem); },
         listener);
-    keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
-    loop_subscriber_ = node.subscribe("loop_closures", 100, &PoseGraphNode::onLoop, this);
+    const std::vector<std::string> robots = options_.robotList();
+    if (robots.empty()) {
+      keyframe_subscriber_ = node.subscribe("keyframes", 1000, &PoseGraphNode::onKeyframe, this);
+      loop_subscriber_ = node.subscribe("loop_closures", 100, &PoseGraphNode::onLoop, this);
+    }
+    for (size_t robot = 0; robot < robots.size(); ++robot) {
+      // ~robot_a/corrected_path for the namespace "/robot_a".
+      std::string name = robots[robot];
+      while (!name.empty() && name.front() == '/') name.erase(name.begin());
+      robot_paths_.push_back(private_node.advertise<nav_msgs::Path>(
+          (name.empty() ? "robot_" + std::to_string(robot) : name) + "/corrected_path", 1, true));
+      robot_subscribers_.push_back(node.subscribe<Keyframe>(
+          robots[robot] + "/keyframes", 1000, [this, robot](const Keyframe::ConstPtr& keyframe) {
+            {
+              std::lock_guard<std::mutex> lock(robot_maps_mutex_);
+              robot_of_map_[keyframe->map_id] = robot;
+            }
+            onKeyframe(*keyframe);
+          }));
+      robot_subscribers_.push_back(node.subscribe<LoopClosure>(
+          robots[robot] + "/loop_closures", 100,
+          [this](const LoopClosure::ConstPtr& loop) { onLoop(*loop); }));
+      ROS_INFO(
+          "Pose graph: robot %s's keyframes and loops join the graph; its corrected path on "
+          "%s",
+          robots[robot].c_str(), robot_paths_.back().getTopic().c_str());
+    }
     if (options_.publish_tf && options_.tf_rate_hz > 0.0) {
       tf_timer_ = node.createTimer(ros::Duration(1.0 / options_.tf_rate_hz),
                                    [this](const ros::TimerEvent&) { sendCorrection(); });
@@ -145,6 +172,7 @@ class PoseGraphNode {
     tf_timer_.stop();
     keyframe_subscriber_.shutdown();
     loop_subscriber_.shutdown();
+    for (ros::Subscriber& subscriber : robot_subscribers_) subscriber.shutdown();
     runtime_->stop();
     // At SIGINT ROS has shut its console down before the nodelet is destroyed: say it directly.
     const std::string summary = runtime_->summary();
@@ -300,7 +328,24 @@ class PoseGraphNode {
     }
     corrected_publisher_.publish(corrected);
     odometry_publisher_.publish(odometry);
+    publishRobotPaths(session, corrected);
     publishRejected(session, stamp);
+  }
+
+  /// Each robot's keyframes of `corrected` (the graph's, in its order), on its own path.
+  void publishRobotPaths(const PoseGraphSession& session, const nav_msgs::Path& corrected) {
+    if (robot_paths_.empty()) return;
+    std::vector<nav_msgs::Path> paths(robot_paths_.size());
+    for (nav_msgs::Path& path : paths) path.header = corrected.header;
+    {
+      std::lock_guard<std::mutex> lock(robot_maps_mutex_);
+      const std::vector<uint64_t>& ids = session.graph().ids();
+      for (size_t i = 0; i < ids.size() && i < corrected.poses.size(); ++i) {
+        const auto robot = robot_of_map_.find(session.keyOf(ids[i]).first);
+        if (robot != robot_of_map_.end()) paths[robot->second].poses.push_back(corrected.poses[i]);
+      }
+    }
+    for (size_t robot = 0; robot < paths.size(); ++robot) robot_paths_[robot].publish(paths[robot]);
   }
 
   visualization_msgs::Marker rejectedMarker(const ros::Time& stamp) const {
@@ -366,6 +411,11 @@ class PoseGraphNode {
   std::unique_ptr<PoseGraphRuntime> runtime_;
   ros::Subscriber keyframe_subscriber_;
   ros::Subscriber loop_subscriber_;
+  // robots: each one's subscriptions and corrected path, and which robot each map is.
+  std::vector<ros::Subscriber> robot_subscribers_;
+  std::vector<ros::Publisher> robot_paths_;
+  std::mutex robot_maps_mutex_;
+  std::map<uint64_t, size_t> robot_of_map_;
   ros::Timer tf_timer_;
 };
 

@@ -417,6 +417,38 @@ TEST(PoseGraphSession, LoopsBetweenTwoRobotsMapsJoinTheirChains) {
       << corrections.at("b/odom").matrix();
 }
 
+// Two robots' keyframes reach the fleet's pose graph out of stamp order (each robot's own are in
+// order): with `robots` set, only a map's own time going back starts a new graph.
+TEST(PoseGraphSession, WithSeveralRobotsTimeGoesBackOnlyWithinAMap) {
+  constexpr uint64_t kRobotA = kMap, kRobotB = kMap + 100;
+  const auto interleaved = [&](PoseGraphSession* session) {
+    size_t new_graphs = 0;
+    for (uint64_t id = 0; id < 10; ++id) {
+      // B's keyframe taken half a second before A's, received after it.
+      GraphKeyframe a = keyframeAt(id, kRobotA, (id + 1) * kSecond);
+      GraphKeyframe b = keyframeAt(id, kRobotB, (id + 1) * kSecond - kSecond / 2);
+      a.odometry_frame = "a/odom";
+      b.odometry_frame = "b/odom";
+      const GraphStep step = session->process({a, b});
+      new_graphs += hasNotice(step, GraphNotice::Kind::kNewGraph, "") ? 1 : 0;
+    }
+    return new_graphs;
+  };
+  PoseGraphSession one_robot(PoseGraphNodeOptions{}, cameraOnly);
+  EXPECT_GT(interleaved(&one_robot), 0u);  // Taken for a bag played again, as before.
+
+  PoseGraphNodeOptions fleet;
+  fleet.robots = "/robot_a, /robot_b";
+  PoseGraphSession robots(fleet, cameraOnly);
+  EXPECT_EQ(interleaved(&robots), 0u);
+  EXPECT_EQ(robots.graph().keyframes(), 20u);
+  EXPECT_EQ(robots.graph().chains(), 2u);
+  // A's own time going back (its bag played again) still starts a new graph.
+  const GraphStep step = robots.process({keyframeAt(11, kRobotA, kSecond / 4)});
+  EXPECT_TRUE(hasNotice(step, GraphNotice::Kind::kNewGraph, "")) << robots.summary();
+  EXPECT_EQ(robots.graph().keyframes(), 1u);
+}
+
 TEST(PoseGraphSession, ABadKeyframeOfAnotherSessionOrMapDoesNotReplaceTheGraph) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
   session.process(keyframes(0, 12));

@@ -1,8 +1,9 @@
 // Two robots' detectors on one ROS master (issue 68): robot_a maps lap 1 of the corridor and
 // shares its keyframes; robot_b drives one lap from another start in its own odometry frame,
 // keeps robot_a's rows, and publishes loops into robot_a's map (both map ids set), each true.
-// robot_a then falls silent and comes back, and malformed rows arrive: robot_b says so in one
-// line each and goes on.
+// The fleet's pose graph puts robot_b's corrected path in robot_a's frame. robot_a then falls
+// silent and comes back, and malformed rows arrive: robot_b says so in one line each and goes
+// on.
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -14,6 +15,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -175,6 +177,13 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
       [&shared](const FleetKeyframe::ConstPtr& row) { shared.push_back(*row); });
   ros::Publisher forged =
       node.advertise<FleetKeyframe>("/robot_a/loop_closure/shared_keyframes", 10);
+  std::map<std::string, nav_msgs::Path> corrected;  // The pose graph's, by robot.
+  std::vector<ros::Subscriber> paths;
+  for (const std::string robot : {"robot_a", "robot_b"}) {
+    paths.push_back(node.subscribe<nav_msgs::Path>(
+        "/pose_graph/" + robot + "/corrected_path", 10,
+        [&corrected, robot](const nav_msgs::Path::ConstPtr& path) { corrected[robot] = *path; }));
+  }
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(30.0);
   while (ros::ok() && !(a.connected() && b.connected() && shared_rows.getNumPublishers() > 0) &&
          ros::WallTime::now() < deadline) {
@@ -232,6 +241,47 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
   EXPECT_GE(between, static_cast<int>(b.keyframes.size() * 6 / 10));
   EXPECT_GT(with_pose, between / 3);
   EXPECT_EQ(watch.values["fleet rows kept"], std::to_string(a.keyframes.size()));
+
+  // robot_b's corrected path in robot_a's frame: each keyframe where the truth puts it relative
+  // to robot_a's nearest keyframe, as the graph placed that one.
+  ASSERT_GT(corrected["robot_b"].poses.size(), b.keyframes.size() / 2);
+  ASSERT_GT(corrected["robot_a"].poses.size(), a.keyframes.size() / 2);
+  double squares = 0.0;
+  size_t placed = 0;
+  for (const geometry_msgs::PoseStamped& pose_b : corrected["robot_b"].poses) {
+    const Pose2D& truth_b = b.truth.at(pose_b.header.stamp);
+    const geometry_msgs::PoseStamped* nearest = nullptr;
+    double nearest_m = 2.5;
+    for (const geometry_msgs::PoseStamped& pose_a : corrected["robot_a"].poses) {
+      const Pose2D& truth_a = a.truth.at(pose_a.header.stamp);
+      const double metres = std::hypot(truth_a.x - truth_b.x, truth_a.y - truth_b.y);
+      if (metres <= nearest_m) {
+        nearest_m = metres;
+        nearest = &pose_a;
+      }
+    }
+    if (!nearest) continue;
+    const Pose2D& truth_a = a.truth.at(nearest->header.stamp);
+    const auto isometry = [](const geometry_msgs::Pose& pose) {
+      Pose converted;
+      converted.position = {pose.position.x, pose.position.y, pose.position.z};
+      converted.orientation = Eigen::Quaterniond(pose.orientation.w, pose.orientation.x,
+                                                 pose.orientation.y, pose.orientation.z);
+      return converted.toIsometry();
+    };
+    const Eigen::Isometry3d expected =
+        isometry(nearest->pose) *
+        planarPose(truth_a.x, truth_a.y, truth_a.yaw).toIsometry().inverse() *
+        planarPose(truth_b.x, truth_b.y, truth_b.yaw).toIsometry();
+    squares +=
+        (isometry(pose_b.pose).translation() - expected.translation()).head<2>().squaredNorm();
+    ++placed;
+  }
+  ASSERT_GT(placed, corrected["robot_b"].poses.size() / 2);
+  const double rmse = std::sqrt(squares / placed);
+  std::printf("robot_b's corrected path in robot_a's frame: RMSE %.3f m over %zu keyframes\n", rmse,
+              placed);
+  EXPECT_LT(rmse, 0.1);
 
   // robot_a has shared nothing since its lap: said once; then a row of it again, and bad ones.
   EXPECT_TRUE(watch.waitForLine("robot 'robot_a' has shared nothing for", 15.0));

@@ -261,6 +261,10 @@ struct PoseGraphNodeOptions {
   /// followed by "-pose_graph", read from its parameters, not a parameter here); empty: not
   /// saved.
   std::string graph_file;
+  /// Several robots' detector namespaces, separated by spaces or commas; empty: one detector.
+  std::string robots;
+  /// robots, split.
+  std::vector<std::string> robotList() const;
   /// Loops in the camera's optical frame (the detector's default relative_pose_frame) are
   /// turned into the base frame with the mount.
   CameraMount camera_mount;

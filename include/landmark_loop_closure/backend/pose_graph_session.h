@@ -167,6 +167,8 @@ class PoseGraphSession {
   std::map<std::string, uint64_t> newest_in_frame_;  ///< Graph id, by odometry frame.
   std::string odometry_frame_;
   std::vector<uint64_t> stamps_ns_;
+  std::map<uint64_t, uint64_t> last_stamp_of_map_;
+  const bool fleet_;  ///< Several robots (options.robots): time is compared within a map.
   std::vector<GraphLoop> graph_loops_;
   std::vector<Input> kept_;
   uint64_t kept_revision_ = 0;

@@ -12,6 +12,9 @@ std::string fileHash(const std::string& path);
 /// "0.485, 0.456 0.406" -> {0.485, 0.456, 0.406}; throws std::invalid_argument on other text.
 std::vector<double> parseNumberList(const std::string& text);
 
+/// "/a, /b  /a" -> {"/a", "/b"}: words separated by spaces or commas, each once, in order.
+std::vector<std::string> parseNameList(const std::string& text);
+
 /// A path as a shell would read it: a leading "~" or "~/" becomes $HOME, "$NAME" and "${NAME}"
 /// the variable's value. An unset variable is left as written, so the error that follows names it.
 std::string expandPath(const std::string& path);
