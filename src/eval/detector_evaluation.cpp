@@ -231,17 +231,20 @@ const char* toString(RunProtocol protocol) {
       return "localisation";
     case RunProtocol::kOneRun:
       return "one-run";
+    case RunProtocol::kRobots:
+      return "robots";
   }
   return "?";
 }
 
 RunProtocol runProtocol(const std::string& name) {
-  for (const RunProtocol protocol : {RunProtocol::kOneSequence, RunProtocol::kSessions,
-                                     RunProtocol::kLocalisation, RunProtocol::kOneRun}) {
+  for (const RunProtocol protocol :
+       {RunProtocol::kOneSequence, RunProtocol::kSessions, RunProtocol::kLocalisation,
+        RunProtocol::kOneRun, RunProtocol::kRobots}) {
     if (name == toString(protocol)) return protocol;
   }
   throw std::invalid_argument("unknown protocol '" + name +
-                              "' (one-sequence, sessions, localisation or one-run)");
+                              "' (one-sequence, sessions, localisation, one-run or robots)");
 }
 
 DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
@@ -249,6 +252,10 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
                                     const FramePlayer& play, const SamePlace& same_place,
                                     const DetectorEvaluationOptions& evaluation_options,
                                     const Progress& progress) {
+  if (evaluation_options.protocol == RunProtocol::kRobots) {
+    return evaluateRobots(options, std::move(extractor), play, same_place,
+                          evaluation_options.fleet);
+  }
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   DetectorEvaluation evaluation;

@@ -151,7 +151,9 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
   DetectorSource source;
   source.protocol =
       poses.empty() && !runs.starts.empty() ? runs.protocol : eval::RunProtocol::kOneSequence;
-  const bool sessions = source.protocol == eval::RunProtocol::kSessions;
+  // Robots: each traversal another robot, its odometry its own, as a session's.
+  const bool sessions = source.protocol == eval::RunProtocol::kSessions ||
+                        source.protocol == eval::RunProtocol::kRobots;
   const bool one_run = source.protocol == eval::RunProtocol::kOneRun;
   source.has_intrinsics = intrinsics.valid();
   if (!poses.empty() && (poses.size() != paths.size() || stamps.size() != paths.size())) {
@@ -172,10 +174,16 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                      : std::string("both traversals stand there (a joint stop, as --gt-stops "
                                    "finds them)")) +
                 ": standing still, no keyframe, as odometry would add none; " +
-                (sessions ? "each traversal its own session, its odometry from the origin with a "
-                            "heading drifting " +
-                                std::to_string(runs.heading_drift).substr(0, 6) +
-                                " rad per step (random walk), the odometry gate on"
+                (sessions
+                     ? std::string(source.protocol == eval::RunProtocol::kRobots
+                                       ? "each traversal another robot (a detector and a "
+                                         "map of its own, searching the earlier robots' "
+                                         "shared rows), "
+                                       : "") +
+                           "each traversal its own session, its odometry from the origin with a "
+                           "heading drifting " +
+                           std::to_string(runs.heading_drift).substr(0, 6) +
+                           " rad per step (random walk), the odometry gate on"
                  : one_run
                      ? "one session, one odometry throughout: the route taken as a closed loop "
                        "of the first traversal's steps, so the next begins where it began, the "
@@ -224,7 +232,8 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
       eval::DetectorFrame frame;
       frame.new_run = protocol != eval::RunProtocol::kOneSequence &&
                       std::find(runs.starts.begin(), runs.starts.end(), i) != runs.starts.end();
-      if (frame.new_run && protocol == eval::RunProtocol::kSessions) {
+      if (frame.new_run &&
+          (protocol == eval::RunProtocol::kSessions || protocol == eval::RunProtocol::kRobots)) {
         position = Eigen::Vector2d(-1.0, 0.0);
         heading = 0.0;
       }
@@ -240,7 +249,8 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
                                             : !(i < standing.size() && standing[i]);
         if (moved) travelled += 1.0;
         frame.pose.position = Eigen::Vector3d(travelled, 0.0, 0.0);
-        if (protocol == eval::RunProtocol::kSessions || protocol == eval::RunProtocol::kOneRun) {
+        if (protocol == eval::RunProtocol::kSessions || protocol == eval::RunProtocol::kOneRun ||
+            protocol == eval::RunProtocol::kRobots) {
           if (moved) {
             heading += turn_per_step + heading_error(random);
             position += Eigen::Vector2d(std::cos(heading), std::sin(heading));
@@ -295,7 +305,10 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
                                : "generated corridor") +
       ", " + std::to_string(laps).substr(0, 4) +
       " laps at 10 Hz: drifting odometry, camera intrinsics; " +
-      (run.protocol == eval::RunProtocol::kSessions
+      (run.protocol == eval::RunProtocol::kRobots
+           ? "the second lap another robot (its own detector, map and odometry from the origin, "
+             "searching the first robot's shared rows); "
+       : run.protocol == eval::RunProtocol::kSessions
            ? "the second lap its own session, its odometry restarted at the origin; "
        : run.protocol == eval::RunProtocol::kLocalisation
            ? "the second lap localised in the first lap's map (mode localization); "
@@ -343,7 +356,8 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
       played.new_run =
           run.protocol != eval::RunProtocol::kOneSequence && frame.lap == 1 && lap == 0;
       lap = frame.lap;
-      if (played.new_run && run.protocol == eval::RunProtocol::kSessions) {
+      if (played.new_run && (run.protocol == eval::RunProtocol::kSessions ||
+                             run.protocol == eval::RunProtocol::kRobots)) {
         run_origin = odometry.toIsometry();
       }
       played.pose = Pose::fromIsometry(run_origin.inverse() * odometry.toIsometry());
@@ -488,6 +502,7 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
   eval::DetectorEvaluationOptions evaluation_options;
   evaluation_options.sweep_steps = static_cast<int>(arguments.number("--sweep-steps", 16));
   evaluation_options.protocol = source.protocol;
+  evaluation_options.fleet = node.fleet;  // --protocol robots: the config's fleet/ keys.
   for (const std::string& name : names) {
     Variant variant = descriptorVariant(name, arguments, options.descriptor);
     Training none;  // The detector learns nothing from its own frames here.
@@ -544,7 +559,7 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
     }
     std::printf("\n");
     for (const eval::DetectorPass& pass : result.sweep) printPass("sweep", pass);
-    if (source.true_pose) {
+    if (source.true_pose && source.protocol != eval::RunProtocol::kRobots) {
       printTrajectoryError(result, source.true_pose,
                            readPoseGraphConfig(arguments.get("--pose-graph-config")));
     }

@@ -345,7 +345,7 @@ int run(const Arguments& arguments) {
     if (runs.protocol != RunProtocol::kOneSequence) {
       if (first_traversal == 0 || !poses.empty()) {
         throw std::invalid_argument(
-            "--protocol sessions|localisation|one-run plays --database then --queries "
+            "--protocol sessions|localisation|one-run|robots plays --database then --queries "
             "(--as-sequence) "
             "as two runs of an image-only sequence");
       }

@@ -85,6 +85,53 @@ TEST(FleetMatcher, MatchesJumpingAcrossTheOtherMapBreakTheChain) {
   EXPECT_EQ(candidates, 0);
 }
 
+// Robot a's map holds two look-alike places (ids 0-7 and 20-27 show the same places 0-7, as
+// bays of a corridor do): a keyframe of robot b there matches both equally, and is refused
+// whatever its chain, while a place a's map holds once is found.
+TEST(FleetMatcher, APlaceThatLooksLikeAnotherOfTheSameMapIsAGuessAndRefused) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 8; ++id) {
+    matcher.addRow(row("a", 1, id, static_cast<int>(id)), 0.0, 2);
+    SharedKeyframe twin = row("a", 1, id + 20, static_cast<int>(id));
+    twin.pose.position.x() = 40.0;  // Far along a's route: another place.
+    matcher.addRow(twin, 0.0, 2);
+  }
+  int candidates = 0;
+  for (uint64_t id = 0; id < 6; ++id) {
+    candidates += matcher.query(row("b", 2, id, static_cast<int>(id))) ? 1 : 0;
+  }
+  EXPECT_EQ(candidates, 0);
+  EXPECT_GT(matcher.ambiguous(), 0u);
+
+  // The same rows, the twins being one place by a's odometry (a second pass within 2.5 m):
+  // not two places, and the chain finds them.
+  FleetMatcher one_place(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 8; ++id) {
+    one_place.addRow(row("a", 1, id, static_cast<int>(id)), 0.0, 2);
+    one_place.addRow(row("a", 1, id + 20, static_cast<int>(id)), 0.0, 2);
+  }
+  candidates = 0;
+  for (uint64_t id = 0; id < 6; ++id) {
+    candidates += one_place.query(row("b", 2, id, static_cast<int>(id))) ? 1 : 0;
+  }
+  EXPECT_EQ(candidates, 4);
+}
+
+// A place two other robots both saw is one place, not two: robot c finds it in either map.
+TEST(FleetMatcher, APlaceSeenByTwoRobotsIsNotAmbiguous) {
+  FleetMatcher matcher(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 8; ++id) {
+    matcher.addRow(row("a", 1, id, static_cast<int>(id)), 0.0, 3);
+    matcher.addRow(row("b", 2, id, static_cast<int>(id)), 0.0, 3);
+  }
+  int candidates = 0;
+  for (uint64_t id = 0; id < 6; ++id) {
+    candidates += matcher.query(row("c", 3, id, static_cast<int>(id))) ? 1 : 0;
+  }
+  EXPECT_EQ(candidates, 4);
+  EXPECT_EQ(matcher.ambiguous(), 0u);
+}
+
 TEST(FleetMatcher, RowsThatCannotBeUsedAreRefusedWithOneLineEach) {
   FleetMatcher matcher(options(), kIdentity, kDimension);
   SharedKeyframe other_descriptor = row("a", 1, 0, 0);

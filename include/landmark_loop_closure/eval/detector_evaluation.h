@@ -14,6 +14,7 @@
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/eval/evaluator.h"
+#include "landmark_loop_closure/fleet/fleet_matcher.h"
 
 namespace landmark_loop_closure {
 namespace eval {
@@ -108,9 +109,12 @@ enum class RunProtocol {
   kOneRun,        ///< One session and one odometry throughout: the robot drives back to where the
                   ///< first run began (the odometry drifting on) and goes again, so loops into
                   ///< the earlier run meet the odometry gate.
+  kRobots,        ///< Each run another robot, with a detector and a map of its own; the loops
+                  ///< judged are those between robots (evaluateRobots).
 };
 const char* toString(RunProtocol protocol);
-/// "one-sequence", "sessions", "localisation" or "one-run"; throws std::invalid_argument otherwise.
+/// "one-sequence", "sessions", "localisation", "one-run" or "robots"; throws std::invalid_argument
+/// otherwise.
 RunProtocol runProtocol(const std::string& name);
 
 struct DetectorEvaluationOptions {
@@ -119,6 +123,7 @@ struct DetectorEvaluationOptions {
   /// threshold alone, no sweep.
   int sweep_steps = 16;
   int refine_steps = 4;  ///< Bisections between the last clean and the first false threshold.
+  FleetOptions fleet;    ///< kRobots: how robots search each other's rows.
 };
 
 /// Runs the frames through a LoopDetector built from `options` and `extractor`, once at the
@@ -130,6 +135,16 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
                                     const FramePlayer& play, const SamePlace& same_place,
                                     const DetectorEvaluationOptions& evaluation = {},
                                     const Progress& progress = {});
+
+/// kRobots: each run another robot (DetectorFrame::new_run); from the second on each keeps the
+/// earlier robots' shared rows, searches its keyframes in them and checks a chained candidate on
+/// the evidence of the robot that stored it, as the node's fleet link does. The pass holds the
+/// loops between robots; revisits count the keyframes with a true place among earlier robots'.
+/// Not swept (recall_at_100_precision -1). evaluateDetector() calls it for kRobots.
+DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
+                                  std::shared_ptr<const DescriptorExtractor> extractor,
+                                  const FramePlayer& play, const SamePlace& same_place,
+                                  const FleetOptions& fleet);
 
 /// Writes detector_<name>.json (every pass: threshold, loops, precision, recall, refusals) and
 /// loops_<name>.csv (the configured pass's loops: ids, frames, score, verified, correct) and

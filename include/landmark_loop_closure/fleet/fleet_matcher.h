@@ -11,6 +11,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "landmark_loop_closure/common/parameter_table.h"
@@ -34,10 +35,11 @@ struct FleetOptions {
   int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
   double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
+  double min_place_ratio = 1.1;    ///< Score over the best other place's (0 = off).
+  double max_false_alarms = 0.1;   ///< Expected wrong places as high (0 = off).
   /// The appearance check alone (ORB could not confirm the place) may confirm a loop between
-  /// robots. Off: in look-alike corridors it confirmed wrong places, and no odometry between two
-  /// robots rules them out.
-  bool appearance_confirms = false;
+  /// robots, as it does the detector's own (behind the calibrated decision above).
+  bool appearance_confirms = true;
 
   /// Keys under fleet/, documented in config/default.yaml.
   static const ParameterTable<FleetOptions>& parameters();
@@ -52,8 +54,9 @@ struct FleetCandidate {
   uint64_t query_map_id = 0;
   uint64_t query_id = 0;
   uint32_t query_session = 0;
-  SharedKeyframe match;  ///< The other robot's row, its vector left out.
-  double score = 0.0;    ///< Cosine of the global vectors.
+  SharedKeyframe match;      ///< The other robot's row, its vector left out.
+  double score = 0.0;        ///< Cosine of the global vectors.
+  double place_ratio = 0.0;  ///< score over the best other place's (0: none scored).
   int consistent_keyframes = 0;
 };
 
@@ -80,13 +83,16 @@ class FleetMatcher {
   std::string addRow(const SharedKeyframe& row, double now_s, uint64_t own_map_id);
   /// One of this detector's own keyframes (its own row): the other maps' rows scoring at least
   /// min_score, chained with the previous keyframes' matches; the best whose chain is long
-  /// enough, if any. Call it for every own keyframe in order.
+  /// enough, if any. Call it for every own keyframe in order; several robots' keyframes may
+  /// interleave (a fleet node), each (map, session) chaining its own.
   std::optional<FleetCandidate> query(const SharedKeyframe& own);
   /// Lines for robots that went silent since the last call (once each).
   std::vector<std::string> checkSilence(double now_s);
 
   std::vector<FleetRobot> robots() const;
   size_t rows() const;
+  /// Chained candidates refused by min_place_ratio or max_false_alarms.
+  size_t ambiguous() const { return ambiguous_; }
   /// Memory held by the rows (vectors and what a loop names).
   size_t bytes() const;
   const FleetOptions& options() const { return options_; }
@@ -106,8 +112,15 @@ class FleetMatcher {
   int dimension_;
   std::map<uint64_t, ForeignMap> maps_;  ///< By map_id.
   std::map<std::string, FleetRobot> robots_;
-  TemporalConsistency consistency_;
-  std::optional<uint32_t> query_session_;
+  /// By querying (map, session): each robot's run chains its own keyframes.
+  std::map<std::pair<uint64_t, uint32_t>, TemporalConsistency> consistency_;
+  struct LastCandidate {
+    uint64_t map_id = 0;
+    uint64_t match_id = 0;
+  };
+  /// By querying (map, session): the previous keyframe's candidate, if it had one.
+  std::map<std::pair<uint64_t, uint32_t>, std::optional<LastCandidate>> last_candidate_;
+  size_t ambiguous_ = 0;
 };
 
 /// Checks a fetched candidate against the own keyframe's keypoints, as the detector checks its
