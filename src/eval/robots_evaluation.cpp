@@ -23,16 +23,6 @@ struct Robot {
   CameraIntrinsics intrinsics;            ///< The latest frame's.
 };
 
-std::function<CellFeatures()> cellsOf(const LoopDetector& detector,
-                                      const std::vector<uint8_t>& thumbnail) {
-  return [&detector, &thumbnail] {
-    const cv::Mat image = decodeThumbnail(thumbnail);
-    return image.empty() || !detector.extractor()
-               ? CellFeatures{}
-               : cellFeatures(detector.extractor()->appearanceMaps(image));
-  };
-}
-
 }  // namespace
 
 DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
@@ -117,8 +107,8 @@ DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
       }
       const PlaceCheck check = checkFleetCandidate(
           verifier, settings, query->local_features, robot.intrinsics, *evidence,
-          cellsOf(*robot.detector, query->thumbnail),
-          cellsOf(*owner->detector, evidence->thumbnail), fleet.appearance_confirms);
+          thumbnailCellsOf(*robot.detector, query->thumbnail),
+          thumbnailCellsOf(*owner->detector, evidence->thumbnail), fleet.appearance_confirms);
       if (!check.accepted) {
         ++pass.refused["place_not_confirmed"];
         continue;

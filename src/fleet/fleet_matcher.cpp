@@ -9,6 +9,7 @@
 
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/core/false_alarms.h"
+#include "landmark_loop_closure/core/loop_detector.h"
 
 namespace landmark_loop_closure {
 
@@ -293,6 +294,16 @@ size_t FleetMatcher::bytes() const {
     }
   }
   return total;
+}
+
+CellsOfKeyframe thumbnailCellsOf(const LoopDetector& detector,
+                                 const std::vector<uint8_t>& thumbnail) {
+  return [&detector, &thumbnail] {
+    const cv::Mat image = decodeThumbnail(thumbnail);
+    return image.empty() || !detector.extractor()
+               ? CellFeatures{}
+               : cellFeatures(detector.extractor()->appearanceMaps(image));
+  };
 }
 
 PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,

@@ -248,17 +248,10 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     if (!query || !detector.extractor()) return;
     const LoopDetectorOptions& settings = detector.options();
     const GeometricVerifier verifier(settings.verification);
-    const auto cells_of = [&detector](const std::vector<uint8_t>& thumbnail) {
-      return [&detector, &thumbnail] {
-        const cv::Mat image = decodeThumbnail(thumbnail);
-        return image.empty() ? CellFeatures{}
-                             : cellFeatures(detector.extractor()->appearanceMaps(image));
-      };
-    };
     PlaceCheck check = checkFleetCandidate(
         verifier, {settings.verification, settings.appearance, settings.metric_pose},
-        query->local_features, intrinsics, evidence, cells_of(query->thumbnail),
-        cells_of(evidence.thumbnail), options_.appearance_confirms);
+        query->local_features, intrinsics, evidence, thumbnailCellsOf(detector, query->thumbnail),
+        thumbnailCellsOf(detector, evidence.thumbnail), options_.appearance_confirms);
     if (!check.accepted) {
       refused = check.detail;
       return;

@@ -144,13 +144,6 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
   const GeometricVerifier verifier(detector_options.verification);
   const PlaceCheckSettings settings{detector_options.verification, detector_options.appearance,
                                     detector_options.metric_pose};
-  const auto cells_of = [](const LoopDetector& detector, const std::vector<uint8_t>& thumbnail) {
-    return [&detector, &thumbnail] {
-      const cv::Mat image = decodeThumbnail(thumbnail);
-      return image.empty() ? CellFeatures{}
-                           : cellFeatures(detector.extractor()->appearanceMaps(image));
-    };
-  };
   const eval::TrueLoopRule rule;
   const auto true_loop = [&](const SequenceFrame& query, const SequenceFrame& match) {
     return rule.isTrueLoop({query.truth.x, query.truth.y, 0.0}, query.stamp,
@@ -184,8 +177,8 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
     ASSERT_TRUE(query);
     const PlaceCheck check = checkFleetCandidate(
         verifier, settings, query->local_features, CameraModel{}.intrinsics(), *evidence,
-        cells_of(*b.detector, query->thumbnail), cells_of(*a.detector, evidence->thumbnail),
-        FleetOptions{}.appearance_confirms);
+        thumbnailCellsOf(*b.detector, query->thumbnail),
+        thumbnailCellsOf(*a.detector, evidence->thumbnail), FleetOptions{}.appearance_confirms);
     if (!check.accepted) continue;
     ++loops;
     const bool is_true = true_loop(frame, a.truth.at(candidate->match.id));

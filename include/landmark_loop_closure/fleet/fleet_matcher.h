@@ -123,6 +123,12 @@ class FleetMatcher {
   size_t ambiguous_ = 0;
 };
 
+/// The appearance check's cells of a thumbnail (a keyframe's, or a fetched one), computed on
+/// demand by `detector`'s extractor; empty without one or a thumbnail. `detector` and
+/// `thumbnail` must outlive the function.
+CellsOfKeyframe thumbnailCellsOf(const LoopDetector& detector,
+                                 const std::vector<uint8_t>& thumbnail);
+
 /// Checks a fetched candidate against the own keyframe's keypoints, as the detector checks its
 /// own loops (checkPlace), except that only a confirmed place passes (no odometry relates two
 /// robots), by ORB unless `appearance_confirms`, and both cameras must be the same (intrinsics
