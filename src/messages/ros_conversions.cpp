@@ -369,11 +369,7 @@ SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg) {
   row.session = msg.session;
   row.stamp_ns = static_cast<int64_t>(msg.header.stamp.toNSec());
   row.odometry_frame = msg.header.frame_id;
-  // Not normalised: SharedKeyframe::problem() refuses an orientation that is not a unit one.
-  row.pose.position = Eigen::Vector3d(msg.pose.position.x, msg.pose.position.y,
-                                      msg.pose.position.z);
-  row.pose.orientation = Eigen::Quaterniond(msg.pose.orientation.w, msg.pose.orientation.x,
-                                            msg.pose.orientation.y, msg.pose.orientation.z);
+  row.pose = fromRos(msg.pose);  // SharedKeyframe::problem() refuses a non-unit orientation.
   row.descriptor_fingerprint = msg.descriptor_fingerprint;
   row.global_row.resize(sizeof(float) + msg.global_values.size());
   std::memcpy(row.global_row.data(), &msg.global_scale, sizeof(float));
@@ -384,6 +380,7 @@ SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg) {
 
 void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse* response) {
   const LocalFeatures& features = evidence.local_features;
+  *response = FleetEvidenceResponse();
   response->found = true;
   response->keypoints.reserve(2 * features.points.size());
   for (const cv::Point2f& point : features.points) {
@@ -391,9 +388,8 @@ void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse*
     response->keypoints.push_back(point.y);
   }
   if (!features.descriptors.empty()) {
-    const cv::Mat descriptors = features.descriptors.isContinuous()
-                                    ? features.descriptors
-                                    : features.descriptors.clone();
+    const cv::Mat descriptors =
+        features.descriptors.isContinuous() ? features.descriptors : features.descriptors.clone();
     response->descriptors.assign(descriptors.data, descriptors.data + descriptors.total());
   }
   for (const cv::Point3f& point : features.points3d) {
@@ -434,8 +430,8 @@ KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
                                    response.points3d[k + 2]);
   }
   features.depth_sd = response.depth_sd;
-  features.image_size = cv::Size(static_cast<int>(response.image_width),
-                                 static_cast<int>(response.image_height));
+  features.image_size =
+      cv::Size(static_cast<int>(response.image_width), static_cast<int>(response.image_height));
   evidence.intrinsics.fx = response.intrinsics[0];
   evidence.intrinsics.fy = response.intrinsics[1];
   evidence.intrinsics.cx = response.intrinsics[2];

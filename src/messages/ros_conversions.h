@@ -76,8 +76,8 @@ PoseGraphLoop toPoseGraphLoopMsg(const GraphLoopVerdict& verdict, const std::str
 /// Rows robots share (fleet/): the message carries the vector's scale and values apart.
 FleetKeyframe toFleetKeyframeMsg(const SharedKeyframe& row);
 SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg);
-/// A keyframe's verification data in the service's answer, and back (checked by
-/// KeyframeEvidence::problem() where it is used).
+/// A keyframe's verification data in the service's answer (replacing what it held), and back
+/// (checked by KeyframeEvidence::problem() where it is used).
 void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse* response);
 KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
                                       const FleetEvidenceResponse& response);
