@@ -125,8 +125,8 @@ void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& ms
     std::lock_guard<std::mutex> lock(matcher_mutex_);
     if (!matcher_) {
       ROS_WARN_THROTTLE(kWarningPeriod,
-                        "fleet: keyframes shared by %s wait for nothing: this detector's "
-                        "descriptor is still being trained, they are dropped until then",
+                        "fleet: keyframes shared by %s are dropped until this detector's "
+                        "descriptor exists (online training is still collecting keyframes)",
                         peer.c_str());
       return;
     }
