@@ -9,6 +9,12 @@ target_link_libraries(test_ros_conversions ${PROJECT_NAME}_nodelet ${catkin_LIBR
 target_compile_definitions(test_ros_conversions PRIVATE
   PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
+# What robots exchange: rows and evidence through their messages.
+catkin_add_gtest(test_fleet_messages test/ros/test_fleet_messages.cpp)
+target_include_directories(test_fleet_messages SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_fleet_messages ${PROJECT_NAME}_messages ${catkin_LIBRARIES}
+  GTest::gtest_main)
+
 catkin_add_gtest(test_pose_graph_messages test/ros/test_pose_graph_messages.cpp)
 target_include_directories(test_pose_graph_messages SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(test_pose_graph_messages ${PROJECT_NAME}_messages ${catkin_LIBRARIES}
