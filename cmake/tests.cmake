@@ -127,6 +127,11 @@ add_test(NAME tool_install_and_launch
 add_test(NAME tool_demo_script
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/demo_script.sh ${CMAKE_CURRENT_SOURCE_DIR})
 set_tests_properties(tool_demo_script PROPERTIES TIMEOUT 900)
+# The two-robot demo (scripts/demo.sh --two-robots): loops between robots, none false.
+add_test(NAME tool_demo_two_robots
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/demo_script.sh ${CMAKE_CURRENT_SOURCE_DIR}
+    --two-robots)
+set_tests_properties(tool_demo_two_robots PROPERTIES TIMEOUT 900)
 
 # Mapping nodes killed at random moments, maps saved over and loaded: every published keyframe is
 # in one map file (scripts/kill_soak.sh; 3 kills here, 20 by hand).

@@ -5,11 +5,15 @@
 # and a summary at the end. The detector's own log goes to _demo/roslaunch.log.
 #   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E]
 #                   [--heading-drift D] [--no-setup]
+#   scripts/demo.sh --two-robots [--rate R] [--no-setup]
 # --rviz keeps rviz open after the bag, to look at the map, until it is closed or Ctrl-C.
 # --wrong-loops F replaces that share of loops by wrong ones before the pose graph (loop_injector),
 # to see it refuse them: the summary counts them.
 # --scale-error E and --heading-drift D (rad/m) set the demo odometry's errors (default 0.02 and
 # 0.004), to see what each costs the corrected path.
+# --two-robots: robot_a drives lap 1 of the corridor, robot_b one lap from another start in its
+# own odometry frame (launch/two_robots.launch): robot_b's detector searches the keyframes robot_a
+# shares and publishes loops into robot_a's map; one pose graph puts both in one frame.
 # --no-setup skips installing and building (what the demo's test does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,10 +21,12 @@ RVIZ=false
 LAPS=2
 RATE=2.0
 SETUP=true
+TWO_ROBOTS=false
 WRONG_LOOPS=0.0
 SCALE_ERROR=0.02
 HEADING_DRIFT=0.004
-USAGE="usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E] [--heading-drift D] [--no-setup]"
+USAGE="usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E] [--heading-drift D] [--no-setup]
+       scripts/demo.sh --two-robots [--rate R] [--no-setup]"
 while [ $# -gt 0 ]; do
   case "$1" in
     --rviz) RVIZ=true ;;
@@ -30,10 +36,17 @@ while [ $# -gt 0 ]; do
     --scale-error) SCALE_ERROR="$2"; shift ;;
     --heading-drift) HEADING_DRIFT="$2"; shift ;;
     --no-setup) SETUP=false ;;
+    --two-robots) TWO_ROBOTS=true ;;
     *) echo "$USAGE" >&2; exit 2 ;;
   esac
   shift
 done
+if [ "$TWO_ROBOTS" = true ] && { [ "$RVIZ" = true ] || [ "$LAPS" != 2 ] ||
+  [ "$WRONG_LOOPS" != 0.0 ] || [ "$SCALE_ERROR" != 0.02 ] || [ "$HEADING_DRIFT" != 0.004 ]; }; then
+  echo "demo: --two-robots takes only --rate and --no-setup" >&2
+  echo "$USAGE" >&2
+  exit 2
+fi
 
 phase() { echo; echo "==== $* ===="; }
 
@@ -46,17 +59,6 @@ fi
 
 source scripts/ros_env.sh
 mkdir -p _demo
-BAG=_demo/corridor_${LAPS}laps.bag
-if [ "$SCALE_ERROR" != 0.02 ] || [ "$HEADING_DRIFT" != 0.004 ]; then
-  BAG=_demo/corridor_${LAPS}laps_scale${SCALE_ERROR}_drift${HEADING_DRIFT}.bag
-fi
-if [ ! -f "$BAG" ]; then
-  phase "3/4 Generating the demo bag ($LAPS laps)"
-  _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" "$LAPS" 10 "$SCALE_ERROR" \
-    "$HEADING_DRIFT"
-fi
-
-phase "4/4 Playing the bag into the detector"
 LOG=_demo/roslaunch.log
 launch_pid=""
 report_pid=""
@@ -68,19 +70,71 @@ finish() {
   [ -n "$launch_pid" ] && kill -INT "$launch_pid" 2> /dev/null && wait "$launch_pid" || true
 }
 trap finish EXIT INT TERM
+
+# Waits for SERVICE of the launch just started, or shows its log and exits if it died.
+wait_for_service() {  # SERVICE
+  for _ in $(seq 1 120); do
+    if rosservice list 2> /dev/null | grep -qx "$1"; then return 0; fi
+    if ! kill -0 "$launch_pid" 2> /dev/null; then
+      tail -n 20 "$LOG" >&2
+      echo "demo: the detector did not start; its log is $LOG" >&2
+      exit 1
+    fi
+    sleep 0.5
+  done
+  echo "demo: $1 did not appear within 60 s; see $LOG" >&2
+  exit 1
+}
+
+if [ "$TWO_ROBOTS" = true ]; then
+  BAG=_demo/corridor_two_robots.bag
+  if [ ! -f "$BAG" ]; then
+    phase "3/4 Generating the two robots' bag"
+    _build/devel/lib/landmark_loop_closure/make_demo_bag --two-robots "$BAG" 10
+  fi
+  phase "4/4 Playing robot_a's lap, then robot_b's, into their detectors"
+  roslaunch landmark_loop_closure two_robots.launch > "$LOG" 2>&1 &
+  launch_pid=$!
+  wait_for_service /robot_a/loop_closure/reset
+  wait_for_service /robot_b/loop_closure/reset
+  rosrun landmark_loop_closure demo_report _robots:="/robot_a /robot_b" &
+  report_pid=$!
+  for robot in robot_a robot_b; do
+    wait_for_connections /$robot/loop_closure "$LOG" /$robot/keyframes:/pose_graph \
+      /$robot/loop_closures:/pose_graph /$robot/keyframes:/demo_report \
+      /$robot/loop_closures:/demo_report
+  done
+  wait_for_connections /robot_a/loop_closure "$LOG" \
+    /robot_a/loop_closure/shared_keyframes:/robot_b/loop_closure
+  wait_for_connections /pose_graph "$LOG" /pose_graph/loop_verdicts:/demo_report
+  play_bag_when_connected "$BAG" "$RATE" "$LOG" /robot_a/camera/image_raw:/robot_a/loop_closure \
+    /robot_a/camera/camera_info:/robot_a/loop_closure /robot_a/odom:/robot_a/loop_closure \
+    /robot_b/camera/image_raw:/robot_b/loop_closure /robot_b/camera/camera_info:/robot_b/loop_closure \
+    /robot_b/odom:/robot_b/loop_closure /ground_truth:/demo_report
+  wait "$PLAYER_PID"
+  PLAYER_PID=""
+  sleep 3  # The detectors' workers finish the last keyframes.
+  kill -INT "$report_pid" && wait "$report_pid" || true
+  report_pid=""
+  exit 0
+fi
+
+BAG=_demo/corridor_${LAPS}laps.bag
+if [ "$SCALE_ERROR" != 0.02 ] || [ "$HEADING_DRIFT" != 0.004 ]; then
+  BAG=_demo/corridor_${LAPS}laps_scale${SCALE_ERROR}_drift${HEADING_DRIFT}.bag
+fi
+if [ ! -f "$BAG" ]; then
+  phase "3/4 Generating the demo bag ($LAPS laps)"
+  _build/devel/lib/landmark_loop_closure/make_demo_bag "$BAG" "$LAPS" 10 "$SCALE_ERROR" \
+    "$HEADING_DRIFT"
+fi
+
+phase "4/4 Playing the bag into the detector"
 # The detector (and rviz) under roslaunch, its output in the log; the report and the bag from here,
 # so the console shows the loops and the summary only.
 roslaunch landmark_loop_closure demo.launch rviz:="$RVIZ" wrong_loops:="$WRONG_LOOPS" > "$LOG" 2>&1 &
 launch_pid=$!
-for _ in $(seq 1 120); do
-  if rosservice list 2> /dev/null | grep -q "^/loop_closure/reset"; then break; fi
-  if ! kill -0 "$launch_pid" 2> /dev/null; then
-    tail -n 20 "$LOG" >&2
-    echo "demo: the detector did not start; its log is $LOG" >&2
-    exit 1
-  fi
-  sleep 0.5
-done
+wait_for_service /loop_closure/reset
 rosrun landmark_loop_closure demo_report &
 report_pid=$!
 # Every node is connected before the bag plays: a keyframe sent before the pose graph listens is

@@ -275,6 +275,13 @@ void LoopDetector::announce(const KeyframeRecord& keyframe, bool wait_for_commit
   }
 }
 
+bool LoopDetector::awaitingCommit(uint64_t id) const {
+  return std::any_of(waiting_for_commit_.begin(), waiting_for_commit_.end(),
+                     [&](const AnnouncedKeyframe& waiting) {
+                       return waiting.summary.id == id && waiting.map_id == mapId();
+                     });
+}
+
 std::vector<AnnouncedKeyframe> LoopDetector::takeAnnounced() {
   if (store_ && map_damage_.empty() && store_->heldKeyframes() > 0) {
     try {

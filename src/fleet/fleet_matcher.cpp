@@ -66,6 +66,11 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
           .number("fetch_timeout_s", &O::fetch_timeout_s, above(0),
                   "a peer's answer for a candidate's evidence is waited for this long; the "
                   "candidate is then given up (the next keyframe may ask again).")
+          .number("backlog_rows_per_s", &O::backlog_rows_per_s, between(1, 100000),
+                  "with share: a peer that subscribes later (started after this robot, or "
+                  "restarted) is sent the map's rows so far, at most this many a second (500: "
+                  "2.2 MB/s with the default backbone), beside the new ones; rows it holds "
+                  "already are not kept twice. A map loaded from database_path is shared so too.")
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a chained candidate's score over the best score of another place of its map "
                   "must reach this (0 = off): where a keyframe looks about as much like several "

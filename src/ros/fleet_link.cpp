@@ -1,5 +1,6 @@
 #include "fleet_link.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -65,7 +66,14 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
       hooks_(std::move(hooks)) {
   ensureMatcher(detector);
   if (options_.share) {
-    row_publisher_ = private_node_.advertise<FleetKeyframe>("shared_keyframes", 1000);
+    ros::AdvertiseOptions rows;
+    rows.init<FleetKeyframe>(
+        "shared_keyframes", 1000,
+        [this](const ros::SingleSubscriberPublisher& subscriber) { sendBacklog(subscriber); });
+    rows.callback_queue = &backlog_queue_;
+    row_publisher_ = private_node_.advertise(rows);
+    backlog_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &backlog_queue_);
+    backlog_spinner_->start();
     ros::AdvertiseServiceOptions service;
     service.init<FleetEvidence::Request, FleetEvidence::Response>(
         "keyframe_evidence",
@@ -100,6 +108,8 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
 FleetLink::~FleetLink() { stop(); }
 
 void FleetLink::stop() {
+  backlog_stopping_ = true;
+  if (backlog_spinner_) backlog_spinner_->stop();
   if (service_spinner_) service_spinner_->stop();
   {
     std::lock_guard<std::mutex> lock(fetch_mutex_);
@@ -146,6 +156,47 @@ void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& ms
   }
 }
 
+void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
+  // Rows in chunks, the detector held for one chunk at a time; paced, because a publisher's queue
+  // to one subscriber drops what the network cannot take. Rows shared meanwhile go out live too;
+  // the peer keeps a row once.
+  constexpr size_t kChunk = 50;
+  const double chunk_period_s = static_cast<double>(kChunk) / options_.backlog_rows_per_s;
+  std::string odometry_frame;
+  {
+    std::lock_guard<std::mutex> lock(odometry_frame_mutex_);
+    odometry_frame = last_odometry_frame_;
+  }
+  size_t next = 0, sent = 0;
+  bool more = true;
+  const ros::WallTime start = ros::WallTime::now();
+  while (more && !backlog_stopping_ && ros::ok()) {
+    std::vector<FleetKeyframe> rows;
+    hooks_.with_detector([&](LoopDetector& detector) {
+      const KeyframeDatabase& database = detector.database();
+      const size_t end = std::min(database.size(), next + kChunk);
+      for (; next < end; ++next) {
+        const uint64_t id = database.summary(next).id;
+        if (detector.awaitingCommit(id)) continue;  // Shared live once committed.
+        if (std::optional<SharedKeyframe> row =
+                sharedKeyframeOf(detector, id, robot_, odometry_frame)) {
+          rows.push_back(toFleetKeyframeMsg(*row));
+        }
+      }
+      more = next < database.size();
+    });
+    for (const FleetKeyframe& row : rows) subscriber.publish(row);
+    sent += rows.size();
+    backlog_rows_sent_ += rows.size();
+    if (more) ros::WallDuration(chunk_period_s).sleep();
+  }
+  if (sent > 0) {
+    ROS_INFO(
+        "fleet: %s subscribed to this robot's keyframes: sent it the %zu shared so far (%.1f s)",
+        subscriber.getSubscriberName().c_str(), sent, (ros::WallTime::now() - start).toSec());
+  }
+}
+
 bool FleetLink::onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response) {
   hooks_.with_detector([&](LoopDetector& detector) {
     if (request.map_id != detector.mapId()) {
@@ -173,6 +224,10 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
   const std::optional<SharedKeyframe> own = sharedKeyframeOf(detector, id, robot_, odometry_frame);
   if (!own) return;  // Not in search (past the memory budget): nothing to share or search.
   if (options_.share) {
+    {
+      std::lock_guard<std::mutex> lock(odometry_frame_mutex_);
+      last_odometry_frame_ = odometry_frame;
+    }
     row_publisher_.publish(toFleetKeyframeMsg(*own));
     ++rows_shared_;
   }
@@ -303,6 +358,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
 
 void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("fleet rows shared", rows_shared_.load());
+  status.add("fleet rows sent to late peers", backlog_rows_sent_.load());
   size_t rows = 0, bytes = 0, refused = 0;
   std::string robots;
   {

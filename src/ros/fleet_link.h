@@ -66,6 +66,8 @@ class FleetLink {
     std::string odometry_frame;  ///< The query keyframe's.
   };
   void onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg);
+  /// Backlog thread: a peer that subscribed is sent the rows of the map so far (paced).
+  void sendBacklog(const ros::SingleSubscriberPublisher& subscriber);
   bool onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response);
   void fetchLoop();
   /// Fetch thread: the candidate's evidence from its robot, checked with the detector held.
@@ -82,6 +84,11 @@ class FleetLink {
   std::vector<ros::Subscriber> row_subscribers_;
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  ros::CallbackQueue backlog_queue_;  ///< Its own thread: a long backlog delays no answer.
+  std::unique_ptr<ros::AsyncSpinner> backlog_spinner_;
+  std::atomic<bool> backlog_stopping_{false};
+  std::mutex odometry_frame_mutex_;
+  std::string last_odometry_frame_;  ///< Of the last keyframe shared, for the backlog's rows.
   ros::ServiceServer evidence_service_;
   ros::WallTimer silence_timer_;
 
@@ -98,6 +105,7 @@ class FleetLink {
   std::thread fetch_thread_;
 
   std::atomic<uint64_t> rows_shared_{0};
+  std::atomic<uint64_t> backlog_rows_sent_{0};
   std::atomic<uint64_t> candidates_dropped_{0};  ///< A fetch was still waiting.
   std::atomic<uint64_t> fetches_made_{0};
   std::atomic<uint64_t> fetches_failed_{0};

@@ -4,11 +4,16 @@
 // within true_loop_distance metres, the stamps revisit_min_seconds apart. With the pose_graph
 // node running, the summary adds the keyframe positions' RMSE against ground truth, for the
 // odometry and for the corrected path, each aligned on its first keyframe.
+// With the parameter `robots` ("/robot_a /robot_b"), it listens to each robot's detector (ROBOT/
+// keyframes, ROBOT/loop_closures) and to the fleet's pose graph (pose_graph/ROBOT/corrected_path),
+// names each loop's robots, counts the loops between robots, and measures all robots' corrected
+// keyframes in the one map frame (the ground truth of every robot on one `ground_truth` topic).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <deque>
 #include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,9 +38,14 @@ class DemoReport {
   explicit DemoReport(ros::NodeHandle& node, ros::NodeHandle& private_node) {
     private_node.param("true_loop_distance", rule_.max_distance_m, rule_.max_distance_m);
     private_node.param("revisit_min_seconds", rule_.min_gap_s, rule_.min_gap_s);
+    std::string robots;
+    private_node.param<std::string>("robots", robots, "");
+    std::istringstream robot_names(robots);
+    for (std::string robot; robot_names >> robot;) robots_.push_back(robot);
     // The detector's camera mount turns true body poses into true camera poses.
     std::string detector;
-    private_node.param<std::string>("detector", detector, "loop_closure");
+    private_node.param<std::string>(
+        "detector", detector, robots_.empty() ? "loop_closure" : robots_.front() + "/loop_closure");
     landmark_loop_closure::CameraMount mount;
     for (auto& [key, value] : {std::pair<const char*, double*>{"x", &mount.x},
                                {"y", &mount.y},
@@ -47,12 +57,34 @@ class DemoReport {
     }
     camera_in_base_ = mount.toPose().toIsometry();
     truth_subscriber_ = node.subscribe("ground_truth", 1000, &DemoReport::onTruth, this);
-    loop_subscriber_ = node.subscribe("loop_closures", 100, &DemoReport::onLoop, this);
-    keyframe_subscriber_ = node.subscribe("keyframes", 1000, &DemoReport::onKeyframe, this);
-    corrected_subscriber_ =
-        node.subscribe("pose_graph/corrected_path", 2, &DemoReport::onCorrectedPath, this);
     verdict_subscriber_ =
         node.subscribe("pose_graph/loop_verdicts", 1000, &DemoReport::onVerdict, this);
+    if (robots_.empty()) {
+      listenTo(node, "", "");
+      return;
+    }
+    for (const std::string& robot : robots_) {
+      const std::string name = robot.substr(robot.find_first_not_of('/'));
+      listenTo(node, robot + "/", name);
+    }
+  }
+
+  /// The detector's keyframes and loops under `prefix`, and the pose graph's path of `robot`.
+  void listenTo(ros::NodeHandle& node, const std::string& prefix, const std::string& robot) {
+    using landmark_loop_closure::KeyframeConstPtr;
+    using landmark_loop_closure::LoopClosureConstPtr;
+    subscribers_.push_back(node.subscribe<landmark_loop_closure::Keyframe>(
+        prefix + "keyframes", 1000, [this, robot](const KeyframeConstPtr& keyframe) {
+          robot_of_map_[keyframe->map_id] = robot;
+          onKeyframe({robot, keyframe});
+        }));
+    subscribers_.push_back(node.subscribe<landmark_loop_closure::LoopClosure>(
+        prefix + "loop_closures", 100, [this](const LoopClosureConstPtr& loop) { onLoop(loop); }));
+    const std::string path_topic =
+        robot.empty() ? "pose_graph/corrected_path" : "pose_graph/" + robot + "/corrected_path";
+    subscribers_.push_back(node.subscribe<nav_msgs::Path>(
+        path_topic, 2,
+        [this, robot](const nav_msgs::PathConstPtr& path) { corrected_paths_[robot] = path; }));
   }
 
   /// Judges what still waits for truth with the truth there is (the bag has ended).
@@ -65,6 +97,10 @@ class DemoReport {
     std::printf("revisited keyframes:  %d (a keyframe >= %.0f s older lies within %.1f m)\n",
                 revisited_keyframes_, rule_.min_gap_s, rule_.max_distance_m);
     std::printf("loops published:      %d (true %d, false %d)\n", loops_, true_loops_, false_loops);
+    if (!robots_.empty()) {
+      std::printf("between robots:       %d (true %d, false %d)\n", loops_between_robots_,
+                  true_loops_between_robots_, loops_between_robots_ - true_loops_between_robots_);
+    }
     if (loops_ > 0) {
       std::printf("precision:            %.3f\n", static_cast<double>(true_loops_) / loops_);
     }
@@ -121,8 +157,6 @@ class DemoReport {
     return true;
   }
 
-  void onCorrectedPath(const nav_msgs::PathConstPtr& path) { corrected_path_ = path; }
-
   /// The pose graph's decisions, judged by ground truth: a decision is final once given, except
   /// that an accepted loop may be switched off later (the last word counts).
   void onVerdict(const landmark_loop_closure::PoseGraphLoopConstPtr& verdict) {
@@ -132,8 +166,8 @@ class DemoReport {
     if (!truthAt(verdict->query_stamp, &query) || !truthAt(verdict->match_stamp, &match)) return;
     const bool is_true = rule_.isTrueLoop(toVector(query.position), verdict->query_stamp.toSec(),
                                           toVector(match.position), verdict->match_stamp.toSec());
-    graph_verdicts_[{verdict->query_id, verdict->match_id}] = {is_true,
-                                                               verdict->decision == "accepted"};
+    graph_verdicts_[{verdict->query_stamp, verdict->match_stamp}] = {
+        is_true, verdict->decision == "accepted"};
   }
 
   void printGraphVerdicts() const {
@@ -163,16 +197,30 @@ class DemoReport {
   }
 
   void printTrajectoryError() const {
-    if (!corrected_path_) {
+    if (corrected_paths_.empty()) {
       std::printf("trajectory RMSE:      no corrected path (is the pose_graph node running?)\n");
       return;
     }
+    // Every robot's corrected keyframes lie in the one map frame: measured together.
     std::vector<std::pair<ros::Time, geometry_msgs::Pose>> corrected;
-    for (const auto& pose : corrected_path_->poses) {
-      corrected.emplace_back(pose.header.stamp, pose.pose);
+    for (const auto& [robot, path] : corrected_paths_) {
+      for (const auto& pose : path->poses) corrected.emplace_back(pose.header.stamp, pose.pose);
     }
-    const auto odometry = trajectoryError(keyframe_odometry_);
+    std::sort(corrected.begin(), corrected.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
     const auto optimised = trajectoryError(corrected);
+    if (!robots_.empty()) {
+      // Each robot's odometry has a frame of its own: only the corrected paths share one.
+      std::printf(
+          "trajectory RMSE:      all robots' keyframes corrected by the pose graph, in one frame: "
+          "%.3f m (%zu keyframes, first pose aligned); best similarity fit: %.3f m (scale "
+          "%.3f)\n",
+          optimised.first_pose_rmse, corrected.size(), optimised.similarity_rmse, optimised.scale);
+      return;
+    }
+    const auto own = keyframe_odometry_.find("");
+    const auto odometry =
+        trajectoryError(own == keyframe_odometry_.end() ? decltype(own->second){} : own->second);
     std::printf(
         "trajectory RMSE:      odometry %.3f m, corrected by the pose graph %.3f m "
         "(%zu keyframes, first pose aligned); best similarity fit: %.3f m and %.3f m "
@@ -189,8 +237,8 @@ class DemoReport {
     judgeWaiting(false);
   }
 
-  void onKeyframe(const landmark_loop_closure::KeyframeConstPtr& keyframe) {
-    waiting_keyframes_.push_back(keyframe);
+  void onKeyframe(std::pair<std::string, landmark_loop_closure::KeyframeConstPtr> keyframe) {
+    waiting_keyframes_.push_back(std::move(keyframe));
     judgeWaiting(false);
   }
 
@@ -207,8 +255,8 @@ class DemoReport {
 
   void judgeWaiting(bool all) {
     while (!waiting_keyframes_.empty() &&
-           (all || truthCovers(waiting_keyframes_.front()->header.stamp))) {
-      judgeKeyframe(*waiting_keyframes_.front());
+           (all || truthCovers(waiting_keyframes_.front().second->header.stamp))) {
+      judgeKeyframe(waiting_keyframes_.front().first, *waiting_keyframes_.front().second);
       waiting_keyframes_.pop_front();
     }
     while (!waiting_loops_.empty() && (all || truthCovers(waiting_loops_.front()->query_stamp))) {
@@ -217,10 +265,11 @@ class DemoReport {
     }
   }
 
-  void judgeKeyframe(const landmark_loop_closure::Keyframe& keyframe_message) {
+  void judgeKeyframe(const std::string& robot,
+                     const landmark_loop_closure::Keyframe& keyframe_message) {
     const landmark_loop_closure::Keyframe* keyframe = &keyframe_message;
     ++keyframes_;
-    keyframe_odometry_.emplace_back(keyframe->header.stamp, keyframe->pose);
+    keyframe_odometry_[robot].emplace_back(keyframe->header.stamp, keyframe->pose);
     geometry_msgs::Pose here_pose;
     if (!truthAt(keyframe->header.stamp, &here_pose)) return;
     const geometry_msgs::Point& here = here_pose.position;
@@ -266,26 +315,39 @@ class DemoReport {
       std::snprintf(pose_error, sizeof(pose_error), "  pose error %.3f m %.2f deg",
                     translation_errors_.back(), rotation_errors_.back());
     }
-    std::printf("loop keyframe %4lu -> %4lu  score %.3f  true distance %5.2f m  %s%s\n",
-                static_cast<unsigned long>(loop->query_id),
-                static_cast<unsigned long>(loop->match_id), loop->score, distance,
-                is_true ? "TRUE" : "FALSE", pose_error);
+    const uint64_t match_map = loop->match_map_id != 0 ? loop->match_map_id : loop->map_id;
+    if (!robots_.empty() && match_map != loop->map_id) {
+      ++loops_between_robots_;
+      true_loops_between_robots_ += is_true ? 1 : 0;
+    }
+    std::printf("loop keyframe %s%4lu -> %s%4lu  score %.3f  true distance %5.2f m  %s%s\n",
+                robotPrefix(loop->map_id).c_str(), static_cast<unsigned long>(loop->query_id),
+                robotPrefix(match_map).c_str(), static_cast<unsigned long>(loop->match_id),
+                loop->score, distance, is_true ? "TRUE" : "FALSE", pose_error);
     std::fflush(stdout);
+  }
+
+  /// "robot_a " for a keyframe of robot_a's map when several robots are reported, else "".
+  std::string robotPrefix(uint64_t map_id) const {
+    if (robots_.empty()) return "";
+    const auto robot = robot_of_map_.find(map_id);
+    return (robot == robot_of_map_.end() ? std::string("(unknown robot)") : robot->second) + " ";
   }
 
   static constexpr double kTruthTolerance = 0.5;  ///< Seconds from a stamp to its truth.
 
   landmark_loop_closure::eval::TrueLoopRule rule_;
-  std::deque<landmark_loop_closure::KeyframeConstPtr> waiting_keyframes_;
+  std::vector<std::string> robots_;  ///< Their namespaces; empty: one detector, no namespace.
+  std::map<uint64_t, std::string> robot_of_map_;
+  std::deque<std::pair<std::string, landmark_loop_closure::KeyframeConstPtr>> waiting_keyframes_;
   std::deque<landmark_loop_closure::LoopClosureConstPtr> waiting_loops_;
   ros::Subscriber truth_subscriber_;
-  ros::Subscriber loop_subscriber_;
-  ros::Subscriber keyframe_subscriber_;
-  ros::Subscriber corrected_subscriber_;
   ros::Subscriber verdict_subscriber_;
-  std::map<std::pair<uint64_t, uint64_t>, std::pair<bool, bool>> graph_verdicts_;
-  nav_msgs::PathConstPtr corrected_path_;
-  std::vector<std::pair<ros::Time, geometry_msgs::Pose>> keyframe_odometry_;
+  std::vector<ros::Subscriber> subscribers_;
+  /// Keyed by the loop's two stamps: keyframe ids repeat between robots.
+  std::map<std::pair<ros::Time, ros::Time>, std::pair<bool, bool>> graph_verdicts_;
+  std::map<std::string, nav_msgs::PathConstPtr> corrected_paths_;  ///< By robot ("": the one).
+  std::map<std::string, std::vector<std::pair<ros::Time, geometry_msgs::Pose>>> keyframe_odometry_;
   Eigen::Isometry3d camera_in_base_ = Eigen::Isometry3d::Identity();
   std::map<ros::Time, geometry_msgs::Pose> truth_;
   std::map<ros::Time, geometry_msgs::Point> keyframe_truth_;
@@ -293,6 +355,8 @@ class DemoReport {
   int revisited_keyframes_ = 0;
   int loops_ = 0;
   int true_loops_ = 0;
+  int loops_between_robots_ = 0;
+  int true_loops_between_robots_ = 0;
   int verified_ = 0;
   int appearance_verified_ = 0;
   std::vector<double> translation_errors_;

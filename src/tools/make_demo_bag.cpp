@@ -1,10 +1,15 @@
 // Writes a rosbag of a camera driven around the generated corridor: images, camera_info,
 // drifting odometry (and its tf), and ground truth.
-// Usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10]
+// Usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [scale error] [heading drift]
+//        make_demo_bag --two-robots OUTPUT.bag [frames per second=10]
+// --two-robots: robot_a drives lap 1 and on to where it started (1.2 laps), then robot_b drives
+// one lap from 0.3 laps in, in an odometry frame of its own that starts at its first pose; each
+// robot's topics under /robot_a or /robot_b, the ground truth of both on /ground_truth.
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -58,20 +63,64 @@ sensor_msgs::CameraInfo cameraInfo(const CameraModel& camera, const std_msgs::He
   return info;
 }
 
+/// Writes one frame's image, camera_info and odometry under the topic prefix (odometry and
+/// optionally its tf in odom_frame), and its truth on /ground_truth.
+void writeFrame(rosbag::Bag* bag, const std::string& prefix, const std::string& odom_frame,
+                bool with_tf, const CameraModel& camera, const SequenceFrame& frame,
+                const Pose2D& odometry_pose) {
+  const ros::Time stamp(frame.stamp);
+  std_msgs::Header header;
+  header.stamp = stamp;
+  header.frame_id = prefix.empty() ? "camera" : prefix.substr(1) + "/camera";
+  bag->write(prefix + "/camera/image_raw", stamp,
+             cv_bridge::CvImage(header, "mono8", frame.image).toImageMsg());
+  bag->write(prefix + "/camera/camera_info", stamp, cameraInfo(camera, header));
+  const nav_msgs::Odometry odometry = toOdometry(odometry_pose, stamp, odom_frame);
+  bag->write(prefix + "/odom", stamp, odometry);
+  bag->write("/ground_truth", stamp, toOdometry(frame.truth, stamp, "world"));
+  if (!with_tf) return;
+  geometry_msgs::TransformStamped transform;
+  transform.header = odometry.header;
+  transform.child_frame_id = "base_link";
+  transform.transform.translation.x = odometry.pose.pose.position.x;
+  transform.transform.translation.y = odometry.pose.pose.position.y;
+  transform.transform.rotation = odometry.pose.pose.orientation;
+  tf2_msgs::TFMessage tf;
+  tf.transforms.push_back(transform);
+  bag->write("/tf", stamp, tf);
+}
+
+/// pose expressed in the frame whose origin is `origin`.
+Pose2D relativeTo(const Pose2D& origin, const Pose2D& pose) {
+  const double dx = pose.x - origin.x, dy = pose.y - origin.y;
+  const double c = std::cos(origin.yaw), s = std::sin(origin.yaw);
+  return Pose2D{c * dx + s * dy, -s * dx + c * dy,
+                std::remainder(pose.yaw - origin.yaw, 2.0 * M_PI)};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  const bool two_robots = !args.empty() && args.front() == "--two-robots";
+  if (two_robots) args.erase(args.begin());
+  if (args.empty() || (two_robots && args.size() > 2)) {
     std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [odometry "
-                 "scale error=0.02] [odometry heading drift, rad/m=0.004]\n";
+                 "scale error=0.02] [odometry heading drift, rad/m=0.004]\n"
+                 "       make_demo_bag --two-robots OUTPUT.bag [frames per second=10]\n";
     return 2;
   }
-  const std::string path = argv[1];
+  const std::string path = args[0];
   SequenceOptions options;
-  if (argc > 2) options.laps = std::atof(argv[2]);
-  if (argc > 3) options.rate = std::atof(argv[3]);
-  if (argc > 4) options.odom_scale_error = std::atof(argv[4]);
-  if (argc > 5) options.odom_yaw_drift_per_metre = std::atof(argv[5]);
+  if (two_robots) {
+    options.laps = 2.3;  // robot_a 0-1.2 laps, robot_b 1.3-2.3: one lap from 0.3 laps in.
+    if (args.size() > 1) options.rate = std::atof(args[1].c_str());
+  } else {
+    if (args.size() > 1) options.laps = std::atof(args[1].c_str());
+    if (args.size() > 2) options.rate = std::atof(args[2].c_str());
+    if (args.size() > 3) options.odom_scale_error = std::atof(args[3].c_str());
+    if (args.size() > 4) options.odom_yaw_drift_per_metre = std::atof(args[4].c_str());
+  }
   if (!(options.laps > 0.0) || !(options.rate > 0.0 && options.rate <= 1000.0)) {
     std::cerr << "laps must be > 0 and frames per second in (0, 1000]\n";
     return 2;
@@ -94,34 +143,35 @@ int main(int argc, char** argv) {
     std::cerr << "cannot write " << path << ": " << error.what() << "\n";
     return 1;
   }
+  const size_t lap_frames =
+      static_cast<size_t>(static_cast<double>(sequence.size()) / options.laps);
+  const size_t robot_a_end = lap_frames * 12 / 10;
+  const size_t robot_b_start = lap_frames * 13 / 10;
+  Pose2D robot_b_origin;
+  size_t written = 0;
   SequenceFrame frame;
-  while (sequence.next(&frame)) {
-    const ros::Time stamp(frame.stamp);
-    std_msgs::Header header;
-    header.stamp = stamp;
-    header.frame_id = "camera";
-    bag.write("/camera/image_raw", stamp,
-              cv_bridge::CvImage(header, "mono8", frame.image).toImageMsg());
-    bag.write("/camera/camera_info", stamp, cameraInfo(camera, header));
-    const nav_msgs::Odometry odometry = toOdometry(frame.odom, stamp, "odom");
-    bag.write("/odom", stamp, odometry);
-    bag.write("/ground_truth", stamp, toOdometry(frame.truth, stamp, "world"));
-    geometry_msgs::TransformStamped transform;
-    transform.header = odometry.header;
-    transform.child_frame_id = "base_link";
-    transform.transform.translation.x = odometry.pose.pose.position.x;
-    transform.transform.translation.y = odometry.pose.pose.position.y;
-    transform.transform.rotation = odometry.pose.pose.orientation;
-    tf2_msgs::TFMessage tf;
-    tf.transforms.push_back(transform);
-    bag.write("/tf", stamp, tf);
+  while (sequence.next(&frame, !two_robots)) {
+    if (two_robots) {
+      if (frame.index >= robot_a_end && frame.index < robot_b_start) continue;
+      frame.image = sequence.render(frame);
+      if (frame.index < robot_a_end) {
+        writeFrame(&bag, "/robot_a", "robot_a/odom", false, camera, frame, frame.odom);
+      } else {
+        if (frame.index == robot_b_start) robot_b_origin = frame.odom;
+        writeFrame(&bag, "/robot_b", "robot_b/odom", false, camera, frame,
+                   relativeTo(robot_b_origin, frame.odom));
+      }
+    } else {
+      writeFrame(&bag, "", "odom", true, camera, frame, frame.odom);
+    }
+    ++written;
     if (frame.index % 200 == 0) {
       std::cout << "make_demo_bag: frame " << frame.index << " / " << sequence.size() << "\n";
     }
   }
   bag.close();
-  std::cout << "make_demo_bag: wrote " << sequence.size() << " frames at " << options.rate
-            << " Hz (" << options.laps << " laps of " << world.lapLength() << " m) to " << path
-            << "\n";
+  std::cout << "make_demo_bag: wrote " << written << " frames at " << options.rate << " Hz ("
+            << (two_robots ? "two robots, " : "") << options.laps << " laps of "
+            << world.lapLength() << " m) to " << path << "\n";
   return 0;
 }

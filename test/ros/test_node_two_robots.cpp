@@ -283,6 +283,25 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
               placed);
   EXPECT_LT(rmse, 0.1);
 
+  // A peer that subscribes now (started late, or restarted) is sent robot_a's map so far. (One
+  // process holds one connection a topic: the first subscriber goes, so this one connects anew.)
+  shared_rows.shutdown();
+  std::map<uint64_t, int> late_rows;  // By id: how often each came.
+  ros::Subscriber late_peer = node.subscribe<FleetKeyframe>(
+      "/robot_a/loop_closure/shared_keyframes", 1000,
+      [&late_rows](const FleetKeyframe::ConstPtr& row) { ++late_rows[row->id]; });
+  const ros::WallTime backlog_deadline = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (ros::ok() && late_rows.size() < a.keyframes.size() &&
+         ros::WallTime::now() < backlog_deadline) {
+    ros::spinOnce();
+    ros::WallDuration(0.02).sleep();
+  }
+  EXPECT_EQ(late_rows.size(), a.keyframes.size()) << "rows sent to a peer subscribing late";
+  for (const Keyframe& keyframe : a.keyframes) {
+    EXPECT_EQ(late_rows[keyframe.id], 1) << "keyframe " << keyframe.id;
+  }
+  late_peer.shutdown();
+
   // robot_a has shared nothing since its lap: said once; then a row of it again, and bad ones.
   EXPECT_TRUE(watch.waitForLine("robot 'robot_a' has shared nothing for", 15.0));
   ASSERT_FALSE(shared.empty());

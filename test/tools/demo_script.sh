@@ -2,14 +2,17 @@
 # The README's demo as a user runs it (scripts/demo.sh, without its install and build steps):
 # it exits 0, prints one line per loop, no loop is false, nothing from roslaunch or the detector
 # reaches the console (no "REQUIRED process has died" banner), and the summary is the last thing
-# printed.
-#   demo_script.sh SOURCE_DIR
+# printed. With --two-robots (scripts/demo.sh's two-robot demo) most of robot_b's keyframes find
+# robot_a's places, none falsely.
+#   demo_script.sh SOURCE_DIR [--two-robots]
 set -euo pipefail
 cd "$1"
+mode=()
+[ "${2:-}" = --two-robots ] && mode=(--two-robots)
 export PATH="/usr/bin:$PATH"
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
-if ! timeout 600 scripts/demo.sh --no-setup --rate 4 > "$out" 2>&1; then
+if ! timeout 600 scripts/demo.sh "${mode[@]}" --no-setup --rate 4 > "$out" 2>&1; then
   cat "$out"
   echo "FAIL: scripts/demo.sh exited with an error" >&2
   exit 1
@@ -22,8 +25,17 @@ grep -qi 'REQUIRED process' "$out" && fail "roslaunch's REQUIRED banner reached 
 grep -qE '^\[ *(INFO|WARN|ERROR)' "$out" && fail "the detector's log reached the console"
 summary_line=$(grep -n '^==== demo summary ====' "$out" | cut -d: -f1)
 [ -n "$summary_line" ] || fail "no summary"
-tail -n +"$summary_line" "$out" | grep -vE '^(==== demo summary|keyframes:|revisited|loops published|precision:|recall|verified:|by appearance:|metric pose error:|trajectory RMSE:|pose graph loops:|$)' \
+tail -n +"$summary_line" "$out" | grep -vE '^(==== demo summary|keyframes:|revisited|loops published|between robots:|precision:|recall|verified:|by appearance:|metric pose error:|trajectory RMSE:|pose graph loops:|$)' \
   && fail "something was printed after the summary"
 published=$(sed -n 's/^loops published: *\([0-9]*\).*/\1/p' "$out")
 [ "$published" = "$loops" ] || fail "$loops loop lines but $published loops in the summary"
+if [ ${#mode[@]} -gt 0 ]; then
+  # robot_b drives one lap of 236 keyframes, all over robot_a's lap.
+  between=$(sed -n 's/^between robots: *\([0-9]*\) (true \([0-9]*\), false 0).*/\1 \2/p' "$out")
+  [ -n "$between" ] || fail "no line of loops between robots, or a false one"
+  read -r published_between true_between <<< "$between"
+  [ "$published_between" = "$true_between" ] || fail "a loop between robots was false"
+  [ "$true_between" -gt 150 ] || fail "only $true_between loops between robots"
+  grep -q '^trajectory RMSE: *all robots' "$out" || fail "no trajectory of both robots"
+fi
 echo "demo: $loops loops, one line each, summary last"

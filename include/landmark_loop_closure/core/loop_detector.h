@@ -399,6 +399,9 @@ class LoopDetector {
   /// without one, once stored in memory; localising, at once (its id is reserved in the map).
   /// Keyframes the check held are committed here when it has passed meanwhile.
   std::vector<AnnouncedKeyframe> takeAnnounced();
+  /// Whether stored keyframe `id` still waits for the map file to commit it (not announced yet:
+  /// a crash would lose it, and its id may be given again).
+  bool awaitingCommit(uint64_t id) const;
 
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);

@@ -35,8 +35,10 @@ struct FleetOptions {
   int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
   double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
-  double min_place_ratio = 1.1;    ///< Score over the best other place's (0 = off).
-  double max_false_alarms = 0.1;   ///< Expected wrong places as high (0 = off).
+  /// Rows a second sent to a peer that subscribes after they were shared (the map so far).
+  double backlog_rows_per_s = 500.0;
+  double min_place_ratio = 1.1;   ///< Score over the best other place's (0 = off).
+  double max_false_alarms = 0.1;  ///< Expected wrong places as high (0 = off).
   /// The appearance check alone (ORB could not confirm the place) may confirm a loop between
   /// robots, as it does the detector's own (behind the calibrated decision above).
   bool appearance_confirms = true;
