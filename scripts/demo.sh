@@ -5,7 +5,7 @@
 # and a summary at the end. The detector's own log goes to _demo/roslaunch.log.
 #   scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E]
 #                   [--heading-drift D] [--no-setup]
-#   scripts/demo.sh --two-robots [--rate R] [--no-setup]
+#   scripts/demo.sh --two-robots [--gardens-point] [--rate R] [--no-setup]
 # --rviz keeps rviz open after the bag, to look at the map, until it is closed or Ctrl-C.
 # --wrong-loops F replaces that share of loops by wrong ones before the pose graph (loop_injector),
 # to see it refuse them: the summary counts them.
@@ -14,6 +14,9 @@
 # --two-robots: robot_a drives lap 1 of the corridor, robot_b one lap from another start in its
 # own odometry frame (launch/two_robots.launch): robot_b's detector searches the keyframes robot_a
 # shares and publishes loops into robot_a's map; one pose graph puts both in one frame.
+# --gardens-point (with --two-robots): the same with real images and no odometry, Gardens Point's
+# day left walk as robot_a and its night right walk as robot_b, a frame a second (from
+# ../shared/data/gardens_point; image i of each shows place i, +-3 counts as the place).
 # --no-setup skips installing and building (what the demo's test does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,11 +25,12 @@ LAPS=2
 RATE=2.0
 SETUP=true
 TWO_ROBOTS=false
+GARDENS_POINT=false
 WRONG_LOOPS=0.0
 SCALE_ERROR=0.02
 HEADING_DRIFT=0.004
 USAGE="usage: scripts/demo.sh [--rviz] [--laps N] [--rate R] [--wrong-loops F] [--scale-error E] [--heading-drift D] [--no-setup]
-       scripts/demo.sh --two-robots [--rate R] [--no-setup]"
+       scripts/demo.sh --two-robots [--gardens-point] [--rate R] [--no-setup]"
 while [ $# -gt 0 ]; do
   case "$1" in
     --rviz) RVIZ=true ;;
@@ -37,15 +41,27 @@ while [ $# -gt 0 ]; do
     --heading-drift) HEADING_DRIFT="$2"; shift ;;
     --no-setup) SETUP=false ;;
     --two-robots) TWO_ROBOTS=true ;;
+    --gardens-point) GARDENS_POINT=true ;;
     *) echo "$USAGE" >&2; exit 2 ;;
   esac
   shift
 done
 if [ "$TWO_ROBOTS" = true ] && { [ "$RVIZ" = true ] || [ "$LAPS" != 2 ] ||
   [ "$WRONG_LOOPS" != 0.0 ] || [ "$SCALE_ERROR" != 0.02 ] || [ "$HEADING_DRIFT" != 0.004 ]; }; then
-  echo "demo: --two-robots takes only --rate and --no-setup" >&2
+  echo "demo: --two-robots takes only --gardens-point, --rate and --no-setup" >&2
   echo "$USAGE" >&2
   exit 2
+fi
+GARDENS_POINT_DATA=../shared/data/gardens_point
+if [ "$GARDENS_POINT" = true ]; then
+  if [ "$TWO_ROBOTS" != true ]; then
+    echo "demo: --gardens-point goes with --two-robots" >&2
+    exit 2
+  fi
+  if [ ! -d "$GARDENS_POINT_DATA/day_left" ] || [ ! -d "$GARDENS_POINT_DATA/night_right" ]; then
+    echo "demo: --gardens-point reads $GARDENS_POINT_DATA/day_left and night_right, not here" >&2
+    exit 1
+  fi
 fi
 
 phase() { echo; echo "==== $* ===="; }
@@ -87,17 +103,30 @@ wait_for_service() {  # SERVICE
 }
 
 if [ "$TWO_ROBOTS" = true ]; then
-  BAG=_demo/corridor_two_robots.bag
-  if [ ! -f "$BAG" ]; then
-    phase "3/4 Generating the two robots' bag"
-    _build/devel/lib/landmark_loop_closure/make_demo_bag --two-robots "$BAG" 10
+  TRUE_LOOP_DISTANCE=2.5
+  if [ "$GARDENS_POINT" = true ]; then
+    BAG=_demo/gardens_point_two_robots.bag
+    TRUE_LOOP_DISTANCE=3.5  # Places are 1 m apart in the bag: +-3 images.
+    if [ ! -f "$BAG" ]; then
+      phase "3/4 Writing Gardens Point's day left and night right walks into a bag"
+      _build/devel/lib/landmark_loop_closure/make_demo_bag --traversals \
+        "$GARDENS_POINT_DATA/day_left" "$GARDENS_POINT_DATA/night_right" "$BAG"
+    fi
+    phase "4/4 Playing robot_a's walk (day, left), then robot_b's (night, right), into their detectors"
+  else
+    BAG=_demo/corridor_two_robots.bag
+    if [ ! -f "$BAG" ]; then
+      phase "3/4 Generating the two robots' bag"
+      _build/devel/lib/landmark_loop_closure/make_demo_bag --two-robots "$BAG" 10
+    fi
+    phase "4/4 Playing robot_a's lap, then robot_b's, into their detectors"
   fi
-  phase "4/4 Playing robot_a's lap, then robot_b's, into their detectors"
   roslaunch landmark_loop_closure two_robots.launch > "$LOG" 2>&1 &
   launch_pid=$!
   wait_for_service /robot_a/loop_closure/reset
   wait_for_service /robot_b/loop_closure/reset
-  rosrun landmark_loop_closure demo_report _robots:="/robot_a /robot_b" &
+  rosrun landmark_loop_closure demo_report _robots:="/robot_a /robot_b" \
+    _true_loop_distance:="$TRUE_LOOP_DISTANCE" &
   report_pid=$!
   for robot in robot_a robot_b; do
     wait_for_connections /$robot/loop_closure "$LOG" /$robot/keyframes:/pose_graph \

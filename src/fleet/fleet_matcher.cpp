@@ -311,6 +311,21 @@ CellsOfKeyframe thumbnailCellsOf(const LoopDetector& detector,
   };
 }
 
+namespace {
+
+/// Whether two cameras' pinhole values agree within 1 % once scaled to one image size.
+bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  if (a.image_size.area() == 0 || b.image_size.area() == 0) {
+    return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy;
+  }
+  const CameraIntrinsics scaled = a.scaledTo(b.image_size);
+  const auto near = [](double x, double y) { return std::abs(x - y) <= 0.01 * std::abs(y); };
+  return near(scaled.fx, b.fx) && near(scaled.fy, b.fy) && near(scaled.cx, b.cx) &&
+         near(scaled.cy, b.cy);
+}
+
+}  // namespace
+
 PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
                                const PlaceCheckSettings& settings, const LocalFeatures& query,
                                const CameraIntrinsics& query_intrinsics,
@@ -321,18 +336,28 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
     refused.detail = "its evidence is malformed: " + problem;
     return refused;
   }
-  const CameraIntrinsics& other = match.intrinsics;
-  const auto near = [](double a, double b) { return std::abs(a - b) <= 0.01 * std::abs(b); };
-  if (match.local_features.image_size != query.image_size || !near(other.fx, query_intrinsics.fx) ||
-      !near(other.fy, query_intrinsics.fy) || !near(other.cx, query_intrinsics.cx) ||
-      !near(other.cy, query_intrinsics.cy)) {
-    refused.detail =
-        "the two robots' cameras differ (intrinsics or image size): only loops "
-        "between like cameras are checked";
-    return refused;
+  // Two robots' cameras may differ (another lens, another image size): the match's keypoints,
+  // ideal pixels of its own pinhole camera, are moved to the query camera's pixels through their
+  // rays (p_query = K_query K_match^-1 p_match). The essential matrix and the metric pose depend on
+  // the rays alone, and the match's depths are in its own camera frame, so nothing else changes.
+  LocalFeatures match_features = match.local_features;
+  if (match_features.image_size != query.image_size ||
+      !sameCamera(match.intrinsics, query_intrinsics)) {
+    if (!match.intrinsics.valid() || !query_intrinsics.valid() ||
+        match_features.image_size.area() == 0 || query.image_size.area() == 0) {
+      refused.detail = "the two robots' cameras differ and one has no usable camera_info";
+      return refused;
+    }
+    const CameraIntrinsics from = match.intrinsics.scaledTo(match_features.image_size);
+    const CameraIntrinsics to = query_intrinsics.scaledTo(query.image_size);
+    for (cv::Point2f& point : match_features.points) {
+      point.x = static_cast<float>(to.fx * (point.x - from.cx) / from.fx + to.cx);
+      point.y = static_cast<float>(to.fy * (point.y - from.cy) / from.fy + to.cy);
+    }
+    match_features.image_size = query.image_size;
   }
   std::optional<CellFeatures> query_cells;
-  PlaceCheck check = checkPlace(verifier, settings, query, match.local_features, query_intrinsics,
+  PlaceCheck check = checkPlace(verifier, settings, query, match_features, query_intrinsics,
                                 &query_cells, query_cells_of, match_cells_of);
   if (check.accepted && !check.place_confirmed) {
     // Unverified (verification off, or no intrinsics): no odometry relates two robots, so an

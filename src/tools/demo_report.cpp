@@ -209,6 +209,13 @@ class DemoReport {
     std::sort(corrected.begin(), corrected.end(),
               [](const auto& a, const auto& b) { return a.first < b.first; });
     const auto optimised = trajectoryError(corrected);
+    if (!robots_.empty() && posed_loops_between_robots_ == 0) {
+      // Only a loop with a relative pose joins two odometry chains in the pose graph.
+      std::printf(
+          "trajectory RMSE:      no loop with a relative pose joined the robots: each path is in "
+          "its own frame\n");
+      return;
+    }
     if (!robots_.empty()) {
       // Each robot's odometry has a frame of its own: only the corrected paths share one.
       std::printf(
@@ -318,6 +325,7 @@ class DemoReport {
     const uint64_t match_map = loop->match_map_id != 0 ? loop->match_map_id : loop->map_id;
     if (!robots_.empty() && match_map != loop->map_id) {
       ++loops_between_robots_;
+      posed_loops_between_robots_ += loop->has_relative_pose ? 1 : 0;
       true_loops_between_robots_ += is_true ? 1 : 0;
     }
     std::printf("loop keyframe %s%4lu -> %s%4lu  score %.3f  true distance %5.2f m  %s%s\n",
@@ -356,6 +364,7 @@ class DemoReport {
   int loops_ = 0;
   int true_loops_ = 0;
   int loops_between_robots_ = 0;
+  int posed_loops_between_robots_ = 0;
   int true_loops_between_robots_ = 0;
   int verified_ = 0;
   int appearance_verified_ = 0;

@@ -2,14 +2,23 @@
 // drifting odometry (and its tf), and ground truth.
 // Usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [scale error] [heading drift]
 //        make_demo_bag --two-robots OUTPUT.bag [frames per second=10]
+//        make_demo_bag --traversals A_DIR B_DIR OUTPUT.bag
 // --two-robots: robot_a drives lap 1 and on to where it started (1.2 laps), then robot_b drives
 // one lap from 0.3 laps in, in an odometry frame of its own that starts at its first pose; each
 // robot's topics under /robot_a or /robot_b, the ground truth of both on /ground_truth.
+// --traversals: two walks of one route as two robots, a frame a second (Gardens Point: image i of
+// each folder shows place i): robot_a plays A_DIR's images in name order, then robot_b B_DIR's.
+// The images come without odometry: place i is put i metres along x, for the odometry and the
+// ground truth alike (a keyframe each image). camera_info: the phone camera of
+// bench/cameras/gardens_point.yaml (fx = 800 px at 960 px wide), scaled to each image's width.
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
+
+#include <algorithm>
+#include <filesystem>
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -17,6 +26,7 @@
 #include <rosbag/bag.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <tf2_msgs/TFMessage.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "landmark_loop_closure/sim/sequence.h"
 
@@ -72,8 +82,9 @@ void writeFrame(rosbag::Bag* bag, const std::string& prefix, const std::string& 
   std_msgs::Header header;
   header.stamp = stamp;
   header.frame_id = prefix.empty() ? "camera" : prefix.substr(1) + "/camera";
+  const std::string encoding = frame.image.channels() == 3 ? "bgr8" : "mono8";
   bag->write(prefix + "/camera/image_raw", stamp,
-             cv_bridge::CvImage(header, "mono8", frame.image).toImageMsg());
+             cv_bridge::CvImage(header, encoding, frame.image).toImageMsg());
   bag->write(prefix + "/camera/camera_info", stamp, cameraInfo(camera, header));
   const nav_msgs::Odometry odometry = toOdometry(odometry_pose, stamp, odom_frame);
   bag->write(prefix + "/odom", stamp, odometry);
@@ -98,16 +109,87 @@ Pose2D relativeTo(const Pose2D& origin, const Pose2D& pose) {
                 std::remainder(pose.yaw - origin.yaw, 2.0 * M_PI)};
 }
 
+/// The images of a folder (.jpg, .jpeg, .png), in name order.
+std::vector<std::string> imagesIn(const std::string& folder) {
+  std::vector<std::string> paths;
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+    std::string extension = entry.path().extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (extension == ".jpg" || extension == ".jpeg" || extension == ".png") {
+      paths.push_back(entry.path().string());
+    }
+  }
+  std::sort(paths.begin(), paths.end());
+  return paths;
+}
+
+/// --traversals: robot_a plays `folder_a`, then robot_b `folder_b`, a frame a second.
+int writeTraversals(const std::string& folder_a, const std::string& folder_b,
+                    const std::string& path) {
+  const std::vector<std::string> images_a = imagesIn(folder_a);
+  const std::vector<std::string> images_b = imagesIn(folder_b);
+  for (const auto& [folder, images] : {std::pair{&folder_a, &images_a}, {&folder_b, &images_b}}) {
+    if (images->empty()) {
+      std::cerr << "no .jpg or .png images in " << *folder << "\n";
+      return 2;
+    }
+  }
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Write);
+  } catch (const rosbag::BagException& error) {
+    std::cerr << "cannot write " << path << ": " << error.what() << "\n";
+    return 1;
+  }
+  constexpr double kStart = 1700000000.0;
+  // robot_b starts a minute after robot_a's last image.
+  const double robot_b_start = kStart + static_cast<double>(images_a.size()) + 60.0;
+  for (const auto& [robot, images, start] :
+       {std::tuple{"/robot_a", &images_a, kStart}, {"/robot_b", &images_b, robot_b_start}}) {
+    for (size_t i = 0; i < images->size(); ++i) {
+      SequenceFrame frame;
+      frame.index = i;
+      frame.stamp = start + static_cast<double>(i);
+      frame.image = cv::imread((*images)[i], cv::IMREAD_COLOR);
+      if (frame.image.empty()) {
+        std::cerr << "cannot read " << (*images)[i] << "\n";
+        return 1;
+      }
+      frame.truth = Pose2D{static_cast<double>(i), 0.0, 0.0};
+      CameraModel camera;
+      camera.width = frame.image.cols;
+      camera.height = frame.image.rows;
+      camera.focal_px = 800.0 * frame.image.cols / 960.0;
+      writeFrame(&bag, robot, std::string(robot + 1) + "/odom", false, camera, frame, frame.truth);
+    }
+  }
+  bag.close();
+  std::cout << "make_demo_bag: wrote robot_a's " << images_a.size() << " images of " << folder_a
+            << " and robot_b's " << images_b.size() << " of " << folder_b << " to " << path << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && args.front() == "--traversals") {
+    if (args.size() != 4) {
+      std::cerr << "usage: make_demo_bag --traversals A_DIR B_DIR OUTPUT.bag\n";
+      return 2;
+    }
+    ros::Time::init();
+    return writeTraversals(args[1], args[2], args[3]);
+  }
   const bool two_robots = !args.empty() && args.front() == "--two-robots";
   if (two_robots) args.erase(args.begin());
   if (args.empty() || (two_robots && args.size() > 2)) {
     std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [odometry "
                  "scale error=0.02] [odometry heading drift, rad/m=0.004]\n"
-                 "       make_demo_bag --two-robots OUTPUT.bag [frames per second=10]\n";
+                 "       make_demo_bag --two-robots OUTPUT.bag [frames per second=10]\n"
+                 "       make_demo_bag --traversals A_DIR B_DIR OUTPUT.bag\n";
     return 2;
   }
   const std::string path = args[0];

@@ -241,20 +241,89 @@ TEST(FleetCandidateCheck, MalformedEvidenceAndOtherCamerasAreRefused) {
   EXPECT_EQ(check.detail,
             "its evidence is malformed: 5 keypoints without a 32-byte descriptor each");
 
+  // Another camera is checked through its rays, which needs its camera_info.
   evidence.local_features = LocalFeatures{};
-  evidence.intrinsics.fx = 400;
+  evidence.intrinsics = CameraIntrinsics{};
+  query.image_size = camera.image_size;
   check = checkFleetCandidate(verifier, {verification, appearance, metric}, query, camera, evidence,
                               no_cells, no_cells, false);
   EXPECT_FALSE(check.accepted);
-  EXPECT_NE(check.detail.find("cameras differ"), std::string::npos);
+  EXPECT_NE(check.detail.find("cameras differ and one has no usable camera_info"),
+            std::string::npos)
+      << check.detail;
 
   // Without camera_info the detector may publish its own loop unverified; between robots never.
   const CameraIntrinsics unknown;
   evidence.intrinsics = unknown;
+  evidence.local_features.image_size = query.image_size;
   check = checkFleetCandidate(verifier, {verification, appearance, metric}, query, unknown,
                               evidence, no_cells, no_cells, false);
   EXPECT_FALSE(check.accepted);
   EXPECT_NE(check.detail.find("could not be confirmed"), std::string::npos) << check.detail;
+}
+
+TEST(FleetCandidateCheck, AnotherRobotsCameraIsCheckedThroughItsRays) {
+  // The query camera: 640x480, fx 300. The other robot's: 960x540, fx 800, 0.4 m to the side and
+  // turned 4 degrees about the vertical; both see 300 points 3-8 m ahead.
+  CameraIntrinsics query_camera;
+  query_camera.fx = query_camera.fy = 300;
+  query_camera.cx = 320;
+  query_camera.cy = 240;
+  query_camera.image_size = cv::Size(640, 480);
+  CameraIntrinsics match_camera;
+  match_camera.fx = match_camera.fy = 800;
+  match_camera.cx = 480;
+  match_camera.cy = 270;
+  match_camera.image_size = cv::Size(960, 540);
+  const double yaw = 4.0 * M_PI / 180.0;
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()).matrix();
+  const Eigen::Vector3d translation(0.4, 0.0, 0.05);  // X_query = rotation * X_match + t.
+  cv::RNG random(7);
+  LocalFeatures query, match;
+  query.image_size = query_camera.image_size;
+  match.image_size = match_camera.image_size;
+  std::vector<cv::Mat> rows;
+  while (query.points.size() < 300) {
+    const Eigen::Vector3d in_match((random.uniform(-1.0, 1.0)), random.uniform(-0.5, 0.5),
+                                   random.uniform(3.0, 8.0));
+    const Eigen::Vector3d in_query = rotation * in_match + translation;
+    const cv::Point2f match_pixel(
+        static_cast<float>(match_camera.fx * in_match.x() / in_match.z() + match_camera.cx),
+        static_cast<float>(match_camera.fy * in_match.y() / in_match.z() + match_camera.cy));
+    const cv::Point2f query_pixel(
+        static_cast<float>(query_camera.fx * in_query.x() / in_query.z() + query_camera.cx),
+        static_cast<float>(query_camera.fy * in_query.y() / in_query.z() + query_camera.cy));
+    if (!cv::Rect2f(0, 0, 960, 540).contains(match_pixel) ||
+        !cv::Rect2f(0, 0, 640, 480).contains(query_pixel)) {
+      continue;
+    }
+    match.points.push_back(match_pixel);
+    query.points.push_back(query_pixel);
+    match.points3d.emplace_back(static_cast<float>(in_match.x()), static_cast<float>(in_match.y()),
+                                static_cast<float>(in_match.z()));
+    match.depth_sd.push_back(0.01f);
+    cv::Mat row(1, 32, CV_8U);
+    random.fill(row, cv::RNG::UNIFORM, 0, 256);
+    rows.push_back(row);
+  }
+  cv::vconcat(rows, query.descriptors);
+  match.descriptors = query.descriptors.clone();
+  KeyframeEvidence evidence;
+  evidence.intrinsics = match_camera;
+  evidence.local_features = match;
+  const VerificationOptions verification;
+  const GeometricVerifier verifier(verification);
+  const auto no_cells = [] { return CellFeatures{}; };
+  const PlaceCheck check = checkFleetCandidate(verifier, {verification, {}, {}}, query,
+                                               query_camera, evidence, no_cells, no_cells, false);
+  ASSERT_TRUE(check.accepted) << check.detail;
+  EXPECT_GT(check.inliers, 250);
+  ASSERT_TRUE(check.relative_pose.has_value());
+  // The metric pose from the match's depths: where the other camera is.
+  const Eigen::Vector3d found(check.relative_pose->translation);
+  EXPECT_LT((found - translation).norm(), 0.02) << found.transpose();
+  EXPECT_LT(Eigen::AngleAxisd(check.relative_pose->rotation * rotation.transpose()).angle(),
+            0.2 * M_PI / 180.0);
 }
 
 }  // namespace

@@ -133,8 +133,8 @@ CellsOfKeyframe thumbnailCellsOf(const LoopDetector& detector,
 
 /// Checks a fetched candidate against the own keyframe's keypoints, as the detector checks its
 /// own loops (checkPlace), except that only a confirmed place passes (no odometry relates two
-/// robots), by ORB unless `appearance_confirms`, and both cameras must be the same (intrinsics
-/// within 1 %, keypoints found in images of one size).
+/// robots), by ORB unless `appearance_confirms`. Cameras may differ (lens, image size): the
+/// match's keypoints are moved to the query camera's pixels first, which needs both intrinsics.
 PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
                                const PlaceCheckSettings& settings, const LocalFeatures& query,
                                const CameraIntrinsics& query_intrinsics,
