@@ -4,7 +4,7 @@ libtorch-dev), one thread, on the input lcd_bench_network wrote, compared with O
 output for it: time per pass (median, p99) for eager, TorchScript and frozen +
 optimize_for_inference (oneDNN), and the outputs' agreement.
 
-usage (needs python3-torch and python3-onnx; bench/README.md "Another engine for the network"):
+usage (needs python3-torch and python3-onnx; bench/history.md "Another engine for the network"):
   lcd_bench_network --write-input in.f32 --write-output out.f32
   bench/engine_libtorch.py model/mobilenet_v2.onnx in.f32 out.f32 [--layer block_12_add]
       [--width 256] [--height 144]

@@ -126,7 +126,7 @@ FULL_NORDLAND=()
 /usr/bin/python3 bench/make_table.py --matrix "$OUT"/gardens_point_viewpoint_backbone \
   "$OUT"/gardens_point_day_night_backbone "$OUT"/gardens_point_both_backbone \
   "$OUT"/corridor_backbone "$OUT"/nordland_backbone > "$OUT/table_backbone.md"
-echo "== the whole detector (bench/README.md \"Precision first\"): both halves, two rules"
+echo "== the whole detector (bench/history.md \"Precision first\"): both halves, two rules"
 detector() {  # name, frames per half (0: one run), then lcd_evaluate arguments
   local halves=("--limit $2" "--skip $2")
   [ "$2" = 0 ] && halves=("")

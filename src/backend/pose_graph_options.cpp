@@ -79,7 +79,7 @@ const ParameterTable<PoseGraphNodeOptions>& PoseGraphNodeOptions::parameters() {
                 "other than base_frame is left out, named in the log. The graph is saved beside "
                 "that node's database_path (as MAP-pose_graph) and restored from it at start.")
           .text("robots", &O::robots,
-                "several robots' detectors in one graph (README \"Several robots\"): their "
+                "several robots' detectors in one graph (docs/robots.md): their "
                 "namespaces, separated by spaces or commas (e.g. \"/robot_a /robot_b\"), whose "
                 "keyframes and loop_closures are read; each robot's corrected path is published "
                 "on ~ROBOT/corrected_path and map -> each robot's odometry frame on tf. Time "

@@ -22,7 +22,7 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
       ParameterTable<O>(
           "database/index/",
           "how global descriptors are searched: 8 bits per value (a scale per "
-          "keyframe), exactly or through an HNSW graph (bench/README.md, \"Map at "
+          "keyframe), exactly or through an HNSW graph (bench/history.md, \"Map at "
           "scale\"). The graph is saved beside the map file (PATH-graph) at shutdown; "
           "changing neighbors or ef_construction rebuilds it at start (~2 ms per "
           "keyframe).")

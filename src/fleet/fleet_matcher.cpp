@@ -33,7 +33,7 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
   using O = FleetOptions;
   static const auto table =
       ParameterTable<O>("fleet/",
-                        "loops between robots while they run (README \"Several robots\"): each "
+                        "loops between robots while they run (docs/robots.md): each "
                         "detector shares its keyframes' search rows on ~shared_keyframes and "
                         "answers ~keyframe_evidence; a detector naming peers searches theirs.")
           .flag("share", &O::share,
@@ -86,7 +86,7 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "its map scored against the keyframe (a candidate that continues the previous "
                   "keyframe's stretch counts only the places that would continue it). Chosen on "
                   "the generated aliasing corridor as the largest bound with no wrong loop (0.3 "
-                  "published 4 of 56 wrong), reported on the corridor (bench/README.md, \"Robots "
+                  "published 4 of 56 wrong), reported on the corridor (bench/history.md, \"Robots "
                   "sharing keyframes\").")
           .flag("appearance_confirms", &O::appearance_confirms,
                 "the appearance check alone (where ORB cannot confirm the place: day against "

@@ -228,10 +228,11 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
           : "broad (trained on the first " +
                 std::to_string(options_.detector.descriptor.broad.online_training_keyframes) +
                 " keyframes, then written to " + options_.detector.descriptor.broad.model + ")";
-  ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s",
+  ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s (camera_info %s)",
            toString(detector_.mode()), descriptor.c_str(),
            nameOf(poseSourceNames(), options_.pose_source).c_str(), image_topic_.c_str(),
-           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str());
+           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str(),
+           camera_info_subscriber_.getTopic().c_str());
   if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
   if (!options_.ignored_warning.empty()) ROS_WARN("%s", options_.ignored_warning.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
@@ -286,8 +287,13 @@ LoopClosureNode::~LoopClosureNode() {
 void LoopClosureNode::subscribe() {
   // Never lazy: a detector that stops listening loses keyframes for good.
   image_topic_ = node_.resolveName("image");
-  camera_info_subscriber_ = node_.subscribe(image_transport::getCameraInfoTopic(image_topic_), 1,
-                                            &LoopClosureNode::onCameraInfo, this);
+  // camera_info remapped (the launch file's camera_info argument): that topic; else the one
+  // beside the image, as image_transport's camera subscribers take it.
+  const std::string remapped_info = node_.resolveName("camera_info");
+  const std::string info_topic = remapped_info != node_.resolveName("camera_info", false)
+                                     ? remapped_info
+                                     : image_transport::getCameraInfoTopic(image_topic_);
+  camera_info_subscriber_ = node_.subscribe(info_topic, 1, &LoopClosureNode::onCameraInfo, this);
   if (options_.use_depth) {
     // Every queued keyframe (and the one in the worker) keeps its depth image however far behind
     // the worker is.

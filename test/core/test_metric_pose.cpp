@@ -153,7 +153,7 @@ TEST_F(MetricPoseTest, TriangulatedKeypointsGiveMetricPosesNearTheTruth) {
   // Measured: 30 of 30 metric, 23 within 10 cm / 1 deg, median 4.7 cm / 0.68 deg. The depths'
   // errors (3 % median) share the same few baselines, so they are correlated, which the
   // per-point covariance does not model: the truth falls inside the 99 % ellipsoid for two in
-  // three loops only (README, "Geometric verification").
+  // three loops only (docs/how_it_works.md, "Geometric verification").
   EXPECT_GE(errors.found, kTrials * 3 / 4);
   EXPECT_GE(errors.within_tolerance, errors.found * 2 / 3);
   EXPECT_LT(median(errors.translation_m), 0.06);

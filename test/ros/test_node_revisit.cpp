@@ -141,7 +141,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
     EXPECT_EQ(loop.header.frame_id, "odom");
   }
   // Two views alone leave about one scale-free pose in four in a wrong minimum a few degrees away
-  // (README, "Geometric verification"), so these check that the message carries the estimate (a
+  // (docs/how_it_works.md, "Geometric verification"), so these check that the message carries the estimate (a
   // wrong convention would miss every one), not that each pose is right; accuracy is asserted on
   // generated pairs in the core tests.
   std::size_t metric_within = 0;
@@ -163,7 +163,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
       metric_within, scale_free_turn_errors_deg.size(), scale_free_within);
   EXPECT_GE(metric_errors.size(), 5u);
   EXPECT_GE(10 * metric_within, 8 * metric_errors.size());  // Measured: 54 of 55.
-  // A lens the detector ignored doubles the median error (bench/README, "distorted lens").
+  // A lens the detector ignored doubles the median error (bench/history.md, "distorted lens").
   double max_median_m = 1.0, max_median_deg = 10.0;
   ros::param::get("~max_median_translation_m", max_median_m);
   ros::param::get("~max_median_rotation_deg", max_median_deg);

@@ -32,15 +32,20 @@ using namespace landmark_loop_closure::sim;
 
 namespace {
 
-constexpr double kPublishRateHz = 60.0;  // Six times the camera's rate, as the other node tests.
+// robot_a maps at six times the camera's rate, as the other node tests. robot_b at three: each of
+// its keyframes may fetch a candidate's evidence and check it, which at six times real time on a
+// loaded machine fell behind (candidates dropped: 140 loops of 236 keyframes in one CI run).
+constexpr double kMappingRateHz = 60.0;
+constexpr double kSearchingRateHz = 30.0;
 
 /// One robot's inputs and what its detector publishes.
 class Robot {
  public:
-  explicit Robot(const std::string& name) : name_(name) {
+  /// `camera_info`: its topic (the launch file's camera_info argument names it to the detector).
+  Robot(const std::string& name, const std::string& camera_info) : name_(name) {
     ros::NodeHandle node;
     image_ = node.advertise<sensor_msgs::Image>("/" + name + "/camera/image_raw", 100);
-    info_ = node.advertise<sensor_msgs::CameraInfo>("/" + name + "/camera/camera_info", 100);
+    info_ = node.advertise<sensor_msgs::CameraInfo>(camera_info, 100);
     odom_ = node.advertise<nav_msgs::Odometry>("/" + name + "/odom", 100);
     keyframes_ = node.subscribe<Keyframe>("/" + name + "/keyframes", 1000,
                                           [this](const Keyframe::ConstPtr& keyframe) {
@@ -54,7 +59,7 @@ class Robot {
 
   bool connected() const {
     return image_.getNumSubscribers() > 0 && odom_.getNumSubscribers() > 0 &&
-           keyframes_.getNumPublishers() > 0;
+           info_.getNumSubscribers() > 0 && keyframes_.getNumPublishers() > 0;
   }
 
   /// Publishes one frame with its odometry (in this robot's own frame) and camera_info.
@@ -136,14 +141,14 @@ struct Watch {
   std::vector<std::string> lines;
 };
 
-void drive(Robot* robot, size_t first, size_t last) {
+void drive(Robot* robot, size_t first, size_t last, double rate_hz) {
   SequenceOptions options;
   options.laps = 2.3;
   options.start_stamp = 1700000000.123456789;
   const CorridorWorld world;
   SequenceGenerator sequence(world, CameraModel{}, options);
   std::optional<Eigen::Isometry3d> start;
-  ros::WallRate rate(kPublishRateHz);
+  ros::WallRate rate(rate_hz);
   SequenceFrame frame;
   while (ros::ok() && sequence.next(&frame, false) && frame.index < last) {
     if (frame.index < first) continue;
@@ -168,7 +173,8 @@ void waitUntilQuiet(Robot* robot) {
 }  // namespace
 
 TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBadRows) {
-  Robot a("robot_a"), b("robot_b");
+  // robot_b's camera_info is not beside its image: the launch file's argument names it.
+  Robot a("robot_a", "/robot_a/camera/camera_info"), b("robot_b", "/robot_b/calibration/info");
   Watch watch;
   std::vector<FleetKeyframe> shared;
   ros::NodeHandle node;
@@ -200,9 +206,9 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
                                        }())
                          .size() *
                      10 / 23;
-  drive(&a, 0, lap * 12 / 10);  // Lap 1, and on to where it started.
+  drive(&a, 0, lap * 12 / 10, kMappingRateHz);  // Lap 1, and on to where it started.
   waitUntilQuiet(&a);
-  drive(&b, lap * 13 / 10, lap * 23 / 10);
+  drive(&b, lap * 13 / 10, lap * 23 / 10, kSearchingRateHz);
   waitUntilQuiet(&b);
   ASSERT_GT(a.keyframes.size(), 150u);
   ASSERT_GT(b.keyframes.size(), 100u);

@@ -1,5 +1,5 @@
 # Fails when a file of the ROS-free library includes a folder that sits above its own in the
-# layering (README "Layout and design"): common, geometry, then backend and descriptors side by
+# layering (docs/design.md): common, geometry, then backend and descriptors side by
 # side, database, core, runtime and fleet side by side, config, then eval and sim side by side. Run: cmake -DSOURCE_DIR=<package> -P this file.
 set(layer_common 0)
 set(layer_geometry 1)

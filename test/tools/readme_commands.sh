@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The README's tool commands run as written: every `rosrun landmark_loop_closure ...` line of its
-# bash blocks is run from the repository root - `--help` as it is, evaluations with --dry-run
+# The tool commands of README.md and docs/ run as written: every `rosrun landmark_loop_closure ...`
+# line of their bash blocks is run from the repository root - `--help` as it is, evaluations with --dry-run
 # appended (arguments, config, image lists and ground truth read; nothing evaluated, which would
 # take hours). Lines whose data is not here (datasets outside ../shared, placeholder files such
 # as my_params.yaml) or that stand for others ("...") are listed as skipped. The demo and test
@@ -18,7 +18,7 @@ set -u
 # The bash blocks' lines, continuation lines joined, comments dropped.
 commands=$(awk '/^```bash/ { inside = 1; next } /^```/ { inside = 0; next }
   inside { sub(/[ \t]+#.*$/, ""); if (sub(/\\[ \t]*$/, "")) { line = line $0; next }
-           print line $0; line = "" }' README.md | grep '^rosrun landmark_loop_closure ' || true)
+           print line $0; line = "" }' README.md docs/*.md | grep '^rosrun landmark_loop_closure ' || true)
 ran=0
 failed=0
 while IFS= read -r command; do
