@@ -109,6 +109,17 @@ Pose2D relativeTo(const Pose2D& origin, const Pose2D& pose) {
                 std::remainder(pose.yaw - origin.yaw, 2.0 * M_PI)};
 }
 
+/// Opens `path` for writing; says why not on stderr.
+bool openForWriting(rosbag::Bag* bag, const std::string& path) {
+  try {
+    bag->open(path, rosbag::bagmode::Write);
+    return true;
+  } catch (const rosbag::BagException& error) {
+    std::cerr << "cannot write " << path << ": " << error.what() << "\n";
+    return false;
+  }
+}
+
 /// The images of a folder (.jpg, .jpeg, .png), in name order.
 std::vector<std::string> imagesIn(const std::string& folder) {
   std::vector<std::string> paths;
@@ -137,12 +148,7 @@ int writeTraversals(const std::string& folder_a, const std::string& folder_b,
     }
   }
   rosbag::Bag bag;
-  try {
-    bag.open(path, rosbag::bagmode::Write);
-  } catch (const rosbag::BagException& error) {
-    std::cerr << "cannot write " << path << ": " << error.what() << "\n";
-    return 1;
-  }
+  if (!openForWriting(&bag, path)) return 1;
   constexpr double kStart = 1700000000.0;
   // robot_b starts a minute after robot_a's last image.
   const double robot_b_start = kStart + static_cast<double>(images_a.size()) + 60.0;
@@ -219,12 +225,7 @@ int main(int argc, char** argv) {
   SequenceGenerator sequence(world, camera, options);
 
   rosbag::Bag bag;
-  try {
-    bag.open(path, rosbag::bagmode::Write);
-  } catch (const rosbag::BagException& error) {
-    std::cerr << "cannot write " << path << ": " << error.what() << "\n";
-    return 1;
-  }
+  if (!openForWriting(&bag, path)) return 1;
   const size_t lap_frames =
       static_cast<size_t>(static_cast<double>(sequence.size()) / options.laps);
   const size_t robot_a_end = lap_frames * 12 / 10;
