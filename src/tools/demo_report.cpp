@@ -13,7 +13,6 @@
 #include <cstdio>
 #include <deque>
 #include <map>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +22,7 @@
 #include <ros/ros.h>
 #include <Eigen/Geometry>
 
+#include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/eval/trajectory_error.h"
 #include "landmark_loop_closure/eval/true_loop.h"
 #include "landmark_loop_closure/geometry/pose.h"
@@ -40,8 +40,7 @@ class DemoReport {
     private_node.param("revisit_min_seconds", rule_.min_gap_s, rule_.min_gap_s);
     std::string robots;
     private_node.param<std::string>("robots", robots, "");
-    std::istringstream robot_names(robots);
-    for (std::string robot; robot_names >> robot;) robots_.push_back(robot);
+    robots_ = landmark_loop_closure::parseNameList(robots);  // As the pose graph reads its own.
     // The detector's camera mount turns true body poses into true camera poses.
     std::string detector;
     private_node.param<std::string>(
@@ -64,8 +63,9 @@ class DemoReport {
       return;
     }
     for (const std::string& robot : robots_) {
-      const std::string name = robot.substr(robot.find_first_not_of('/'));
-      listenTo(node, robot + "/", name);
+      const size_t name_start = robot.find_first_not_of('/');
+      if (name_start == std::string::npos) continue;  // "/" names no robot.
+      listenTo(node, robot + "/", robot.substr(name_start));
     }
   }
 
