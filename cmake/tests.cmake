@@ -65,6 +65,9 @@ foreach(name test_ground_truth test_evaluation test_match_verification test_base
   target_link_libraries(${name} ${PROJECT_NAME}_eval ${PROJECT_NAME}_sim GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 endforeach()
+# The reader's test writes v5 files byte by byte (zlib) and v7.3 files through libmatio.
+find_package(ZLIB REQUIRED)
+target_link_libraries(test_ground_truth ZLIB::ZLIB PkgConfig::MATIO)
 
 # The pose-graph backend links Ceres; its test links the backend and the core only.
 catkin_add_gtest(test_pose_graph test/core/test_pose_graph.cpp)
@@ -101,6 +104,10 @@ add_test(NAME tool_bench_pose_graph_kitti
 add_test(NAME tool_train_learned_descriptors
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
     $<TARGET_FILE:make_demo_bag> $<TARGET_FILE:lcd_train> $<TARGET_FILE:lcd_evaluate>)
+
+# Every tool's command line (CLI11): --help, one uniform error for a bad option or value.
+add_test(NAME tool_command_lines
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/command_lines.sh $<TARGET_FILE_DIR:lcd_config>)
 
 # lcd_evaluate refuses another camera's --camera-info before evaluating (Gardens Point, when here).
 add_test(NAME tool_evaluate_camera_info

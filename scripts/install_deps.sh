@@ -14,6 +14,7 @@ PACKAGES=(
   ros-sensor-msgs ros-nav-msgs ros-visualization-msgs ros-geometry-msgs ros-std-msgs
   librosbag-dev python3-rosbag librostest-dev python3-rostest python3-roslaunch
   libgtest-dev libopencv-dev libeigen3-dev libyaml-cpp-dev zlib1g-dev libhnswlib-dev libsqlite3-dev liblmdb-dev libceres-dev libdnnl-dev
+  libcli11-dev libmatio-dev  # the tools' command lines; ground-truth .mat files (v5 and v7.3)
   ocl-icd-opencl-dev  # libdnnl-dev only recommends it, yet its CMake config needs it
   python3-std-srvs ros-std-srvs  # rosservice resumes the demo's paused bag player
   python3-onnx python3-numpy python3-matplotlib

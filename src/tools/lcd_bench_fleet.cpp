@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "bench_workload.h"
+#include "command_line.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
 
@@ -41,45 +42,27 @@ double residentMegabytes() {
   return 0.0;
 }
 
-std::vector<size_t> parseList(const std::string& text) {
-  std::vector<size_t> values;
-  std::istringstream list(text);
-  for (std::string item; std::getline(list, item, ',');) values.push_back(std::stoul(item));
-  return values;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   size_t robots = 4, keyframes = 5000;
   int dimension = 4320;
   std::vector<size_t> checkpoints = {500, 1000, 2500, 5000};
-  for (int i = 1; i < argc; i += 2) {
-    const std::string key = argv[i];
-    if (key == "--help" || key == "-h" || i + 1 == argc) {
-      std::printf(
-          "lcd_bench_fleet [--robots N] [--keyframes N per robot] [--checkpoints N,N,...]\n"
-          "                [--dimension N]\n");
-      return key == "--help" || key == "-h" ? 0 : 2;
-    }
-    const std::string value = argv[i + 1];
-    if (key == "--robots") {
-      robots = std::stoul(value);
-    } else if (key == "--keyframes") {
-      keyframes = std::stoul(value);
-    } else if (key == "--checkpoints") {
-      checkpoints = parseList(value);
-    } else if (key == "--dimension") {
-      dimension = std::stoi(value);
-    } else {
-      std::fprintf(stderr, "lcd_bench_fleet: unknown option %s (--help)\n", key.c_str());
-      return 2;
-    }
-  }
-  if (robots < 2 || keyframes == 0 || dimension <= 0) {
-    std::fprintf(stderr, "lcd_bench_fleet: --robots >= 2, --keyframes and --dimension > 0\n");
-    return 2;
-  }
+  CLI::App app{
+      "Several robots' keyframes into one fleet matcher: search time, memory, candidates."};
+  app.add_option("--robots", robots, "robots sharing keyframes")
+      ->capture_default_str()
+      ->check(CLI::Range(size_t{2}, size_t{1000}));
+  app.add_option("--keyframes", keyframes, "keyframes a robot")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--checkpoints", checkpoints, "rows a robot at which a line is printed")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--dimension", dimension, "values a row")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   // The route's places, then each robot's view of them: the place's vector plus its own noise.
   bench::Route route(dimension, 11, bench::RouteShape::kMeasured);
   std::vector<std::vector<float>> places(keyframes);

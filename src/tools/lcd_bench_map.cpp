@@ -38,6 +38,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench_workload.h"
+#include "command_line.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
@@ -237,67 +238,50 @@ void buildMap(const Settings& settings, const std::string& path, const std::stri
 
 int main(int argc, char** argv) {
   Settings settings;
-  for (int i = 1; i < argc; i += 2) {
-    const std::string key = argv[i];
-    if (key == "--reopen") {
-      settings.reopen_only = true;
-      --i;  // No value.
-      continue;
-    }
-    if (key == "--help" || key == "-h" || i + 1 == argc) {
-      std::cout << "lcd_bench_map [--keyframes N] [--checkpoints N,N,...] [--queries N]\n"
-                   "              [--recall-queries N] [--dir FOLDER] [--image a.jpg,b.jpg]\n"
-                   "              [--reopen] [--ef N,N,...] [--ef-construction N]\n"
-                   "              [--neighbors N] [--route measured|isotropic]\n"
-                   "              [--measure-route DIR,DIR,...] [--identity bench|detector]\n";
-      return key == "--help" || key == "-h" ? 0 : 2;
-    }
-    const std::string value = argv[i + 1];
-    if (key == "--identity") {
-      settings.detector_identity = value == "detector";
-    } else if (key == "--keyframes") {
-      settings.keyframes = std::stoul(value);
-    } else if (key == "--checkpoints") {
-      settings.checkpoints.clear();
-      std::istringstream list(value);
-      std::string item;
-      while (std::getline(list, item, ',')) settings.checkpoints.push_back(std::stoul(item));
-    } else if (key == "--queries") {
-      settings.queries = std::stoi(value);
-    } else if (key == "--recall-queries") {
-      settings.recall_queries = std::stoi(value);
-    } else if (key == "--image") {
-      settings.image = value;
-    } else if (key == "--dir") {
-      settings.dir = value;
-    } else if (key == "--ef-construction") {
-      settings.index.ef_construction = std::stoi(value);
-    } else if (key == "--neighbors") {
-      settings.index.neighbors = std::stoi(value);
-    } else if (key == "--route") {
-      if (value != "measured" && value != "isotropic") {
-        std::cerr << "--route is measured or isotropic\n";
-        return 2;
-      }
-      settings.route =
-          value == "measured" ? bench::RouteShape::kMeasured : bench::RouteShape::kIsotropic;
-    } else if (key == "--measure-route") {
-      std::vector<std::string> folders;
-      std::istringstream list(value);
-      std::string item;
-      while (std::getline(list, item, ',')) folders.push_back(item);
-      return bench::measureRoutes(*makeDescriptorExtractor(DescriptorOptions{}), folders);
-    } else if (key == "--first-queries") {
-      settings.first_queries = std::stoi(value);
-    } else if (key == "--ef") {
-      settings.ef_search.clear();
-      std::istringstream list(value);
-      std::string item;
-      while (std::getline(list, item, ',')) settings.ef_search.push_back(std::stoi(item));
-    } else {
-      std::cerr << "unknown option " << key << "\n";
-      return 2;
-    }
+  std::string dir = settings.dir.string(), identity_name = "bench", route_name = "measured";
+  std::vector<std::string> measured_folders;
+  CLI::App app{"A map of generated keyframes: insert time, size on disk, reopening, search."};
+  app.add_option("--keyframes", settings.keyframes, "keyframes to insert")->capture_default_str();
+  app.add_option("--checkpoints", settings.checkpoints, "map sizes at which a line is printed")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--queries", settings.queries, "timed queries at each checkpoint")
+      ->capture_default_str();
+  app.add_option("--recall-queries", settings.recall_queries,
+                 "queries whose top 10 is compared with the exact search's")
+      ->capture_default_str();
+  app.add_option("--dir", dir, "folder of the map file (bench.map)")->capture_default_str();
+  app.add_option("--image", settings.image,
+                 "model keyframes' images, comma-separated, used in turn (default: a generated "
+                 "corridor view)");
+  app.add_flag("--reopen", settings.reopen_only, "reopen the map of an earlier run, insert none");
+  app.add_option("--ef", settings.ef_search, "search breadths to measure")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--ef-construction", settings.index.ef_construction, "the graph's build breadth")
+      ->capture_default_str();
+  app.add_option("--neighbors", settings.index.neighbors, "the graph's neighbours a node")
+      ->capture_default_str();
+  app.add_option("--first-queries", settings.first_queries,
+                 "queries timed one by one straight after reopening")
+      ->capture_default_str();
+  app.add_option("--route", route_name, "how revisits spread the generated vectors")
+      ->check(CLI::IsMember({"measured", "isotropic"}))
+      ->capture_default_str();
+  app.add_option("--measure-route", measured_folders,
+                 "image folders whose descriptors' spread is measured (then exits)")
+      ->delimiter(',');
+  app.add_option("--identity", identity_name,
+                 "the map's descriptor identity: bench, or detector (a map the node can open)")
+      ->check(CLI::IsMember({"bench", "detector"}))
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
+  settings.dir = dir;
+  settings.detector_identity = identity_name == "detector";
+  settings.route =
+      route_name == "measured" ? bench::RouteShape::kMeasured : bench::RouteShape::kIsotropic;
+  if (!measured_folders.empty()) {
+    return bench::measureRoutes(*makeDescriptorExtractor(DescriptorOptions{}), measured_folders);
   }
   fs::create_directories(settings.dir);
   const std::string path = (settings.dir / "bench.map").string();

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "../ros/loop_markers.h"
+#include "command_line.h"
 #include "landmark_loop_closure/eval/metrics.h"
 
 using namespace landmark_loop_closure;
@@ -90,18 +91,9 @@ Row measure(size_t size, bool incremental) {
 
 int main(int argc, char** argv) {
   std::vector<size_t> sizes = {1000, 10000, 100000};
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    if (flag == "--sizes" && i + 1 < argc) {
-      sizes.clear();
-      std::stringstream list(argv[++i]);
-      std::string item;
-      while (std::getline(list, item, ',')) sizes.push_back(std::stoul(item));
-    } else {
-      std::fprintf(stderr, "usage: lcd_bench_markers [--sizes 1000,10000,100000]\n");
-      return 2;
-    }
-  }
+  CLI::App app{"rviz markers of a map: time and bytes to publish changes only or every marker."};
+  app.add_option("--sizes", sizes, "map sizes in keyframes")->delimiter(',')->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   std::printf(
       "| keyframes | changes only: median / p99 / mean ms | bytes | every marker: median / p99 / "
       "mean ms | bytes |\n|---|---|---|---|---|\n");

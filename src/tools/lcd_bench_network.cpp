@@ -16,6 +16,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 
+#include "command_line.h"
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
@@ -35,43 +36,44 @@ bool writeFloats(const std::string& path, const cv::Mat& values) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::map<std::string, std::string> arguments = {
-      {"--model", backboneModelPath(DescriptorOptions::Backbone())},
-      {"--layer", "block_12_add"},
-      {"--width", "256"},
-      {"--height", "144"},
-      {"--repeat", "200"},
-      {"--write-input", ""},
-      {"--write-output", ""}};
-  for (int i = 1; i < argc; i += 2) {
-    if (arguments.count(argv[i]) == 0 || i + 1 >= argc) {
-      std::fprintf(stderr, "lcd_bench_network: unknown option or missing value: %s\n", argv[i]);
-      return 2;
-    }
-    arguments[argv[i]] = argv[i + 1];
-  }
+  std::string model = backboneModelPath(DescriptorOptions::Backbone()), layer = "block_12_add";
+  std::string write_input, write_output;
+  int width = 256, height = 144, repeat = 200;
+  CLI::App app{"The network pass alone, OpenCV's dnn against oneDNN, on one thread."};
+  app.add_option("--model", model, "ONNX file")->capture_default_str();
+  app.add_option("--layer", layer, "output layer")->capture_default_str();
+  app.add_option("--width", width, "input width")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--height", height, "input height")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--repeat", repeat, "timed passes (after 20 to warm up)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--write-input", write_input, "file for the input tensor (raw floats)");
+  app.add_option("--write-output", write_output, "file for OpenCV's output (raw floats)");
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   cv::setNumThreads(1);
   cv::dnn::Net net;
   try {
-    net = cv::dnn::readNetFromONNX(arguments["--model"]);
+    net = cv::dnn::readNetFromONNX(model);
   } catch (const cv::Exception& error) {
-    std::fprintf(stderr, "lcd_bench_network: cannot read %s (%s)\n", arguments["--model"].c_str(),
-                 error.what());
+    std::fprintf(stderr, "lcd_bench_network: cannot read %s (%s)\n", model.c_str(), error.what());
     return 1;
   }
-  const int shape[] = {1, 3, std::stoi(arguments["--height"]), std::stoi(arguments["--width"])};
+  const int shape[] = {1, 3, height, width};
   cv::Mat input(4, shape, CV_32F);
   // A fixed pattern in [0, 1), the same on every machine: the network's input range.
   float* values = input.ptr<float>();
   for (size_t i = 0; i < input.total(); ++i) {
     values[i] = static_cast<float>((i * 7919 % 1000) / 1000.0);
   }
-  const int repeat = std::stoi(arguments["--repeat"]);
   // Built from its own parse, before OpenCV's first pass rewrites the weights it fuses.
-  cv::dnn::Net fast_source = cv::dnn::readNetFromONNX(arguments["--model"]);
+  cv::dnn::Net fast_source = cv::dnn::readNetFromONNX(model);
   std::string why;
-  std::unique_ptr<OneDnnMobileNet> fast = OneDnnMobileNet::create(
-      fast_source, cv::Size(shape[3], shape[2]), {arguments["--layer"]}, &why);
+  std::unique_ptr<OneDnnMobileNet> fast =
+      OneDnnMobileNet::create(fast_source, cv::Size(shape[3], shape[2]), {layer}, &why);
   const auto timed = [&](const std::function<cv::Mat()>& pass, cv::Mat* output) {
     std::vector<double> times;
     for (int r = 0; r < repeat + 20; ++r) {  // The first 20 warm up (allocation, caches).
@@ -85,11 +87,11 @@ int main(int argc, char** argv) {
   const eval::Percentiles time = timed(
       [&] {
         net.setInput(input);
-        return net.forward(arguments["--layer"]);
+        return net.forward(layer);
       },
       &output);
-  std::printf("%s to %s at %dx%d, one thread, %d passes\n", arguments["--model"].c_str(),
-              arguments["--layer"].c_str(), shape[3], shape[2], repeat);
+  std::printf("%s to %s at %dx%d, one thread, %d passes\n", model.c_str(), layer.c_str(), shape[3],
+              shape[2], repeat);
   std::printf("  OpenCV %s dnn: median %.2f ms, p99 %.2f ms\n", CV_VERSION, time.median, time.p99);
   if (fast) {
     cv::Mat fast_output;
@@ -104,14 +106,12 @@ int main(int argc, char** argv) {
   } else {
     std::printf("  oneDNN: not run (%s)\n", why.c_str());
   }
-  if (!arguments["--write-input"].empty() && !writeFloats(arguments["--write-input"], input)) {
-    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n",
-                 arguments["--write-input"].c_str());
+  if (!write_input.empty() && !writeFloats(write_input, input)) {
+    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n", write_input.c_str());
     return 1;
   }
-  if (!arguments["--write-output"].empty() && !writeFloats(arguments["--write-output"], output)) {
-    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n",
-                 arguments["--write-output"].c_str());
+  if (!write_output.empty() && !writeFloats(write_output, output)) {
+    std::fprintf(stderr, "lcd_bench_network: cannot write %s\n", write_output.c_str());
     return 1;
   }
   return 0;

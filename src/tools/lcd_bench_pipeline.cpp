@@ -22,6 +22,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "command_line.h"
 #include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/core/appearance_check.h"
@@ -71,23 +72,27 @@ struct Stages {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::map<std::string, std::string> arguments = {
-      {"--database", ""},  {"--queries", ""}, {"--keyframes", "10000"},
-      {"--top-k", "10"},   {"--repeat", "2"}, {"--descriptor", "backbone"},
-      {"--engine", "auto"}};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (arguments.count(argv[i]) == 0) {
-      std::fprintf(stderr, "lcd_bench_pipeline: unknown option %s (see the file's header)\n",
-                   argv[i]);
-      return 2;
-    }
-    arguments[argv[i]] = argv[i + 1];
-  }
+  std::string database_folder, query_folder, variant = "backbone", engine = "auto";
+  size_t keyframes = 10000;
+  int top_k = 10, repeat = 2;
+  CLI::App app{"Time per keyframe of each stage of the node's pipeline, on one thread."};
+  app.add_option("--database", database_folder, "images stored as keyframes (used in turn)")
+      ->required();
+  app.add_option("--queries", query_folder, "query images")->required();
+  app.add_option("--keyframes", keyframes, "keyframes in the map")->capture_default_str();
+  app.add_option("--top-k", top_k, "candidates the search returns")->capture_default_str();
+  app.add_option("--repeat", repeat, "passes over the queries")->capture_default_str();
+  app.add_option("--descriptor", variant, "the descriptor")
+      ->check(CLI::IsMember({"backbone", "landmarks", "landmarks_conv"}))
+      ->capture_default_str();
+  app.add_option("--engine", engine, "the network's engine: auto (oneDNN) or opencv")
+      ->check(CLI::IsMember({"auto", "opencv"}))
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   cv::setNumThreads(1);
   DescriptorOptions descriptor_options;
-  const std::string variant = arguments["--descriptor"];
   descriptor_options.type = variant == "backbone" ? "backbone" : "landmarks";
-  descriptor_options.backbone.engine = arguments["--engine"];  // auto (oneDNN) or opencv
+  descriptor_options.backbone.engine = engine;
   if (variant == "landmarks_conv") {
     descriptor_options.landmark_features = "conv";
   } else if (variant != "landmarks" && variant != "backbone") {
@@ -100,8 +105,8 @@ int main(int argc, char** argv) {
   const auto* convnet = dynamic_cast<const ConvNetDescriptor*>(extractor.get());
   const auto* backbone = dynamic_cast<const BackboneDescriptor*>(extractor.get());
 
-  std::vector<cv::Mat> database_images = loadImages(arguments["--database"], 0.0);
-  const std::vector<cv::Mat> query_images = loadImages(arguments["--queries"], 0.6);
+  std::vector<cv::Mat> database_images = loadImages(database_folder, 0.0);
+  const std::vector<cv::Mat> query_images = loadImages(query_folder, 0.6);
   if (database_images.empty() || query_images.empty()) {
     std::fprintf(stderr, "lcd_bench_pipeline: no readable images\n");
     return 1;
@@ -115,7 +120,6 @@ int main(int argc, char** argv) {
   const cv::Size input = database_images.front().size();
   database_images.clear();  // Decoded images are not part of the database's memory.
 
-  const size_t keyframes = std::stoul(arguments["--keyframes"]);
   KeyframeDatabase database(extractor->globalDimension());
   for (size_t id = 0; id < keyframes; ++id) {
     KeyframeRecord keyframe;
@@ -127,14 +131,13 @@ int main(int argc, char** argv) {
     database.add(std::move(keyframe));
   }
   DatabaseOptions database_options;
-  database_options.top_k = std::stoi(arguments["--top-k"]);
+  database_options.top_k = top_k;
   database_options.min_size = 1;
 
   Stages stages;
   ConditionStandardiser standardiser(descriptor_options.condition_window);
   SequenceMatcher sequences{SequenceMatchingOptions{}};
   const AppearanceCheckOptions appearance_options;
-  const int repeat = std::stoi(arguments["--repeat"]);
   for (int r = 0; r < repeat; ++r) {
     for (const cv::Mat& image : query_images) {
       const Clock::time_point start = Clock::now();

@@ -16,6 +16,7 @@
 #include <map>
 #include <string>
 
+#include "command_line.h"
 #include "kitti_route.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/eval/ground_truth.h"
@@ -27,30 +28,10 @@ using namespace landmark_loop_closure;
 
 namespace {
 
-int runKitti(const std::map<std::string, std::string>& values) {
-  const auto number = [&values](const std::string& key, double fallback) {
-    const auto it = values.find(key);
-    return it == values.end() ? fallback : std::strtod(it->second.c_str(), nullptr);
-  };
-  tools::KittiRouteOptions route_options;
-  route_options.wrong_fraction = number("--wrong-loops", route_options.wrong_fraction);
-  route_options.seed = static_cast<uint32_t>(number("--seed", route_options.seed));
-  route_options.scale_error = number("--scale-error", route_options.scale_error);
-  route_options.heading_error_per_m = number("--heading-error", route_options.heading_error_per_m);
-  route_options.heading_error_walk =
-      number("--heading-error-walk", route_options.heading_error_walk);
-  route_options.turn_error = number("--turn-error", route_options.turn_error);
+int runKitti(const std::string& poses_path, const tools::KittiRouteOptions& route_options,
+             const PoseGraphOptions& options) {
   const tools::KittiRoute route =
-      tools::kittiRoute(eval::readKittiPoses(values.at("--kitti")), route_options);
-  PoseGraphOptions options;
-  options.max_loop_error_sd = number("--max-loop-error-sd", options.max_loop_error_sd);
-  options.loop_loss_scale = number("--loop-loss-scale", options.loop_loss_scale);
-  options.heading_drift_prior_sd_per_m =
-      number("--heading-drift-prior-sd", options.heading_drift_prior_sd_per_m);
-  options.loop_confirmations =
-      static_cast<int>(number("--loop-confirmations", options.loop_confirmations));
-  options.confirmation_distance_m =
-      number("--confirmation-distance", options.confirmation_distance_m);
+      tools::kittiRoute(eval::readKittiPoses(poses_path), route_options);
   const std::string problem = options.validate();
   if (!problem.empty()) {
     std::fprintf(stderr, "lcd_bench_pose_graph: %s\n", problem.c_str());
@@ -102,7 +83,7 @@ int runKitti(const std::map<std::string, std::string>& values) {
       "first pose aligned odometry %.3f m, "
       "corrected %.3f m; similarity-aligned %.3f m, %.3f m; optimisation median %.2f ms, p99 "
       "%.2f ms; heading drift estimated %.5f rad/m (prior sd %g)\n",
-      values.at("--kitti").c_str(), route.truth.size(), route.loops.size(), wrong, wrong_accepted,
+      poses_path.c_str(), route.truth.size(), route.loops.size(), wrong, wrong_accepted,
       right_refused, options.max_loop_error_sd, options.loop_loss_scale, options.loop_confirmations,
       options.confirmation_distance_m, raw.first_pose_rmse, fixed.first_pose_rmse,
       raw.similarity_rmse, fixed.similarity_rmse, time.median, time.p99,
@@ -113,31 +94,48 @@ int runKitti(const std::map<std::string, std::string>& values) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::map<std::string, std::string> values;
-  for (int i = 1; i + 1 < argc; i += 2) values[argv[i]] = argv[i + 1];
-  if (values.count("--kitti")) return runKitti(values);
   size_t keyframes = 473;
   size_t timed = 100;
   size_t every = 10;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string key = argv[i];
-    const size_t value = std::strtoul(argv[i + 1], nullptr, 10);
-    if (key == "--keyframes") {
-      keyframes = value;
-    } else if (key == "--timed") {
-      timed = value;
-    } else if (key == "--every") {
-      every = value;
-    } else {
-      std::fprintf(stderr,
-                   "usage: lcd_bench_pose_graph [--keyframes N] [--timed K] [--every E] | "
-                   "--kitti POSES [--wrong-loops F] [--seed S] [--max-loop-error-sd X] "
-                   "[--loop-loss-scale Y] [--heading-drift-prior-sd Z] [--loop-confirmations C] "
-                   "[--confirmation-distance D] [--scale-error E] "
-                   "[--heading-error H] [--heading-error-walk W] [--turn-error T]\n");
-      return 2;
-    }
-  }
+  std::string kitti_poses;
+  tools::KittiRouteOptions route;
+  PoseGraphOptions options;
+  CLI::App app{
+      "Pose-graph optimisation time per loop on the corridor's laps, or the graph's corrections "
+      "on a KITTI route with simulated odometry error and wrong loops (--kitti)."};
+  app.add_option("--keyframes", keyframes, "corridor: keyframes driven")->capture_default_str();
+  app.add_option("--timed", timed, "corridor: the last loops, each optimised and timed")
+      ->capture_default_str();
+  app.add_option("--every", every, "corridor: loops between optimisations before those")
+      ->capture_default_str();
+  app.add_option("--kitti", kitti_poses, "KITTI poses file: run its route instead");
+  app.add_option("--wrong-loops", route.wrong_fraction, "KITTI: wrong loops, as a fraction")
+      ->capture_default_str();
+  app.add_option("--seed", route.seed, "KITTI: random seed")->capture_default_str();
+  app.add_option("--scale-error", route.scale_error, "KITTI: odometry scale error")
+      ->capture_default_str();
+  app.add_option("--heading-error", route.heading_error_per_m,
+                 "KITTI: odometry heading error, rad a metre")
+      ->capture_default_str();
+  app.add_option("--heading-error-walk", route.heading_error_walk,
+                 "KITTI: random walk of the heading error")
+      ->capture_default_str();
+  app.add_option("--turn-error", route.turn_error, "KITTI: odometry turn error per radian turned")
+      ->capture_default_str();
+  app.add_option("--max-loop-error-sd", options.max_loop_error_sd, "pose graph's parameter")
+      ->capture_default_str();
+  app.add_option("--loop-loss-scale", options.loop_loss_scale, "pose graph's parameter")
+      ->capture_default_str();
+  app.add_option("--heading-drift-prior-sd", options.heading_drift_prior_sd_per_m,
+                 "pose graph's parameter")
+      ->capture_default_str();
+  app.add_option("--loop-confirmations", options.loop_confirmations, "pose graph's parameter")
+      ->capture_default_str();
+  app.add_option("--confirmation-distance", options.confirmation_distance_m,
+                 "pose graph's parameter")
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
+  if (!kitti_poses.empty()) return runKitti(kitti_poses, route, options);
   sim::DrivenLapsOptions drive_options;
   drive_options.laps = 1;
   const size_t per_lap = sim::driveLaps(drive_options).keyframes_per_lap;

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "command_line.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 #include "landmark_loop_closure/eval/metrics.h"
 #include "landmark_loop_closure/runtime/detector_runtime.h"
@@ -70,39 +71,28 @@ void printWindow(const char* name, const std::vector<Done>& done, Clock::time_po
               largest(latency));
 }
 
-bool parse(int argc, char** argv, Settings* settings) {
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string key = argv[i];
-    const std::string value = argv[i + 1];
-    if (key == "--map") {
-      settings->map = value;
-    } else if (key == "--copy") {
-      settings->copy = value;
-    } else if (key == "--rate") {
-      settings->rate_hz = std::stod(value);
-    } else if (key == "--warmup") {
-      settings->warmup_s = std::stod(value);
-    } else if (key == "--after") {
-      settings->after_s = std::stod(value);
-    } else if (key == "--whole") {
-      settings->whole = value == "1";
-    } else {
-      return false;
-    }
-  }
-  return argc % 2 == 1 && !settings->map.empty() && !settings->copy.empty() &&
-         settings->rate_hz > 0.0;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   Settings settings;
-  if (!parse(argc, argv, &settings)) {
-    std::cerr << "lcd_bench_save --map MAP --copy NEW_PATH [--rate 10] [--warmup 10] [--after 5] "
-                 "[--whole 1]\n";
-    return 2;
-  }
+  int whole = 0;
+  CLI::App app{
+      "A map saved in steps under a stream of keyframes: the worker's time and each keyframe's "
+      "latency before, during and after the save."};
+  app.add_option("--map", settings.map, "the map to open")->required();
+  app.add_option("--copy", settings.copy, "a new file for the saved copy")->required();
+  app.add_option("--rate", settings.rate_hz, "keyframes a second")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--warmup", settings.warmup_s, "seconds streamed before the save")
+      ->capture_default_str();
+  app.add_option("--after", settings.after_s, "seconds streamed after it")->capture_default_str();
+  app.add_option("--whole", whole,
+                 "1: the save as it ran before steps, one hold of the detector for the whole copy")
+      ->check(CLI::IsMember({0, 1}))
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
+  settings.whole = whole == 1;
   if (std::filesystem::exists(settings.copy)) {
     std::cerr << settings.copy << " exists: name a new file for the copy\n";
     return 2;

@@ -24,6 +24,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench_workload.h"
+#include "command_line.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/hog_descriptor.h"
@@ -41,14 +42,6 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-std::vector<size_t> parseSizes(const std::string& text) {
-  std::vector<size_t> sizes;
-  std::istringstream list(text);
-  std::string item;
-  while (std::getline(list, item, ',')) sizes.push_back(std::stoul(item));
-  return sizes;
 }
 
 // One keyframe as the node stores it with the shipped settings (landmarks descriptor).
@@ -180,20 +173,20 @@ int main(int argc, char** argv) {
   std::vector<size_t> sizes = {1000, 10000, 100000};
   std::string descriptor = "both";
   int queries = 200;
-  int positional = 0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--descriptor" && i + 1 < argc) {
-      descriptor = argv[++i];
-    } else if (positional++ == 0) {
-      sizes = parseSizes(arg);
-    } else {
-      queries = std::atoi(arg.c_str());
-    }
-  }
+  CLI::App app{"Search time and memory of the keyframe database as it grows."};
+  app.add_option("sizes", sizes, "database sizes, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("queries", queries, "timed queries at each size")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--descriptor", descriptor, "landmarks, hog or both")
+      ->check(CLI::IsMember({"landmarks", "hog", "both"}))
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   cv::setNumThreads(1);
   std::vector<Workload> loads;
   if (descriptor != "hog") loads.push_back(landmarksWorkload());
   if (descriptor != "landmarks") loads.push_back(hogWorkload());
-  return runQueries(sizes, std::max(1, queries), loads);
+  return runQueries(sizes, queries, loads);
 }

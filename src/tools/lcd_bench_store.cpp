@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "command_line.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -217,28 +219,22 @@ Figures benchLmdb(const Settings& settings, const std::vector<std::vector<int>>&
 
 int main(int argc, char** argv) {
   Settings settings;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    const std::string value = argv[i + 1];
-    if (flag == "--keyframes") {
-      settings.keyframes = std::stoi(value);
-    } else if (flag == "--record-bytes") {
-      settings.record_bytes = std::stoul(value);
-    } else if (flag == "--top-k") {
-      settings.top_k = std::stoi(value);
-    } else if (flag == "--queries") {
-      settings.queries = std::stoi(value);
-    } else if (flag == "--dir") {
-      settings.dir = value;
-    } else {
-      std::cerr << "unknown option " << flag << "\n";
-      return 2;
-    }
-  }
-  if (settings.keyframes < 1 || settings.record_bytes < 8 || settings.top_k < 1) {
-    std::cerr << "--keyframes, --top-k must be >= 1 and --record-bytes >= 8\n";
-    return 2;
-  }
+  std::string dir = settings.dir.string();
+  CLI::App app{"SQLite against LMDB as the keyframe store: insert, size on disk, open, reads."};
+  app.add_option("--keyframes", settings.keyframes, "keyframes inserted, one commit each")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--record-bytes", settings.record_bytes, "bytes a keyframe record")
+      ->capture_default_str()
+      ->check(CLI::Range(size_t{8}, size_t{1} << 30));
+  app.add_option("--top-k", settings.top_k, "records read a query")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--queries", settings.queries, "timed queries")->capture_default_str();
+  app.add_option("--dir", dir, "scratch folder (removed at the end)")->capture_default_str();
+  if (const auto exit_code = landmark_loop_closure::tools::parseCommandLine(&app, argc, argv))
+    return *exit_code;
+  settings.dir = dir;
   try {
     const auto queries = randomQueries(settings);
     std::printf(

@@ -34,6 +34,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "command_line.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
@@ -263,18 +264,39 @@ void exportKitti(FrameSource* source, const std::string& folder) {
 }  // namespace
 
 int main(int argc, char** argv) try {
-  std::map<std::string, std::string> arguments = {
-      {"--config", ""},      {"--laps", "2"},        {"--min-score", ""},   {"--kitti-images", ""},
-      {"--kitti-poses", ""}, {"--kitti-times", ""},  {"--kitti-calib", ""}, {"--true-distance", ""},
-      {"--variants", "all"}, {"--export-kitti", ""}, {"--k1", ""},          {"--k2", "0"},
-      {"--lens", "handled"}};
-  for (int i = 1; i + 1 < argc; i += 2) arguments[argv[i]] = argv[i + 1];
+  std::string config, kitti_images, kitti_poses, kitti_times, kitti_calib, export_folder;
+  std::string variants = "all", lens_use = "handled";
+  double laps = 2.0;
+  std::optional<double> min_score, true_distance_m, k1;
+  double k2 = 0.0;
+  CLI::App app{
+      "The whole detector with and without its geometric check and odometry gate, on the "
+      "generated corridor or a KITTI sequence: loops true and false, recall, time of the check."};
+  app.add_option("--config", config, "the node's parameters over config/default.yaml");
+  app.add_option("--laps", laps, "corridor: laps driven")->capture_default_str();
+  app.add_option("--min-score", min_score, "acceptance threshold instead of the config's");
+  app.add_option("--kitti-images", kitti_images,
+                 "KITTI: image_0 folder (run KITTI, not the corridor)");
+  app.add_option("--kitti-poses", kitti_poses, "KITTI: poses file");
+  app.add_option("--kitti-times", kitti_times, "KITTI: times file");
+  app.add_option("--kitti-calib", kitti_calib, "KITTI: calib file");
+  app.add_option("--true-distance", true_distance_m,
+                 "a loop is true within this many metres (default 2.5, KITTI 5)");
+  app.add_option("--variants", variants, "all, or shipped alone")
+      ->check(CLI::IsMember({"all", "shipped"}))
+      ->capture_default_str();
+  app.add_option("--export-kitti", export_folder, "write the corridor in KITTI's layout and exit");
+  app.add_option("--k1", k1, "corridor: seen through a plumb_bob lens with this k1");
+  app.add_option("--k2", k2, "...and this k2")->capture_default_str();
+  app.add_option("--lens", lens_use, "the detector told of the lens (handled) or not (ignored)")
+      ->check(CLI::IsMember({"handled", "ignored"}))
+      ->capture_default_str();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   cv::setNumThreads(1);
 
   NodeOptions node_options;
   for (const std::string& path :
-       {std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR "/config/default.yaml"),
-        arguments["--config"]}) {
+       {std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR "/config/default.yaml"), config}) {
     if (path.empty()) continue;
     const YamlParameterSource source = YamlParameterSource::fromFile(path);
     OptionReader reader(source);
@@ -284,41 +306,35 @@ int main(int argc, char** argv) try {
       return 2;
     }
   }
-  const double laps = std::stod(arguments["--laps"]);
-  const bool kitti = !arguments["--kitti-images"].empty();
-  const double true_distance = !arguments["--true-distance"].empty()
-                                   ? std::stod(arguments["--true-distance"])
-                                   : (kitti ? 5.0 : 2.5);  // The demo report's 2.5 m.
+  const bool kitti = !kitti_images.empty();
+  const double true_distance =
+      true_distance_m ? *true_distance_m : (kitti ? 5.0 : 2.5);  // The demo report's 2.5 m.
   const CameraMount& mount = node_options.detector.camera_mount;
   CorridorLens lens;
-  if (!arguments["--k1"].empty()) {
-    lens.coefficients = {std::stod(arguments["--k1"]), std::stod(arguments["--k2"]), 0.0, 0.0, 0.0};
-    lens.ignored = arguments["--lens"] == "ignored";
+  if (k1) {
+    lens.coefficients = {*k1, k2, 0.0, 0.0, 0.0};
+    lens.ignored = lens_use == "ignored";
   }
   const auto makeSource = [&]() -> std::unique_ptr<FrameSource> {
     if (!kitti) return std::make_unique<CorridorSource>(laps, mount, lens);
-    return std::make_unique<KittiSource>(arguments["--kitti-images"], arguments["--kitti-poses"],
-                                         arguments["--kitti-times"], arguments["--kitti-calib"],
+    return std::make_unique<KittiSource>(kitti_images, kitti_poses, kitti_times, kitti_calib,
                                          mount);
   };
-  if (!arguments["--min-score"].empty()) {
-    node_options.detector.acceptance.min_score = std::stod(arguments["--min-score"]);
-  }
+  if (min_score) node_options.detector.acceptance.min_score = *min_score;
 
   struct Variant {
     const char* name;
     bool check;
     bool gate;
   };
-  if (!arguments["--export-kitti"].empty()) {
+  if (!export_folder.empty()) {
     CorridorSource corridor(laps, mount);
-    exportKitti(&corridor, arguments["--export-kitti"]);
+    exportKitti(&corridor, export_folder);
     return 0;
   }
   if (kitti) {
     std::printf("KITTI %s, true loops within %.1f m, min_score %.3f, one core\n\n",
-                arguments["--kitti-images"].c_str(), true_distance,
-                node_options.detector.acceptance.min_score);
+                kitti_images.c_str(), true_distance, node_options.detector.acceptance.min_score);
   } else {
     std::printf("Generated corridor, %.1f laps, min_score %.3f, one core", laps,
                 node_options.detector.acceptance.min_score);
@@ -335,7 +351,7 @@ int main(int argc, char** argv) try {
        {Variant{"check + gate (shipped)", true, true}, Variant{"gate only", false, true},
         Variant{"check only", true, false}, Variant{"neither", false, false}}) {
     const bool is_shipped = variant.check && variant.gate;
-    if (arguments["--variants"] == "shipped" && !is_shipped) continue;
+    if (variants == "shipped" && !is_shipped) continue;
     LoopDetectorOptions options = node_options.detector;
     options.verification.enabled = variant.check;
     options.odometry_gate.enabled = variant.gate;

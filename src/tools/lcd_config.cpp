@@ -5,7 +5,9 @@
 //                                parameter files, as the node would at start; exit 1 on any
 #include <iostream>
 #include <string>
+#include <vector>
 
+#include "command_line.h"
 #include "landmark_loop_closure/backend/pose_graph.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
@@ -14,18 +16,9 @@ using namespace landmark_loop_closure;
 
 namespace {
 
-int usage() {
-  std::cerr << "usage: lcd_config defaults | lcd_config pose_graph_defaults | lcd_config check "
-               "FILE...\n"
-               "  defaults: print every parameter with its default and description\n"
-               "  check: read each file as the node would and report its problems\n";
-  return 2;
-}
-
-int check(int argc, char** argv) {
+int check(const std::vector<std::string>& paths) {
   int problems = 0;
-  for (int i = 2; i < argc; ++i) {
-    const std::string path = argv[i];
+  for (const std::string& path : paths) {
     try {
       const YamlParameterSource source = YamlParameterSource::fromFile(path);
       OptionReader reader(source);
@@ -53,16 +46,21 @@ int check(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) return usage();
-  const std::string command = argv[1];
-  if (command == "defaults" && argc == 2) {
-    std::cout << documentedDefaultsYaml();
-    return 0;
-  }
-  if (command == "pose_graph_defaults" && argc == 2) {
-    std::cout << poseGraphDefaultsYaml();
-    return 0;
-  }
-  if (command == "check" && argc > 2) return check(argc, argv);
-  return usage();
+  CLI::App app{"The nodelet's parameters offline."};
+  app.require_subcommand(1);
+  CLI::App* defaults = app.add_subcommand("defaults",
+                                          "print config/default.yaml: every parameter, its default "
+                                          "and description");
+  CLI::App* pose_graph_defaults = app.add_subcommand(
+      "pose_graph_defaults", "print config/pose_graph.yaml (the pose_graph node's parameters)");
+  CLI::App* check_files = app.add_subcommand(
+      "check",
+      "read each file as the node would and report unknown keys, wrong types and invalid "
+      "values; exit 1 on any");
+  std::vector<std::string> paths;
+  check_files->add_option("files", paths, "parameter files")->required();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
+  if (*defaults) std::cout << documentedDefaultsYaml();
+  if (*pose_graph_defaults) std::cout << poseGraphDefaultsYaml();
+  return *check_files ? check(paths) : 0;
 }

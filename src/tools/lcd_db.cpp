@@ -12,63 +12,60 @@
 #include <string>
 #include <vector>
 
+#include "command_line.h"
 #include "landmark_loop_closure/database/map_tools.h"
 
 using namespace landmark_loop_closure;
 
-namespace {
-
-int usage() {
-  std::cerr << "usage: lcd_db info MAP\n"
-               "       lcd_db convert OLD_FILE NEW_MAP\n"
-               "       lcd_db export MAP SESSION OUT_MAP\n"
-               "       lcd_db merge OUT_MAP MAP...\n";
-  return 2;
-}
-
-int run(int argc, char** argv) {
-  const std::string command = argv[1];
-  if (command == "info" && argc == 3) {
-    const MapSummary summary = summariseMap(argv[2]);
-    size_t total = 0;
-    for (const auto& [session, count] : summary.keyframes_per_session) total += count;
-    std::printf("%s\n  descriptors: %s\n  global dimension: %d\n  keyframes: %zu\n", argv[2],
-                summary.descriptor_identity.c_str(), summary.global_dimension, total);
-    for (const auto& [session, count] : summary.keyframes_per_session) {
-      std::printf("  session %u: %zu keyframes\n", session, count);
-    }
-    return 0;
-  }
-  if (command == "convert" && argc == 4) {
-    std::printf("converted %zu keyframes from %s into %s\n", convertMapFile(argv[2], argv[3]),
-                argv[2], argv[3]);
-    return 0;
-  }
-  if (command == "export" && argc == 5) {
-    const uint32_t session = static_cast<uint32_t>(std::stoul(argv[3]));
-    std::printf("exported %zu keyframes of session %u into %s\n",
-                exportSession(argv[2], session, argv[4]), session, argv[4]);
-    return 0;
-  }
-  if (command == "merge" && argc >= 4) {
-    const std::vector<std::string> maps(argv + 3, argv + argc);
-    std::vector<uint32_t> first_sessions;
-    const size_t written = mergeMaps(argv[2], maps, &first_sessions);
-    for (size_t i = 0; i < maps.size(); ++i) {
-      std::printf("%s: sessions from %u\n", maps[i].c_str(), first_sessions[i]);
-    }
-    std::printf("merged %zu keyframes into %s\n", written, argv[2]);
-    return 0;
-  }
-  return usage();
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
-  if (argc < 3) return usage();
+  CLI::App app{
+      "The node's maps offline. OUT and NEW must not exist; they appear whole or not at all."};
+  app.require_subcommand(1);
+  std::string map, out;
+  uint32_t session = 0;
+  std::vector<std::string> maps;
+  CLI::App* info = app.add_subcommand("info", "descriptors, keyframes per session");
+  info->add_option("MAP", map, "the map")->required();
+  CLI::App* convert =
+      app.add_subcommand("convert", "a map of the earlier single-file format, once");
+  convert->add_option("OLD", map, "the earlier file")->required();
+  convert->add_option("NEW", out, "the new map")->required();
+  CLI::App* export_session = app.add_subcommand("export", "one session as a map of its own");
+  export_session->add_option("MAP", map, "the map")->required();
+  export_session->add_option("SESSION", session, "the session")->required();
+  export_session->add_option("OUT", out, "the new map")->required();
+  CLI::App* merge = app.add_subcommand(
+      "merge",
+      "several robots' maps into one: each map's sessions follow the previous map's, ids "
+      "are renumbered; descriptors must be the same");
+  merge->add_option("OUT", out, "the new map")->required();
+  merge->add_option("MAP", maps, "the maps, in order")->required();
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   try {
-    return run(argc, argv);
+    if (*info) {
+      const MapSummary summary = summariseMap(map);
+      size_t total = 0;
+      for (const auto& [number, count] : summary.keyframes_per_session) total += count;
+      std::printf("%s\n  descriptors: %s\n  global dimension: %d\n  keyframes: %zu\n", map.c_str(),
+                  summary.descriptor_identity.c_str(), summary.global_dimension, total);
+      for (const auto& [number, count] : summary.keyframes_per_session) {
+        std::printf("  session %u: %zu keyframes\n", number, count);
+      }
+    } else if (*convert) {
+      std::printf("converted %zu keyframes from %s into %s\n", convertMapFile(map, out),
+                  map.c_str(), out.c_str());
+    } else if (*export_session) {
+      std::printf("exported %zu keyframes of session %u into %s\n",
+                  exportSession(map, session, out), session, out.c_str());
+    } else if (*merge) {
+      std::vector<uint32_t> first_sessions;
+      const size_t written = mergeMaps(out, maps, &first_sessions);
+      for (size_t i = 0; i < maps.size(); ++i) {
+        std::printf("%s: sessions from %u\n", maps[i].c_str(), first_sessions[i]);
+      }
+      std::printf("merged %zu keyframes into %s\n", written, out.c_str());
+    }
+    return 0;
   } catch (const std::exception& error) {
     std::cerr << "lcd_db: " << error.what() << "\n";
     return 1;

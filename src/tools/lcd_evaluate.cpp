@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -29,26 +30,15 @@ using namespace landmark_loop_closure;
 using namespace landmark_loop_closure::eval;
 using namespace landmark_loop_closure::tools;
 
-Arguments parse(int argc, char** argv) {
-  Arguments arguments;
-  for (int i = 1; i < argc; ++i) {
-    const std::string key = argv[i];
-    if (key == "--help" || key == "-h") {
-      std::cout << kEvaluateUsage;
-      std::exit(0);
-    }
-    if (key == "--as-sequence" || key == "--detector" || key == "--no-ground-truth" ||
-        key == "--train-on-eval" || key == "--dry-run" || key == "--still-joint" ||
-        key == "--appearance-check" || key == "--aliasing") {  // Flags without a value.
-      arguments.values[key] = "true";
-      continue;
-    }
-    if (key.rfind("--", 0) != 0 || i + 1 >= argc) {
-      throw std::invalid_argument("unexpected argument '" + key + "'");
-    }
-    arguments.values[key] = argv[++i];
-  }
-  return arguments;
+// Parses the command line into `arguments`; returns the code main returns at once, if any.
+std::optional<int> parse(int argc, char** argv, Arguments* arguments) {
+  CLI::App app{
+      "Offline evaluation of loop-closure descriptors and of the whole detector: precision-recall, "
+      "recall at 100 % precision, AUC, timing and memory, on image folders with ground truth, "
+      "bags, or the generated corridor."};
+  addTextOptions(&app, kEvaluateOptions, &arguments->values);
+  app.footer(kEvaluateDetails);
+  return parseCommandLine(&app, argc, argv);
 }
 
 // A sequence held in memory (generated corridor or a bag's keyframes) with its poses.
@@ -481,10 +471,12 @@ int run(const Arguments& arguments) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  Arguments arguments;
+  if (const auto exit_code = parse(argc, argv, &arguments)) return *exit_code;
   try {
-    return run(parse(argc, argv));
+    return run(arguments);
   } catch (const std::invalid_argument& error) {
-    std::cerr << "lcd_evaluate: " << error.what() << "\n\n" << kEvaluateUsage;
+    std::cerr << "lcd_evaluate: " << error.what() << "\n(lcd_evaluate --help lists every option)\n";
     return 2;
   } catch (const std::exception& error) {
     std::cerr << "lcd_evaluate: error: " << error.what() << "\n";

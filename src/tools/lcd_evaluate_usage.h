@@ -1,10 +1,16 @@
-// lcd_evaluate's help text (--help): every source, ground truth, mode and option it reads.
+// lcd_evaluate's command line: its options with a line each, and the details --help prints
+// after them (every source, ground truth, mode and descriptor variant).
 #pragma once
+
+#include <vector>
+
+#include "command_line.h"
 
 namespace landmark_loop_closure {
 namespace tools {
 
-inline constexpr char kEvaluateUsage[] = R"(usage: lcd_evaluate SOURCE [GROUND TRUTH] [OPTIONS]
+inline constexpr char kEvaluateDetails[] = R"(
+IN DETAIL: lcd_evaluate SOURCE [GROUND TRUTH] [OPTIONS]
 
 SOURCE, one of:
   --images DIR                  one sequence (images sorted by name, numbers as numbers:
@@ -66,7 +72,8 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
   --pose-graph-config FILE   that pose graph's parameters (config/pose_graph.yaml's layout)
 
 GROUND TRUTH, one of:
-  --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB v5 file (nonzero = same place)
+  --gt-mat FILE [--gt-var NAME] N x N matrix in a MATLAB .mat file, v5 to v7.3 (nonzero =
+                                same place)
   --gt-aligned N                traversals: query i is database i +- N
       [--gt-stops G]            --as-sequence: frames where both traversals stand still (the
                                 grey picture, 64 px wide, differs from the frame before by
@@ -144,6 +151,65 @@ OPTIONS:
                        --camera-info (against the first image), say what would be evaluated, and
                        stop (a test runs the README's commands so)
 )";
+
+inline const std::vector<TextOption> kEvaluateOptions = {
+    // Sources.
+    {"--images", "DIR: one sequence, matched against itself"},
+    {"--database", "DIR: the first traversal (with --queries)"},
+    {"--queries", "DIR: the second traversal, each image against every database image"},
+    {"--as-sequence", "--database then --queries played as one sequence", true},
+    {"--corridor", "LAPS: the generated corridor"},
+    {"--aliasing", "the corridor's look-alike bays through a wide lens", true},
+    {"--odometry-jump-at", "L: the corridor's odometry jumps into another frame after L laps"},
+    {"--bag", "FILE: the keyframes a node would keep from a bag"},
+    {"--image-topic", "the bag's image topic (default /camera/image_raw)"},
+    {"--odom-topic", "the bag's odometry topic (default /odom)"},
+    {"--truth-topic", "the bag's ground-truth topic (default none)"},
+    // Detector mode.
+    {"--detector", "the frames go through the node's LoopDetector", true},
+    {"--config", "FILE: the node's parameters (default: the built-in defaults)"},
+    {"--sweep-steps", "N: thresholds on the sweep's grid (default 16)"},
+    {"--still-threshold", "G: grey levels below which an image stands still (default 5)"},
+    {"--still-joint", "frames stand still where both traversals' stops meet", true},
+    {"--protocol", "one-sequence, sessions, one-run, localisation or robots"},
+    {"--odometry-drift", "rad a step: the sessions protocol's heading drift (default 0.01)"},
+    {"--camera-info", "FILE: the camera's intrinsics (ROS camera_info YAML)"},
+    {"--pose-graph-config", "FILE: the reference pose graph's parameters"},
+    {"--name-suffix", "TEXT: appended to each descriptor's name in the results"},
+    // Ground truth.
+    {"--gt-mat", "FILE: N x N matrix in a MATLAB .mat file (v5 to v7.3)"},
+    {"--gt-var", "NAME: the matrix's variable (default: the first 2-D numeric one)"},
+    {"--gt-aligned", "N: traversals: query i is database i +- N"},
+    {"--gt-stops", "G: stops of both traversals are one place"},
+    {"--gt-poses", "FILE: KITTI poses (with --gt-times)"},
+    {"--gt-times", "FILE: KITTI times"},
+    {"--gt-distance", "metres: same place within this distance (default 5)"},
+    {"--gt-angle", "degrees: ...and this heading difference (default 0 = any)"},
+    {"--gt-gap", "seconds: ...at least this far apart (default 30)"},
+    {"--no-ground-truth", "none: best matches to a CSV and a contact sheet", true},
+    // Options.
+    {"--descriptors", "LIST: comma-separated descriptors and variants (below)"},
+    {"--model", "FILE: ONNX encoder for calc and landmarks"},
+    {"--backbone-model", "FILE: the backbone's network"},
+    {"--vocabulary", "FILE: the backbone's VLAD vocabulary"},
+    {"--cnn-model", "FILE: cnn_pca's network"},
+    {"--cnn-whitening", "FILE: cnn_pca's whitening"},
+    {"--broad-model", "FILE: broad's model"},
+    {"--train-images", "DIR: training images of the learned descriptors (no labels)"},
+    {"--train-on-eval", "train them on the evaluation images themselves", true},
+    {"--contact-sheet", "N: also draw the N best-scoring pairs"},
+    {"--top-k", "N: candidates a re-ranking descriptor re-scores (default 10)"},
+    {"--exclude-recent", "N: the N images before a query are never matched (default 50)"},
+    {"--image-width", "W: scale every image to W px wide first"},
+    {"--condition-window", "N: standardise global vectors as the node does (default 0)"},
+    {"--appearance-check", "each best match also goes through the node's checks", true},
+    {"--skip", "N: leave out the first N images of each folder"},
+    {"--limit", "N: use the first N images of each folder"},
+    {"--output", "DIR: where results go (default lcd_results)"},
+    {"--name", "TEXT: dataset name written into the results"},
+    {"--matrix-size", "N: largest side of the similarity pictures (default 1000)"},
+    {"--dry-run", "say what would be evaluated, and stop", true},
+};
 
 }  // namespace tools
 }  // namespace landmark_loop_closure

@@ -5,10 +5,12 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "bag/bag_source.h"
+#include "command_line.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/descriptors/registry.h"
@@ -18,50 +20,34 @@ namespace {
 
 using namespace landmark_loop_closure;
 
-constexpr char kUsage[] = R"(usage: lcd_train whitening|broad|vocabulary SOURCE [OPTIONS]
-
-whitening   PCA whitening of descriptor/cnn's layer (type cnn_pca), written beside the model
-            (MODEL.whitening, where the node looks by default) or to --output
-broad       a broad autoencoder (type broad) written to --output (default broad.model)
-vocabulary  a VLAD vocabulary of descriptor/backbone's layer (k-means of its local features; no
-            labels) written to --output (required; an existing file is not replaced); the node
-            uses it with descriptor/backbone/vocabulary
-
-SOURCE, one of:
-  --images DIR         every image of a folder (png, jpg, ...)
-  --bag FILE           the keyframes a node would keep from a bag (--image-topic, default
-                       /camera/image_raw; --odom-topic, default /odom)
-
-OPTIONS:
-  --config FILE        node parameters (the package's config/default.yaml layout) whose
-                       descriptor/cnn settings the whitening is for (default: the shipped file)
-  --limit N            use the first N images
-  --output FILE        where the result goes
-whitening:
-  --components N       whitened dimensions kept (default 256; at most images - 1)
-  --regularisation R   added to every eigenvalue, fraction of the largest (default 1e-3)
-broad:
-  --input WxH          image size the network sees (default 40x30)
-  --groups N --nodes N mapped feature groups and nodes per group (default 10 x 90)
-  --enhancement N      enhancement nodes (default 2000; the paper: 10000)
-  --alpha A            output nodes = A * (mapped + enhancement) (default 0.667)
-  --lasso L --ridge R  regularisers (defaults 1e-3, 1e-2)   --seed S   (default 1)
-vocabulary:
-  --clusters K         centres (default 16): the descriptor has K x the layer's channels values
-  --samples N          local features taken from each image (default 64)
-)";
-
-std::map<std::string, std::string> parse(int argc, char** argv) {
-  std::map<std::string, std::string> values;
-  for (int i = 2; i < argc; ++i) {
-    const std::string key = argv[i];
-    if (key.rfind("--", 0) != 0 || i + 1 >= argc) {
-      throw std::invalid_argument("unexpected argument '" + key + "'");
-    }
-    values[key] = argv[++i];
-  }
-  return values;
-}
+// Options every command reads: the source of images, the node's parameters, the result.
+const std::vector<tools::TextOption> kCommonOptions = {
+    {"--images", "DIR: every image of a folder (png, jpg, ...)"},
+    {"--bag", "FILE: the keyframes a node would keep from a bag"},
+    {"--image-topic", "the bag's image topic (default /camera/image_raw)"},
+    {"--odom-topic", "the bag's odometry topic (default /odom)"},
+    {"--config", "FILE: node parameters (config/default.yaml's layout) the result is for"},
+    {"--limit", "N: use the first N images"},
+    {"--output", "FILE: where the result goes"},
+};
+const std::vector<tools::TextOption> kWhiteningOptions = {
+    {"--components", "N: whitened dimensions kept (default 256; at most images - 1)"},
+    {"--regularisation", "R: added to every eigenvalue, fraction of the largest (default 1e-3)"},
+};
+const std::vector<tools::TextOption> kBroadOptions = {
+    {"--input", "WxH: image size the network sees (default 40x30)"},
+    {"--groups", "N: mapped feature groups (default 10)"},
+    {"--nodes", "N: nodes a group (default 90)"},
+    {"--enhancement", "N: enhancement nodes (default 2000; the paper: 10000)"},
+    {"--alpha", "A: output nodes = A * (mapped + enhancement) (default 0.667)"},
+    {"--lasso", "L: sparse regulariser (default 1e-3)"},
+    {"--ridge", "R: ridge regulariser (default 1e-2)"},
+    {"--seed", "S: random seed (default 1)"},
+};
+const std::vector<tools::TextOption> kVocabularyOptions = {
+    {"--clusters", "K: centres (default 16): the descriptor has K x the layer's channels values"},
+    {"--samples", "N: local features taken from each image (default 64)"},
+};
 
 double number(const std::map<std::string, std::string>& values, const std::string& key,
               double fallback) {
@@ -220,19 +206,35 @@ int trainBroad(const std::map<std::string, std::string>& values) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string command = argc > 1 ? argv[1] : "";
-  if (command == "--help" || command == "-h") {
-    std::cout << kUsage;
-    return 0;
+  CLI::App app{
+      "Offline training of the descriptors that learn from the user's own images (no labels)."};
+  app.require_subcommand(1);
+  std::map<std::string, std::string> values;
+  CLI::App* whitening = app.add_subcommand(
+      "whitening",
+      "PCA whitening of descriptor/cnn's layer (type cnn_pca), written beside the model "
+      "(MODEL.whitening, where the node looks by default) or to --output");
+  CLI::App* broad = app.add_subcommand(
+      "broad", "a broad autoencoder (type broad) written to --output (default broad.model)");
+  CLI::App* vocabulary = app.add_subcommand(
+      "vocabulary",
+      "a VLAD vocabulary of descriptor/backbone's layer (k-means of its local features) written "
+      "to --output (required; an existing file is not replaced); the node uses it with "
+      "descriptor/backbone/vocabulary");
+  for (CLI::App* command : {whitening, broad, vocabulary}) {
+    tools::addTextOptions(command, kCommonOptions, &values);
   }
+  tools::addTextOptions(whitening, kWhiteningOptions, &values);
+  tools::addTextOptions(broad, kBroadOptions, &values);
+  tools::addTextOptions(vocabulary, kVocabularyOptions, &values);
+  if (const auto exit_code = tools::parseCommandLine(&app, argc, argv)) return *exit_code;
   try {
-    const auto values = parse(argc, argv);
-    if (command == "whitening") return fitWhitening(values);
-    if (command == "broad") return trainBroad(values);
-    if (command == "vocabulary") return learnVocabulary(values);
-    throw std::invalid_argument("the first argument is 'whitening', 'broad' or 'vocabulary'");
+    if (*whitening) return fitWhitening(values);
+    if (*broad) return trainBroad(values);
+    return learnVocabulary(values);
   } catch (const std::invalid_argument& error) {
-    std::cerr << "lcd_train: " << error.what() << "\n\n" << kUsage;
+    std::cerr << "lcd_train: " << error.what()
+              << "\n(lcd_train COMMAND --help lists its options)\n";
     return 2;
   } catch (const std::exception& error) {
     std::cerr << "lcd_train: error: " << error.what() << "\n";

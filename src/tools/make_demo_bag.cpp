@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,7 @@
 #include <tf2_msgs/TFMessage.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "command_line.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 namespace {
@@ -180,34 +182,50 @@ int writeTraversals(const std::string& folder_a, const std::string& folder_b,
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (!args.empty() && args.front() == "--traversals") {
-    if (args.size() != 4) {
-      std::cerr << "usage: make_demo_bag --traversals A_DIR B_DIR OUTPUT.bag\n";
+  std::string path;
+  std::optional<double> laps, rate, scale_error, heading_drift;
+  bool two_robots = false;
+  std::vector<std::string> traversals;
+  CLI::App app{
+      "A rosbag of a camera driven around the generated corridor (images, camera_info, drifting "
+      "odometry and its tf, ground truth); or two robots on it; or two image folders as two "
+      "robots."};
+  app.add_option("OUTPUT", path, "the bag to write")->required();
+  app.add_option("LAPS", laps,
+                 "laps driven (default 2); with --two-robots: frames per second (default 10)");
+  app.add_option("RATE", rate, "frames per second (default 10)");
+  app.add_option("SCALE_ERROR", scale_error, "odometry scale error (default 0.02)");
+  app.add_option("HEADING_DRIFT", heading_drift, "odometry heading drift, rad/m (default 0.004)");
+  app.add_flag("--two-robots", two_robots,
+               "robot_a drives 1.2 laps, then robot_b one lap from 0.3 laps in, in an odometry "
+               "frame of its own; topics under /robot_a and /robot_b");
+  app.add_option("--traversals", traversals,
+                 "A_DIR B_DIR: two walks of one route as two robots, a frame a second, image i of "
+                 "each folder at i metres")
+      ->expected(2)
+      ->excludes("--two-robots");
+  if (const auto exit_code = landmark_loop_closure::tools::parseCommandLine(&app, argc, argv))
+    return *exit_code;
+  if (!traversals.empty() || two_robots) {
+    if (rate || scale_error || heading_drift || (!traversals.empty() && laps)) {
+      std::cerr << "make_demo_bag: --two-robots takes OUTPUT [frames per second], --traversals "
+                   "A_DIR B_DIR OUTPUT alone\n";
       return 2;
     }
+  }
+  if (!traversals.empty()) {
     ros::Time::init();
-    return writeTraversals(args[1], args[2], args[3]);
+    return writeTraversals(traversals[0], traversals[1], path);
   }
-  const bool two_robots = !args.empty() && args.front() == "--two-robots";
-  if (two_robots) args.erase(args.begin());
-  if (args.empty() || (two_robots && args.size() > 2)) {
-    std::cerr << "usage: make_demo_bag OUTPUT.bag [laps=2] [frames per second=10] [odometry "
-                 "scale error=0.02] [odometry heading drift, rad/m=0.004]\n"
-                 "       make_demo_bag --two-robots OUTPUT.bag [frames per second=10]\n"
-                 "       make_demo_bag --traversals A_DIR B_DIR OUTPUT.bag\n";
-    return 2;
-  }
-  const std::string path = args[0];
   SequenceOptions options;
   if (two_robots) {
     options.laps = 2.3;  // robot_a 0-1.2 laps, robot_b 1.3-2.3: one lap from 0.3 laps in.
-    if (args.size() > 1) options.rate = std::atof(args[1].c_str());
+    if (laps) options.rate = *laps;
   } else {
-    if (args.size() > 1) options.laps = std::atof(args[1].c_str());
-    if (args.size() > 2) options.rate = std::atof(args[2].c_str());
-    if (args.size() > 3) options.odom_scale_error = std::atof(args[3].c_str());
-    if (args.size() > 4) options.odom_yaw_drift_per_metre = std::atof(args[4].c_str());
+    options.laps = laps.value_or(options.laps);
+    options.rate = rate.value_or(options.rate);
+    options.odom_scale_error = scale_error.value_or(options.odom_scale_error);
+    options.odom_yaw_drift_per_metre = heading_drift.value_or(options.odom_yaw_drift_per_metre);
   }
   if (!(options.laps > 0.0) || !(options.rate > 0.0 && options.rate <= 1000.0)) {
     std::cerr << "laps must be > 0 and frames per second in (0, 1000]\n";

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <matio.h>
 #include <zlib.h>
 
 #include "landmark_loop_closure/eval/ground_truth.h"
@@ -148,6 +149,95 @@ TEST(MatReader, ClearErrorsForBadFiles) {
   std::ofstream(text) << "hello";
   EXPECT_THROW(readMatGroundTruth(text.string()), GroundTruthError);
   EXPECT_THROW(readMatGroundTruth("/nonexistent.mat"), GroundTruthError);
+}
+
+// Writes `values` (column-major, rows x cols) as variable `name` through libmatio, in the given
+// format: MAT_FT_MAT73 is an HDF5 file, as MATLAB's `save -v7.3` writes.
+template <typename T>
+std::string writeWithLibrary(const std::string& file_name, mat_ft version, const std::string& name,
+                             matio_classes class_type, matio_types data_type, int rows, int cols,
+                             std::vector<T> values, int flags = 0) {
+  const fs::path path = fs::temp_directory_path() / file_name;
+  fs::remove(path);
+  mat_t* file = Mat_CreateVer(path.c_str(), nullptr, version);
+  EXPECT_NE(file, nullptr);
+  size_t dims[2] = {static_cast<size_t>(rows), static_cast<size_t>(cols)};
+  matvar_t* variable =
+      Mat_VarCreate(name.c_str(), class_type, data_type, 2, dims, values.data(), flags);
+  EXPECT_EQ(Mat_VarWrite(file, variable, MAT_COMPRESSION_ZLIB), 0);
+  Mat_VarFree(variable);
+  Mat_Close(file);
+  return path.string();
+}
+
+TEST(MatReader, Version73HdfFile) {
+  const std::vector<double> values(kColumnMajor.begin(), kColumnMajor.end());
+  const std::string path =
+      writeWithLibrary("v73.mat", MAT_FT_MAT73, "GT", MAT_C_DOUBLE, MAT_T_DOUBLE, 4, 4, values);
+  char signature[19] = {};
+  std::ifstream(path, std::ios::binary).read(signature, sizeof(signature));
+  ASSERT_EQ(std::string(signature, sizeof(signature)), "MATLAB 7.3 MAT-file");
+  std::ifstream hdf(path, std::ios::binary);
+  hdf.seekg(512);  // v7.3 = a 512-byte MATLAB header, then an HDF5 file.
+  char hdf_signature[4] = {};
+  hdf.read(hdf_signature, 4);
+  ASSERT_EQ(std::string(hdf_signature + 1, 3), "HDF");
+  expectSmallMatrix(readMatGroundTruth(path, "GT"));
+  expectSmallMatrix(readMatGroundTruth(path));
+}
+
+TEST(MatReader, Version73LogicalAndSparse) {
+  expectSmallMatrix(
+      readMatGroundTruth(writeWithLibrary("v73_logical.mat", MAT_FT_MAT73, "truth", MAT_C_UINT8,
+                                          MAT_T_UINT8, 4, 4, kColumnMajor, MAT_F_LOGICAL)));
+  // (1,0), (2,0), (3,2) in compressed-column form.
+  std::vector<mat_uint32_t> row_index = {1, 2, 3};
+  std::vector<mat_uint32_t> column_start = {0, 2, 2, 3, 3};
+  std::vector<double> ones = {1, 1, 1};
+  mat_sparse_t sparse{};
+  sparse.nzmax = 3;
+  sparse.ir = row_index.data();
+  sparse.nir = 3;
+  sparse.jc = column_start.data();
+  sparse.njc = 5;
+  sparse.ndata = 3;
+  sparse.data = ones.data();
+  for (const mat_ft version : {MAT_FT_MAT73, MAT_FT_MAT5}) {
+    SCOPED_TRACE(version == MAT_FT_MAT73 ? "v7.3" : "v5");
+    const fs::path path = fs::temp_directory_path() / "sparse_library.mat";
+    fs::remove(path);
+    mat_t* file = Mat_CreateVer(path.c_str(), nullptr, version);
+    ASSERT_NE(file, nullptr);
+    size_t dims[2] = {4, 4};
+    matvar_t* variable =
+        Mat_VarCreate("S", MAT_C_SPARSE, MAT_T_DOUBLE, 2, dims, &sparse, MAT_F_DONT_COPY_DATA);
+    ASSERT_EQ(Mat_VarWrite(file, variable, MAT_COMPRESSION_ZLIB), 0);
+    variable->data = nullptr;  // The vectors above own it.
+    Mat_VarFree(variable);
+    Mat_Close(file);
+    expectSmallMatrix(readMatGroundTruth(path.string(), "S"));
+  }
+}
+
+TEST(MatReader, ColumnBlocksGiveEveryPositiveOnce) {
+  // One positive per column, just below the diagonal; blocks of 7 columns (the last one shorter)
+  // check every block edge, in both formats.
+  const int n = 200;
+  std::vector<int64_t> values(static_cast<size_t>(n) * n, 0);
+  for (int column = 0; column + 1 < n; ++column) values[size_t(column) * n + column + 1] = 7;
+  for (const mat_ft version : {MAT_FT_MAT73, MAT_FT_MAT5}) {
+    SCOPED_TRACE(version == MAT_FT_MAT73 ? "v7.3" : "v5");
+    const std::string path =
+        writeWithLibrary("blocks.mat", version, "GT", MAT_C_INT64, MAT_T_INT64, n, n, values);
+    const GroundTruth truth = readMatGroundTruth(path, "GT", 7 * n * sizeof(int64_t));
+    EXPECT_EQ(truth.count(), size_t(n - 1));
+    EXPECT_EQ(truth.rowsWithPositives(), size_t(n - 1));
+    EXPECT_TRUE(truth.contains(n - 1, n - 2));
+    EXPECT_TRUE(truth.contains(7, 6));
+    EXPECT_TRUE(truth.contains(8, 7));
+    EXPECT_EQ(truth.shape(), GroundTruth::Shape::kLowerTriangular);
+    EXPECT_EQ(readMatGroundTruth(path, "GT", 1).count(), size_t(n - 1));  // One column a block.
+  }
 }
 
 TEST(GroundTruth, UndirectedAddsTheTranspose) {

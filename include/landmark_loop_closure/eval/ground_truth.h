@@ -51,11 +51,17 @@ class GroundTruthError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Reads a 2-D numeric or logical matrix (any MATLAB numeric class, dense or sparse, plain or
-/// zlib-compressed elements) from a MATLAB v5 .mat file; nonzero = same place. `variable` empty
-/// takes the first 2-D numeric matrix. Streams the data, so a 26k x 26k matrix needs memory only
-/// for its positives. Throws GroundTruthError naming the file and the problem.
-GroundTruth readMatGroundTruth(const std::string& path, const std::string& variable = "");
+/// Memory for one block of columns of a dense .mat matrix (below).
+constexpr size_t kMatBlockBytes = size_t{256} << 20;
+
+/// Reads a 2-D numeric or logical matrix (any MATLAB numeric class, dense or sparse) from a
+/// MATLAB .mat file of any version MATLAB writes (v4, v5/v7 plain or compressed, v7.3 = HDF5),
+/// through libmatio; nonzero = same place. `variable` empty takes the first 2-D numeric matrix.
+/// A dense matrix is read `block_bytes` of whole columns at a time, so a 26k x 26k logical matrix
+/// (693 MB) needs that much memory and its positives. Throws GroundTruthError naming the file and
+/// the problem.
+GroundTruth readMatGroundTruth(const std::string& path, const std::string& variable = "",
+                               size_t block_bytes = kMatBlockBytes);
 
 /// Throws GroundTruthError when `truth` marks no pair at all (an all-zero matrix: every measure
 /// would read 0 without a word); `source` names where it came from.

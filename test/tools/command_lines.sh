@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Every tool's command line goes through CLI11: --help prints the generated usage and exits 0; an
+# unknown option, a missing required value or a bad number exits 2 with one line naming it and a
+# pointer to --help; values keep their meaning (a negative number is a value, lists split on
+# commas). Nothing here does the tools' work.
+#   command_lines.sh TOOLS_DIR
+set -euo pipefail
+tools="$1"
+folder="$(mktemp -d)"
+trap 'rm -rf "$folder"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# expect CODE PATTERN TOOL ARGS...: the tool exits CODE and its output matches PATTERN.
+expect() {
+  local code="$1" pattern="$2" tool="$3"
+  shift 3
+  local got=0
+  "$tools/$tool" "$@" > "$folder/out.txt" 2>&1 || got=$?
+  if [ "$got" != "$code" ]; then
+    fail "$tool $*: exit $got, not $code"; sed 's/^/    /' "$folder/out.txt" | head -5
+  elif ! grep -qE -- "$pattern" "$folder/out.txt"; then
+    fail "$tool $*: no '$pattern' in"; sed 's/^/    /' "$folder/out.txt" | head -5
+  fi
+}
+
+# The arguments a tool requires, so that the unknown option is what it reports.
+declare -A required=(
+  [lcd_bench_save]="--map a.map --copy b.map" [lcd_bench_pipeline]="--database a --queries b"
+  [lcd_db]="info a.map" [lcd_config]="check a.yaml" [lcd_train]="broad" [make_demo_bag]="a.bag")
+for tool in lcd_bench_fleet lcd_bench_scaling lcd_bench_network lcd_bench_pose_graph lcd_bench_map \
+    lcd_bench_save lcd_bench_pipeline lcd_bench_verification lcd_bench_store lcd_bench_markers \
+    lcd_db lcd_config lcd_evaluate lcd_train make_demo_bag; do
+  expect 0 "Usage: .*$tool" "$tool" --help
+  # shellcheck disable=SC2086
+  expect 2 "The following argument was not expected: --no-such-option" \
+    "$tool" ${required[$tool]:-} --no-such-option
+  # shellcheck disable=SC2086
+  expect 2 "Run with --help for more information" "$tool" ${required[$tool]:-} --no-such-option
+done
+
+# Options each tool documents, by name, in its --help.
+expect 0 "--gt-mat" lcd_evaluate --help
+expect 0 "IN DETAIL" lcd_evaluate --help
+expect 0 "--checkpoints" lcd_bench_fleet --help
+expect 0 "check" lcd_config --help
+expect 0 "--components" lcd_train whitening --help
+expect 0 "--enhancement" lcd_train broad --help
+# Bad values, each named.
+expect 2 "--robots" lcd_bench_fleet --robots 1
+expect 2 "--robots" lcd_bench_fleet --robots many
+expect 2 "--route" lcd_bench_map --route sideways
+expect 2 "--map is required|--map" lcd_bench_save --copy "$folder/copy.map"
+expect 2 "A subcommand is required|subcommand" lcd_db
+expect 2 "MAP is required|MAP" lcd_db info
+expect 2 "files is required|files" lcd_config check
+expect 2 "--gt-mat" lcd_evaluate --gt-mat
+expect 2 "--descriptor" lcd_bench_pipeline --database a --queries b --descriptor nonsense
+# lcd_config's subcommands do their work.
+expect 0 "min_score" lcd_config defaults
+printf 'mode: mapping\n' > "$folder/ok.yaml"
+expect 0 "ok.yaml: ok" lcd_config check "$folder/ok.yaml"
+printf 'no_such_key: 1\n' > "$folder/bad.yaml"
+expect 1 "no_such_key is not a parameter" lcd_config check "$folder/bad.yaml"
+# A negative odometry error is a value, not an option; the range check after parsing still speaks.
+expect 2 "scale error must be within" make_demo_bag "$folder/demo.bag" 1 10 -0.9 0.004
+expect 2 "--two-robots takes OUTPUT" make_demo_bag --two-robots "$folder/demo.bag" 10 20
+# lcd_evaluate: a dry run reads its options and stops.
+expect 0 "corridor|dry run" lcd_evaluate --corridor 1 --detector --dry-run --output "$folder/results"
+
+if [ "$failures" -gt 0 ]; then echo "$failures failure(s)"; exit 1; fi
+echo "every tool's command line: ok"
