@@ -71,7 +71,7 @@ install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_
 install(DIRECTORY launch config msg srv DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 install(DIRECTORY model/ DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/model
-  FILES_MATCHING PATTERN "*.onnx" PATTERN "*.onnx.source" PATTERN "*.whitening")
+  FILES_MATCHING PATTERN "*.onnx" PATTERN "*.onnx.json" PATTERN "*.onnx.source" PATTERN "*.whitening")
 install(PROGRAMS scripts/plot_results.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # Demo tools: the generated corridor bag and a report of loops against ground truth.

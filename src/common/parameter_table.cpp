@@ -11,8 +11,9 @@
 namespace landmark_loop_closure {
 
 bool OptionReader::isKnown(const std::string& key) const {
-  return std::any_of(records_.begin(), records_.end(),
-                     [&key](const ParameterRecord& record) { return record.key == key; });
+  return std::any_of(records_.begin(), records_.end(), [&key](const ParameterRecord& record) {
+    return record.key == key || record.found_under_old_name == key;
+  });
 }
 
 bool ParameterRange::contains(double value) const {
@@ -169,12 +170,13 @@ void renderNode(const YamlNode& node, size_t depth, std::ostringstream* out) {
   for (const std::string& heading : node.headings) {
     *out << "\n";
     bool first = true;
-    for (const std::string& line : wrap(heading, 6)) {
-      *out << (first ? "# --- " : "#     ") << line << "\n";
+    for (const std::string& line : wrap(heading, indent.size() + 6)) {
+      *out << indent << (first ? "# --- " : "#     ") << line << "\n";
       first = false;
     }
   }
-  if (depth == 0 && node.is_map && node.headings.empty()) *out << "\n";
+  // Maps stand apart: at the top, and the stages inside `advanced`.
+  if (depth <= 1 && node.is_map && node.headings.empty()) *out << "\n";
   std::string head = indent + node.name + ":" + (node.is_map ? "" : " " + node.value);
   if (node.doc.empty()) {
     *out << head << "\n";
@@ -200,6 +202,7 @@ std::string renderParameterYaml(const std::vector<DocumentedParameter>& paramete
   YamlNode root;
   std::vector<std::string> pending_headings;
   for (const DocumentedParameter& parameter : parameters) {
+    if (parameter.evaluation_only) continue;
     switch (parameter.kind) {
       case DocumentedParameter::Kind::kSection:
         pending_headings.push_back(parameter.doc);

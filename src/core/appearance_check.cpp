@@ -9,7 +9,7 @@ namespace landmark_loop_closure {
 const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters() {
   using O = AppearanceCheckOptions;
   static const auto table =
-      ParameterTable<O>("verification/appearance/",
+      ParameterTable<O>("advanced/verification/appearance/",
                         "a loop the ORB check cannot confirm (no camera_info, or day against "
                         "night) is confirmed or refused by the backbone's feature-map cells.")
           .flag("enabled", &O::enabled,
@@ -22,7 +22,8 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                    "same place by day and by night has 25 / 38 (10th percentile / median), the "
                    "most alike wrong places 21-31 at the 90th percentile (bench/README.md).")
           .number("ransac_threshold_cells", &O::ransac_threshold_cells,
-                  openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.");
+                  openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.")
+          .evaluationOnly();
   return table;
 }
 

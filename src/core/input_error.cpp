@@ -13,7 +13,7 @@ namespace landmark_loop_closure {
 const ParameterTable<InputLimits>& InputLimits::parameters() {
   using O = InputLimits;
   static const auto table =
-      ParameterTable<O>("input/", "")
+      ParameterTable<O>("advanced/input/", "")
           .integer("min_image_side", &O::min_image_side, between(1, 4096),
                    "images with a side shorter than this (px) are dropped.")
           .integer("max_image_pixels", &O::max_image_pixels, between(1, 268435456),
@@ -21,6 +21,7 @@ const ParameterTable<InputLimits>& InputLimits::parameters() {
           .number("quaternion_norm_tolerance", &O::quaternion_norm_tolerance,
                   openBetween(0, 1, true, true),
                   "|norm(q) - 1| above this drops the pose; below, q is renormalised.")
+          .evaluationOnly()
           .number("min_image_contrast", &O::min_image_contrast, atLeast(0),
                   "keyframes whose grey levels spread less than this (0-255) between their 5th "
                   "and 95th percentiles are dropped (lens cap, white-out, a dark tunnel or night "
@@ -136,7 +137,7 @@ std::optional<InputError> checkTexture(const cv::Mat& image, const InputLimits& 
   message.precision(3);
   message << "image has no texture: grey levels spread " << contrast
           << " between the 5th and 95th percentiles (mean " << mean
-          << "), below input/min_image_contrast " << limits.min_image_contrast;
+          << "), below advanced/input/min_image_contrast " << limits.min_image_contrast;
   return InputError{InputErrorCode::kNoTexture, message.str()};
 }
 

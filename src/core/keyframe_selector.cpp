@@ -9,7 +9,7 @@ namespace landmark_loop_closure {
 const ParameterTable<KeyframeSelectorOptions>& KeyframeSelectorOptions::parameters() {
   using O = KeyframeSelectorOptions;
   static const auto table =
-      ParameterTable<O>("keyframe/",
+      ParameterTable<O>("advanced/keyframe/",
                         "Keyframes: M = translation_weight * |dt| + rotation_weight * |(roll, "
                         "pitch, yaw)| since the last keyframe. The defaults suit a handheld camera "
                         "or a wheeled robot at walking speed: a keyframe every ~0.3 m or ~17 deg.")
@@ -24,7 +24,8 @@ const ParameterTable<KeyframeSelectorOptions>& KeyframeSelectorOptions::paramete
           .integer("jump_reanchor_frames", &O::jump_reanchor_frames, between(0, 100000),
                    "after this many consecutive jump frames the odometry is taken as "
                    "re-initialised and the next frame becomes a keyframe, the first of a new "
-                   "session (Keyframe.session: another odometry frame); 0 = never.");
+                   "session (Keyframe.session: another odometry frame); 0 = never.")
+          .evaluationOnly();
   return table;
 }
 
@@ -32,11 +33,12 @@ std::string KeyframeSelectorOptions::validate() const {
   std::ostringstream errors;
   errors << parameters().check(*this);
   if (translation_weight + rotation_weight <= 0.0) {
-    errors << "keyframe/translation_weight and keyframe/rotation_weight must not both be 0\n";
+    errors << "advanced/keyframe/translation_weight and advanced/keyframe/rotation_weight must not "
+              "both be 0\n";
   }
   if (!(max_motion > min_motion)) {
-    errors << "keyframe/max_motion (" << max_motion
-           << ") must be greater than keyframe/min_motion (" << min_motion << ")\n";
+    errors << "advanced/keyframe/max_motion (" << max_motion
+           << ") must be greater than advanced/keyframe/min_motion (" << min_motion << ")\n";
   }
   return errors.str();
 }

@@ -13,15 +13,16 @@ namespace landmark_loop_closure {
 const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
   using O = AcceptanceOptions;
   static const auto table =
-      ParameterTable<O>("acceptance/", "precision first.")
+      ParameterTable<O>("advanced/acceptance/", "precision first.")
           .number(
               "min_score", &O::min_score, between(0, 100),
               "final similarity a candidate needs (with sequence matching, the best path's mean): "
               "with max_false_alarms a floor under the calibrated decision, 0.1 (the loops it "
               "believes on Gardens Point and Nordland score 0.117 and up, bench/README.md); "
               "without it "
-              "the whole decision, whose scale depends on descriptor/type, "
-              "descriptor/condition_window and sequence_length: backbone with the window and "
+              "the whole decision, whose scale depends on advanced/descriptor/type, "
+              "advanced/descriptor/condition_window and sequence_length: backbone with the window "
+              "and "
               "L = 5, 0.34 (the highest wrong loop of Gardens Point's and Nordland's first "
               "halves scored 0.33); L = 1 with the window: 0.3; without the window "
               "(condition_window 0): 0.6. A descriptor that re-ranks is not calibrated: 0.25 "
@@ -53,20 +54,10 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "wrong loop on Gardens Point's first halves played as one robot run and the "
                   "generated aliasing corridor (1 publishes 3 wrong loops there; "
                   "bench/README.md).")
-          .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
-                  "how a place must stay matched before a loop is believed: \"keyframes\": "
-                  "consistent_keyframes keyframes in a row, matches within index_window ids; "
-                  "\"metres\": the robot travels consistent_distance_m while its matches stay "
-                  "within match_window_m (plus its own step) along the old path - independent of "
-                  "keyframe spacing and of dropped keyframes.")
           .integer("consistent_keyframes", &O::consistent_keyframes, between(1, 100),
                    "k: consecutive keyframes that must match the same stretch of the map.")
           .integer("index_window", &O::index_window, between(0, 1000),
                    "their matches may differ by at most this many keyframe ids.")
-          .number("consistent_distance_m", &O::consistent_distance_m, atLeast(0),
-                  "metres: query travel over which the place must stay matched.")
-          .number("match_window_m", &O::match_window_m, atLeast(0),
-                  "metres: consecutive matches agree within this plus the query's step.")
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a candidate's score over the best score of another place in the shortlist "
                   "must reach this (a place-level ratio test; 0 = off): where the query looks "
@@ -77,6 +68,24 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "Chosen on the first halves of Gardens Point and Nordland (bench/README.md).")
           .integer("place_window", &O::place_window, between(0, 1000000),
                    "candidates within this many keyframe ids of each other are one place.")
+          .group(&O::sequence, SequenceMatchingOptions::parameters());
+  return table;
+}
+
+const ParameterTable<AcceptanceOptions>& AcceptanceOptions::evaluationParameters() {
+  using O = AcceptanceOptions;
+  static const auto table =
+      ParameterTable<O>("acceptance/", "")
+          .choice("consistency_unit", &O::consistency_unit, consistencyUnitNames(),
+                  "how a place must stay matched before a loop is believed: \"keyframes\": "
+                  "consistent_keyframes keyframes in a row, matches within index_window ids; "
+                  "\"metres\": the robot travels consistent_distance_m while its matches stay "
+                  "within match_window_m (plus its own step) along the old path - independent of "
+                  "keyframe spacing and of dropped keyframes.")
+          .number("consistent_distance_m", &O::consistent_distance_m, atLeast(0),
+                  "metres: query travel over which the place must stay matched.")
+          .number("match_window_m", &O::match_window_m, atLeast(0),
+                  "metres: consecutive matches agree within this plus the query's step.")
           .choice(
               "score_normalisation", &O::score_normalisation, scoreNormalisationNames(),
               "what a candidate's similarity is normalised by before min_score, i.e. what "
@@ -93,23 +102,25 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
               "min_score to match. Measured against each other in bench/README.md.")
           .integer("contrast_window", &O::contrast_window, between(1, 1000),
                    "local_contrast: map keyframes on each side of a candidate it is compared "
-                   "with.")
-          .group(&O::sequence, SequenceMatchingOptions::parameters());
+                   "with.");
   return table;
 }
 
 std::string AcceptanceOptions::validate() const {
-  std::string problems = parameters().check(*this) + sequence.validate();
+  std::string problems =
+      parameters().check(*this) + evaluationParameters().check(*this) + sequence.validate();
   if (score_normalisation != ScoreNormalisation::kNone &&
       score_normalisation != ScoreNormalisation::kZScore && sequence.enabled()) {
     problems +=
-        "acceptance/score_normalisation previous_keyframe and local_contrast apply to single "
-        "keyframes' scores: they need acceptance/sequence_length 1 (z_score works with both)\n";
+        "advanced/acceptance/score_normalisation previous_keyframe and local_contrast apply to "
+        "single "
+        "keyframes' scores: they need advanced/acceptance/sequence_length 1 (z_score works with "
+        "both)\n";
   }
   if (score_normalisation != ScoreNormalisation::kLocalContrast &&
       score_normalisation != ScoreNormalisation::kZScore && min_score > 1.0) {
     std::ostringstream problem;
-    problem << "acceptance/min_score " << min_score
+    problem << "advanced/acceptance/min_score " << min_score
             << " is above 1, which no similarity reaches (only standardised scores, "
                "score_normalisation local_contrast or z_score, go above 1)\n";
     problems += problem.str();
@@ -127,29 +138,42 @@ const char* toString(DetectorMode mode) {
   return mode == DetectorMode::kMapping ? "mapping" : "localization";
 }
 
+const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::modeParameter() {
+  using O = LoopDetectorOptions;
+  static const auto table = ParameterTable<O>("", "").choice(
+      "mode", &O::mode, detectorModeNames(),
+      "are you building a map or revisiting one? \"mapping\": search every keyframe and store "
+      "it. \"localization\": search only, store nothing, no odometry gate (this run's odometry "
+      "shares no frame with the map's); for revisiting a map loaded from database_path.");
+  return table;
+}
+
+const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::mountParameters() {
+  using O = LoopDetectorOptions;
+  static const auto table =
+      ParameterTable<O>("", "").group(&O::camera_mount, CameraMount::parameters());
+  return table;
+}
+
 const ParameterTable<LoopDetectorOptions>& LoopDetectorOptions::parameters() {
   using O = LoopDetectorOptions;
   static const auto table =
       ParameterTable<O>("", "")
-          .choice("mode", &O::mode, detectorModeNames(),
-                  "\"mapping\": search every keyframe and store it. \"localization\": search "
-                  "only, store nothing, no odometry gate (this run's odometry shares no frame with "
-                  "the map's); for revisiting a map loaded from database_path.")
           .group(&O::input, InputLimits::parameters())
           .group(&O::keyframe, KeyframeSelectorOptions::parameters())
           .group(&O::descriptor, DescriptorOptions::parameters())
-          .flag("descriptor/keep_thumbnails", &O::keep_thumbnails,
+          .flag("advanced/descriptor/keep_thumbnails", &O::keep_thumbnails,
                 "keep a 160x120 grey copy per keyframe (WebP, ~2 KB) for ~match_image and the "
-                "appearance check (verification/appearance), which cannot run without it.")
+                "appearance check (advanced/verification/appearance), which cannot run without "
+                "it.")
           .group(&O::database, DatabaseOptions::parameters())
           .group(&O::acceptance, AcceptanceOptions::parameters())
           .group(&O::odometry_gate, OdometryGateOptions::parameters())
           .group(&O::verification, VerificationOptions::parameters())
           .group(&O::appearance, AppearanceCheckOptions::parameters())
           .group(&O::metric_pose, MetricPoseOptions::parameters())
-          .integer("metric_pose/triangulation_keyframes", &O::triangulation_keyframes,
-                   between(1, 20), "previous keyframes used; farther ones add baseline.")
-          .group(&O::camera_mount, CameraMount::parameters());
+          .integer("advanced/metric_pose/triangulation_keyframes", &O::triangulation_keyframes,
+                   between(1, 20), "previous keyframes used; farther ones add baseline.");
   return table;
 }
 
@@ -158,7 +182,7 @@ std::string LoopDetectorOptions::validate() const {
   errors << parameters().check(*this) << InputLimits::parameters().check(input);
   if (input.max_image_pixels <
       static_cast<long long>(input.min_image_side) * input.min_image_side) {
-    errors << "input/max_image_pixels (" << input.max_image_pixels
+    errors << "advanced/input/max_image_pixels (" << input.max_image_pixels
            << ") is smaller than a minimum-size image\n";
   }
   errors << keyframe.validate() << descriptor.validate() << database.validate()
@@ -167,8 +191,8 @@ std::string LoopDetectorOptions::validate() const {
   if (acceptance.max_false_alarms > 0.0 && descriptor.reranks() &&
       acceptance.min_score < kLandmarksMinScore) {
     // The calibrated decision is off for it: min_score alone decides, and a floor is no decision.
-    errors << "acceptance/min_score " << acceptance.min_score
-           << " decides alone for descriptor/type " << descriptor.type
+    errors << "advanced/acceptance/min_score " << acceptance.min_score
+           << " decides alone for advanced/descriptor/type " << descriptor.type
            << ", which re-ranks its shortlist (the calibrated decision, max_false_alarms, does not "
               "apply to a re-ranked score): set it to that descriptor's threshold (landmarks "
            << kLandmarksMinScore << ")\n";
@@ -176,10 +200,9 @@ std::string LoopDetectorOptions::validate() const {
   if (acceptance.score_normalisation != ScoreNormalisation::kNone && descriptor.reranks()) {
     // Its population is the query's global similarities to the map; a re-ranked score is
     // another measure, and re-ranking the whole map would cost what the shortlist saves.
-    errors << "acceptance/score_normalisation " << toString(acceptance.score_normalisation)
-           << " normalises global similarities: descriptor/type " << descriptor.type
-           << " re-ranks its shortlist with another score (use \"none\", or "
-              "descriptor/backbone/rerank_weight 0)\n";
+    errors << "advanced/acceptance/score_normalisation " << toString(acceptance.score_normalisation)
+           << " normalises global similarities: advanced/descriptor/type " << descriptor.type
+           << " re-ranks its shortlist with another score (use \"none\")\n";
   }
   return errors.str();
 }

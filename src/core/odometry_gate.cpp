@@ -9,7 +9,7 @@ namespace landmark_loop_closure {
 const ParameterTable<OdometryGateOptions>& OdometryGateOptions::parameters() {
   using O = OdometryGateOptions;
   static const auto table =
-      ParameterTable<O>("odometry_gate/",
+      ParameterTable<O>("advanced/odometry_gate/",
                         "refuses loops the odometry cannot have drifted into (precision first).")
           .flag("enabled", &O::enabled, "")
           .number("drift_per_metre", &O::drift_per_metre, atLeast(0),

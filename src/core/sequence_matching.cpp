@@ -19,7 +19,7 @@ std::vector<double> SequenceMatchingOptions::speeds() const {
 const ParameterTable<SequenceMatchingOptions>& SequenceMatchingOptions::parameters() {
   using O = SequenceMatchingOptions;
   static const auto table =
-      ParameterTable<O>("acceptance/sequence_", "")
+      ParameterTable<O>("advanced/acceptance/sequence_", "")
           .integer("length", &O::length, between(1, 100),
                    "L > 1: sequence matching (SeqSLAM-style): a candidate's score becomes the best "
                    "mean similarity along a straight path of the last L keyframes against the "
@@ -30,10 +30,13 @@ const ParameterTable<SequenceMatchingOptions>& SequenceMatchingOptions::paramete
                    "(bench/README.md); 1 = single images.")
           .number("min_speed", &O::min_speed, openBetween(0, 10, true, false),
                   "database keyframes per query keyframe along a path, slowest ...")
+          .evaluationOnly()
           .number("max_speed", &O::max_speed, openBetween(0, 10, true, false),
                   "... and fastest (keyframes are spaced by motion, so revisits run near 1);")
+          .evaluationOnly()
           .number("speed_step", &O::speed_step, above(0),
-                  "speeds tried from min to max in this step.");
+                  "speeds tried from min to max in this step.")
+          .evaluationOnly();
   return table;
 }
 
@@ -41,11 +44,11 @@ std::string SequenceMatchingOptions::validate() const {
   std::ostringstream errors;
   errors << parameters().check(*this);
   if (!(max_speed >= min_speed)) {
-    errors << "acceptance/sequence_max_speed (" << max_speed
-           << ") must be >= acceptance/sequence_min_speed (" << min_speed << ")\n";
+    errors << "advanced/acceptance/sequence_max_speed (" << max_speed
+           << ") must be >= advanced/acceptance/sequence_min_speed (" << min_speed << ")\n";
   }
   if (speed_step > 0.0 && (max_speed - min_speed) / speed_step > 100.0) {
-    errors << "acceptance/sequence_speed_step gives more than 100 speeds\n";
+    errors << "advanced/acceptance/sequence_speed_step gives more than 100 speeds\n";
   }
   return errors.str();
 }

@@ -20,7 +20,7 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
   using O = IndexOptions;
   static const auto table =
       ParameterTable<O>(
-          "database/index/",
+          "advanced/database/index/",
           "how global descriptors are searched: 8 bits per value (a scale per "
           "keyframe), exactly or through an HNSW graph (bench/history.md, \"Map at "
           "scale\"). The graph is saved beside the map file (PATH-graph) at shutdown; "
@@ -34,10 +34,12 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
                    "auto: exact search below this size (~8 ms at 20 000).")
           .integer("neighbors", &O::neighbors, between(4, 128),
                    "HNSW links per keyframe (M): recall and memory grow with it.")
+          .evaluationOnly()
           .integer("ef_construction", &O::ef_construction, between(4, 4096),
                    "HNSW insertion effort: graph quality against insert time; >= neighbors. "
                    "128: recall@10 1.000 at 100 000 keyframes (64: 0.99), insert 2.3 ms "
                    "median (64: 0.85 ms) on the worker thread (lcd_bench_map).")
+          .evaluationOnly()
           .integer("ef_search", &O::ef_search, between(1, 4096),
                    "HNSW search effort: shortlist recall against query time.");
   return table;
@@ -46,8 +48,9 @@ const ParameterTable<IndexOptions>& IndexOptions::parameters() {
 std::string IndexOptions::validate() const {
   std::string errors = parameters().check(*this);
   if (ef_construction < neighbors) {
-    errors += "database/index/ef_construction (" + std::to_string(ef_construction) +
-              ") must be >= database/index/neighbors (" + std::to_string(neighbors) + ")\n";
+    errors += "advanced/database/index/ef_construction (" + std::to_string(ef_construction) +
+              ") must be >= advanced/database/index/neighbors (" + std::to_string(neighbors) +
+              ")\n";
   }
   return errors;
 }

@@ -14,7 +14,7 @@ namespace landmark_loop_closure {
 const ParameterTable<DatabaseOptions>& DatabaseOptions::parameters() {
   using O = DatabaseOptions;
   static const auto table =
-      ParameterTable<O>("database/", "database search.")
+      ParameterTable<O>("advanced/database/", "database search.")
           .integer("exclude_recent_keyframes", &O::exclude_recent_keyframes, between(0, 1000000),
                    "the newest N keyframes are never loop candidates.")
           .number("exclude_recent_seconds", &O::exclude_recent_seconds, atLeast(0),

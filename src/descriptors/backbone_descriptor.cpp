@@ -8,6 +8,7 @@
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/descriptors/cnn_global_descriptor.h"
+#include "landmark_loop_closure/descriptors/model_description.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
@@ -168,7 +169,7 @@ std::string BackboneDescriptor::describesAs(cv::Size image) const {
   std::ostringstream text;
   text << "backbone: " << image.width << "x" << image.height << " images ";
   if (hogDimension() > 0 && image.width < options_.min_network_width) {
-    text << "are narrower than descriptor/backbone/min_network_width ("
+    text << "are narrower than advanced/descriptor/backbone/min_network_width ("
          << options_.min_network_width << " px): the HOG alone describes them ("
          << options_.hog_size.width << "x" << options_.hog_size.height
          << " window), the network does not run; set "
@@ -282,28 +283,42 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
   using O = DescriptorOptions::Backbone;
   static const auto table =
       ParameterTable<O>(
-          "descriptor/backbone/",
+          "advanced/descriptor/backbone/",
           "type backbone: the landmark-ConvNet on a pretrained ImageNet network "
           "(MobileNetV2 from the npm package nsfwjs, MIT; scripts/fetch_backbone.sh).")
           .text("model", &O::model,
                 "ONNX file; \"\" = the package's model/mobilenet_v2.onnx. Any ONNX network with "
                 "named feature-map outputs works (README: bring your own).")
-          .text("layer", &O::layer, "output the global grid and the landmarks are described from.")
-          .text("proposal_layer", &O::proposal_layer,
-                "output whose activations give the landmark boxes; \"\" = layer.")
-          .integer("input_width", &O::input_width, between(32, 4096),
-                   "the network's input size (the image is resized to it) ...")
-          .integer("input_height", &O::input_height, between(32, 4096), "")
-          .word("colour", &O::colour, {"rgb", "bgr", "grey"},
-                "... channel order and normalisation: per channel, pixels in [0, 1]: (pixel - "
-                "mean) / std. nsfwjs's network takes [0, 1]; torchvision's \"0.485 0.456 0.406\" "
-                "/ \"0.229 0.224 0.225\".")
-          .text("mean", &O::mean, "")
-          .text("std", &O::std, "")
           .integer("grid_rows", &O::grid_rows, between(1, 16),
                    "global descriptor: the layer average-pooled over rows x cols cells ...")
           .integer("grid_cols", &O::grid_cols, between(1, 16),
                    "... (3x4x96 = 1152 values); the spatial layout is what survives night.")
+          .integer("max_landmarks", &O::max_landmarks, between(0, 500),
+                   "landmark boxes from the activations (8-connected components, energy = mean "
+                   "activation), for ~match_image and re-ranking; 0 = none.")
+          .number("hog_weight", &O::hog_weight, between(0, 1),
+                  "share of a whole-image HOG's cosine in the global score.")
+          .integer("min_network_width", &O::min_network_width, between(0, 4096),
+                   "images narrower than this (px) are described by the HOG alone: at 64 px "
+                   "wide the network loses to the HOG (Nordland's 64x32), from 96 px it wins "
+                   "(Gardens Point scaled down; bench/README).")
+          .word("engine", &O::engine, {"auto", "opencv"},
+                "what runs the network: \"auto\" = oneDNN (libdnnl) where it can run it (a Keras "
+                "MobileNetV2 whose output agrees with OpenCV's), 3-4x faster on one core; OpenCV's "
+                "dnn elsewhere. \"opencv\": OpenCV's dnn always. The node logs which at its first "
+                "image.")
+          .integer("hog_width", &O::hog_width, between(16, 512),
+                   "the HOG's window: the image is resized to it (multiples of 8); ...")
+          .integer("hog_height", &O::hog_height, between(16, 512),
+                   "16x16 blocks, 8 px cells and stride, 9 bins: 3168 values.");
+  return table;
+}
+
+const ParameterTable<DescriptorOptions::Backbone>&
+DescriptorOptions::Backbone::evaluationParameters() {
+  using O = DescriptorOptions::Backbone;
+  static const auto table =
+      ParameterTable<O>("descriptor/backbone/", "")
           .word("normalisation", &O::normalisation, {"cells", "whole", "centred"},
                 "\"cells\": each cell L2-normalised, then the whole (won on Gardens Point); "
                 "\"whole\": the whole vector only; \"centred\": each channel's mean over the cells "
@@ -325,9 +340,6 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
               "them (\"raw\": weak cells weigh less); the vocabulary must be learnt the same way.")
           .number("vlad_weight", &O::vlad_weight, between(0, 1),
                   "VLAD's share of the network's part; below 1 the grid is kept beside it.")
-          .integer("max_landmarks", &O::max_landmarks, between(0, 500),
-                   "landmark boxes from the activations (8-connected components, energy = mean "
-                   "activation), for ~match_image and re-ranking; 0 = none.")
           .integer("landmark_grid", &O::landmark_grid, between(1, 8),
                    "a landmark is the layer's maps inside its box, grid x grid cells ...")
           .word("landmark_features", &O::landmark_features, {"backbone", "hog"},
@@ -335,22 +347,7 @@ const ParameterTable<DescriptorOptions::Backbone>& DescriptorOptions::Backbone::
                 "320x240 (324 values), as the package's own encoder does.")
           .number("rerank_weight", &O::rerank_weight, between(0, 1),
                   "final score = (1 - w) * global + w * landmark similarity. 0: landmarks do not "
-                  "re-rank (they lost on Gardens Point and the corridor).")
-          .number("hog_weight", &O::hog_weight, between(0, 1),
-                  "share of a whole-image HOG's cosine in the global score.")
-          .integer("min_network_width", &O::min_network_width, between(0, 4096),
-                   "images narrower than this (px) are described by the HOG alone: at 64 px "
-                   "wide the network loses to the HOG (Nordland's 64x32), from 96 px it wins "
-                   "(Gardens Point scaled down; bench/README).")
-          .word("engine", &O::engine, {"auto", "opencv"},
-                "what runs the network: \"auto\" = oneDNN (libdnnl) where it can run it (a Keras "
-                "MobileNetV2 whose output agrees with OpenCV's), 3-4x faster on one core; OpenCV's "
-                "dnn elsewhere. \"opencv\": OpenCV's dnn always. The node logs which at its first "
-                "image.")
-          .integer("hog_width", &O::hog_width, between(16, 512),
-                   "the HOG's window: the image is resized to it (multiples of 8); ...")
-          .integer("hog_height", &O::hog_height, between(16, 512),
-                   "16x16 blocks, 8 px cells and stride, 9 bins: 3168 values.");
+                  "re-rank (they lost on Gardens Point and the corridor).");
   return table;
 }
 
@@ -358,18 +355,22 @@ namespace {
 
 std::string validateBackbone(const DescriptorOptions& options) {
   const DescriptorOptions::Backbone& backbone = options.backbone;
-  std::string errors = DescriptorOptions::Backbone::parameters().check(backbone);
-  if (backbone.layer.empty()) errors += "descriptor/backbone/layer is empty\n";
+  std::string errors = DescriptorOptions::Backbone::parameters().check(backbone) +
+                       DescriptorOptions::Backbone::evaluationParameters().check(backbone);
+  // The preprocessing comes from the model's description (MODEL.json): its problems name it.
+  const std::string described = modelDescriptionPath(backboneModelPath(backbone)) + ": ";
+  if (backbone.layer.empty()) errors += described + "layer is empty\n";
   if (backbone.hog_width % 8 != 0 || backbone.hog_height % 8 != 0) {
-    errors += "descriptor/backbone/hog_width and hog_height must be multiples of 8 (got " +
+    errors += "advanced/descriptor/backbone/hog_width and hog_height must be multiples of 8 (got " +
               std::to_string(backbone.hog_width) + "x" + std::to_string(backbone.hog_height) +
               ")\n";
   }
   if (backbone.rerank_weight > 0 && backbone.max_landmarks == 0) {
-    errors += "descriptor/backbone/rerank_weight > 0 needs max_landmarks > 0\n";
+    errors +=
+        "re-ranking (rerank_weight > 0) needs advanced/descriptor/backbone/max_landmarks > 0\n";
   }
-  return errors +
-         validateNetworkInput("descriptor/backbone/", backbone.colour, backbone.mean, backbone.std);
+  return errors + validateNetworkInput(described, backbone.input_width, backbone.input_height,
+                                       backbone.colour, backbone.mean, backbone.std);
 }
 
 // The variant name's parts: "backbone_g3x4_m30_r30_h20_n100_i256x144_b12_p5" is grid 3x4, 30
@@ -432,7 +433,7 @@ DescriptorType backboneDescriptorType() {
   DescriptorType type;
   type.name = "backbone";
   type.reads = {"backbone/", "max_landmark_area", "shape_weighting", "landmark_storage"};
-  type.summary = "the landmark-ConvNet on a pretrained network (descriptor/backbone/*)";
+  type.summary = "the landmark-ConvNet on a pretrained network (advanced/descriptor/backbone/*)";
   type.validate = validateBackbone;
   type.identity = [](const DescriptorOptions& options) {
     std::ostringstream identity;

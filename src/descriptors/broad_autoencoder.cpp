@@ -53,8 +53,9 @@ std::string BroadOptions::validate() const {
   std::string errors;
   const auto range = [&errors](const char* key, double value, double low, double high) {
     if (!(value >= low && value <= high)) {
-      errors += std::string("descriptor/broad/") + key + " must be in [" + std::to_string(low) +
-                ", " + std::to_string(high) + "] (got " + std::to_string(value) + ")\n";
+      errors += std::string("advanced/descriptor/broad/") + key + " must be in [" +
+                std::to_string(low) + ", " + std::to_string(high) + "] (got " +
+                std::to_string(value) + ")\n";
     }
   };
   range("input_width", input_width, 4, 1024);
@@ -288,7 +289,7 @@ ImageDescriptor BroadDescriptor::describe(const cv::Mat& image) const {
 const ParameterTable<DescriptorOptions::Broad>& DescriptorOptions::Broad::parameters() {
   using O = DescriptorOptions::Broad;
   static const auto table =
-      ParameterTable<O>("descriptor/broad/",
+      ParameterTable<O>("advanced/descriptor/broad/",
                         "type broad: FLCD-BA's broad autoencoder (methods.md section 3).")
           .text("model", &O::model, "file written by `lcd_train broad`; required for type broad.")
           .integer("online_training_keyframes", &O::online_training_keyframes, between(0, 100000),
@@ -304,13 +305,14 @@ DescriptorType broadDescriptorType() {
   DescriptorType type;
   type.name = "broad";
   type.reads = {"broad/"};
-  type.summary = "FLCD-BA's broad autoencoder, trained by ridge regression (descriptor/broad/*)";
+  type.summary =
+      "FLCD-BA's broad autoencoder, trained by ridge regression (advanced/descriptor/broad/*)";
   type.validate = [](const DescriptorOptions& options) {
-    return options.broad.model.empty()
-               ? std::string(
-                     "descriptor/broad/model is empty: train one with `lcd_train broad`, or name "
-                     "the file online training writes (README.md)\n")
-               : std::string();
+    return options.broad.model.empty() ? std::string(
+                                             "advanced/descriptor/broad/model is empty: train one "
+                                             "with `lcd_train broad`, or name "
+                                             "the file online training writes (README.md)\n")
+                                       : std::string();
   };
   type.identity = [](const DescriptorOptions& options) {
     return "model_fnv1a=" + fileHash(options.broad.model);

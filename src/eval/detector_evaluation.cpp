@@ -290,7 +290,7 @@ DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
   double lowest = options.acceptance.min_score;
   for (const PublishedLoop& loop : evaluation.configured.loops)
     lowest = std::min(lowest, loop.score);
-  lowest = std::max(0.0, lowest - 0.3);  // acceptance/min_score is at least 0.
+  lowest = std::max(0.0, lowest - 0.3);  // advanced/acceptance/min_score is at least 0.
   double highest = 1.0;
   for (const CandidateRow& candidate : evaluation.configured.candidates) {
     highest = std::max(highest, candidate.score);

@@ -32,7 +32,7 @@ std::string seconds(double value) {
 const ParameterTable<FleetOptions>& FleetOptions::parameters() {
   using O = FleetOptions;
   static const auto table =
-      ParameterTable<O>("fleet/",
+      ParameterTable<O>("advanced/fleet/",
                         "loops between robots while they run (docs/robots.md): each "
                         "detector shares its keyframes' search rows on ~shared_keyframes and "
                         "answers ~keyframe_evidence; a detector naming peers searches theirs.")
@@ -71,6 +71,7 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "restarted) is sent the map's rows so far, at most this many a second (500: "
                   "2.2 MB/s with the default backbone), beside the new ones; rows it holds "
                   "already are not kept twice. A map loaded from database_path is shared so too.")
+          .evaluationOnly()
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a chained candidate's score over the best score of another place of its map "
                   "must reach this (0 = off): where a keyframe looks about as much like several "
@@ -80,7 +81,8 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "are not two places). It decides alone on maps too small for the tail below "
                   "(under 20 other places); beside it, it changed nothing on the corridors.")
           .number("max_false_alarms", &O::max_false_alarms, between(0, 1000000),
-                  "the calibrated decision (0 = off), as acceptance/max_false_alarms: a chained "
+                  "the calibrated decision (0 = off), as advanced/acceptance/max_false_alarms: a "
+                  "chained "
                   "candidate is believed only where fewer wrong places than this are expected to "
                   "score as high, from an exponential tail fitted to what the other places of "
                   "its map scored against the keyframe (a candidate that continues the previous "
@@ -146,7 +148,7 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
     if (!first) return back;
     return (back.empty() ? "" : back + "; ") + "robot '" + row.robot + "' has shared " +
            std::to_string(robot.rows) +
-           " keyframes, fleet/max_rows_per_robot: its later ones "
+           " keyframes, advanced/fleet/max_rows_per_robot: its later ones "
            "are not kept (its earlier places stay searchable)";
   }
   auto [found, added] = maps_.try_emplace(row.map_id);
@@ -368,7 +370,7 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
   if (check.accepted && check.appearance && !appearance_confirms) {
     check.accepted = false;
     check.detail = "only the appearance check confirmed the place (" + check.detail +
-                   "), which fleet/appearance_confirms does not take between robots";
+                   "), which advanced/fleet/appearance_confirms does not take between robots";
   }
   return check;
 }

@@ -268,7 +268,7 @@ size_t LocalFeatures::bytes() const {
 const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
   using O = VerificationOptions;
   static const auto table =
-      ParameterTable<O>("verification/",
+      ParameterTable<O>("advanced/verification/",
                         "geometric verification: a loop must also agree on geometry.")
           .flag("enabled", &O::enabled,
                 "ORB keypoints per keyframe (~13 KB); a loop needs enough well-spread matches "
@@ -283,12 +283,15 @@ const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
                 "off than its covariance says (README).")
           .integer("max_image_width", &O::max_image_width, between(64, 8192),
                    "keypoints are found on the image shrunk to at most this width.")
+          .evaluationOnly()
           .integer("max_features", &O::max_features, between(8, 10000),
                    "ORB keypoints kept per keyframe.")
           .number("ratio_test", &O::ratio_test, openBetween(0, 1, true, false),
                   "a keypoint match needs best / second-best Hamming distance below this.")
+          .evaluationOnly()
           .number("ransac_threshold_px", &O::ransac_threshold_px, above(0),
                   "RANSAC inlier threshold, pixels.")
+          .evaluationOnly()
           .integer("min_inliers", &O::min_inliers, between(8, 10000),
                    "fewer geometric inliers: the loop is refused.")
           .number("min_spread", &O::min_spread, between(0, 1),
@@ -296,18 +299,24 @@ const ParameterTable<VerificationOptions>& VerificationOptions::parameters() {
           .number("min_parallax_deg", &O::min_parallax_deg, openBetween(0, 90, false, true),
                   "median ray angle after rotation; below it (pure rotation) the translation is "
                   "undefined: the place is confirmed, without a pose.")
+          .evaluationOnly()
           .integer("orb_levels", &O::orb_levels, between(1, 8),
                    "ORB pyramid levels (scale 1.2); keypoints of coarser levels sit up to a pixel "
                    "off, which skews the pose, and revisits are seen at similar scale.")
+          .evaluationOnly()
           .integer("ambiguity_directions", &O::ambiguity_directions, between(0, 100000),
                    "translation directions over the half sphere where the best rotation is "
                    "fitted: directions the matches cannot rule out widen the covariance.")
+          .evaluationOnly()
           .number("keypoint_sigma_px", &O::keypoint_sigma_px, atLeast(0),
                   "keypoint noise assumed at least (pixels) in the covariance and that test.")
+          .evaluationOnly()
           .number("max_rotation_sd_deg", &O::max_rotation_sd_deg, above(0),
                   "larger rotation uncertainty: refused as \"pose ambiguous\".")
+          .evaluationOnly()
           .number("max_direction_sd_deg", &O::max_direction_sd_deg, above(0),
-                  "larger translation-direction uncertainty: refused the same way.");
+                  "larger translation-direction uncertainty: refused the same way.")
+          .evaluationOnly();
   return table;
 }
 

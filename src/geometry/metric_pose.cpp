@@ -182,7 +182,7 @@ PnpProblem subset(const PnpProblem& all, const std::vector<size_t>& indices) {
 const ParameterTable<MetricPoseOptions>& MetricPoseOptions::parameters() {
   using O = MetricPoseOptions;
   static const auto table =
-      ParameterTable<O>("metric_pose/",
+      ParameterTable<O>("advanced/metric_pose/",
                         "metric relative pose: keypoint depths of the match keyframe, then PnP.")
           .flag("triangulate_from_odometry", &O::triangulate_from_odometry,
                 "without a depth image, triangulate each keyframe's keypoints against the "
@@ -191,16 +191,21 @@ const ParameterTable<MetricPoseOptions>& MetricPoseOptions::parameters() {
           .number("min_triangulation_angle_deg", &O::min_triangulation_angle_deg,
                   openBetween(0, 90, true, true),
                   "rays meeting at a smaller angle give too noisy a depth.")
+          .evaluationOnly()
           .number("max_point_depth_m", &O::max_point_depth_m, above(0),
                   "farther points, and depth readings, are dropped.")
+          .evaluationOnly()
           .number("max_reprojection_px", &O::max_reprojection_px, above(0),
                   "a triangulated point must reproject this close in the other view; also the "
                   "PnP RANSAC inlier threshold.")
+          .evaluationOnly()
           .integer("min_inliers", &O::min_inliers, between(6, 10000),
                    "fewer PnP inliers: the loop keeps no metric pose (still verified).")
           .number("max_translation_sd_m", &O::max_translation_sd_m, above(0),
                   "larger uncertainty: no metric pose (see the candidate's detail).")
+          .evaluationOnly()
           .number("max_rotation_sd_deg", &O::max_rotation_sd_deg, above(0), "")
+          .evaluationOnly()
           .number("depth_image_metres_per_unit", &O::depth_image_metres_per_unit, above(0),
                   "16UC1 depth images (millimetres); 32FC1 ones are metres.")
           .number("depth_image_sd_per_m2", &O::depth_image_sd_per_m2, atLeast(0),

@@ -77,8 +77,10 @@ const ParameterTable<CameraMount>& CameraMount::parameters() {
   using O = CameraMount;
   static const auto table =
       ParameterTable<O>("camera_mount/",
-                        "where the camera sits on the robot (base_frame -> camera optical frame): "
-                        "turns the odometry's motion into the camera's, for triangulation, and "
+                        "where does the camera sit on the robot (base_frame -> camera optical "
+                        "frame)? Leave these unset when tf has that transform (a URDF, "
+                        "static_transform_publisher): it is looked up. The mount turns the "
+                        "odometry's motion into the camera's, for triangulation, and "
                         "camera-frame relative poses into base_frame ones.")
           .number("x", &O::x, anyFinite(),
                   "metres, in the odometry's body frame (x forward, y left, z up).")

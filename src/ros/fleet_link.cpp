@@ -45,7 +45,7 @@ std::optional<FleetEvidence> callWithTimeout(const std::string& name,
   std::unique_lock<std::mutex> lock(call->mutex);
   if (!call->done_signal.wait_for(lock, std::chrono::duration<double>(timeout_s),
                                   [&] { return call->done; })) {
-    *problem = "no answer within fleet/fetch_timeout_s";
+    *problem = "no answer within advanced/fleet/fetch_timeout_s";
     return std::nullopt;
   }
   if (!call->ok) {

@@ -64,7 +64,9 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
-  warnUnknownParameters(source, reader, private_node, "config/default.yaml");
+  for (const std::string& note : parameterNotes(source.keys(), reader)) {
+    ROS_WARN("Parameter %s/%s", private_node.getNamespace().c_str(), note.c_str());
+  }
   const std::string problems = reader.errors() + options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
   return options;
@@ -156,7 +158,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
           detector_.mapCheck().c_str(), detector_.session());
       if (detector_.mapKeyframesNotSearched() > 0 || detector_.overMemoryBudget()) {
         ROS_WARN(
-            "Map %s: its first %zu keyframes fill database/memory_budget_mb (%.0f MB; or its saved "
+            "Map %s: its first %zu keyframes fill advanced/database/memory_budget_mb (%.0f MB; or "
+            "its saved "
             "search graph covers them: delete %s-graph to build one within the budget) and are "
             "searched; %zu later ones stay in the map unsearched, and new keyframes are written "
             "to it unsearched (raise the budget to search them)",

@@ -18,6 +18,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "fleet_link.h"
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
 #include "landmark_loop_closure/config/node_options.h"
@@ -27,7 +28,6 @@
 #include "landmark_loop_closure/runtime/input_monitor.h"
 #include "landmark_loop_closure/runtime/odometry_history.h"
 #include "landmark_loop_closure/runtime/stamped_buffer.h"
-#include "fleet_link.h"
 #include "loop_markers.h"
 
 namespace landmark_loop_closure {
@@ -99,7 +99,7 @@ class LoopClosureNode {
   /// The depth image nearest `stamp` within sync_slop, waiting briefly for one still on its way;
   /// empty when none, or when it is not in `camera_frame` (unregistered) or unusable.
   cv::Mat depthFor(const ros::Time& stamp, const std::string& camera_frame);
-  /// camera_mount/from_tf: looks base_frame <- `camera_frame` up until tf has it.
+  /// advanced/camera_mount/from_tf: looks base_frame <- `camera_frame` up until tf has it.
   void updateCameraMount(const std::string& camera_frame);
   /// The loop's relative pose in the frame relative_pose_frame asks for, when possible; returns
   /// the frame it is in.
@@ -177,7 +177,7 @@ class LoopClosureNode {
   bool loop_shown_ = false;  ///< The match view holds the latest loop; worker thread only.
   LoopMarkers markers_;      // Thread-safe: the worker draws, a connecting viewer reads.
   std::unordered_map<uint64_t, ros::Time> keyframe_stamps_;  // With the detector held.
-  std::string keyframes_frame_id_;  ///< The last keyframe's odometry frame; detector held.
+  std::string keyframes_frame_id_;      ///< The last keyframe's odometry frame; detector held.
   std::string keyframes_camera_frame_;  ///< The last keyframe's image frame; detector held.
 
   // Database services.
@@ -219,7 +219,8 @@ class LoopClosureNode {
   std::string map_check_;                        ///< LoopDetector::mapCheck().
   std::string map_damage_;                       ///< LoopDetector::mapDamage().
 
-  // Other robots (fleet/): null without fleet/share and fleet/peers; stopped before the worker.
+  // Other robots (fleet/): null without advanced/fleet/share and advanced/fleet/peers; stopped
+  // before the worker.
   std::unique_ptr<FleetLink> fleet_;
   // The worker, its queue and the detector lock; started last, stopped first.
   std::unique_ptr<DetectorRuntime> runtime_;

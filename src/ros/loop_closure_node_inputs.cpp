@@ -24,7 +24,7 @@ void LoopClosureNode::onImageForOdometry(const sensor_msgs::ImageConstPtr& image
   if (pending_odometry_.size() > static_cast<size_t>(options_.sync_queue_size)) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Dropped image at %.3f: %d images wait for odometry after their stamps "
-                      "(sync_queue_size), the newest odometry is at %.3f",
+                      "(advanced/sync_queue_size), the newest odometry is at %.3f",
                       pending_odometry_.front()->header.stamp.toSec(), options_.sync_queue_size,
                       odometry_history_.newest());
     pending_odometry_.pop_front();
@@ -93,7 +93,7 @@ void LoopClosureNode::pairPendingWithOdometry() {
     if (lookup.status == OdometryAt::kGapTooLong) {
       ROS_WARN_THROTTLE(kWarningPeriod,
                         "Dropped image at %.3f: the odometry messages around it are %.3f s "
-                        "apart, more than odometry_max_interval %.3f",
+                        "apart, more than advanced/odometry_max_interval %.3f",
                         stamp, lookup.interval, options_.odometry_max_interval);
     } else {
       ROS_WARN_THROTTLE(kWarningPeriod,
@@ -182,7 +182,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   if (admitted.timeline_restarted_after_s) {
     ROS_WARN(
         "Time went back %.2f s (bag restarted or simulated clock reset): forgetting every "
-        "keyframe and starting over (time_jump_back: reset)",
+        "keyframe and starting over (advanced/time_jump_back: reset)",
         *admitted.timeline_restarted_after_s);
   }
   if (admitted.time_jump_after_frames_s) {
@@ -191,9 +191,10 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
         "Time jump: %d frames in a row were stamped before the last keyframe (%.2f s after this "
         "frame's %.3f s); %s",
         options_.time_jump_frames, *admitted.time_jump_after_frames_s, frame_stamp,
-        admitted.map_forgotten
-            ? "forgetting every keyframe and starting over from this frame (time_jump_back: reset)"
-            : "starting a new timeline from this frame, the map kept (time_jump_back: drop)");
+        admitted.map_forgotten ? "forgetting every keyframe and starting over from this frame "
+                                 "(advanced/time_jump_back: reset)"
+                               : "starting a new timeline from this frame, the map kept "
+                                 "(advanced/time_jump_back: drop)");
   }
   const FrameAdmission& admission = admitted.admission;
   if (admission.error) {
@@ -212,7 +213,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     ++odometry_jumps_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Odometry jumped: motion %.2f since the last keyframe exceeds "
-                      "keyframe/max_motion %.2f; frame refused (tracking lost?)",
+                      "advanced/keyframe/max_motion %.2f; frame refused (tracking lost?)",
                       selection.motion, options_.detector.keyframe.max_motion);
     return;
   }
@@ -227,7 +228,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   if (admitted.dropped_oldest) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Worker cannot keep up: dropped the oldest queued keyframe (%lu dropped so "
-                      "far); raise worker_queue_size or keyframe/min_motion",
+                      "far); raise advanced/worker_queue_size or advanced/keyframe/min_motion",
                       static_cast<unsigned long>(runtime_->keyframesDropped()));
   }
 }
@@ -307,10 +308,11 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
     return {};
   }
   if (!nearest) {
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "No depth image within sync_slop %.3f s of the keyframe at %.3f: its "
-                      "keypoint depths are triangulated instead (if enabled)",
-                      options_.sync_slop, stamp.toSec());
+    ROS_WARN_THROTTLE(
+        kWarningPeriod,
+        "No depth image within advanced/sync_slop %.3f s of the keyframe at %.3f: its "
+        "keypoint depths are triangulated instead (if enabled)",
+        options_.sync_slop, stamp.toSec());
     return {};
   }
   std::string error;
@@ -359,18 +361,20 @@ void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
       return;
     }
   } else if (camera_frame.empty()) {
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "Images carry no frame_id, so camera_mount/from_tf cannot look the camera "
-                      "up in tf: keypoint depths are not triangulated");
+    ROS_WARN_THROTTLE(
+        kWarningPeriod,
+        "Images carry no frame_id, so advanced/camera_mount/from_tf cannot look the camera "
+        "up in tf: keypoint depths are not triangulated");
     return;
   }
   std::string error;
   if (!tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
     detector_.setCameraMount(std::nullopt);
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "No tf %s -> %s yet for camera_mount/from_tf (%s): keypoint depths are not "
-                      "triangulated until it comes",
-                      options_.base_frame.c_str(), camera_frame.c_str(), error.c_str());
+    ROS_WARN_THROTTLE(
+        kWarningPeriod,
+        "No tf %s -> %s yet for advanced/camera_mount/from_tf (%s): keypoint depths are not "
+        "triangulated until it comes",
+        options_.base_frame.c_str(), camera_frame.c_str(), error.c_str());
     return;
   }
   const Pose mount = Pose::fromIsometry(tf2::transformToEigen(

@@ -93,7 +93,7 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
   if (!mount) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Relative pose left in the camera frame %s: the camera mount is not known "
-                      "yet (camera_mount/from_tf)",
+                      "yet (advanced/camera_mount/from_tf)",
                       camera_frame.c_str());
     return camera_frame;
   }

@@ -64,7 +64,11 @@ void takeDetectorsMount(const ros::NodeHandle& node, PoseGraphNodeOptions* optio
   detector.param("camera_mount/roll", mount.roll, mount.roll);
   detector.param("camera_mount/pitch", mount.pitch, mount.pitch);
   detector.param("camera_mount/yaw", mount.yaw, mount.yaw);
-  detector.param("camera_mount/from_tf", from_tf, false);
+  // The detector's file has it under advanced/ (its name before that still read, as the
+  // detector reads it).
+  if (!detector.getParam("advanced/camera_mount/from_tf", from_tf)) {
+    detector.param("camera_mount/from_tf", from_tf, false);
+  }
   if (const std::string problem = mount.validate(); !problem.empty()) {
     ROS_ERROR(
         "Pose graph: the detector %s's camera_mount is not usable (%s); this node's own "

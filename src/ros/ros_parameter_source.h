@@ -26,7 +26,7 @@ class RosParameterSource : public ParameterSource {
   ParameterLookup get(const std::string& key, bool* value) const override;
   ParameterLookup get(const std::string& key, std::string* value) const override;
 
-  /// Keys set under the node handle's namespace, relative to it ("keyframe/min_motion").
+  /// Keys set under the node handle's namespace, relative to it ("advanced/keyframe/min_motion").
   std::vector<std::string> keys() const;
 
  private:

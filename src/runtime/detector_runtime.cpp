@@ -32,8 +32,8 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
     std::ostringstream message;
     message.precision(3);
     message << std::fixed << "stamp " << frame.stamp << " s is " << frame.stamp - frame.clock
-            << " s ahead of the clock (" << frame.clock << " s); more than max_stamp_ahead_s "
-            << options_.max_stamp_ahead_s;
+            << " s ahead of the clock (" << frame.clock
+            << " s); more than advanced/max_stamp_ahead_s " << options_.max_stamp_ahead_s;
     result.admission.error = InputError{InputErrorCode::kStampInFuture, message.str()};
     return result;
   }

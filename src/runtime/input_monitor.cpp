@@ -55,13 +55,14 @@ std::string InputMonitor::unpaired(double now) const {
   const bool both_arrive = now - last_image_ <= timeout && now - last_pose_ <= timeout;
   if (!both_arrive || now - last_paired_ <= timeout) return "";
   char text[400];
-  std::snprintf(text, sizeof(text),
-                "Images and odometry arrive but none paired for %.0f s: newest image stamp %.3f, "
-                "newest odometry stamp %.3f (%.3f s apart); an image needs odometry around its "
-                "stamp (messages at most odometry_max_interval %.3f s apart), so frames are "
-                "dropped until their stamps agree",
-                timeout, newest_image_stamp_, newest_pose_stamp_,
-                std::abs(newest_image_stamp_ - newest_pose_stamp_), options_.max_interval_s);
+  std::snprintf(
+      text, sizeof(text),
+      "Images and odometry arrive but none paired for %.0f s: newest image stamp %.3f, "
+      "newest odometry stamp %.3f (%.3f s apart); an image needs odometry around its "
+      "stamp (messages at most advanced/odometry_max_interval %.3f s apart), so frames are "
+      "dropped until their stamps agree",
+      timeout, newest_image_stamp_, newest_pose_stamp_,
+      std::abs(newest_image_stamp_ - newest_pose_stamp_), options_.max_interval_s);
   return text;
 }
 

@@ -29,11 +29,8 @@ namespace {
 
 void warnUnknownKeys(const YamlParameterSource& source, const OptionReader& reader,
                      const std::string& path) {
-  for (const std::string& key : source.keys()) {
-    if (!reader.isKnown(key)) {
-      std::fprintf(stderr, "lcd_evaluate: %s: unknown parameter %s ignored\n", path.c_str(),
-                   key.c_str());
-    }
+  for (const std::string& note : parameterNotes(source.keys(), reader)) {
+    std::fprintf(stderr, "lcd_evaluate: %s: %s\n", path.c_str(), note.c_str());
   }
 }
 
@@ -42,7 +39,7 @@ NodeOptions readConfig(const std::string& path) {
   if (path.empty()) return node;
   const YamlParameterSource source = YamlParameterSource::fromFile(path);
   OptionReader reader(source);
-  readNodeOptions(&reader, &node);
+  readEvaluationOptions(&reader, &node);
   warnUnknownKeys(source, reader, path);
   const std::string problems = reader.errors() + node.validate();
   if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);

@@ -11,6 +11,7 @@
 #include <memory>
 #include <sstream>
 
+#include "landmark_loop_closure/descriptors/model_description.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 namespace landmark_loop_closure {
@@ -97,6 +98,15 @@ Variant descriptorVariant(const std::string& name, const Arguments& arguments,
   options.broad.model = arguments.get("--broad-model", options.broad.model);
   options.backbone.model = arguments.get("--backbone-model", options.backbone.model);
   options.backbone.vocabulary = arguments.get("--vocabulary", options.backbone.vocabulary);
+  // A network named here brings its preprocessing in its description (MODEL.json).
+  for (const char* network_type : {"backbone", "cnn_pca"}) {
+    DescriptorOptions described = options;
+    described.type = network_type;
+    const std::string problem = applyModelDescriptions(&described);
+    if (!problem.empty()) throw std::invalid_argument(problem);
+    options.backbone = described.backbone;
+    options.cnn = described.cnn;
+  }
   // Training settings are this tool's, not the descriptor's: "_pcaN" whitens any global vector,
   // "cnn_pca_cN" keeps N whitened dimensions, "broad_eN" trains N enhancement nodes.
   const DescriptorType* type = descriptorTypeOfVariant(name);

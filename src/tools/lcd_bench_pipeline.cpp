@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
       sequences.score(
           database, *extractor, [](size_t) { return true; }, &sequence_candidates);
       const double sequence_ms = millisecondsSince(sequence_start);
-      // acceptance/max_false_alarms (on by default): the map's places scored as candidates
+      // advanced/acceptance/max_false_alarms (on by default): the map's places scored as candidates
       // and the tail fitted to them.
       const Clock::time_point calibration_start = Clock::now();
       const ScoreBackground background =
@@ -217,9 +217,10 @@ int main(int argc, char** argv) {
                  describe_ms);
       stages.add("shortlist (exact search)", shortlist_ms);
       stages.add("re-rank top-K", rerank_ms);
-      stages.add("sequence scoring (acceptance/sequence_length)", sequence_ms);
+      stages.add("sequence scoring (advanced/acceptance/sequence_length)", sequence_ms);
       stages.add("thumbnail (WebP)", thumbnail_ms);
-      stages.add("calibrated decision's background (acceptance/max_false_alarms)", calibration_ms);
+      stages.add("calibrated decision's background (advanced/acceptance/max_false_alarms)",
+                 calibration_ms);
       stages.add("total per keyframe", total_ms);
       stages.add("appearance check, when a candidate reaches it", appearance_ms);
     }

@@ -25,9 +25,7 @@ int check(const std::vector<std::string>& paths) {
       NodeOptions options;
       readNodeOptions(&reader, &options);
       std::string report = reader.errors();
-      for (const std::string& key : source.keys()) {
-        if (!reader.isKnown(key)) report += key + " is not a parameter of the node\n";
-      }
+      for (const std::string& note : parameterNotes(source.keys(), reader)) report += note + "\n";
       report += options.validate();
       if (report.empty()) {
         std::cout << path << ": ok\n";

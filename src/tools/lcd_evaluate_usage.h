@@ -33,7 +33,7 @@ DETECTOR MODE (--images, --as-sequence, --corridor, --bag):
                        search, acceptance, temporal consistency or sequence matching, odometry gate,
                        geometric check when the source has intrinsics) and the loops it publishes
                        are scored: precision, recall and R@100P over a sweep of
-                       acceptance/min_score, refusals by stage, time per keyframe
+                       advanced/acceptance/min_score, refusals by stage, time per keyframe
   --config FILE        the node's parameters (default: the built-in defaults = config/default.yaml);
                        --descriptors then replaces its descriptor (default: the config's own)
   --sweep-steps N      thresholds on the sweep's grid (default 16; 0 = the configured threshold
@@ -117,7 +117,7 @@ OPTIONS:
   --model FILE         ONNX encoder for calc and landmarks (default: the package's)
   --backbone-model FILE   backbone's network (default: the package's model/mobilenet_v2.onnx)
   --vocabulary FILE    backbone's VLAD vocabulary (lcd_train vocabulary; default: none, the grid)
-  --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (descriptor/cnn defaults otherwise)
+  --cnn-model FILE --cnn-whitening FILE   cnn_pca's network (advanced/descriptor/cnn defaults otherwise)
                        and whitening; without a whitening file it is fitted on the training
                        images and written to the output folder
   --broad-model FILE   broad's model; without one it is trained on the training images
@@ -129,7 +129,7 @@ OPTIONS:
   --image-width W      scale every image to W px wide first (aspect kept, area averaging):
                        how a smaller camera sees the same route
   --condition-window N standardise each traversal's global vectors as the node does
-                       (descriptor/condition_window: less the mean of the last N, in list order;
+                       (advanced/descriptor/condition_window: less the mean of the last N, in list order;
                        the database's first N-1 by its first full window's, as a mapping run
                        stores them; a query standardised to zeros matches nothing, a miss);
                        default 0, the descriptors as described (VPR-Bench's way)
@@ -137,7 +137,7 @@ OPTIONS:
                        --config, default config/default.yaml): with --camera-info ORB's
                        geometric check (verification/) first, as the node checks a loop with
                        camera intrinsics; where ORB does not confirm the place, or without
-                       --camera-info, the appearance check (verification/appearance) on the
+                       --camera-info, the appearance check (advanced/verification/appearance) on the
                        thumbnails the node keeps. A match they refuse ranks below every other
                        (the node would not publish it); recall@1 is unchanged. Inliers and
                        refusals go to matches_<name>.csv

@@ -212,15 +212,15 @@ int main(int argc, char** argv) {
   std::map<std::string, std::string> values;
   CLI::App* whitening = app.add_subcommand(
       "whitening",
-      "PCA whitening of descriptor/cnn's layer (type cnn_pca), written beside the model "
+      "PCA whitening of advanced/descriptor/cnn's layer (type cnn_pca), written beside the model "
       "(MODEL.whitening, where the node looks by default) or to --output");
   CLI::App* broad = app.add_subcommand(
       "broad", "a broad autoencoder (type broad) written to --output (default broad.model)");
   CLI::App* vocabulary = app.add_subcommand(
       "vocabulary",
-      "a VLAD vocabulary of descriptor/backbone's layer (k-means of its local features) written "
-      "to --output (required; an existing file is not replaced); the node uses it with "
-      "descriptor/backbone/vocabulary");
+      "a VLAD vocabulary of the backbone's layer (k-means of its local features) written to "
+      "--output (required; an existing file is not replaced); lcd_evaluate --vocabulary uses it "
+      "(VLAD was measured against the grid and not kept in the node)");
   for (CLI::App* command : {whitening, broad, vocabulary}) {
     tools::addTextOptions(command, kCommonOptions, &values);
   }

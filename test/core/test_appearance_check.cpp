@@ -106,7 +106,8 @@ TEST(AppearanceCheck, OptionsSayWhatIsWrong) {
   AppearanceCheckOptions options;
   EXPECT_EQ(options.validate(), "");
   options.min_inliers = 2;
-  EXPECT_NE(options.validate().find("verification/appearance/min_inliers"), std::string::npos);
+  EXPECT_NE(options.validate().find("advanced/verification/appearance/min_inliers"),
+            std::string::npos);
   options = {};
   options.ransac_threshold_cells = 0.0;
   EXPECT_NE(options.validate().find("ransac_threshold_cells"), std::string::npos);

@@ -337,9 +337,9 @@ TEST(BackboneOptions, ValidateNamesEveryBadValue) {
   options.backbone.hog_weight = 1.5;
   options.backbone.mean = "0 0";
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("descriptor/backbone/grid_rows"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("descriptor/backbone/hog_weight"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("descriptor/backbone/mean"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/descriptor/backbone/grid_rows"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/descriptor/backbone/hog_weight"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("mobilenet_v2.onnx.json: mean"), std::string::npos) << errors;
 }
 
 TEST(BackboneOptions, FallsBackToThePackagesEncoderOnlyWhenTheBackboneWasNeverFetched) {

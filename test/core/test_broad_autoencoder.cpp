@@ -130,7 +130,7 @@ TEST(BroadTrainer, SameSeedSameModelAndBadInputRefused) {
   EXPECT_THROW(trainer.addOutputNodes(3), std::logic_error);  // Not trained yet.
   BroadOptions bad = smallOptions();
   bad.enhancement_nodes = 0;
-  EXPECT_NE(bad.validate().find("descriptor/broad/enhancement_nodes"), std::string::npos);
+  EXPECT_NE(bad.validate().find("advanced/descriptor/broad/enhancement_nodes"), std::string::npos);
   EXPECT_THROW(BroadTrainer{bad}, std::invalid_argument);
 }
 

@@ -218,10 +218,10 @@ TEST(CnnGlobalDescriptorPackageModel, DescribesWithThePackagesEncoder) {
 
   DescriptorOptions bad = options;
   bad.cnn.colour = "rgb";  // Three channels, but mean and std give one value.
-  EXPECT_NE(bad.validate().find("descriptor/cnn/mean"), std::string::npos);
+  EXPECT_NE(bad.validate().find(".onnx.json: mean"), std::string::npos);
   bad = options;
   bad.cnn.pooling = "median";
-  EXPECT_NE(bad.validate().find("descriptor/cnn/pooling"), std::string::npos);
+  EXPECT_NE(bad.validate().find("advanced/descriptor/cnn/pooling"), std::string::npos);
   // Identity changes with the whitening and the layer, so databases are not mixed.
   DescriptorOptions other = options;
   other.cnn.layer = "conv2";

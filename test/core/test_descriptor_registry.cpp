@@ -1,6 +1,7 @@
 // The descriptor registry: one entry per type, found by name and by variant name, and the
 // functions the node and the tools call (types, validation, identity, factory) answer from it.
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <set>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 
 #include "file_bytes.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
+#include "landmark_loop_closure/descriptors/model_description.h"
 #include "landmark_loop_closure/descriptors/registry.h"
 
 using namespace landmark_loop_closure;
@@ -62,17 +64,17 @@ TEST(DescriptorRegistry, UnknownTypesAreRefusedNamingEveryKnownOne) {
 TEST(DescriptorRegistry, TypeSpecificValidationComesFromTheEntry) {
   DescriptorOptions options;
   options.type = "broad";
-  EXPECT_NE(options.validate().find("descriptor/broad/model is empty"), std::string::npos);
+  EXPECT_NE(options.validate().find("advanced/descriptor/broad/model is empty"), std::string::npos);
   options.type = "cnn_pca";
   options.cnn.colour = "cmyk";
-  EXPECT_NE(options.validate().find("descriptor/cnn/colour"), std::string::npos);
+  EXPECT_NE(options.validate().find("calc_encoder.onnx.json: colour"), std::string::npos);
   options.type = "backbone";
   options.backbone.colour = "cmyk";
   options.backbone.grid_rows = 40;
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("descriptor/backbone/colour"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("descriptor/backbone/grid_rows"), std::string::npos) << errors;
-  EXPECT_EQ(errors.find("descriptor/cnn/"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("mobilenet_v2.onnx.json: colour"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/descriptor/backbone/grid_rows"), std::string::npos) << errors;
+  EXPECT_EQ(errors.find("calc_encoder.onnx.json"), std::string::npos) << errors;
 }
 
 TEST(DescriptorRegistry, KeysTheChosenTypeDoesNotReadAreNamedWhenSet) {
@@ -80,23 +82,23 @@ TEST(DescriptorRegistry, KeysTheChosenTypeDoesNotReadAreNamedWhenSet) {
   DescriptorOptions options;
   EXPECT_EQ(ignoredDescriptorParameters(options), Keys{}) << "defaults are never 'set'";
   options.model = "/tmp/garbage.onnx";  // The package's encoder: the backbone never reads it.
-  options.backbone.layer = "block_13_expand";
+  options.backbone.grid_rows = 2;
   options.max_landmark_area = 0.4;  // The backbone's landmark boxes use it.
   options.condition_window = 5;
-  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"descriptor/model"});
+  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"advanced/descriptor/model"});
   options.type = "landmarks";
-  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"descriptor/backbone/layer"});
+  EXPECT_EQ(ignoredDescriptorParameters(options), Keys{"advanced/descriptor/backbone/grid_rows"});
   options.type = "hog";
-  EXPECT_EQ(
-      ignoredDescriptorParameters(options),
-      (Keys{"descriptor/model", "descriptor/max_landmark_area", "descriptor/backbone/layer"}));
+  EXPECT_EQ(ignoredDescriptorParameters(options),
+            (Keys{"advanced/descriptor/model", "advanced/descriptor/max_landmark_area",
+                  "advanced/descriptor/backbone/grid_rows"}));
   DescriptorOptions cnn;
   cnn.type = "cnn_pca";
   cnn.cnn.model = "/tmp/resnet.onnx";
   cnn.broad.model = "/tmp/broad.model";
-  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"descriptor/broad/model"});
+  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"advanced/descriptor/broad/model"});
   cnn.type = "broad";
-  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"descriptor/cnn/model"});
+  EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{"advanced/descriptor/cnn/model"});
   cnn.type = "no_such_type";
   EXPECT_EQ(ignoredDescriptorParameters(cnn), Keys{}) << "validate() names an unknown type";
 }
@@ -183,4 +185,81 @@ TEST(DescriptorIdentity, ChangesWithEverySettingThatShapesDescriptorsAndWithTheM
   writeBytes(copy, model);
   EXPECT_NE(descriptorIdentity(backbone), backbone_identity);
   fs::remove(copy);
+}
+
+// A network's preprocessing is a property of its file: the package's two are described beside
+// them with the options' defaults, and a network of one's own brings its description or is
+// refused with a line saying what to write.
+TEST(ModelDescription, ThePackagesNetworksAreDescribedWithTheDefaults) {
+  const fs::path models = fs::path(PACKAGE_SOURCE_DIR) / "model";
+  const auto backbone = readModelDescription((models / "mobilenet_v2.onnx").string());
+  ASSERT_TRUE(backbone.has_value());
+  const DescriptorOptions::Backbone backbone_defaults;
+  EXPECT_EQ(backbone->input_width, backbone_defaults.input_width);
+  EXPECT_EQ(backbone->input_height, backbone_defaults.input_height);
+  EXPECT_EQ(backbone->colour, backbone_defaults.colour);
+  EXPECT_EQ(backbone->mean, backbone_defaults.mean);
+  EXPECT_EQ(backbone->std, backbone_defaults.std);
+  EXPECT_EQ(backbone->layer, backbone_defaults.layer);
+  EXPECT_EQ(backbone->proposal_layer, backbone_defaults.proposal_layer);
+  const auto encoder = readModelDescription((models / "calc_encoder.onnx").string());
+  ASSERT_TRUE(encoder.has_value());
+  const DescriptorOptions::Cnn cnn_defaults;
+  EXPECT_EQ(encoder->input_width, cnn_defaults.input_width);
+  EXPECT_EQ(encoder->input_height, cnn_defaults.input_height);
+  EXPECT_EQ(encoder->colour, cnn_defaults.colour);
+  EXPECT_EQ(encoder->mean, cnn_defaults.mean);
+  EXPECT_EQ(encoder->std, cnn_defaults.std);
+  EXPECT_EQ(encoder->layer, cnn_defaults.layer);
+}
+
+TEST(ModelDescription, AnOwnNetworkBringsItsPreprocessingOrIsRefused) {
+  const fs::path folder = fs::temp_directory_path() / "lcd_model_description";
+  fs::create_directories(folder);
+  const std::string model = (folder / "resnet50.onnx").string();
+  std::ofstream(model) << "stands in for a network";
+  fs::remove(model + ".json");
+  DescriptorOptions options;
+  options.type = "cnn_pca";
+  options.cnn.model = model;
+  std::string problem = applyModelDescriptions(&options);
+  EXPECT_NE(problem.find(model + " has no description " + model + ".json"), std::string::npos)
+      << problem;
+
+  std::ofstream(model + ".json") << R"({"input_width": 224, "input_height": 224, "colour": "rgb",
+             "mean": [0.485, 0.456, 0.406], "std": [0.229, 0.224, 0.225], "layer": "features"})";
+  ASSERT_EQ(applyModelDescriptions(&options), "");
+  EXPECT_EQ(options.cnn.input_width, 224);
+  EXPECT_EQ(options.cnn.colour, "rgb");
+  EXPECT_EQ(options.cnn.mean, "0.485 0.456 0.406");
+  EXPECT_EQ(options.cnn.std, "0.229 0.224 0.225");
+  EXPECT_EQ(options.cnn.layer, "features");
+  EXPECT_EQ(options.validate(), "");
+
+  for (const auto& [text, expected] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"input_width": 224})", "'input_height' is missing"},
+           {R"({"input_width": 224, "input_height": 224, "colour": "cmyk", "mean": [0],
+                "std": [1], "layer": "x"})",
+            "'colour' must be rgb, bgr or grey (got 'cmyk')"},
+           {R"({"input_width": 2, "input_height": 224})", "'input_width' must be a whole number"},
+           {"not json at all", model + ".json"}}) {
+    SCOPED_TRACE(text);
+    std::ofstream(model + ".json") << text;
+    DescriptorOptions broken;
+    broken.type = "cnn_pca";
+    broken.cnn.model = model;
+    problem = applyModelDescriptions(&broken);
+    EXPECT_NE(problem.find(expected), std::string::npos) << problem;
+    EXPECT_NE(problem.find(model + ".json"), std::string::npos) << problem;
+  }
+  // A description with three means for a grey network: validate() names the file.
+  std::ofstream(model + ".json") << R"({"input_width": 160, "input_height": 120, "colour": "grey",
+      "mean": [0, 0, 0], "std": [1], "layer": "conv3"})";
+  DescriptorOptions grey;
+  grey.type = "cnn_pca";
+  grey.cnn.model = model;
+  ASSERT_EQ(applyModelDescriptions(&grey), "");
+  EXPECT_NE(grey.validate().find(model + ".json: mean must be 1 number"), std::string::npos)
+      << grey.validate();
+  fs::remove_all(folder);
 }

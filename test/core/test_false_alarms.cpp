@@ -173,7 +173,7 @@ struct Drive {
 struct Odometry {
   bool gate = false;          ///< odometry_gate on.
   bool came_back = false;     ///< The revisit's odometry at the places' own poses (else 30 m on).
-  double within_reach = 0.0;  ///< acceptance/max_false_alarms_within_reach.
+  double within_reach = 0.0;  ///< advanced/acceptance/max_false_alarms_within_reach.
 };
 
 Drive drive(bool bays, double max_false_alarms, const Odometry& odometry = {}) {

@@ -178,7 +178,7 @@ TEST(FleetMatcher, OwnRowsRepeatsAndRowsPastTheBoundAreNotKept) {
   for (uint64_t id = 0; id < 3; ++id) EXPECT_EQ(matcher.addRow(row("a", 1, id, 0), 0.0, 2), "");
   EXPECT_EQ(matcher.addRow(row("a", 1, 1, 0), 0.0, 2), "");  // Sent again after a restart.
   const std::string past = matcher.addRow(row("a", 1, 3, 0), 0.0, 2);
-  EXPECT_NE(past.find("robot 'a' has shared 3 keyframes, fleet/max_rows_per_robot"),
+  EXPECT_NE(past.find("robot 'a' has shared 3 keyframes, advanced/fleet/max_rows_per_robot"),
             std::string::npos)
       << past;
   EXPECT_EQ(matcher.addRow(row("a", 1, 4, 0), 0.0, 2), "");  // Said once.

@@ -72,7 +72,8 @@ TEST(CheckTexture, RefusesUniformImagesOfEveryKind) {
   cv::randn(noisy, 20, 1);
   const auto error = checkTexture(noisy, limits);
   ASSERT_TRUE(error);
-  EXPECT_NE(error->message.find("input/min_image_contrast"), std::string::npos) << error->message;
+  EXPECT_NE(error->message.find("advanced/input/min_image_contrast"), std::string::npos)
+      << error->message;
 }
 
 TEST(CheckTexture, RefusesADarkFrameWhateverALampOrALogoAddsToIt) {

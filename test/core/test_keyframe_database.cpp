@@ -195,7 +195,7 @@ TEST(DatabaseOptions, ValidateNamesTheKey) {
   EXPECT_EQ(DatabaseOptions{}.validate(), "");
   DatabaseOptions options;
   options.top_k = 0;
-  EXPECT_NE(options.validate().find("database/top_k"), std::string::npos);
+  EXPECT_NE(options.validate().find("advanced/database/top_k"), std::string::npos);
 }
 
 namespace {
@@ -357,7 +357,7 @@ TEST(IndexOptions, ValidateNamesTheKey) {
   options.neighbors = 2;
   options.ef_search = 0;
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("database/index/type"), std::string::npos);
-  EXPECT_NE(errors.find("database/index/neighbors"), std::string::npos);
-  EXPECT_NE(errors.find("database/index/ef_search"), std::string::npos);
+  EXPECT_NE(errors.find("advanced/database/index/type"), std::string::npos);
+  EXPECT_NE(errors.find("advanced/database/index/neighbors"), std::string::npos);
+  EXPECT_NE(errors.find("advanced/database/index/ef_search"), std::string::npos);
 }

@@ -121,7 +121,7 @@ TEST(KeyframeSelectorOptions, ValidateNamesEachProblem) {
   options.translation_weight = 0.0;
   options.rotation_weight = 0.0;
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("keyframe/max_motion"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("keyframe/max_time_gap"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("keyframe/translation_weight"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/keyframe/max_motion"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/keyframe/max_time_gap"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/keyframe/translation_weight"), std::string::npos) << errors;
 }

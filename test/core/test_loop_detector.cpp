@@ -173,7 +173,7 @@ TEST(LoopDetector, PastTheMemoryBudgetWithoutAMapFileKeyframesAreSearchedButNotS
   EXPECT_EQ(last.keyframe->loop->match_id, 12u);
   EXPECT_EQ(detector.database().size(), 40u);
   options.database.memory_budget_mb = -1.0;
-  EXPECT_NE(options.validate().find("database/memory_budget_mb"), std::string::npos);
+  EXPECT_NE(options.validate().find("advanced/database/memory_budget_mb"), std::string::npos);
 }
 
 TEST(LoopDetector, OdometryGateRefusesALoopTheOdometryCannotHaveDriftedInto) {
@@ -330,9 +330,9 @@ TEST(LoopDetector, AcceptanceOptionsAreValidated) {
   }
 }
 
-// With descriptor/condition_window on, what is searched and stored is each keyframe's vector less
-// the mean of the last N keyframes: a revisit still finds its place (its own part stays), and the
-// window is part of the identity a map is checked against.
+// With advanced/descriptor/condition_window on, what is searched and stored is each keyframe's
+// vector less the mean of the last N keyframes: a revisit still finds its place (its own part
+// stays), and the window is part of the identity a map is checked against.
 TEST(LoopDetector, ConditionWindowStandardisesWhatIsSearchedAndStored) {
   LoopDetectorOptions options = smallOptions();
   options.descriptor.condition_window = 4;

@@ -376,8 +376,8 @@ std::vector<cv::Mat> firstLapImages() {
 
 }  // namespace
 
-// The two other methods, chosen by descriptor/type alone, through the same detector; each is
-// trained on the first lap without labels (whitening fitted, broad autoencoder trained).
+// The two other methods, chosen by advanced/descriptor/type alone, through the same detector; each
+// is trained on the first lap without labels (whitening fitted, broad autoencoder trained).
 TEST(LoopDetectorOnCorridor, LearnedDescriptorsAtTheirThresholdsGiveOnlyTrueLoops) {
   const std::vector<cv::Mat> training = firstLapImages();
   const std::string folder = ::testing::TempDir();

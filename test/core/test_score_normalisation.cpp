@@ -62,7 +62,8 @@ TEST(ScoreNormalisationOptions, OnlyZScoreWorksWithSequenceMatching) {
   for (const ScoreNormalisation single :
        {ScoreNormalisation::kPreviousKeyframe, ScoreNormalisation::kLocalContrast}) {
     options.score_normalisation = single;
-    EXPECT_NE(options.validate().find("need acceptance/sequence_length 1"), std::string::npos)
+    EXPECT_NE(options.validate().find("need advanced/acceptance/sequence_length 1"),
+              std::string::npos)
         << options.validate();
   }
 }
@@ -81,7 +82,8 @@ TEST(ScoreNormalisationOptions, MinScoreAboveOneOnlyForStandardisedScores) {
   AcceptanceOptions options;
   options.sequence.length = 1;
   options.min_score = 3.0;
-  EXPECT_NE(options.validate().find("acceptance/min_score 3 is above 1"), std::string::npos)
+  EXPECT_NE(options.validate().find("advanced/acceptance/min_score 3 is above 1"),
+            std::string::npos)
       << options.validate();
   options.score_normalisation = ScoreNormalisation::kPreviousKeyframe;
   EXPECT_FALSE(options.validate().empty());

@@ -1,5 +1,6 @@
 // Every shipped config file must load into NodeOptions without unknown keys or type errors and
 // validate; config/default.yaml must be exactly what the parameter declarations render.
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -55,13 +56,133 @@ TEST(ShippedConfig, EveryFileLoadsAndValidates) {
 
 TEST(YamlParameterSource, ReportsWrongTypesAndKeepsDefaults) {
   const YamlParameterSource source(
-      YAML::Load("keyframe: {min_motion: fast}\nsync_queue_size: 2.5\n"));
+      YAML::Load("advanced: {keyframe: {min_motion: fast}, sync_queue_size: 2.5}\n"));
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
-  EXPECT_NE(reader.errors().find("keyframe/min_motion must be a number"), std::string::npos);
-  EXPECT_NE(reader.errors().find("sync_queue_size must be an integer"), std::string::npos);
+  EXPECT_NE(reader.errors().find("advanced/keyframe/min_motion must be a number"),
+            std::string::npos);
+  EXPECT_NE(reader.errors().find("advanced/sync_queue_size must be an integer"), std::string::npos);
   EXPECT_EQ(options.detector.keyframe.min_motion, NodeOptions{}.detector.keyframe.min_motion);
+}
+
+TEST(ShippedConfig, TheRobotBlockHasAtMostTwelveKeysEachAQuestionAndTheRestIsAdvanced) {
+  std::vector<DocumentedParameter> parameters;
+  NodeOptions::parameters().document(NodeOptions{}, &parameters);
+  size_t robot_keys = 0, advanced_keys = 0;
+  bool advanced_started = false;
+  for (const DocumentedParameter& parameter : parameters) {
+    if (parameter.kind != DocumentedParameter::Kind::kValue || parameter.evaluation_only) continue;
+    if (parameter.key.rfind("advanced/", 0) == 0) {
+      advanced_started = true;
+      ++advanced_keys;
+      continue;
+    }
+    EXPECT_FALSE(advanced_started) << parameter.key << " comes after the advanced keys";
+    ++robot_keys;
+    // Each robot key (or its map, for camera_mount) says which question it answers.
+    const bool in_mount = parameter.key.rfind("camera_mount/", 0) == 0;
+    EXPECT_TRUE(in_mount || parameter.doc.find('?') != std::string::npos) << parameter.key;
+  }
+  EXPECT_LE(robot_keys, 12u);
+  EXPECT_GE(robot_keys, 10u);
+  EXPECT_GT(advanced_keys, 50u);
+  // The rendered file: the robot block first, then one `advanced:` map.
+  const std::string yaml = documentedDefaultsYaml();
+  EXPECT_LT(yaml.find("\ndatabase_path:"), yaml.find("\nadvanced:"));
+  EXPECT_LT(yaml.find("\ncamera_mount:"), yaml.find("\nadvanced:"));
+}
+
+// A file written for the layout before `advanced/` (the user's own overrides, loaded after the
+// shipped file) still loads: every moved key is read from its old name, which wins over the
+// shipped value, and named with its new one.
+TEST(NodeOptions, AFileOfTheEarlierLayoutStillLoadsAndEachMovedKeyIsNamed) {
+  const YamlParameterSource source(
+      YAML::Load("keyframe: {min_motion: 0.9}\nworker_queue_size: 20\nuse_depth: true\n"
+                 "advanced: {keyframe: {min_motion: 0.2}}\nacceptance: {min_scor: 0.2}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  EXPECT_DOUBLE_EQ(options.detector.keyframe.min_motion, 0.9);
+  EXPECT_EQ(options.worker_queue_size, 20);
+  EXPECT_TRUE(options.use_depth);
+  const std::vector<std::string> notes = parameterNotes(source.keys(), reader);
+  const auto has = [&notes](const std::string& text) {
+    return std::any_of(notes.begin(), notes.end(), [&text](const std::string& note) {
+      return note.find(text) != std::string::npos;
+    });
+  };
+  EXPECT_TRUE(has("keyframe/min_motion moved: it is now advanced/keyframe/min_motion"));
+  EXPECT_TRUE(has("worker_queue_size moved: it is now advanced/worker_queue_size"));
+  EXPECT_TRUE(has("acceptance/min_scor is not a parameter of the node"));
+  EXPECT_EQ(notes.size(), 3u) << "use_depth kept its name; advanced/keyframe/min_motion is read";
+}
+
+TEST(NodeOptions, EveryKeyOfTheEarlierDefaultFileIsNamedWhereItWent) {
+  // The shipped file of before, rebuilt from today's declarations under the old names.
+  std::vector<DocumentedParameter> parameters;
+  NodeOptions::parameters().document(NodeOptions{}, &parameters);
+  YAML::Node old_layout(YAML::NodeType::Map);
+  size_t moved = 0;
+  for (const DocumentedParameter& parameter : parameters) {
+    if (parameter.kind != DocumentedParameter::Kind::kValue || parameter.evaluation_only) continue;
+    const std::string old_name = oldParameterName(parameter.key);
+    moved += old_name.empty() ? 0 : 1;
+    std::vector<std::string> parts;
+    std::stringstream path(old_name.empty() ? parameter.key : old_name);
+    for (std::string part; std::getline(path, part, '/');) parts.push_back(part);
+    std::vector<YAML::Node> chain = {old_layout};
+    for (size_t i = 0; i + 1 < parts.size(); ++i) chain.push_back(chain.back()[parts[i]]);
+    chain.back()[parts.back()] = YAML::Load(parameter.value);
+  }
+  const YamlParameterSource source(old_layout);
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  for (const ParameterRecord& record : reader.records()) {
+    EXPECT_TRUE(record.found && record.equals_default) << record.key;
+  }
+  const std::vector<std::string> notes = parameterNotes(source.keys(), reader);
+  EXPECT_EQ(notes.size(), moved);
+  for (const std::string& note : notes)
+    EXPECT_NE(note.find(" moved: it is now "), std::string::npos);
+}
+
+// Keys the node keeps at their measured values: it warns and keeps the value; lcd_evaluate reads
+// them, to re-measure.
+TEST(NodeOptions, AFixedKeyIsNamedWithItsValueAndOnlyTheEvaluationReadsIt) {
+  ASSERT_FALSE(fixedParameters().empty());
+  const YamlParameterSource source(
+      YAML::Load("verification: {orb_levels: 3}\nadvanced: {database: {index: {neighbors: 8}}}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  EXPECT_EQ(reader.errors(), "");
+  EXPECT_EQ(options.detector.verification.orb_levels,
+            NodeOptions{}.detector.verification.orb_levels);
+  EXPECT_EQ(options.detector.database.index.neighbors,
+            NodeOptions{}.detector.database.index.neighbors);
+  const std::vector<std::string> notes = parameterNotes(source.keys(), reader);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_NE(notes[0].find("verification/orb_levels is no longer a parameter of the node and is "
+                          "ignored: it is fixed at its measured value 1 (lcd_evaluate --config "
+                          "still varies it, as advanced/verification/orb_levels)"),
+            std::string::npos)
+      << notes[0];
+  EXPECT_NE(notes[1].find("advanced/database/index/neighbors"), std::string::npos) << notes[1];
+  EXPECT_EQ(documentedDefaultsYaml().find("orb_levels"), std::string::npos);
+
+  OptionReader evaluation(source);
+  NodeOptions evaluated;
+  readEvaluationOptions(&evaluation, &evaluated);
+  EXPECT_EQ(evaluated.detector.verification.orb_levels, 3);
+  EXPECT_EQ(evaluated.detector.database.index.neighbors, 8);
+  // The earlier name is still named as moved; today's is read without a word.
+  const std::vector<std::string> evaluation_notes = parameterNotes(source.keys(), evaluation);
+  ASSERT_EQ(evaluation_notes.size(), 1u);
+  EXPECT_NE(evaluation_notes[0].find("verification/orb_levels moved"), std::string::npos);
 }
 
 TEST(YamlParameterSource, MissingFileNamesThePath) {
@@ -79,7 +200,7 @@ TEST(NodeOptions, ValidateCatchesNonsense) {
   options.detector.acceptance.min_score = 3.0;
   const std::string errors = options.validate();
   EXPECT_NE(errors.find("sync_slop"), std::string::npos) << errors;
-  EXPECT_NE(errors.find("acceptance/min_score"), std::string::npos) << errors;
+  EXPECT_NE(errors.find("advanced/acceptance/min_score"), std::string::npos) << errors;
 }
 
 TEST(NodeOptions, AReRankingDescriptorNeedsItsOwnThresholdNotTheCalibratedFloor) {
@@ -89,8 +210,10 @@ TEST(NodeOptions, AReRankingDescriptorNeedsItsOwnThresholdNotTheCalibratedFloor)
   options.detector.descriptor.type = "landmarks";
   ASSERT_GT(options.detector.acceptance.max_false_alarms, 0.0);
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("acceptance/min_score 0.1 decides alone for descriptor/type landmarks"),
-            std::string::npos)
+  EXPECT_NE(
+      errors.find(
+          "advanced/acceptance/min_score 0.1 decides alone for advanced/descriptor/type landmarks"),
+      std::string::npos)
       << errors;
   options.detector.acceptance.min_score = kLandmarksMinScore;
   EXPECT_EQ(options.validate(), "");
@@ -105,7 +228,7 @@ TEST(NodeOptions, TheDefaultMountWithTriangulationIsWarnedAbout) {
   EXPECT_NE(warning.find("camera_mount is the default (the camera at 'base_link''s origin"),
             std::string::npos)
       << warning;
-  EXPECT_NE(warning.find("camera_mount/from_tf: true"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("advanced/camera_mount/from_tf: true"), std::string::npos) << warning;
   // Not when the mount was set, comes from tf, depths come from a depth image, or nothing is
   // triangulated.
   NodeOptions set = options;
@@ -141,12 +264,12 @@ TEST(NodeOptions, WithNoMountValueSetTfIsAskedFirstByBothNodes) {
 }
 
 TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
-  const YamlParameterSource source(YAML::Load(
-      "pose_source: tf\nrelative_pose_frame: base\ntime_jump_back: reset\nmode: localization\n"
-      "acceptance: {consistency_unit: metres}\n"));
+  const YamlParameterSource source(
+      YAML::Load("pose_source: tf\nmode: localization\nadvanced: {relative_pose_frame: base, "
+                 "time_jump_back: reset}\nacceptance: {consistency_unit: metres}\n"));
   OptionReader reader(source);
   NodeOptions options;
-  readNodeOptions(&reader, &options);
+  readEvaluationOptions(&reader, &options);  // consistency_unit: lcd_evaluate's alone.
   EXPECT_EQ(reader.errors(), "");
   EXPECT_EQ(options.pose_source, PoseSource::kTf);
   EXPECT_EQ(options.relative_pose_frame, RelativePoseFrame::kBase);
@@ -158,7 +281,7 @@ TEST(NodeOptions, WordsBecomeEnumsWhenReadAndUnknownWordsNameTheChoices) {
       YAML::Load("pose_source: gps\nmode: relocalise\nacceptance: {consistency_unit: meters}\n"));
   OptionReader wrong_reader(wrong);
   NodeOptions kept;
-  readNodeOptions(&wrong_reader, &kept);
+  readEvaluationOptions(&wrong_reader, &kept);
   const std::string& errors = wrong_reader.errors();
   EXPECT_NE(errors.find("pose_source must be one of 'odom', 'tf' (got 'gps')"), std::string::npos)
       << errors;
@@ -213,14 +336,16 @@ TEST(ParameterTable, OutOfRangeValuesAreNamedWithTheirRange) {
   NodeOptions options;
   options.detector.keyframe.min_motion = -1;
   options.detector.database.index.neighbors = 2;
-  options.detector.descriptor.landmark_layer = "conv9";
+  options.detector.database.index.type = "sideways";
   options.detector.camera_mount.roll = std::numeric_limits<double>::infinity();
   const std::string errors = options.validate();
-  EXPECT_NE(errors.find("keyframe/min_motion must be >= 0 (got -1.0)"), std::string::npos)
+  EXPECT_NE(errors.find("advanced/keyframe/min_motion must be >= 0 (got -1.0)"), std::string::npos)
       << errors;
-  EXPECT_NE(errors.find("database/index/neighbors must be in [4, 128] (got 2)"), std::string::npos)
+  EXPECT_NE(errors.find("advanced/database/index/neighbors must be in [4, 128] (got 2)"),
+            std::string::npos)
       << errors;
-  EXPECT_NE(errors.find("descriptor/landmark_layer must be one of 'conv2', 'conv3' (got 'conv9')"),
+  EXPECT_NE(errors.find("advanced/database/index/type must be one of 'exact', 'approximate', "
+                        "'auto' (got 'sideways')"),
             std::string::npos)
       << errors;
   EXPECT_NE(errors.find("camera_mount/roll must be a finite number (got .inf)"), std::string::npos)
@@ -249,7 +374,7 @@ TEST(ParameterTable, EveryIntegerHasAnUpperBoundThatIsEnforcedAndDocumented) {
     integers.emplace_back(line, line);
     in_integer = true;
   }
-  EXPECT_GE(integers.size(), 40u);
+  EXPECT_GE(integers.size(), 30u);  // The scan finds them: 35 in the file since the two tiers.
   for (const auto& [line, doc] : integers) {
     EXPECT_TRUE(std::regex_search(doc, std::regex("Allowed:\\s+in\\s+\\[-?[0-9]+,\\s+[0-9]+\\]")))
         << line;
@@ -261,20 +386,22 @@ TEST(ParameterTable, EveryIntegerHasAnUpperBoundThatIsEnforcedAndDocumented) {
   EXPECT_NE(errors.find("worker_queue_size must be in [1, 10000] (got 2000000000)"),
             std::string::npos)
       << errors;
-  EXPECT_NE(errors.find("database/top_k must be in [1, 1000] (got 100000)"), std::string::npos)
+  EXPECT_NE(errors.find("advanced/database/top_k must be in [1, 1000] (got 100000)"),
+            std::string::npos)
       << errors;
 }
 
 TEST(NodeOptions, KeysTheDescriptorDoesNotReadAreWarnedAboutInOneLine) {
   const YamlParameterSource source(
-      YAML::Load("descriptor: {type: hog, model: /tmp/garbage.onnx, condition_window: 5, "
-                 "cnn: {layer: conv2}}\n"));
+      YAML::Load("advanced: {descriptor: {type: hog, model: /tmp/garbage.onnx, "
+                 "condition_window: 5, cnn: {pooling: max}}}\n"));
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
   EXPECT_EQ(reader.errors(), "");
   EXPECT_EQ(options.ignored_warning.rfind(
-                "descriptor/type hog does not read descriptor/model, descriptor/cnn/layer: they "
+                "advanced/descriptor/type hog does not read advanced/descriptor/model, "
+                "advanced/descriptor/cnn/pooling: they "
                 "are set but change nothing (hog: ",
                 0),
             0u)
@@ -294,8 +421,9 @@ TEST(NodeOptions, PathsExpandHomeAndVariablesAsAShellWould) {
   EXPECT_EQ(expandPath("$LCD_TEST_UNSET/lab.db"), "$LCD_TEST_UNSET/lab.db") << "named in the error";
   EXPECT_EQ(expandPath("/plain/path$"), "/plain/path$");
 
-  const YamlParameterSource source(YAML::Load(
-      "database_path: ~/maps/lab.db\ndescriptor: {backbone: {model: $LCD_TEST_MAPS/n.onnx}}\n"));
+  const YamlParameterSource source(
+      YAML::Load("database_path: ~/maps/lab.db\nadvanced: {descriptor: {backbone: {model: "
+                 "$LCD_TEST_MAPS/n.onnx}}}\n"));
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
@@ -324,10 +452,12 @@ TEST(NodeOptions, BackboneFallbackDropsTheScoreNormalisationItCannotUse) {
   const std::string kept = before ? before : "";
   setenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR", empty_models.c_str(), 1);
   const YamlParameterSource source(
-      YAML::Load("acceptance: {score_normalisation: z_score, min_score: 2.5}\n"));
+      YAML::Load("acceptance: {score_normalisation: z_score}\n"
+                 "advanced: {acceptance: {min_score: 2.5}}\n"));
   OptionReader reader(source);
   NodeOptions options;
-  readNodeOptions(&reader, &options);
+  readEvaluationOptions(&reader, &options);  // lcd_evaluate's: the node no longer normalises.
+  EXPECT_EQ(reader.errors(), "");
   if (before) {
     setenv("LANDMARK_LOOP_CLOSURE_MODEL_DIR", kept.c_str(), 1);
   } else {
@@ -351,8 +481,9 @@ TEST(NodeOptions, AScoreNormalisationWithAReRankingDescriptorIsRefused) {
   options.detector.descriptor.type = "backbone";
   options.detector.descriptor.backbone.rerank_weight = 0.3;
   options.detector.acceptance.score_normalisation = ScoreNormalisation::kZScore;
-  EXPECT_NE(options.validate().find("acceptance/score_normalisation z_score normalises global"),
-            std::string::npos)
+  EXPECT_NE(
+      options.validate().find("advanced/acceptance/score_normalisation z_score normalises global"),
+      std::string::npos)
       << options.validate();
   options.detector.descriptor.backbone.rerank_weight = 0.0;
   EXPECT_EQ(options.validate(), "");

@@ -1,7 +1,7 @@
-// The pose_graph node on keyframes and loops the test makes. With camera_mount/from_tf, loops in
-// the frame of a camera looking left, whose mount only tf knows (the node's camera_mount values
-// say it looks ahead), enter the graph with no error, and a loop in a frame tf does not know is
-// left out and named. Keyframes of a new map (the detector reset, loaded a map or restarted)
+// The pose_graph node on keyframes and loops the test makes. With advanced/camera_mount/from_tf,
+// loops in the frame of a camera looking left, whose mount only tf knows (the node's camera_mount
+// values say it looks ahead), enter the graph with no error, and a loop in a frame tf does not know
+// is left out and named. Keyframes of a new map (the detector reset, loaded a map or restarted)
 // start a chain of their own beside the others, from the old correction while time goes on; a
 // new graph, from no correction, only after time went back.
 #include <algorithm>

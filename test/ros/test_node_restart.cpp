@@ -368,11 +368,15 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
     std::ofstream file(corrupt, std::ios::binary);
     file << "not an ONNX protobuf";
   }
+  // Described (as a network of one's own must be), so that the file itself is what is refused.
+  std::filesystem::copy_file(
+      std::filesystem::path(PACKAGE_SOURCE_DIR) / "model" / "mobilenet_v2.onnx.json",
+      corrupt + ".json", std::filesystem::copy_options::overwrite_existing);
   ros::param::set("/loop_closure/database_path", std::string());
   const std::string log = (folder / "lcd_model_node.log").string();
   for (const std::string& model : {missing, corrupt}) {
     SCOPED_TRACE(model);
-    ros::param::set("/loop_closure/descriptor/backbone/model", model);
+    ros::param::set("/loop_closure/advanced/descriptor/backbone/model", model);
     const pid_t node = startNode(log);
     ASSERT_GT(node, 0);
     const int status = exitStatus(node);
@@ -388,8 +392,8 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
     EXPECT_EQ(fatal_lines, 1u) << "one FATAL line per refusal:\n" << output;
   }
   // A parameter out of its range: one FATAL naming it.
-  ros::param::set("/loop_closure/descriptor/backbone/model", std::string());
-  ros::param::set("/loop_closure/worker_queue_size", 2000000000);
+  ros::param::set("/loop_closure/advanced/descriptor/backbone/model", std::string());
+  ros::param::set("/loop_closure/advanced/worker_queue_size", 2000000000);
   const pid_t node = startNode(log);
   ASSERT_GT(node, 0);
   EXPECT_NE(exitStatus(node), 0);
@@ -398,14 +402,15 @@ TEST(LoopClosureNode, AMissingOrCorruptModelFileStopsTheNodeNamingIt) {
             std::string::npos)
       << output;
   EXPECT_EQ(output.find("[FATAL]"), output.rfind("[FATAL]")) << output;
-  ros::param::set("/loop_closure/worker_queue_size", 8);
+  ros::param::set("/loop_closure/advanced/worker_queue_size", 8);
   std::filesystem::remove(corrupt);
+  std::filesystem::remove(corrupt + ".json");
   std::filesystem::remove(log);
 }
 
 TEST(LoopClosureNode, AModelFileTheDescriptorDoesNotReadIsWarnedAboutOnce) {
-  // descriptor/model is the package encoder's file; the default backbone reads its own
-  // (descriptor/backbone/model), so a garbage file there changes nothing and must be said.
+  // advanced/descriptor/model is the package encoder's file; the default backbone reads its own
+  // (advanced/descriptor/backbone/model), so a garbage file there changes nothing and must be said.
   const std::filesystem::path folder = std::filesystem::temp_directory_path();
   const std::string garbage = (folder / "lcd_ignored_model.onnx").string();
   {
@@ -414,17 +419,18 @@ TEST(LoopClosureNode, AModelFileTheDescriptorDoesNotReadIsWarnedAboutOnce) {
   }
   const std::string log = (folder / "lcd_ignored_model_node.log").string();
   ros::param::set("/loop_closure/database_path", std::string());
-  ros::param::set("/loop_closure/descriptor/model", garbage);
+  ros::param::set("/loop_closure/advanced/descriptor/model", garbage);
   test_support::NodeHarness harness;
   const pid_t node = startNode(log);
   ASSERT_GT(node, 0);
   EXPECT_TRUE(harness.waitForNode()) << readFile(log);
   EXPECT_TRUE(stopNode(node));
   const std::string output = readFile(log);
-  const std::string warning = "descriptor/type backbone does not read descriptor/model: it is set";
+  const std::string warning =
+      "advanced/descriptor/type backbone does not read advanced/descriptor/model: it is set";
   EXPECT_NE(output.find(warning), std::string::npos) << output;
   EXPECT_EQ(output.find(warning), output.rfind(warning)) << "once:\n" << output;
-  ros::param::del("/loop_closure/descriptor/model");
+  ros::param::del("/loop_closure/advanced/descriptor/model");
   std::filesystem::remove(garbage);
   std::filesystem::remove(log);
 }

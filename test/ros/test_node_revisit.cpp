@@ -77,13 +77,14 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   EXPECT_GT(harness.keyframes().size() + dropped, static_cast<size_t>(min_keyframes));
   EXPECT_LT(dropped, harness.keyframes().size() / 4);
   double min_score = 0.0;
-  ASSERT_TRUE(ros::param::get("/loop_closure/acceptance/min_score", min_score));
+  ASSERT_TRUE(ros::param::get("/loop_closure/advanced/acceptance/min_score", min_score));
   bool publish_scale_free_pose = false;
-  ros::param::get("/loop_closure/verification/publish_scale_free_pose", publish_scale_free_pose);
+  ros::param::get("/loop_closure/advanced/verification/publish_scale_free_pose",
+                  publish_scale_free_pose);
   bool use_depth = false;
   ros::param::get("/loop_closure/use_depth", use_depth);
   std::string relative_pose_frame = "camera";
-  ros::param::get("/loop_closure/relative_pose_frame", relative_pose_frame);
+  ros::param::get("/loop_closure/advanced/relative_pose_frame", relative_pose_frame);
   ASSERT_GE(harness.loops().size(), 5u);
   std::vector<std::pair<double, double>> metric_errors;  // Metres, degrees.
   std::vector<double> scale_free_turn_errors_deg;
@@ -113,7 +114,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
       continue;
     }
     ++orb_verified;
-    // Inliers of the published pose: PnP's (metric_pose/min_inliers) or the two views'.
+    // Inliers of the published pose: PnP's (advanced/metric_pose/min_inliers) or the two views'.
     EXPECT_GE(loop.inliers, loop.relative_pose_metric ? 20u : 30u);
     // Metric poses (keypoint depths triangulated with the odometry, then PnP) are checked
     // against the truth; scale-free ones, published here on request, by their turn only.
@@ -141,9 +142,9 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
     EXPECT_EQ(loop.header.frame_id, "odom");
   }
   // Two views alone leave about one scale-free pose in four in a wrong minimum a few degrees away
-  // (docs/how_it_works.md, "Geometric verification"), so these check that the message carries the estimate (a
-  // wrong convention would miss every one), not that each pose is right; accuracy is asserted on
-  // generated pairs in the core tests.
+  // (docs/how_it_works.md, "Geometric verification"), so these check that the message carries the
+  // estimate (a wrong convention would miss every one), not that each pose is right; accuracy is
+  // asserted on generated pairs in the core tests.
   std::size_t metric_within = 0;
   for (const auto& [translation, rotation] : metric_errors) {
     metric_within += translation < 0.25 && rotation < 2.0 ? 1 : 0;

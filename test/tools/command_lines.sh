@@ -62,6 +62,21 @@ printf 'mode: mapping\n' > "$folder/ok.yaml"
 expect 0 "ok.yaml: ok" lcd_config check "$folder/ok.yaml"
 printf 'no_such_key: 1\n' > "$folder/bad.yaml"
 expect 1 "no_such_key is not a parameter" lcd_config check "$folder/bad.yaml"
+# A parameter file of the layout before `advanced/` (the shipped default.yaml of then): it loads,
+# and check names where each of its keys went, every one of them.
+before="$(dirname "$0")/default_before_tiers.yaml"
+expect 1 "keyframe/min_motion moved: it is now advanced/keyframe/min_motion" lcd_config check "$before"
+moved=$(grep -c " moved: it is now advanced/" "$folder/out.txt" || true)
+fixed=$(grep -c "is ignored: it is fixed at its measured value" "$folder/out.txt" || true)
+removed=$(( $(grep -c "is no longer a parameter of the node" "$folder/out.txt" || true) - fixed ))
+# 92 keys moved under advanced/; 33 no longer read (measured and not kept, or a network's
+# preprocessing, now in its description); 23 fixed at their measured values; 12 kept their names.
+[ "$moved" -ge 90 ] || fail "lcd_config check named $moved moved keys of the earlier default.yaml"
+[ "$removed" -eq 33 ] || fail "lcd_config check named $removed removed keys, not 33"
+[ "$fixed" -eq 23 ] || fail "lcd_config check named $fixed fixed keys, not 23"
+if grep -q "is not a parameter" "$folder/out.txt"; then
+  fail "a key of the earlier default.yaml is reported unknown"; grep "is not a parameter" "$folder/out.txt"
+fi
 # A negative odometry error is a value, not an option; the range check after parsing still speaks.
 expect 2 "scale error must be within" make_demo_bag "$folder/demo.bag" 1 10 -0.9 0.004
 expect 2 "--two-robots takes OUTPUT" make_demo_bag --two-robots "$folder/demo.bag" 10 20

@@ -39,7 +39,7 @@ done
 grep -q "camera-info is used by --detector and --appearance-check only" "$folder/error.txt" ||
   { echo "an unused --camera-info went unmentioned"; cat "$folder/error.txt"; exit 1; }
 # With the appearance check switched off, the checks line says so instead of naming its setting.
-printf 'verification:\n  appearance:\n    enabled: false\n' > "$folder/no_appearance.yaml"
+printf 'advanced:\n  verification:\n    appearance:\n      enabled: false\n' > "$folder/no_appearance.yaml"
 "$evaluate" --database "$data/day_left" --queries "$data/day_right" --gt-aligned 3 --limit 5 \
   --descriptors hog --appearance-check --config "$folder/no_appearance.yaml" \
   --camera-info "$source_dir/bench/cameras/gardens_point.yaml" --output "$folder/results" \

@@ -30,13 +30,15 @@ ParameterRange between(double low, double high);  ///< Closed: [low, high].
 ParameterRange openBetween(double low, double high, bool low_open, bool high_open);
 
 /// One line of the documented parameter file, flattened: a value, a map's own comment, or a
-/// section heading. Keys are full paths ("keyframe/min_motion").
+/// section heading. Keys are full paths ("advanced/keyframe/min_motion").
 struct DocumentedParameter {
   enum class Kind { kValue, kMap, kSection };
   Kind kind = Kind::kValue;
   std::string key;
   std::string value;  ///< The default as YAML text (kValue only).
   std::string doc;
+  /// Fixed in the node at its measured value; only the evaluation reads it (not rendered).
+  bool evaluation_only = false;
 };
 
 /// Renders documented parameters as a YAML file: `preamble` (comment lines), then every key
@@ -134,6 +136,31 @@ class ParameterTable {
         [sub, member](const Options& defaults, std::vector<DocumentedParameter>* out) {
           sub->document(defaults.*member, out);
         });
+    return *this;
+  }
+  /// The comment of a map whose keys come later (`key` is its full path).
+  ParameterTable& mapDoc(std::string key, std::string doc) {
+    documents_.push_back([key = std::move(key), doc = std::move(doc)](
+                             const Options&, std::vector<DocumentedParameter>* out) {
+      out->push_back({DocumentedParameter::Kind::kMap, key, "", doc});
+    });
+    return *this;
+  }
+  /// Marks the entry declared last as the evaluation's alone: the node keeps its measured default
+  /// (the in-class initialiser), the documented file leaves it out, and only a reader that
+  /// readsEvaluationOnly() (lcd_evaluate --config) reads it. Its range is still checked.
+  ParameterTable& evaluationOnly() {
+    auto read_one = readers_.back();
+    readers_.back() = [read_one](OptionReader* reader, Options* options) {
+      if (reader->readsEvaluationOnly()) read_one(reader, options);
+    };
+    auto document_one = documents_.back();
+    documents_.back() = [document_one](const Options& defaults,
+                                       std::vector<DocumentedParameter>* out) {
+      const size_t first = out->size();
+      document_one(defaults, out);
+      for (size_t i = first; i < out->size(); ++i) (*out)[i].evaluation_only = true;
+    };
     return *this;
   }
   /// A heading comment before the next key in the documented file.

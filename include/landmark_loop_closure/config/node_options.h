@@ -80,8 +80,11 @@ struct NodeOptions {
   /// Set when the options had to change to run at all (the pretrained backbone was never
   /// fetched): one line for the node to warn with. Empty otherwise.
   std::string fallback_warning;
+  /// Set when the network's description (MODEL.json beside its ONNX file) is missing for a model
+  /// of the user's own, or unreadable: validate() reports it.
+  std::string description_problem;
   /// Set when keys under descriptor/ were given values the descriptor in use does not read
-  /// (descriptor/model under type backbone): one line naming them. Empty otherwise.
+  /// (advanced/descriptor/model under type backbone): one line naming them. Empty otherwise.
   std::string ignored_warning;
 
   /// Every key the nodelet reads, each declared once with its range and description.
@@ -95,8 +98,34 @@ struct NodeOptions {
   std::string defaultMountWarning() const;
 };
 
-/// Reads every option; absent keys keep their defaults.
+/// Reads every option; absent keys keep their defaults. A key moved under `advanced/` is also
+/// read from its earlier name (parameterNotes says so).
 void readNodeOptions(OptionReader* reader, NodeOptions* options);
+
+/// What lcd_evaluate --config reads: the node's options, and before them the acceptance rules
+/// measured and not kept (AcceptanceOptions::evaluationParameters), so that the backbone's
+/// fallback sees them too.
+void readEvaluationOptions(OptionReader* reader, NodeOptions* options);
+
+/// The name a key had before the two-tier layout: "advanced/keyframe/min_motion" was
+/// "advanced/keyframe/min_motion". "" for a key that kept its name.
+std::string oldParameterName(const std::string& key);
+
+/// A key the node reads no more, and what to do instead.
+struct RemovedParameter {
+  const char* key;
+  const char* instead;
+};
+const std::vector<RemovedParameter>& removedParameters();
+/// Keys the node keeps at their measured defaults (ParameterTable::evaluationOnly), with those
+/// defaults: the evaluation alone reads them.
+const std::vector<DocumentedParameter>& fixedParameters();
+
+/// One line for each of `keys` (those a parameter source holds) that `reader`, having read the
+/// node's options, found under an old name ("... moved: it is now ..."), that the node no longer
+/// reads (what instead), or that is no parameter at all (misspelt?). Empty when all are current.
+std::vector<std::string> parameterNotes(const std::vector<std::string>& keys,
+                                        const OptionReader& reader);
 
 /// config/default.yaml as the parameter tables describe it: every key with its default and
 /// description. A test keeps the shipped file equal to it; `lcd_config defaults` writes it.

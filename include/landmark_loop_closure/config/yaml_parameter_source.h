@@ -21,7 +21,7 @@ class YamlParameterSource : public ParameterSource {
   ParameterLookup get(const std::string& key, bool* value) const override;
   ParameterLookup get(const std::string& key, std::string* value) const override;
 
-  /// Every scalar's key, e.g. "keyframe/min_motion".
+  /// Every scalar's key, e.g. "advanced/keyframe/min_motion".
   std::vector<std::string> keys() const;
 
  private:

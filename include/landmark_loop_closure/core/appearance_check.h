@@ -22,7 +22,7 @@ struct AppearanceCheckOptions {
   int min_inliers = 28;
   double ransac_threshold_cells = 1.5;  ///< Affine RANSAC inlier distance, in feature-map cells.
 
-  /// Keys under verification/appearance/, documented in config/default.yaml.
+  /// Keys under advanced/verification/appearance/, documented in config/default.yaml.
   static const ParameterTable<AppearanceCheckOptions>& parameters();
   std::string validate() const;
 };

@@ -32,7 +32,7 @@
 
 namespace landmark_loop_closure {
 
-/// acceptance/min_score tuned for descriptor type landmarks (the package's own encoder).
+/// advanced/acceptance/min_score tuned for descriptor type landmarks (the package's own encoder).
 constexpr double kLandmarksMinScore = 0.25;
 
 struct AcceptanceOptions {
@@ -66,6 +66,10 @@ struct AcceptanceOptions {
 
   /// Keys under acceptance/, documented in config/default.yaml.
   static const ParameterTable<AcceptanceOptions>& parameters();
+  /// Acceptance rules measured and not kept (score normalisations, consistency in metres): not
+  /// the node's parameters; lcd_evaluate --config reads them under their names of then
+  /// ("acceptance/score_normalisation"), to reproduce bench/history.md.
+  static const ParameterTable<AcceptanceOptions>& evaluationParameters();
   std::string validate() const;
 };
 
@@ -90,15 +94,19 @@ struct LoopDetectorOptions {
   AppearanceCheckOptions appearance;
   MetricPoseOptions metric_pose;
   /// Previous keyframes each keyframe's keypoints are triangulated against (the farther ones
-  /// add baseline), when metric_pose/triangulate_from_odometry is on and no depth image came.
+  /// add baseline), when advanced/metric_pose/triangulate_from_odometry is on and no depth image
+  /// came.
   int triangulation_keyframes = 3;
   /// The camera on the odometry's body frame: turns the odometry's motion between keyframes into
   /// the camera's.
   CameraMount camera_mount;
   bool keep_thumbnails = true;  ///< Keep a 160x120 grey copy of each keyframe for debug images.
 
-  /// Every detector key (mode, input/, keyframe/, descriptor/, ...), documented in
-  /// config/default.yaml.
+  /// The detector's keys, documented in config/default.yaml: the ones a robot sets (`mode`,
+  /// `camera_mount/*`), each in a table of its own so that the node's file can list them first, and
+  /// every other one (under `advanced/`).
+  static const ParameterTable<LoopDetectorOptions>& modeParameter();
+  static const ParameterTable<LoopDetectorOptions>& mountParameters();
   static const ParameterTable<LoopDetectorOptions>& parameters();
   /// Empty when valid, otherwise every problem, one per line.
   std::string validate() const;
@@ -133,8 +141,8 @@ struct CandidateReport {
   double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
   double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
   double place_ratio = 0.0;   ///< score over the best other place's (placeRatios).
-  /// Non-loop places expected to score as high, over the map (acceptance/max_false_alarms); -1
-  /// when not tested.
+  /// Non-loop places expected to score as high, over the map
+  /// (advanced/acceptance/max_false_alarms); -1 when not tested.
   double false_alarms = -1.0;
   /// The places those were counted over: the map's that the odometry does not rule out, or the
   /// few that would continue the last keyframe's loop (0 when not tested).
@@ -162,7 +170,7 @@ struct AcceptedLoop {
   double score = 0.0;
   int consistent_keyframes = 0;
   /// Set when the geometric check confirmed the place (it is absent when the check is off or no
-  /// intrinsics were known and verification/required is false); its pose may be ambiguous.
+  /// intrinsics were known and advanced/verification/required is false); its pose may be ambiguous.
   std::optional<VerificationResult> verification;
   /// Set when the ORB check could not confirm the place and the appearance check did (no
   /// relative pose then).
@@ -170,7 +178,7 @@ struct AcceptedLoop {
   /// Set when the match keyframe had keypoint depths and PnP ran (found or not, and why).
   std::optional<MetricPoseResult> metric_pose;
   /// The relative pose for a pose graph: the metric one when found, else the verified scale-free
-  /// one when verification/publish_scale_free_pose is set; absent otherwise.
+  /// one when advanced/verification/publish_scale_free_pose is set; absent otherwise.
   std::optional<RelativePose> relative_pose;
 };
 
@@ -188,16 +196,16 @@ struct KeyframeResult {
   uint64_t keyframe_id = 0;
   /// Kept: false when refused, localising, or past the memory budget without a map file.
   bool stored = false;
-  /// Past database/memory_budget_mb with a map file: written to the map, not searched (a later
-  /// start searches it when the budget leaves room for it).
+  /// Past advanced/database/memory_budget_mb with a map file: written to the map, not searched (a
+  /// later start searches it when the budget leaves room for it).
   bool written_not_searched = false;
   QueryStatus query_status = QueryStatus::kDatabaseTooSmall;
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
   StageTimes times;
-  /// Online training (descriptor/broad/online_training_keyframes): keyframes held so far, 0 when
-  /// not training. The keyframe that completes the set carries the training's summary (or why it
-  /// failed) and the result of the last held keyframe, stored with all the others.
+  /// Online training (advanced/descriptor/broad/online_training_keyframes): keyframes held so far,
+  /// 0 when not training. The keyframe that completes the set carries the training's summary (or
+  /// why it failed) and the result of the last held keyframe, stored with all the others.
   int held_for_training = 0;
   std::string training_summary;
   /// Not committed to the map on disk (disk full, file gone): why. The keyframe is kept in
@@ -240,7 +248,7 @@ class LoopDetector {
 
   /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
   /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
-  /// ones: loops are not verified, or refused when verification/required).
+  /// ones: loops are not verified, or refused when advanced/verification/required).
   /// `depth`: optional depth image registered to `image` (16-bit or float, see MetricPoseOptions);
   /// without one, keypoint depths are triangulated from the odometry when enabled.
   /// `stamp_ns`: the image's stamp exactly (ns since the epoch) as the map keeps it; 0: `stamp`
@@ -263,7 +271,7 @@ class LoopDetector {
   /// number and ids after every loaded one, chains and the path start again, and the odometry
   /// gate leaves loops into earlier sessions alone, their odometry frame being another), and
   /// every keyframe stored from now on is committed to it when it is added. Past
-  /// database/memory_budget_mb only the map's first keyframes are searched
+  /// advanced/database/memory_budget_mb only the map's first keyframes are searched
   /// (mapKeyframesNotSearched()); the rows are checked beside search (mapDamage()). On refusal
   /// returns why and changes nothing; "" on success. Call it before frames are admitted: ids
   /// already handed out below the loaded ones are refused. While online training holds keyframes
@@ -298,8 +306,9 @@ class LoopDetector {
   /// ("" otherwise, and then the next keyframe's result does not carry it).
   std::string takeNewMapDamage();
   /// Worker thread: keyframes of the open map left out of search at open, past
-  /// database/memory_budget_mb: the map's first keyframes that fit it are searched, or those its
-  /// saved search graph covers when more (delete PATH-graph to have it built within the budget).
+  /// advanced/database/memory_budget_mb: the map's first keyframes that fit it are searched, or
+  /// those its saved search graph covers when more (delete PATH-graph to have it built within the
+  /// budget).
   size_t mapKeyframesNotSearched() const { return map_unsearched_; }
   /// Worker thread: "checked", "being checked" or "damaged" ("" without a map file).
   std::string mapCheck() const;
@@ -385,8 +394,8 @@ class LoopDetector {
   size_t cachedRecords() const;
   /// Drops a save in steps whose map is about to be replaced; its next step says so.
   void abandonSave();
-  /// Search holds database/memory_budget_mb: new keyframes are searched for loops and written to
-  /// the map file, if one is open, but not added to search.
+  /// Search holds advanced/database/memory_budget_mb: new keyframes are searched for loops and
+  /// written to the map file, if one is open, but not added to search.
   bool overMemoryBudget() const;
 
   /// Worker thread: from now on, keyframes are collected for takeAnnounced() (off by default, so
@@ -453,13 +462,13 @@ class LoopDetector {
   /// False while the history is shorter than a sequence (every report then waits).
   /// Sets each report's place_ratio (placeRatios over the shortlist).
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
-  /// Whether acceptance/max_false_alarms applies: on, and the descriptor's final score is the
-  /// global similarity the background is made of (no re-ranking).
+  /// Whether advanced/acceptance/max_false_alarms applies: on, and the descriptor's final score is
+  /// the global similarity the background is made of (no re-ranking).
   bool calibrates() const;
-  /// acceptance/max_false_alarms: whether so few wrong places are expected to score as high as
-  /// the report over the map (ScoreTail of the pooled backgrounds_) that it may be believed;
-  /// sets its false_alarms, and its detail when not. A candidate among the places the query has
-  /// just passed must also stand out of what those score (passed_places_), and one of the
+  /// advanced/acceptance/max_false_alarms: whether so few wrong places are expected to score as
+  /// high as the report over the map (ScoreTail of the pooled backgrounds_) that it may be
+  /// believed; sets its false_alarms, and its detail when not. A candidate among the places the
+  /// query has just passed must also stand out of what those score (passed_places_), and one of the
   /// query's own run must have been left (leftThePlace) at the tail's threshold.
   bool passesFalseAlarms(CandidateReport* report, const KeyframeRecord& query_keyframe);
   /// Whether, between `match` and the query in the query's own run, some keyframe outside the
@@ -472,8 +481,8 @@ class LoopDetector {
   void recordBackground(const KeyframeRecord& query_keyframe);
   /// Whether `match` continues the loop the keyframe before `query_id` published (last_loop_).
   bool continuesLastLoop(const KeyframeSummary& match, uint64_t query_id) const;
-  /// acceptance/max_false_alarms, or max_false_alarms_within_reach where the odometry puts the
-  /// match within its reach.
+  /// advanced/acceptance/max_false_alarms, or max_false_alarms_within_reach where the odometry puts
+  /// the match within its reach.
   double falseAlarmBound(const KeyframeSummary* match, const KeyframeRecord& query_keyframe) const;
   /// Whether `match` is among the places the query has just passed (passed_places_).
   bool justPassed(const KeyframeSummary& match, uint64_t query_id) const;
@@ -483,9 +492,10 @@ class LoopDetector {
                                      const std::vector<const CandidateReport*>& leaders) const;
   /// Whether the report's match is within index_window ids of its place's leader.
   bool nearLeader(const CandidateReport& report, const CandidateReport& leader) const;
-  /// acceptance/score_normalisation: each report's score normalised by what the query resembles
-  /// anyway (score_normalisation.h); `indices` are the reports' database indices. With sequence
-  /// matching (z_score only) the sequence matcher is told the query's standardisation instead.
+  /// advanced/acceptance/score_normalisation: each report's score normalised by what the query
+  /// resembles anyway (score_normalisation.h); `indices` are the reports' database indices. With
+  /// sequence matching (z_score only) the sequence matcher is told the query's standardisation
+  /// instead.
   void normaliseScores(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                        const std::vector<size_t>& indices, double stamp);
   bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
@@ -558,9 +568,9 @@ class LoopDetector {
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
-  /// acceptance/max_false_alarms: what the last kPooledBackgrounds searched keyframes' wrong
-  /// places scored (ids, sessions and scores), pooled for the tail: one keyframe's sample of a
-  /// small map is too thin to fit, and the map's look-alikes change slowly along a path.
+  /// advanced/acceptance/max_false_alarms: what the last kPooledBackgrounds searched keyframes'
+  /// wrong places scored (ids, sessions and scores), pooled for the tail: one keyframe's sample of
+  /// a small map is too thin to fit, and the map's look-alikes change slowly along a path.
   struct PlaceScore {
     uint64_t id = 0;
     uint32_t session = 0;
@@ -568,13 +578,13 @@ class LoopDetector {
   };
   static constexpr size_t kPooledBackgrounds = 5;
   std::deque<std::vector<PlaceScore>> backgrounds_;
-  /// acceptance/max_false_alarms: places of the query's run from E + 1 to 2E keyframes back
-  /// (E = exclude_recent_keyframes: as far beyond the exclusion as it reaches) are "just
+  /// advanced/acceptance/max_false_alarms: places of the query's run from E + 1 to 2E keyframes
+  /// back (E = exclude_recent_keyframes: as far beyond the exclusion as it reaches) are "just
   /// passed": their scores, pooled over queries, are the tail a candidate among them must stand
   /// out of.
   PassedPlaceScores passed_places_;
-  /// acceptance/max_false_alarms: the loop the last keyframe published. A candidate of the next
-  /// keyframe that continues it (within index_window of its match) is one of the few places
+  /// advanced/acceptance/max_false_alarms: the loop the last keyframe published. A candidate of the
+  /// next keyframe that continues it (within index_window of its match) is one of the few places
   /// that would continue it, not one of the whole map's.
   struct PublishedLoop {
     uint64_t query_id = 0;

@@ -20,7 +20,7 @@ struct MapReadSettings {
   IndexOptions index;
   int global_dimension = 0;
   std::string descriptor_identity;
-  double memory_budget_mb = 0.0;  ///< database/memory_budget_mb; 0: search the whole map.
+  double memory_budget_mb = 0.0;  ///< advanced/database/memory_budget_mb; 0: search the whole map.
   size_t cached_records = 16;     ///< Records kept in memory after reading (the newest first).
   /// More keyframes than this missing from the saved search graph (none saved, or a crash): the
   /// graph is built in the background (about 2 ms a keyframe) and search is exact until then.

@@ -30,7 +30,7 @@ struct HeldKeyframe {
 
 /// Online mode of the broad autoencoder: holds the first N keyframes, trains on them in a
 /// background thread while later keyframes are held too, writes the model to
-/// descriptor/broad/model and hands every held keyframe back to be described.
+/// advanced/descriptor/broad/model and hands every held keyframe back to be described.
 class OnlineBroadTraining {
  public:
   OnlineBroadTraining(int keyframes, std::string model_path, BroadOptions options = {});

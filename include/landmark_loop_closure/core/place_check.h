@@ -15,7 +15,7 @@ namespace landmark_loop_closure {
 /// into another robot's map (whose keypoints and thumbnail were fetched) go through it alike.
 struct PlaceCheck {
   /// The loop may be accepted: the place was confirmed, or could not be checked and need not be
-  /// (verification off; no intrinsics while verification/required is false).
+  /// (verification off; no intrinsics while advanced/verification/required is false).
   bool accepted = false;
   /// The ORB check or the appearance check confirmed the place (a loop between robots, with no
   /// odometry between them, needs this).

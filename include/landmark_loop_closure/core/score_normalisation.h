@@ -8,7 +8,8 @@
 namespace landmark_loop_closure {
 
 /// How a candidate's similarity is normalised by what the query resembles anyway, before it is
-/// compared with acceptance/min_score (issue 35's experiments; bench/README.md has the figures).
+/// compared with advanced/acceptance/min_score (issue 35's experiments; bench/README.md has the
+/// figures).
 enum class ScoreNormalisation {
   kNone,              ///< The similarity itself.
   kPreviousKeyframe,  ///< DBoW2: over the query's similarity to the keyframe before it.

@@ -26,7 +26,7 @@ struct IndexOptions {
   bool buildsGraph() const { return type != "exact"; }
   /// Settings a saved graph must match to be reused (ef_search may differ).
   std::string graphIdentity() const;
-  /// Keys under database/index/, documented in config/default.yaml.
+  /// Keys under advanced/database/index/, documented in config/default.yaml.
   static const ParameterTable<IndexOptions>& parameters();
   std::string validate() const;
 };

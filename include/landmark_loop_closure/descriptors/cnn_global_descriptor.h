@@ -76,10 +76,12 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
 cv::Mat networkInputBlob(const cv::Mat& image, cv::Size size, const std::string& colour,
                          const std::vector<double>& mean, const std::vector<double>& deviation);
 
-/// Problems with a network's mean and std for its colour (one mean and one std > 0 per channel),
-/// one line each naming `prefix` + key; "" = usable.
-std::string validateNetworkInput(const std::string& prefix, const std::string& colour,
-                                 const std::string& mean, const std::string& deviation);
+/// Problems with a network's preprocessing (its description, MODEL.json): the input size, the
+/// colour word, and its mean and std for that colour (one mean and one std > 0 per channel), one
+/// line each naming `prefix` + field; "" = usable.
+std::string validateNetworkInput(const std::string& prefix, int width, int height,
+                                 const std::string& colour, const std::string& mean,
+                                 const std::string& deviation);
 
 /// The ONNX network in `path`, set up for OpenCV's own CPU backend. Throws std::runtime_error
 /// naming the file when it cannot be loaded.

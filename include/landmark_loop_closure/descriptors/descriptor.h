@@ -105,7 +105,8 @@ struct DescriptorOptions {
     std::string whitening;
     std::string similarity = "distance";  ///< "distance" (1 - D / 2, the paper's) or "cosine".
 
-    static const ParameterTable<Cnn>& parameters();  ///< Keys under descriptor/cnn/.
+    static const ParameterTable<Cnn>& parameters();  ///< Keys under advanced/descriptor/cnn/.
+    static const ParameterTable<Cnn>& evaluationParameters();  ///< lcd_evaluate's (below).
   } cnn;
 
   /// backbone: the landmark-ConvNet on a pretrained network (scripts/fetch_backbone.sh converts
@@ -137,7 +138,9 @@ struct DescriptorOptions {
     int hog_width = 96;           ///< The HOG window the image is resized to.
     int hog_height = 72;
 
-    static const ParameterTable<Backbone>& parameters();  ///< Keys under descriptor/backbone/.
+    static const ParameterTable<Backbone>&
+    parameters();  ///< Keys under advanced/descriptor/backbone/.
+    static const ParameterTable<Backbone>& evaluationParameters();  ///< lcd_evaluate's (below).
   } backbone;
 
   /// broad: FLCD-BA's broad autoencoder (methods.md section 3).
@@ -147,12 +150,16 @@ struct DescriptorOptions {
     /// writes the model file, then describes them and every later keyframe.
     int online_training_keyframes = 0;
 
-    static const ParameterTable<Broad>& parameters();  ///< Keys under descriptor/broad/.
+    static const ParameterTable<Broad>& parameters();  ///< Keys under advanced/descriptor/broad/.
   } broad;
 
   /// Keys under descriptor/, documented in config/default.yaml. The type's own keys are checked
   /// only when that type is chosen.
   static const ParameterTable<DescriptorOptions>& parameters();
+  /// Options measured and not kept (landmark features, VLAD, GeM, re-ranking, ...): not the
+  /// node's parameters; lcd_evaluate --config reads them under their names of then
+  /// ("descriptor/backbone/vocabulary"), and validate() checks them for its variants.
+  static const ParameterTable<DescriptorOptions>& evaluationParameters();
   std::string validate() const;
   /// True when the chosen descriptor re-ranks its shortlist with a second similarity
   /// (DescriptorExtractor::reranks() of what these options build).

@@ -13,7 +13,7 @@
 namespace landmark_loop_closure {
 
 struct DescriptorType {
-  std::string name;     ///< The value of descriptor/type.
+  std::string name;     ///< The value of advanced/descriptor/type.
   std::string summary;  ///< One line: what it is and how long its global vector is.
   /// Keys under descriptor/ this type reads besides type and condition_window; one ending in '/'
   /// is a whole group ("backbone/"). Any other key set away from its default is ignored by it.
@@ -41,8 +41,8 @@ const std::vector<DescriptorType>& descriptorRegistry();
 /// The type called `name`; nullptr when there is none.
 const DescriptorType* findDescriptorType(const std::string& name);
 
-/// Keys ("descriptor/model") set away from their defaults that `options.type` does not read: a
-/// user who set them expects an effect they do not have. Empty for an unknown type.
+/// Keys ("advanced/descriptor/model") set away from their defaults that `options.type` does not
+/// read: a user who set them expects an effect they do not have. Empty for an unknown type.
 std::vector<std::string> ignoredDescriptorParameters(const DescriptorOptions& options);
 
 /// The registered type whose name starts `variant` ("hog_whole_x" -> hog_whole, not hog);

@@ -66,7 +66,7 @@ struct CandidateRow {
   std::string detail;          ///< CandidateReport::detail: why it was refused, when said.
 };
 
-/// What the detector published at one acceptance/min_score.
+/// What the detector published at one advanced/acceptance/min_score.
 struct DetectorPass {
   double min_score = 0.0;
   std::vector<PublishedLoop> loops;
@@ -127,8 +127,8 @@ struct DetectorEvaluationOptions {
 };
 
 /// Runs the frames through a LoopDetector built from `options` and `extractor`, once at the
-/// configured acceptance/min_score and then at every threshold of the sweep (descriptions are
-/// cached between passes, so a pass costs search and acceptance only). `same_place` judges the
+/// configured advanced/acceptance/min_score and then at every threshold of the sweep (descriptions
+/// are cached between passes, so a pass costs search and acceptance only). `same_place` judges the
 /// published loops. Throws std::invalid_argument when the options are invalid.
 DetectorEvaluation evaluateDetector(const LoopDetectorOptions& options,
                                     std::shared_ptr<const DescriptorExtractor> extractor,

@@ -17,7 +17,7 @@
 namespace landmark_loop_closure {
 namespace eval {
 
-/// The node's checks of a loop candidate (verification/ and verification/appearance/).
+/// The node's checks of a loop candidate (verification/ and advanced/verification/appearance/).
 struct MatchChecks {
   AppearanceCheckOptions appearance;
   /// ORB's check runs first where `geometry.enabled` and `intrinsics` are valid (of the camera,

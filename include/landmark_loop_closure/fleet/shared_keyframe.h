@@ -19,7 +19,7 @@ class LoopDetector;
 /// One stored keyframe as a detector shares it: what search needs (the global vector as the map
 /// keeps it: one float scale and one signed byte per value) and what a loop names.
 struct SharedKeyframe {
-  std::string robot;  ///< The sender's name (fleet/robot), for log lines.
+  std::string robot;  ///< The sender's name (advanced/fleet/robot), for log lines.
   uint64_t map_id = 0;
   uint64_t id = 0;
   uint32_t session = 0;
