@@ -105,9 +105,13 @@ add_test(NAME tool_train_learned_descriptors
   COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/train_learned_descriptors.sh
     $<TARGET_FILE:make_demo_bag> $<TARGET_FILE:lcd_train> $<TARGET_FILE:lcd_evaluate>)
 
-# Every tool's command line (CLI11): --help, one uniform error for a bad option or value.
+# Every tool's command line (CLI11): --help, one uniform error for a bad option or value; and
+# lcd_evaluate --gt-mat on a MATLAB v7.3 (HDF5) file written through libmatio.
+add_executable(write_mat73_fixture test/tools/write_mat73_fixture.cpp)
+target_link_libraries(write_mat73_fixture ${OpenCV_LIBS} PkgConfig::MATIO)
 add_test(NAME tool_command_lines
-  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/command_lines.sh $<TARGET_FILE_DIR:lcd_config>)
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/command_lines.sh $<TARGET_FILE_DIR:lcd_config>
+    $<TARGET_FILE:write_mat73_fixture>)
 
 # lcd_evaluate refuses another camera's --camera-info before evaluating (Gardens Point, when here).
 add_test(NAME tool_evaluate_camera_info

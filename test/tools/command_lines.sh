@@ -3,9 +3,10 @@
 # unknown option, a missing required value or a bad number exits 2 with one line naming it and a
 # pointer to --help; values keep their meaning (a negative number is a value, lists split on
 # commas). Nothing here does the tools' work.
-#   command_lines.sh TOOLS_DIR
+# And lcd_evaluate --gt-mat reads a MATLAB v7.3 (HDF5) file (written by WRITE_MAT73_FIXTURE).
+#   command_lines.sh TOOLS_DIR WRITE_MAT73_FIXTURE
 set -euo pipefail
-tools="$1"
+tools="$1" write_mat73="$2"
 folder="$(mktemp -d)"
 trap 'rm -rf "$folder"' EXIT
 failures=0
@@ -82,6 +83,17 @@ expect 2 "scale error must be within" make_demo_bag "$folder/demo.bag" 1 10 -0.9
 expect 2 "--two-robots takes OUTPUT" make_demo_bag --two-robots "$folder/demo.bag" 10 20
 # lcd_evaluate: a dry run reads its options and stops.
 expect 0 "corridor|dry run" lcd_evaluate --corridor 1 --detector --dry-run --output "$folder/results"
+
+# Ground truth saved by MATLAB with -v7.3 (HDF5): read, checked against the images, and its 3
+# revisits found.
+"$write_mat73" "$folder/v73"
+head -c 19 "$folder/v73/truth_v73.mat" | grep -q "MATLAB 7.3 MAT-file" || fail "the fixture is no v7.3 file"
+expect 0 "dry run: 6 database and 6 query images .*ground truth .*truth_v73.mat" lcd_evaluate \
+  --images "$folder/v73/images" --gt-mat "$folder/v73/truth_v73.mat" --dry-run --output "$folder/r"
+expect 0 "pixels +R@100P 1.000" lcd_evaluate --images "$folder/v73/images" --gt-mat "$folder/v73/truth_v73.mat" \
+  --gt-var GT --descriptors pixels --exclude-recent 1 --output "$folder/r"
+expect 1 "no 2-D numeric variable 'truth' \\(found: GT\\)" lcd_evaluate --images "$folder/v73/images" \
+  --gt-mat "$folder/v73/truth_v73.mat" --gt-var truth --dry-run --output "$folder/r"
 
 if [ "$failures" -gt 0 ]; then echo "$failures failure(s)"; exit 1; fi
 echo "every tool's command line: ok"
