@@ -258,6 +258,13 @@ const std::vector<RemovedParameter>& removedParameters() {
   return removed;
 }
 
+namespace {
+// How parameterNotes words a moved key and an unknown one; condensedParameterNotes tells them
+// apart by it.
+constexpr char kMoved[] = " moved: it is now ";
+constexpr char kNotAParameter[] = " is not a parameter of the node";
+}  // namespace
+
 const std::vector<DocumentedParameter>& fixedParameters() {
   static const std::vector<DocumentedParameter> fixed = [] {
     std::vector<DocumentedParameter> all;
@@ -278,7 +285,7 @@ std::vector<std::string> parameterNotes(const std::vector<std::string>& keys,
         std::find_if(reader.records().begin(), reader.records().end(),
                      [&key](const ParameterRecord& r) { return r.found_under_old_name == key; });
     if (record != reader.records().end()) {
-      notes.push_back(key + " moved: it is now " + record->key +
+      notes.push_back(key + kMoved + record->key +
                       " (read from the old name this time; rename it)");
       continue;
     }
@@ -303,12 +310,32 @@ std::vector<std::string> parameterNotes(const std::vector<std::string>& keys,
       notes.push_back(key +
                       " is no longer a parameter of the node and is ignored: " + removed->instead);
     } else {
-      notes.push_back(key +
-                      " is not a parameter of the node and is ignored (misspelt? "
-                      "config/default.yaml lists every key)");
+      notes.push_back(key + kNotAParameter +
+                      " and is ignored (misspelt? config/default.yaml lists every key)");
     }
   }
   return notes;
+}
+
+std::vector<std::string> condensedParameterNotes(const std::vector<std::string>& notes,
+                                                 size_t max_lines) {
+  std::vector<std::string> unknown, layout;
+  for (const std::string& note : notes) {
+    (note.find(kNotAParameter) != std::string::npos ? unknown : layout).push_back(note);
+  }
+  if (layout.size() > max_lines) {
+    const size_t moved = static_cast<size_t>(std::count_if(
+        layout.begin(), layout.end(),
+        [](const std::string& note) { return note.find(kMoved) != std::string::npos; }));
+    unknown.push_back(std::to_string(layout.size()) + " keys are of the layout before advanced/: " +
+                      std::to_string(moved) + " moved (read from their old names), " +
+                      std::to_string(layout.size() - moved) +
+                      " no longer read; the first: " + layout.front() +
+                      ". `rosrun landmark_loop_closure lcd_config check YOUR_FILE` names each");
+  } else {
+    unknown.insert(unknown.end(), layout.begin(), layout.end());
+  }
+  return unknown;
 }
 
 void readEvaluationOptions(OptionReader* reader, NodeOptions* options) {

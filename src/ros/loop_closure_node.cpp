@@ -64,7 +64,7 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
-  for (const std::string& note : parameterNotes(source.keys(), reader)) {
+  for (const std::string& note : condensedParameterNotes(parameterNotes(source.keys(), reader))) {
     ROS_WARN("Parameter %s/%s", private_node.getNamespace().c_str(), note.c_str());
   }
   const std::string problems = reader.errors() + options.validate();

@@ -119,6 +119,28 @@ TEST(NodeOptions, AFileOfTheEarlierLayoutStillLoadsAndEachMovedKeyIsNamed) {
   EXPECT_EQ(notes.size(), 3u) << "use_depth kept its name; advanced/keyframe/min_motion is read";
 }
 
+// A copied default file of the earlier layout would name 150 keys at the node's start: one line
+// counts them instead, while a misspelt key keeps a line of its own.
+TEST(NodeOptions, TheNodeCondensesManyLayoutNotesButNamesEveryUnknownKey) {
+  const YamlParameterSource source(
+      YAML::Load("keyframe: {min_motion: 0.9, max_motion: 4.0}\nworker_queue_size: 20\n"
+                 "verification: {orb_levels: 3}\nacceptance: {min_scor: 0.2}\n"));
+  OptionReader reader(source);
+  NodeOptions options;
+  readNodeOptions(&reader, &options);
+  const std::vector<std::string> notes = parameterNotes(source.keys(), reader);
+  ASSERT_EQ(notes.size(), 5u);
+  const std::vector<std::string> logged = condensedParameterNotes(notes);
+  ASSERT_EQ(logged.size(), 2u);
+  EXPECT_NE(logged[0].find("acceptance/min_scor is not a parameter"), std::string::npos);
+  EXPECT_NE(logged[1].find("4 keys are of the layout before advanced/: 3 moved (read from their "
+                           "old names), 1 no longer read; the first: "),
+            std::string::npos)
+      << logged[1];
+  EXPECT_NE(logged[1].find("lcd_config check"), std::string::npos);
+  EXPECT_EQ(condensedParameterNotes(notes, 10).size(), 5u) << "few enough: each its own line";
+}
+
 TEST(NodeOptions, EveryKeyOfTheEarlierDefaultFileIsNamedWhereItWent) {
   // The shipped file of before, rebuilt from today's declarations under the old names.
   std::vector<DocumentedParameter> parameters;

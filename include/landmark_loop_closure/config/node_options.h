@@ -127,6 +127,12 @@ const std::vector<DocumentedParameter>& fixedParameters();
 std::vector<std::string> parameterNotes(const std::vector<std::string>& keys,
                                         const OptionReader& reader);
 
+/// `notes` as the node logs them at start: an unknown key one line each (a misspelt key must not
+/// hide among the others), and, past `max_lines`, the keys that moved or are no longer read in
+/// one line that counts them, names the first and points at `lcd_config check` for each.
+std::vector<std::string> condensedParameterNotes(const std::vector<std::string>& notes,
+                                                 size_t max_lines = 3);
+
 /// config/default.yaml as the parameter tables describe it: every key with its default and
 /// description. A test keeps the shipped file equal to it; `lcd_config defaults` writes it.
 std::string documentedDefaultsYaml();
