@@ -14,6 +14,7 @@ set(CORE_TESTS
   test_appearance_check
   test_loop_detector
   test_loop_detector_map
+  test_map_session
   test_loop_detector_ids
   test_map_file_safety
   test_sequence_matching

@@ -171,7 +171,7 @@ inline bool replayLoopDetectorInput(const uint8_t* data, size_t size,
       continue;
     }
     if (kind == 15) {
-      detector.reset();
+      detector.map().reset();
       stored = 0;
       continue;
     }

@@ -254,6 +254,10 @@ const std::vector<RemovedParameter>& removedParameters() {
       {"descriptor/cnn/colour", kDescribed},
       {"descriptor/cnn/mean", kDescribed},
       {"descriptor/cnn/std", kDescribed},
+      // The node no longer trains a descriptor while it runs: training is a tool, then a load.
+      {"descriptor/broad/online_training_keyframes",
+       "train the model first (`rosrun landmark_loop_closure lcd_train broad --bag YOUR_RUN.bag "
+       "--output FILE`) and name it in advanced/descriptor/broad/model"},
   };
   return removed;
 }

@@ -23,7 +23,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
   std::vector<CandidateReport>& reports = result->candidates;
   std::vector<size_t> indices;
   for (const Candidate& candidate : query.candidates) {
-    const KeyframeSummary& stored = database_.summary(candidate.index);
+    const KeyframeSummary& stored = database().summary(candidate.index);
     CandidateReport report;
     report.match_id = stored.id;
     report.match_stamp = stored.stamp;
@@ -31,7 +31,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     report.score = extractor_->globalScore(candidate.global_score);
     report.image_score = report.score;
     if (extractor_->reranks()) {
-      const std::shared_ptr<const KeyframeRecord> record = database_.record(candidate.index);
+      const std::shared_ptr<const KeyframeRecord> record = database().record(candidate.index);
       if (!record) {
         report.verdict = CandidateVerdict::kUnreadable;
         report.detail = "its record could not be read from the map";
@@ -71,7 +71,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       report.detail = detail.str();
       continue;
     }
-    const KeyframeSummary* match = database_.findSummary(report.match_id);
+    const KeyframeSummary* match = database().findSummary(report.match_id);
     // Earlier sessions' odometry is another frame with its own drift: nothing to compare.
     if (mode_ == DetectorMode::kMapping && match->session == session_) {
       const OdometryGateDecision gate =
@@ -119,7 +119,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     } else if (!passesFalseAlarms(&report, query_keyframe)) {
       report.verdict = CandidateVerdict::kBelowThreshold;
     } else {
-      const std::shared_ptr<const KeyframeRecord> match = database_.findRecord(report.match_id);
+      const std::shared_ptr<const KeyframeRecord> match = database().findRecord(report.match_id);
       if (!match) {
         report.verdict = CandidateVerdict::kUnreadable;
         report.detail = "its record could not be read from the map";
@@ -148,9 +148,9 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
 
 const CandidateReport* LoopDetector::placeLeader(
     const CandidateReport& report, const std::vector<const CandidateReport*>& leaders) const {
-  const KeyframeSummary* match = database_.findSummary(report.match_id);
+  const KeyframeSummary* match = database().findSummary(report.match_id);
   for (const CandidateReport* leader : leaders) {
-    const KeyframeSummary* other = database_.findSummary(leader->match_id);
+    const KeyframeSummary* other = database().findSummary(leader->match_id);
     if (match && other &&
         sameIdPlace(match->id, match->session, other->id, other->session,
                     static_cast<uint64_t>(options_.acceptance.place_window))) {
@@ -174,13 +174,13 @@ void LoopDetector::recordBackground(const KeyframeRecord& query_keyframe) {
   DatabaseOptions search = options_.database;
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
   const ScoreBackground background =
-      sequence_.background(database_, *extractor_, [&](size_t index) {
-        return database_.eligible(index, query_keyframe.stamp, search, session_);
+      sequence_.background(database(), *extractor_, [&](size_t index) {
+        return database().eligible(index, query_keyframe.stamp, search, session_);
       });
   std::vector<PlaceScore> scores;
   scores.reserve(background.index.size());
   for (size_t j = 0; j < background.index.size(); ++j) {
-    const KeyframeSummary& place = database_.summary(background.index[j]);
+    const KeyframeSummary& place = database().summary(background.index[j]);
     scores.push_back({place.id, place.session, background.score[j]});
   }
   backgrounds_.push_front(std::move(scores));
@@ -189,14 +189,14 @@ void LoopDetector::recordBackground(const KeyframeRecord& query_keyframe) {
   const uint64_t span = static_cast<uint64_t>(options_.database.exclude_recent_keyframes);
   if (mode_ != DetectorMode::kMapping || span == 0) return;
   std::vector<double> passed;
-  for (size_t index = database_.size(); index-- > 0;) {
-    const KeyframeSummary& place = database_.summary(index);
+  for (size_t index = database().size(); index-- > 0;) {
+    const KeyframeSummary& place = database().summary(index);
     if (place.session != session_ || place.id >= query_keyframe.id) break;
     if (!justPassed(place, query_keyframe.id)) {
       if (query_keyframe.id - place.id > 2 * span) break;
       continue;
     }
-    passed.push_back(sequence_.pathScore(index, database_, *extractor_));
+    passed.push_back(sequence_.pathScore(index, database(), *extractor_));
   }
   passed_places_.add(std::move(passed));
 }
@@ -214,7 +214,7 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
   // Not evidence of what a wrong place scores: the candidate's own place, and places the
   // odometry puts within its drift of the query (laps of one run revisit them).
   const OdometryGateOptions& gate = options_.odometry_gate;
-  const KeyframeSummary* match = database_.findSummary(report->match_id);
+  const KeyframeSummary* match = database().findSummary(report->match_id);
   const uint64_t window = static_cast<uint64_t>(options_.acceptance.place_window);
   std::vector<double> others;
   // Places that could be mistaken for the query's: those the odometry does not rule out. The
@@ -228,7 +228,7 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
       }
       bool reachable = true;
       if (gate.enabled && mode_ == DetectorMode::kMapping && place.session == session_) {
-        const KeyframeSummary* summary = database_.findSummary(place.id);
+        const KeyframeSummary* summary = database().findSummary(place.id);
         reachable = summary && checkOdometry(gate, query_keyframe.pose, query_keyframe.path,
                                              summary->pose, summary->path)
                                    .consistent;
@@ -320,15 +320,15 @@ double LoopDetector::falseAlarmBound(const KeyframeSummary* match,
 }
 
 bool LoopDetector::leftThePlace(const KeyframeSummary& match, double level, std::string* detail) {
-  const std::optional<size_t> start = database_.indexOf(match.id);
+  const std::optional<size_t> start = database().indexOf(match.id);
   if (!start) return true;
   const uint64_t window = static_cast<uint64_t>(options_.acceptance.place_window);
   double lowest = HUGE_VAL;
   // From the match onwards: a revisit usually leaves its place within a few keyframes.
-  for (size_t index = *start + 1; index < database_.size(); ++index) {
-    const KeyframeSummary& between = database_.summary(index);
+  for (size_t index = *start + 1; index < database().size(); ++index) {
+    const KeyframeSummary& between = database().summary(index);
     if (between.session != session_ || idGap(between.id, match.id) <= window) continue;
-    const double score = sequence_.pathScore(index, database_, *extractor_);
+    const double score = sequence_.pathScore(index, database(), *extractor_);
     if (score <= level) return true;
     lowest = std::min(lowest, score);
   }
@@ -349,7 +349,7 @@ void LoopDetector::rateDistinctiveness(std::vector<CandidateReport>* reports) co
   std::vector<const KeyframeSummary*> summaries;
   std::vector<CandidateReport*> rated;
   for (CandidateReport& report : *reports) {
-    const KeyframeSummary* summary = database_.findSummary(report.match_id);
+    const KeyframeSummary* summary = database().findSummary(report.match_id);
     if (!summary || report.verdict == CandidateVerdict::kUnreadable) continue;
     shortlist.push_back({summary->id, summary->session, report.score});
     summaries.push_back(summary);
@@ -384,7 +384,7 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   DatabaseOptions search = options_.database;
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
   const auto scores_of = [&](const std::vector<size_t>& population) {
-    std::vector<double> scores = database_.similarities(descriptor.global, population);
+    std::vector<double> scores = database().similarities(descriptor.global, population);
     for (double& score : scores) score = extractor_->globalScore(score);
     return scores;
   };
@@ -392,9 +392,9 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   if (normalisation == ScoreNormalisation::kZScore) {
     // At most kZScoreSample keyframes spread evenly over the map: the mean and spread are as
     // good, and the cost stays bounded however large the map grows.
-    const size_t stride = std::max<size_t>(1, database_.size() / kZScoreSample);
-    for (size_t index = 0; index < database_.size(); index += stride) {
-      if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
+    const size_t stride = std::max<size_t>(1, database().size() / kZScoreSample);
+    for (size_t index = 0; index < database().size(); index += stride) {
+      if (database().eligible(index, stamp, search, session_)) population.push_back(index);
     }
     const Standardisation standardisation = Standardisation::of(scores_of(population));
     if (options_.acceptance.sequence.enabled()) {
@@ -408,9 +408,9 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   for (size_t i = 0; i < reports->size() && i < indices.size(); ++i) {
     population.clear();
     const size_t first = indices[i] > window ? indices[i] - window : 0;
-    const size_t last = std::min(database_.size() - 1, indices[i] + window);
+    const size_t last = std::min(database().size() - 1, indices[i] + window);
     for (size_t index = first; index <= last; ++index) {
-      if (database_.eligible(index, stamp, search, session_)) population.push_back(index);
+      if (database().eligible(index, stamp, search, session_)) population.push_back(index);
     }
     (*reports)[i].score = standardisedScore((*reports)[i].score, scores_of(population));
   }
@@ -429,8 +429,8 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
   DatabaseOptions search = options_.database;
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
   sequence_.score(
-      database_, *extractor_,
-      [&](size_t index) { return database_.eligible(index, stamp, search, session_); },
+      database(), *extractor_,
+      [&](size_t index) { return database().eligible(index, stamp, search, session_); },
       &candidates);
   std::vector<CandidateReport> scored;
   for (size_t i = 0; i < candidates.size(); ++i) {
@@ -439,10 +439,10 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
     if (i < reports->size()) {
       report = (*reports)[i];
     } else {
-      const KeyframeSummary& stored = database_.summary(candidate.index);
+      const KeyframeSummary& stored = database().summary(candidate.index);
       report.match_id = stored.id;
       report.match_stamp = stored.stamp;
-      report.global_score = database_.similarity(descriptor.global, candidate.index);
+      report.global_score = database().similarity(descriptor.global, candidate.index);
       report.image_score = candidate.image_score;
     }
     report.score = candidate.score;

@@ -229,13 +229,36 @@ const char* toString(CandidateVerdict verdict) {
   return "unknown";
 }
 
+namespace {
+
+MapSession::Settings mapSettings(const LoopDetectorOptions& options,
+                                 const DescriptorExtractor* extractor,
+                                 const std::string& descriptor_identity) {
+  MapSession::Settings settings;
+  settings.database = options.database;
+  settings.global_dimension = extractor ? extractor->globalDimension() : 1;
+  settings.descriptor_identity = descriptor_identity;
+  // The newest keyframes (triangulation, the consistency chain) and a few queries' candidates.
+  settings.cached_records =
+      static_cast<size_t>(4 * options.database.top_k + options.triangulation_keyframes +
+                          options.acceptance.sequence.length) +
+      16;
+  return settings;
+}
+
+}  // namespace
+
 LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                            std::shared_ptr<const DescriptorExtractor> extractor)
     : options_(options),
       extractor_(std::move(extractor)),
+      descriptor_identity_(extractor_
+                               ? "extractor=" + extractor_->name() + " " +
+                                     landmark_loop_closure::descriptorIdentity(options.descriptor)
+                               : std::string()),
       verifier_(options.verification),
       selector_(options.keyframe),
-      database_(extractor_ ? extractor_->globalDimension() : 1, options.database.index),
+      map_(mapSettings(options, extractor_.get(), descriptor_identity_), this),
       standardiser_(options.descriptor.condition_window),
       consistency_(options.acceptance.consistency_unit,
                    options.acceptance.consistency_unit == ConsistencyUnit::kKeyframes
@@ -245,17 +268,8 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
+  if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
   mode_ = options.mode;
-  if (!extractor_) {
-    if (!needsOnlineTraining(options.descriptor)) {
-      throw std::invalid_argument("a descriptor extractor is required");
-    }
-    training_ = std::make_unique<OnlineBroadTraining>(
-        options.descriptor.broad.online_training_keyframes, options.descriptor.broad.model);
-    return;
-  }
-  descriptor_identity_ = "extractor=" + extractor_->name() + " " +
-                         landmark_loop_closure::descriptorIdentity(options.descriptor);
 }
 
 LoopDetector::~LoopDetector() {
@@ -267,43 +281,45 @@ LoopDetector::~LoopDetector() {
   }
 }
 
-KeyframeResult LoopDetector::holdForTraining(HeldKeyframe keyframe) {
-  KeyframeResult result;
-  result.keyframe_id = keyframe.id;
-  training_->hold(std::move(keyframe));
-  if (!training_->ready()) {
-    result.held_for_training = training_->held();
-    return result;
+void LoopDetector::storeWarmedUp(KeyframeResult* result) {
+  std::vector<WarmingKeyframe> warming = std::move(warming_);
+  warming_.clear();
+  for (WarmingKeyframe& waiting : warming) {
+    if (!standardiser_.warmingUp()) {
+      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
+    }
+    store(std::move(waiting.keyframe), result);
   }
-  std::shared_ptr<const DescriptorExtractor> trained;
-  try {
-    trained = training_->finish();
-  } catch (const std::exception& error) {
-    result.training_summary = std::string("broad autoencoder training failed (") + error.what() +
-                              "); training again on the next keyframes";
-    training_ =
-        std::make_unique<OnlineBroadTraining>(training_->wanted(), options_.descriptor.broad.model);
-    return result;
+}
+
+void LoopDetector::storeHeldKeyframes() {
+  KeyframeResult unreported;
+  storeWarmedUp(&unreported);
+}
+
+void LoopDetector::mapReplaced(uint32_t first_session, std::optional<uint64_t> next_id) {
+  session_ = first_session;
+  uint64_t next = next_keyframe_id_.load();
+  while (next_id && next < *next_id && !next_keyframe_id_.compare_exchange_weak(next, *next_id)) {
   }
-  extractor_ = std::move(trained);
-  database_ = KeyframeDatabase(extractor_->globalDimension(), options_.database.index);
-  descriptor_identity_ = "extractor=" + extractor_->name() + " " +
-                         landmark_loop_closure::descriptorIdentity(options_.descriptor);
-  const std::string summary = training_->summary();
-  std::vector<HeldKeyframe> held = training_->release();
-  training_.reset();
-  std::string map_error;
-  if (!pending_map_path_.empty()) {
-    map_error = openMap(pending_map_path_);
-    pending_map_path_.clear();
-  }
-  for (const HeldKeyframe& frame : held) {
-    result = addKeyframe(frame.id, frame.stamp, frame.pose, frame.image, frame.intrinsics,
-                         frame.depth, frame.stamp_ns);
-  }
-  result.training_summary = summary;
-  if (!map_error.empty()) result.store_error = map_error;
-  return result;
+  consistency_.reset();
+  sequence_.reset();
+  backgrounds_.clear();
+  last_loop_.reset();
+  passed_places_.clear();
+  last_keyframe_.reset();
+}
+
+void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
+  StoredKeyframe outcome = map_.store(std::move(keyframe));
+  result->stored = result->stored || outcome.stored;
+  result->written_not_searched = result->written_not_searched || outcome.written_not_searched;
+  if (!outcome.store_error.empty()) result->store_error = std::move(outcome.store_error);
+  if (!outcome.map_damage.empty()) result->map_damage = std::move(outcome.map_damage);
+}
+
+void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
+  if (std::string error = map_.reserveId(id); !error.empty()) result->store_error = error;
 }
 
 void LoopDetector::restartAdmission() {
@@ -377,9 +393,6 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
-  if (training_) {
-    return holdForTraining({keyframe_id, stamp, pose, image, intrinsics, depth, stamp_ns});
-  }
   // Held keyframes come back here in order, so the session changes where the odometry did; a
   // marked keyframe that never came (refused, dropped) passes its mark to the next. After a load
   // or a reset (no keyframe yet) the session is new already.
@@ -397,7 +410,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   decide(&result, descriptor, query, keyframe, intrinsics);
   previous_global_ = descriptor.global;
   if (result.loop) {
-    result.loop->map_id = mapId();
+    result.loop->map_id = map_.mapId();
     result.loop->query_id = keyframe_id;
     result.loop->query_session = session_;
     result.loop->query_stamp = stamp;
@@ -406,7 +419,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kLocalization) {
     // Published under the map's id but never stored: a later mapping run must not reuse it.
     reserveId(keyframe.id, &result);
-    announce(keyframe, false);
+    map_.announce(keyframe, false);
   } else {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
@@ -428,7 +441,7 @@ std::optional<InputError> LoopDetector::checkKeyframe(uint64_t keyframe_id,
                                                       const cv::Mat& image) const {
   if (auto error = checkImage(image.cols, image.rows, image.type(), options_.input)) return error;
   if (auto error = checkTexture(image, options_.input)) return error;
-  if (!database_.empty() && keyframe_id <= database_.summary(database_.size() - 1).id) {
+  if (!database().empty() && keyframe_id <= database().summary(database().size() - 1).id) {
     return InputError{
         InputErrorCode::kStampNotIncreasing,
         "keyframe id " + std::to_string(keyframe_id) + " is not after the last stored keyframe"};
@@ -462,13 +475,12 @@ QueryResult LoopDetector::search(uint64_t keyframe_id, double stamp,
       replayed = true;
     }
   }
-  noteMapDamage(result);
-  adoptBuiltGraph(false);
-  if (!map_damage_.empty()) {
-    query.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
-  } else if (!replayed) {
-    query = database_.query(descriptor.global, stamp, search, session_);
-    if (query_cache_) query_cache_->emplace(keyframe_id, query);
+  if (std::string damage = map_.takeNewDamage(); !damage.empty()) result->map_damage = damage;
+  if (!replayed || !map_.damage().empty()) {
+    query = map_.query(descriptor.global, stamp, search, session_);
+    if (query_cache_ && !replayed && map_.damage().empty()) {
+      query_cache_->emplace(keyframe_id, query);
+    }
   }
   result->times.query_ms = millisecondsSince(start);
   result->query_status = query.status;
@@ -506,21 +518,6 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   return keyframe;
 }
 
-std::string LoopDetector::takeNewMapDamage() {
-  if (store_ && map_damage_.empty() &&
-      store_->integrityCheck() == KeyframeStore::MapCheck::kFailed) {
-    map_damage_ = store_->integrityProblem();
-    return map_damage_;
-  }
-  return "";
-}
-
-void LoopDetector::noteMapDamage(KeyframeResult* result) {
-  if (std::string damage = takeNewMapDamage(); !damage.empty()) {
-    result->map_damage = std::move(damage);
-  }
-}
-
 void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
                              const CameraIntrinsics& intrinsics, LocalFeatures* features) const {
   if (!intrinsics.valid() || features->empty()) return;
@@ -531,10 +528,10 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
   if (!options_.metric_pose.triangulate_from_odometry || !camera_mount_) return;
   const Eigen::Isometry3d mount = camera_mount_->toIsometry();
   const Eigen::Isometry3d camera = pose.toIsometry() * mount;
-  const size_t stored = database_.size();
+  const size_t stored = database().size();
   for (size_t back = 1;
        back <= static_cast<size_t>(options_.triangulation_keyframes) && back <= stored; ++back) {
-    const std::shared_ptr<const KeyframeRecord> neighbour = database_.record(stored - back);
+    const std::shared_ptr<const KeyframeRecord> neighbour = database().record(stored - back);
     // Another session's pose is in another odometry frame (a loaded map, the odometry before it
     // was re-initialised): no baseline to triangulate over.
     if (!neighbour || neighbour->local_features.empty() || neighbour->session != session_) continue;

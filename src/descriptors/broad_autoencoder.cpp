@@ -1,6 +1,7 @@
 #include "landmark_loop_closure/descriptors/broad_autoencoder.h"
 
 #include <cmath>
+#include <filesystem>
 #include <random>
 
 #include <Eigen/Cholesky>
@@ -291,13 +292,10 @@ const ParameterTable<DescriptorOptions::Broad>& DescriptorOptions::Broad::parame
   static const auto table =
       ParameterTable<O>("advanced/descriptor/broad/",
                         "type broad: FLCD-BA's broad autoencoder (methods.md section 3).")
-          .text("model", &O::model, "file written by `lcd_train broad`; required for type broad.")
-          .integer("online_training_keyframes", &O::online_training_keyframes, between(0, 100000),
-                   "> 0 and `model` does not exist yet: keyframes are held until this many have "
-                   "come (at least 10), the autoencoder trains on them in the background (~10 s "
-                   "on one core) while later keyframes are held too, is written to `model`, and "
-                   "every held keyframe is stored and published; detection starts there. The "
-                   "next start loads `model`.");
+          .text("model", &O::model,
+                "file written by `lcd_train broad --bag YOUR_RUN.bag --output FILE` (trained on "
+                "the keyframes the node would keep from a run of the robot's own); required for "
+                "type broad.");
   return table;
 }
 
@@ -308,16 +306,24 @@ DescriptorType broadDescriptorType() {
   type.summary =
       "FLCD-BA's broad autoencoder, trained by ridge regression (advanced/descriptor/broad/*)";
   type.validate = [](const DescriptorOptions& options) {
-    return options.broad.model.empty() ? std::string(
-                                             "advanced/descriptor/broad/model is empty: train one "
-                                             "with `lcd_train broad`, or name "
-                                             "the file online training writes (README.md)\n")
-                                       : std::string();
+    if (options.broad.model.empty()) {
+      return std::string(
+          "advanced/descriptor/broad/model is empty: train one with `lcd_train broad --bag "
+          "YOUR_RUN.bag --output FILE` and name it\n");
+    }
+    return std::string();
   };
   type.identity = [](const DescriptorOptions& options) {
     return "model_fnv1a=" + fileHash(options.broad.model);
   };
   type.make = [](const DescriptorOptions& options) {
+    std::error_code absent;
+    if (!std::filesystem::exists(options.broad.model, absent)) {
+      throw BroadModelFileError("advanced/descriptor/broad/model " + options.broad.model +
+                                " does not exist: train it with `rosrun landmark_loop_closure "
+                                "lcd_train broad --bag YOUR_RUN.bag --output " +
+                                options.broad.model + "`");
+    }
     return std::make_shared<BroadDescriptor>(BroadModel::load(options.broad.model));
   };
   return type;

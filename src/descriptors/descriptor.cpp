@@ -135,10 +135,6 @@ std::string DescriptorOptions::validate() const {
               std::to_string(landmark_patch) + ")\n";
   }
   if (const DescriptorType* entry = findDescriptorType(type)) errors += entry->validate(*this);
-  if (broad.online_training_keyframes > 0 && broad.online_training_keyframes < 10) {
-    errors += "advanced/descriptor/broad/online_training_keyframes must be 0 (off) or >= 10 (got " +
-              std::to_string(broad.online_training_keyframes) + ")\n";
-  }
   return errors;
 }
 

@@ -42,7 +42,7 @@ DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
   std::vector<SharedKeyframe> shared;  // Every robot's rows, as they were announced.
   const auto robotOfMap = [&robots](uint64_t map_id) -> Robot* {
     for (Robot& robot : robots) {
-      if (robot.detector->mapId() == map_id) return &robot;
+      if (robot.detector->map().mapId() == map_id) return &robot;
     }
     return nullptr;
   };
@@ -52,11 +52,11 @@ DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
     if (robots.empty() || frame.new_run) {
       Robot robot;
       robot.detector = std::make_unique<LoopDetector>(options, extractor);
-      robot.detector->announceKeyframes(true);
+      robot.detector->map().announceKeyframes(true);
       robot.matcher = std::make_unique<FleetMatcher>(fleet, robot.detector->descriptorIdentity(),
                                                      robot.detector->database().globalDimension());
       for (const SharedKeyframe& row : shared) {
-        robot.matcher->addRow(row, 0.0, robot.detector->mapId());
+        robot.matcher->addRow(row, 0.0, robot.detector->map().mapId());
       }
       robots.push_back(std::move(robot));
     }
@@ -73,7 +73,7 @@ DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
       ++evaluation.keyframes;
       robot.frame_of[result.admission.keyframe_id] = index;
     }
-    for (const AnnouncedKeyframe& announced : robot.detector->takeAnnounced()) {
+    for (const AnnouncedKeyframe& announced : robot.detector->map().takeAnnounced()) {
       const uint64_t id = announced.summary.id;
       const std::optional<SharedKeyframe> row =
           sharedKeyframeOf(*robot.detector, id, "robot " + std::to_string(robots.size()), "odom");

@@ -88,10 +88,10 @@ std::optional<SharedKeyframe> sharedKeyframeOf(const LoopDetector& detector, uin
   const KeyframeSummary& summary = database.summary(*index);
   SharedKeyframe shared;
   shared.robot = robot;
-  shared.map_id = detector.mapId();
+  shared.map_id = detector.map().mapId();
   shared.id = id;
   shared.session = summary.session;
-  shared.stamp_ns = detector.keyframeStampNs(id).value_or(
+  shared.stamp_ns = detector.map().keyframeStampNs(id).value_or(
       static_cast<int64_t>(std::llround(summary.stamp * 1e9)));
   shared.pose = summary.pose;
   shared.odometry_frame = odometry_frame;
@@ -107,7 +107,7 @@ std::optional<KeyframeEvidence> evidenceOf(const LoopDetector& detector, uint64_
   const std::shared_ptr<const KeyframeRecord> record = detector.database().findRecord(id);
   if (!record) return std::nullopt;
   KeyframeEvidence evidence;
-  evidence.map_id = detector.mapId();
+  evidence.map_id = detector.map().mapId();
   evidence.id = id;
   evidence.local_features = record->local_features;
   evidence.intrinsics = intrinsics;

@@ -63,8 +63,10 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
       private_node_(private_node),
       options_(options),
       robot_(options.robot.empty() ? ros::this_node::getNamespace() : options.robot),
-      hooks_(std::move(hooks)) {
-  ensureMatcher(detector);
+      hooks_(std::move(hooks)),
+      matcher_(std::make_unique<FleetMatcher>(options_, detector.descriptorIdentity(),
+                                              detector.database().globalDimension())),
+      own_map_id_(detector.map().mapId()) {
   if (options_.share) {
     ros::AdvertiseOptions rows;
     rows.init<FleetKeyframe>(
@@ -97,7 +99,6 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
     silence_timer_ = node_.createWallTimer(
         ros::WallDuration(kSilenceCheckPeriod), [this](const ros::WallTimerEvent&) {
           std::lock_guard<std::mutex> lock(matcher_mutex_);
-          if (!matcher_) return;
           for (const std::string& line : matcher_->checkSilence(ros::WallTime::now().toSec())) {
             ROS_WARN("fleet: %s", line.c_str());
           }
@@ -119,27 +120,10 @@ void FleetLink::stop() {
   if (fetch_thread_.joinable()) fetch_thread_.join();
 }
 
-bool FleetLink::ensureMatcher(const LoopDetector& detector) {
-  std::lock_guard<std::mutex> lock(matcher_mutex_);
-  if (matcher_) return true;
-  if (!detector.extractor()) return false;  // Online training has not made the descriptor yet.
-  matcher_ = std::make_unique<FleetMatcher>(options_, detector.descriptorIdentity(),
-                                            detector.database().globalDimension());
-  own_map_id_ = detector.mapId();
-  return true;
-}
-
 void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg) {
   std::string line;
   {
     std::lock_guard<std::mutex> lock(matcher_mutex_);
-    if (!matcher_) {
-      ROS_WARN_THROTTLE(kWarningPeriod,
-                        "fleet: keyframes shared by %s are dropped until this detector's "
-                        "descriptor exists (online training is still collecting keyframes)",
-                        peer.c_str());
-      return;
-    }
     line = matcher_->addRow(sharedKeyframeFromMsg(*msg), ros::WallTime::now().toSec(),
                             own_map_id_.load());
     peer_of_map_.emplace(msg->map_id, peer);
@@ -177,7 +161,7 @@ void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
       const size_t end = std::min(database.size(), next + kChunk);
       for (; next < end; ++next) {
         const uint64_t id = database.summary(next).id;
-        if (detector.awaitingCommit(id)) continue;  // Shared live once committed.
+        if (detector.map().awaitingCommit(id)) continue;  // Shared live once committed.
         if (std::optional<SharedKeyframe> row =
                 sharedKeyframeOf(detector, id, robot_, odometry_frame)) {
           rows.push_back(toFleetKeyframeMsg(*row));
@@ -199,9 +183,9 @@ void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
 
 bool FleetLink::onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response) {
   hooks_.with_detector([&](LoopDetector& detector) {
-    if (request.map_id != detector.mapId()) {
+    if (request.map_id != detector.map().mapId()) {
       response.problem = "map " + std::to_string(request.map_id) + " is not this detector's (" +
-                         std::to_string(detector.mapId()) + ")";
+                         std::to_string(detector.map().mapId()) + ")";
       return;
     }
     const std::optional<KeyframeEvidence> evidence =
@@ -219,8 +203,7 @@ bool FleetLink::onEvidence(FleetEvidence::Request& request, FleetEvidence::Respo
 void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
                             const std::string& odometry_frame) {
   if (!options_.share && options_.peerList().empty()) return;
-  const bool matching = ensureMatcher(detector);
-  own_map_id_ = detector.mapId();
+  own_map_id_ = detector.map().mapId();
   const std::optional<SharedKeyframe> own = sharedKeyframeOf(detector, id, robot_, odometry_frame);
   if (!own) return;  // Not in search (past the memory budget): nothing to share or search.
   if (options_.share) {
@@ -231,7 +214,7 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
     row_publisher_.publish(toFleetKeyframeMsg(*own));
     ++rows_shared_;
   }
-  if (!matching || options_.peerList().empty()) return;
+  if (options_.peerList().empty()) return;
   std::optional<Fetch> fetch;
   {
     std::lock_guard<std::mutex> lock(matcher_mutex_);
@@ -241,7 +224,7 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
     }
   }
   if (!fetch) return;
-  fetch->candidate.query_map_id = detector.mapId();
+  fetch->candidate.query_map_id = detector.map().mapId();
   std::lock_guard<std::mutex> lock(fetch_mutex_);
   if (fetches_.size() >= kMaxWaitingFetches) {
     fetches_.pop_front();  // The newest candidates are the likeliest still to be worth it.
@@ -297,7 +280,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
   std::optional<LoopClosure> message;
   std::string refused;
   hooks_.with_detector([&](LoopDetector& detector) {
-    if (detector.mapId() != candidate.query_map_id) return;  // A load or reset meanwhile.
+    if (detector.map().mapId() != candidate.query_map_id) return;  // A load or reset meanwhile.
     const std::shared_ptr<const KeyframeRecord> query =
         detector.database().findRecord(candidate.query_id);
     if (!query || !detector.extractor()) return;
@@ -312,7 +295,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
       return;
     }
     AcceptedLoop loop;
-    loop.map_id = detector.mapId();
+    loop.map_id = detector.map().mapId();
     loop.query_id = query->id;
     loop.query_session = query->session;
     loop.query_stamp = query->stamp;
@@ -329,8 +312,8 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     loop.relative_pose = check.relative_pose;
     const std::string pose_frame = hooks_.express_relative_pose(&loop);
     ros::Time query_stamp, match_stamp;
-    query_stamp.fromNSec(static_cast<uint64_t>(
-        detector.keyframeStampNs(query->id).value_or(static_cast<int64_t>(query->stamp * 1e9))));
+    query_stamp.fromNSec(static_cast<uint64_t>(detector.map().keyframeStampNs(query->id).value_or(
+        static_cast<int64_t>(query->stamp * 1e9))));
     match_stamp.fromNSec(static_cast<uint64_t>(std::max<int64_t>(candidate.match.stamp_ns, 0)));
     message = toLoopMsg(loop, query_stamp, match_stamp, fetch.odometry_frame, pose_frame);
     message->match_map_id = candidate.match.map_id;
@@ -363,7 +346,7 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::string robots;
   {
     std::lock_guard<std::mutex> lock(matcher_mutex_);
-    if (matcher_) {
+    {
       rows = matcher_->rows();
       bytes = matcher_->bytes();
       for (const FleetRobot& robot : matcher_->robots()) {

@@ -72,8 +72,6 @@ class FleetLink {
   void fetchLoop();
   /// Fetch thread: the candidate's evidence from its robot, checked with the detector held.
   void fetchAndCheck(const Fetch& fetch);
-  /// Creates the matcher once the detector's descriptor is known (online training).
-  bool ensureMatcher(const LoopDetector& detector);
 
   ros::NodeHandle node_;
   ros::NodeHandle private_node_;

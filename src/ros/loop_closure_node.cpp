@@ -77,9 +77,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
     : node_(node),
       private_node_(private_node),
       options_(options),
-      detector_(options.detector, needsOnlineTraining(options.detector.descriptor)
-                                      ? nullptr
-                                      : makeDescriptorExtractor(options.detector.descriptor)),
+      detector_(options.detector, makeDescriptorExtractor(options.detector.descriptor)),
       image_transport_(node),
       odometry_history_(2000, options.time_jump_back_s),
       inputs_(inputMonitorOptions(options), wallNow()),
@@ -88,7 +86,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       diagnostics_(node, private_node, ros::this_node::getName()) {
   loop_publisher_ = node_.advertise<LoopClosure>("loop_closures", 100);
   keyframe_publisher_ =
-      node_.advertise<Keyframe>("keyframes", 1000);  // Bursts after online training.
+      node_.advertise<Keyframe>("keyframes", 1000);  // Bursts when the map's check passes.
   candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
   // Each keyframe sends only the markers it changed (queued, so none is lost); a viewer that
   // connects later is sent everything once.
@@ -106,7 +104,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       ros::WallDuration(kDiagnosticsPeriod), [this](const ros::WallTimerEvent&) {
         // The map's check ends on its own thread: said without a keyframe.
         runtime_->tryWithDetector([this](LoopDetector& detector) {
-          reportMapDamage(detector.takeNewMapDamage());
+          reportMapDamage(detector.map().takeNewDamage());
           // Keyframes the map's check held are committed, and published, without waiting for
           // the next keyframe.
           publishAnnouncedKeyframes();
@@ -117,7 +115,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       });
 
   // A keyframe is published once the map file holds it (after the warm-up and the map's check).
-  detector_.announceKeyframes(true);
+  detector_.map().announceKeyframes(true);
   // Until tf gives the mount, the configured one is not trusted for triangulation.
   if (options_.camera_mount_from_tf) detector_.setCameraMount(std::nullopt);
   if (options_.mountFromTfWhereKnown()) {
@@ -129,34 +127,31 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   if (!options_.database_path.empty()) {
     // Refusing to start leaves a map that cannot be opened as it is.
     const auto load_start = std::chrono::steady_clock::now();
-    const std::string error = detector_.openMap(options_.database_path);
+    const std::string error = detector_.map().open(options_.database_path);
     const double load_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     if (!error.empty()) throw std::runtime_error(error);
     database_status_ = options_.database_path;
     session_ = detector_.session();
-    for (const std::string& leftover : detector_.mapLeftoversRemoved()) {
+    for (const std::string& leftover : detector_.map().leftoversRemoved()) {
       ROS_INFO("Removed %s, left by a save that was interrupted", leftover.c_str());
     }
-    for (const std::string& repair : detector_.mapRepairs()) {
+    for (const std::string& repair : detector_.map().repairs()) {
       ROS_WARN("Map %s: %s", options_.database_path.c_str(), repair.c_str());
     }
     noteMapSize(detector_);
-    if (!detector_.extractor()) {
-      ROS_INFO("Map %s is opened once online training has made the descriptor",
-               options_.database_path.c_str());
-    } else {
-      const char* graph = detector_.mapGraphBuilding()
+    {
+      const char* graph = detector_.map().graphBuilding()
                               ? "being built in the background, exact search meanwhile"
                           : detector_.database().graph() == nullptr ? "off"
-                          : detector_.mapGraphReused()              ? "read"
+                          : detector_.map().graphReused()           ? "read"
                                                                     : "built";
       ROS_INFO(
           "Map %s: %zu keyframes loaded in %.2f s (search graph %s, integrity %s); this run "
           "is session %u, every keyframe committed as it is stored",
           options_.database_path.c_str(), detector_.database().size(), load_s, graph,
-          detector_.mapCheck().c_str(), detector_.session());
-      if (detector_.mapKeyframesNotSearched() > 0 || detector_.overMemoryBudget()) {
+          detector_.map().check().c_str(), detector_.session());
+      if (detector_.map().keyframesNotSearched() > 0 || detector_.map().overMemoryBudget()) {
         ROS_WARN(
             "Map %s: its first %zu keyframes fill advanced/database/memory_budget_mb (%.0f MB; or "
             "its saved "
@@ -165,7 +160,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
             "to it unsearched (raise the budget to search them)",
             options_.database_path.c_str(), detector_.database().size(),
             options_.detector.database.memory_budget_mb, options_.database_path.c_str(),
-            detector_.mapKeyframesNotSearched());
+            detector_.map().keyframesNotSearched());
       }
     }
   }
@@ -182,13 +177,6 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   };
   listener.rejected = [this](const InputError& error) { reportRejected(error); };
   listener.timeline_reset = [this] { onTimelineReset(); };
-  listener.held = [this](const KeyframeJob& job, const KeyframeResult& result) {
-    onHeldForTraining(job, result);
-  };
-  listener.training_finished = [this](const KeyframeJob& job, const KeyframeResult& result,
-                                      const std::vector<ReleasedKeyframe>& held) {
-    publishHeldKeyframes(nodeKeyframe(job), result, held);
-  };
   listener.keyframe = [this](const KeyframeJob& job, const KeyframeResult& result,
                              const PreparedKeyframe& prepared) {
     onKeyframeDone(job, result, prepared);
@@ -225,12 +213,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
   }
   advertiseServices();
   subscribe();
-  const std::string descriptor =
-      detector_.extractor()
-          ? detector_.extractor()->name()
-          : "broad (trained on the first " +
-                std::to_string(options_.detector.descriptor.broad.online_training_keyframes) +
-                " keyframes, then written to " + options_.detector.descriptor.broad.model + ")";
+  const std::string descriptor = detector_.extractor()->name();
   ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s (camera_info %s)",
            toString(detector_.mode()), descriptor.c_str(),
            nameOf(poseSourceNames(), options_.pose_source).c_str(), image_topic_.c_str(),
@@ -262,21 +245,21 @@ LoopClosureNode::~LoopClosureNode() {
     shutdown_note += "; " + std::to_string(unprocessed) + " queued keyframes not processed";
   }
   runtime_->withDetector([&shutdown_note](LoopDetector& detector) {
-    if (detector.mapPath().empty()) return false;
+    if (detector.map().path().empty()) return false;
     const ros::WallTime start = ros::WallTime::now();
-    const std::string error = detector.saveMapGraph();
+    const std::string error = detector.map().saveGraph();
     const double seconds = (ros::WallTime::now() - start).toSec();
     if (!error.empty()) logAtStop(ros::console::levels::Warn, error);
     std::ostringstream line;
     // What is on disk, not what was in memory: a damaged map or a full disk kept some out.
-    if (const size_t unwritten = detector.mapKeyframesNotWritten(); unwritten > 0) {
-      line << "Map " << detector.mapPath() << ": " << detector.mapKeyframesInFile()
+    if (const size_t unwritten = detector.map().keyframesNotWritten(); unwritten > 0) {
+      line << "Map " << detector.map().path() << ": " << detector.map().keyframesInFile()
            << " keyframes in the file; " << unwritten << " keyframes of this run are not in it ("
-           << (detector.mapCheck() == "damaged" ? "the map is damaged and never written to"
-                                                : "writing failed")
+           << (detector.map().check() == "damaged" ? "the map is damaged and never written to"
+                                                   : "writing failed")
            << "), they were in memory only";
     } else {
-      line << "Map " << detector.mapPath() << ": " << detector.mapKeyframesInFile()
+      line << "Map " << detector.map().path() << ": " << detector.map().keyframesInFile()
            << " keyframes, each committed when it was stored";
     }
     line << shutdown_note

@@ -93,7 +93,6 @@ class LoopClosureNode {
   bool prepareKeyframe(const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
                        InputError* error);
   void onTimelineReset();
-  void onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result);
   void onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
                       const PreparedKeyframe& prepared);
   /// The depth image nearest `stamp` within sync_slop, waiting briefly for one still on its way;
@@ -105,10 +104,6 @@ class LoopClosureNode {
   /// the frame it is in.
   std::string expressRelativePose(AcceptedLoop* loop, const std::string& camera_frame) const;
   void publishResults(const NodeKeyframe& job, const KeyframeResult& result, const cv::Mat& grey);
-  /// Online training just ended with this keyframe: publishes the keyframes it held, or logs why
-  /// training failed.
-  void publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
-                            const std::vector<ReleasedKeyframe>& held);
   void publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                          const cv::Mat& grey);
   /// Diagnostics read the map's real size and bytes: called wherever the database changes
@@ -197,8 +192,6 @@ class LoopClosureNode {
   std::atomic<uint64_t> map_keyframes_{0};  ///< The database's size, set wherever it changes.
   std::atomic<uint64_t> keyframes_over_budget_{0};
   std::atomic<uint64_t> loops_published_{0};
-  /// Held until online training has made the descriptor (published then): for diagnostics.
-  std::atomic<int> keyframes_held_for_training_{0};
   std::atomic<uint64_t> tf_timeouts_{0};
   std::atomic<uint64_t> odometry_jumps_{0};
   std::atomic<uint64_t> keyframes_with_depth_{0};
@@ -216,8 +209,8 @@ class LoopClosureNode {
   double last_drop_wall_ = -1e9;  // and when that count last grew.
   CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
   std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
-  std::string map_check_;                        ///< LoopDetector::mapCheck().
-  std::string map_damage_;                       ///< LoopDetector::mapDamage().
+  std::string map_check_;                        ///< MapSession::check().
+  std::string map_damage_;                       ///< MapSession::damage().
 
   // Other robots (fleet/): null without advanced/fleet/share and advanced/fleet/peers; stopped
   // before the worker.

@@ -1,5 +1,4 @@
-// The node's keyframe database: the file services, the stamps of loaded keyframes, and the
-// keyframes online training held.
+// The node's keyframe database: the file services and the stamps of loaded keyframes.
 #include <chrono>
 #include <cstdio>
 #include <optional>
@@ -62,26 +61,16 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
   const auto load_start = std::chrono::steady_clock::now();
   const std::string path = expandPath(request.path);
   std::optional<MapReadSettings> settings;
-  bool waiting_for_training = false;
   runtime_->withDetector([&](LoopDetector& detector) {
     response.keyframes = detector.database().size();
     if (path.empty()) {
       // The open map is loaded already; reloading it through a second connection would only fail.
       response.message =
           "no path given: name the map to load" +
-          (detector.mapPath().empty() ? std::string()
-                                      : " (" + detector.mapPath() + " is the map open now)");
-    } else if (const auto [held, wanted] = detector.trainingProgress(); wanted > 0) {
-      // Nothing is replaced yet: the map opens once online training has made the descriptor.
-      response.message = detector.loadDatabase(path);
-      waiting_for_training = response.message.empty();
-      if (waiting_for_training) {
-        response.message = "not loaded yet: online training holds " + std::to_string(held) +
-                           " of " + std::to_string(wanted) + " keyframes; " + path +
-                           " is opened when it has made the descriptor";
-      }
+          (detector.map().path().empty() ? std::string()
+                                         : " (" + detector.map().path() + " is the map open now)");
     } else {
-      settings = detector.mapReadSettings();
+      settings = detector.map().readSettings();
     }
     return false;
   });
@@ -97,12 +86,6 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
       }
     }
   }
-  if (waiting_for_training) {
-    response.success = true;
-    response.keyframes = 0;
-    ROS_WARN("%s", response.message.c_str());
-    return true;
-  }
   if (!read) {
     response.success = false;
     ROS_ERROR("%s", response.message.c_str());
@@ -110,7 +93,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
   }
   // Swapped in briefly; keyframes queued against the previous map are dropped.
   const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
-    const std::string error = detector.adoptMap(std::move(*read));
+    const std::string error = detector.map().adopt(std::move(*read));
     response.success = error.empty();
     response.keyframes = detector.database().size();
     if (!error.empty()) {
@@ -131,7 +114,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     noteMapSize(detector);
     std::lock_guard<std::mutex> stats(stats_mutex_);
     database_status_ = path;
-    return true;  // The keyframes held for online training belonged to the replaced map.
+    return true;
   });
   noteDroppedAtMapSwitch(dropped, "load", &response.message);
   return true;
@@ -140,7 +123,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
 bool LoopClosureNode::onResetDatabase(ResetDatabase::Request&, ResetDatabase::Response& response) {
   const size_t dropped = runtime_->withDetector([&](LoopDetector& detector) {
     const size_t forgotten = detector.database().size();
-    const LoopDetector::ResetOutcome outcome = detector.reset();
+    const MapSession::ResetOutcome outcome = detector.map().reset();
     runtime_->restartTimeline();  // New frames are not bounded by the old timeline's stamps.
     session_ = detector.session();
     noteMapSize(detector);
@@ -167,7 +150,7 @@ ros::Time LoopClosureNode::stampOf(uint64_t id) const {
   const auto known = keyframe_stamps_.find(id);
   if (known != keyframe_stamps_.end()) return known->second;
   // A loaded keyframe's from its record: the map keeps stamps to the nanosecond.
-  if (const std::optional<int64_t> stamp_ns = detector_.keyframeStampNs(id);
+  if (const std::optional<int64_t> stamp_ns = detector_.map().keyframeStampNs(id);
       stamp_ns && *stamp_ns >= 0) {
     ros::Time stamp;
     stamp.fromNSec(static_cast<uint64_t>(*stamp_ns));
@@ -178,7 +161,7 @@ ros::Time LoopClosureNode::stampOf(uint64_t id) const {
 }
 
 void LoopClosureNode::publishAnnouncedKeyframes() {
-  for (const AnnouncedKeyframe& keyframe : detector_.takeAnnounced()) {
+  for (const AnnouncedKeyframe& keyframe : detector_.map().takeAnnounced()) {
     // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
     // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted,
     // and said at shutdown.
@@ -189,31 +172,6 @@ void LoopClosureNode::publishAnnouncedKeyframes() {
                                               keyframes_frame_id_));
     if (fleet_) fleet_->onAnnounced(detector_, summary.id, keyframes_frame_id_);
   }
-}
-
-void LoopClosureNode::publishHeldKeyframes(const NodeKeyframe& job, const KeyframeResult& result,
-                                           const std::vector<ReleasedKeyframe>& held) {
-  keyframes_held_for_training_ = 0;
-  if (!detector_.extractor()) {
-    ROS_ERROR("%s", result.training_summary.c_str());
-    for (const ReleasedKeyframe& keyframe : held) keyframe_stamps_.erase(keyframe.id);
-    return;
-  }
-  if (!result.store_error.empty()) {
-    ROS_ERROR("The map %s could not be opened: %s; keyframes are kept in memory only",
-              options_.database_path.c_str(), result.store_error.c_str());
-  }
-  ROS_INFO("%s; %zu held keyframes stored, detecting loops from now on",
-           result.training_summary.c_str(), held.size() + 1);
-  // The keyframes held during training are stored now: they go out as keyframes (their loops
-  // among themselves are not published), so later loops into them refer to known keyframes.
-  keyframes_frame_id_ = job.frame_id;
-  publishAnnouncedKeyframes();
-  for (const ReleasedKeyframe& keyframe : held) {
-    const KeyframeSummary* record = detector_.database().findSummary(keyframe.id);
-    if (record) markers_.addKeyframe(record->pose);
-  }
-  noteMapSize(detector_);
 }
 
 }  // namespace landmark_loop_closure

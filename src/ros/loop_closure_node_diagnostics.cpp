@@ -92,7 +92,6 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("keyframes failed (processing threw)", runtime_->keyframesFailed());
   status.add("time jumps (new timelines)", runtime_->timeJumps());
   status.add("queued keyframes", runtime_->queued());
-  status.add("keyframes held for training", keyframes_held_for_training_.load());
   status.add("odometry jumps", odometry_jumps_.load());
   if (!use_odom) status.add("tf timeouts", tf_timeouts_.load());
   if (options_.use_depth) {

@@ -234,11 +234,10 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
 }
 
 void LoopClosureNode::sayDescriptorPath(cv::Size image_size) {
-  // Only when the detector is free (never waits on the worker); online training has no
-  // descriptor yet, so the first image after it says it.
+  // Only when the detector is free (never waits on the worker): a later image says it otherwise.
   std::string text;
   if (!runtime_->tryWithDetector([&](LoopDetector& detector) {
-        if (detector.extractor()) text = detector.extractor()->describesAs(image_size);
+        text = detector.extractor()->describesAs(image_size);
         return false;
       }) ||
       text.empty()) {

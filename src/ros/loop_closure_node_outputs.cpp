@@ -1,5 +1,5 @@
 // The node's outputs, on the runtime's worker thread: keyframes, loops, candidates, markers and
-// the match image, and the bookkeeping of keyframes online training held.
+// the match image.
 #include "loop_closure_node.h"
 
 #include <algorithm>
@@ -27,8 +27,8 @@ void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
   map_keyframes_ = detector.database().size();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   database_bytes_ = detector.database().bytes();
-  map_check_ = detector.mapCheck();
-  map_damage_ = detector.mapDamage();
+  map_check_ = detector.map().check();
+  map_damage_ = detector.map().damage();
 }
 
 void LoopClosureNode::reportMapDamage(const std::string& damage) {
@@ -45,14 +45,6 @@ void LoopClosureNode::onTimelineReset() {
   session_ = detector_.session();
   keyframe_stamps_.clear();
   markers_.clear();
-}
-
-void LoopClosureNode::onHeldForTraining(const KeyframeJob& job, const KeyframeResult& result) {
-  keyframe_stamps_[job.id] = nodeKeyframe(job).stamp;
-  keyframes_held_for_training_ = result.held_for_training;
-  ROS_INFO_THROTTLE(
-      kWarningPeriod, "Holding keyframes for the broad autoencoder's training: %d of %d",
-      result.held_for_training, options_.detector.descriptor.broad.online_training_keyframes);
 }
 
 void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
@@ -125,7 +117,7 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
              result.loop->consistent_keyframes, how.c_str());
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
-    candidates_publisher_.publish(toCandidatesMsg(result, detector_.mapId(), job.stamp,
+    candidates_publisher_.publish(toCandidatesMsg(result, detector_.map().mapId(), job.stamp,
                                                   job.frame_id,
                                                   [this](uint64_t id) { return stampOf(id); }));
   }

@@ -108,15 +108,15 @@ DetectorRuntime::SaveOutcome DetectorRuntime::saveMap(const std::string& path, b
   constexpr int kPagesPerStep = 2048;
   SaveOutcome outcome;
   withDetector([&](LoopDetector& detector) {
-    outcome.target = path.empty() ? detector.mapPath() : path;
-    outcome.own_map = !outcome.target.empty() && outcome.target == detector.mapPath();
+    outcome.target = path.empty() ? detector.map().path() : path;
+    outcome.own_map = !outcome.target.empty() && outcome.target == detector.map().path();
     if (outcome.target.empty()) {
       outcome.error = "no path given and no map open (the parameter database_path is empty)";
     } else if (outcome.own_map) {
-      outcome.error = detector.saveDatabase(outcome.target, overwrite, &outcome.kept_as);
-      if (outcome.error.empty()) outcome.error = detector.saveMapGraph();  // A checkpoint.
+      outcome.error = detector.map().save(outcome.target, overwrite, &outcome.kept_as);
+      if (outcome.error.empty()) outcome.error = detector.map().saveGraph();  // A checkpoint.
     } else {
-      outcome.error = detector.beginSave(outcome.target, overwrite, &outcome.kept_as);
+      outcome.error = detector.map().beginSave(outcome.target, overwrite, &outcome.kept_as);
     }
     outcome.keyframes = detector.database().size();
     return false;
@@ -126,8 +126,8 @@ DetectorRuntime::SaveOutcome DetectorRuntime::saveMap(const std::string& path, b
   while (outcome.error.empty() && !copied) {
     withDetector([&](LoopDetector& detector) {
       try {
-        copied = detector.continueSave(kPagesPerStep);
-        if (copied) copy = detector.takeSave();
+        copied = detector.map().continueSave(kPagesPerStep);
+        if (copied) copy = detector.map().takeSave();
       } catch (const std::exception& error) {
         outcome.error = error.what();
       }
@@ -152,8 +152,7 @@ DetectorRuntime::SaveOutcome DetectorRuntime::saveMap(const std::string& path, b
 
 size_t DetectorRuntime::runOnDetector(const std::function<bool(LoopDetector&)>& action) {
   if (!action(*detector_)) return 0;
-  // The map was replaced: what was held or queued for the previous one is dropped.
-  held_.clear();
+  // The map was replaced: what was queued for the previous one is dropped.
   ++map_epoch_;
   return queue_.size();
 }
@@ -184,17 +183,16 @@ void DetectorRuntime::process(KeyframeJob& job) {
   };
   if (dropped()) return;
   // The images are prepared with the detector free, so a depth wait (bounded, 0.2 s) or an image
-  // conversion never holds a service back. Only this thread changes the extractor (training).
+  // conversion never holds a service back.
   PreparedKeyframe prepared;
   InputError error{InputErrorCode::kUnsupportedImageType, "the frame could not be prepared"};
-  const bool colour = detector_->extractor() && detector_->extractor()->wantsColour();
+  const bool colour = detector_->extractor()->wantsColour();
   const bool ready = !listener_.prepare || listener_.prepare(job, colour, &prepared, &error);
   const std::lock_guard<std::mutex> lock(detector_mutex_);
   if (dropped()) return;  // A service switched maps while the images were prepared.
   if (job.generation > worker_generation_) {
     worker_generation_ = job.generation;
-    detector_->reset();
-    held_.clear();
+    detector_->map().reset();
     if (listener_.timeline_reset) listener_.timeline_reset();
   }
   const auto reject = [this](const InputError& error) {
@@ -211,17 +209,6 @@ void DetectorRuntime::process(KeyframeJob& job) {
   if (result.error) {
     reject(*result.error);
     return;
-  }
-  if (result.held_for_training > 0) {
-    held_.push_back({job.id, job.stamp});
-    if (listener_.held) listener_.held(job, result);
-    return;
-  }
-  if (!result.training_summary.empty()) {
-    const std::vector<ReleasedKeyframe> released = std::move(held_);
-    held_.clear();
-    if (listener_.training_finished) listener_.training_finished(job, result, released);
-    if (!detector_->extractor()) return;
   }
   if (listener_.keyframe) listener_.keyframe(job, result, prepared);
   const double elapsed =

@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
   const LoopDetectorOptions options;
   LoopDetector detector(options, makeDescriptorExtractor(options.descriptor));
   const auto open_start = Clock::now();
-  const std::string open_error = detector.openMap(settings.map);
+  const std::string open_error = detector.map().open(settings.map);
   if (!open_error.empty()) {
     std::cerr << open_error << "\n";
     return 1;
@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
         DetectorRuntime::SaveOutcome outcome;
         outcome.target = settings.copy;
         runtime.withDetector([&](LoopDetector& held) {
-          outcome.error = held.saveDatabase(settings.copy);
+          outcome.error = held.map().save(settings.copy);
           outcome.keyframes = held.database().size();
           return false;
         });

@@ -277,7 +277,7 @@ TEST(DetectorRuntime, RestartingTheTimelineLetsEarlierStampsInAfterAReset) {
   ASSERT_TRUE(recorder.waitDone(5));
   // ~reset: the map is forgotten and the old timeline's stamps no longer bound new ones.
   runtime.withDetector([](LoopDetector& held) {
-    held.reset();
+    held.map().reset();
     return true;
   });
   runtime.restartTimeline();
@@ -299,7 +299,7 @@ TEST(DetectorRuntime, KeyframesQueuedBeforeAMapIsReplacedAreDroppedAndCounted) {
   // the map the service then replaces (~reset or ~load_database).
   const size_t dropped = runtime.withDetector([&](LoopDetector& held) {
     for (int i = 4; i < 7; ++i) EXPECT_TRUE(runtime.admit(frame(i, i * 10, 100.0 + i)).queued);
-    held.reset();
+    held.map().reset();
     return true;
   });
   EXPECT_GE(dropped, 2u) << "the worker may hold one of them, waiting for the detector";
@@ -401,7 +401,7 @@ TEST(DetectorRuntime, MapServicesRunBetweenKeyframesAndStopIsFinal) {
   size_t forgotten = 0;
   runtime.withDetector([&](LoopDetector& held) {
     forgotten = held.database().size();
-    held.reset();
+    held.map().reset();
     return true;
   });
   EXPECT_EQ(forgotten, 4u);
@@ -424,7 +424,7 @@ TEST(DetectorRuntime, AKeyframeBeingPreparedNeverHoldsAServiceBack) {
   EXPECT_TRUE(runtime.tryWithDetector([](LoopDetector&) { return false; }))
       << "the detector is free while images are prepared";
   EXPECT_TRUE(runtime.tryWithDetector([](LoopDetector& held) {
-    held.reset();
+    held.map().reset();
     return true;
   }));
   recorder.open();

@@ -63,7 +63,7 @@ GraphLoop graphLoop(uint64_t map_id, uint64_t match_map_id, uint64_t query_id,
 /// at the identity at `first` (an odometry frame of its own).
 void drive(SequenceGenerator& sequence, size_t first, size_t last, Robot* robot) {
   std::optional<Eigen::Isometry3d> start;
-  robot->detector->announceKeyframes(true);
+  robot->detector->map().announceKeyframes(true);
   SequenceFrame frame;
   while (sequence.next(&frame)) {
     if (frame.index < first) continue;
@@ -82,7 +82,7 @@ void drive(SequenceGenerator& sequence, size_t first, size_t last, Robot* robot)
           graphLoop(loop.map_id, loop.map_id, loop.query_id, loop.query_session, loop.match_id,
                     loop.match_session, *loop.relative_pose);
     }
-    for (const AnnouncedKeyframe& announced : robot->detector->takeAnnounced()) {
+    for (const AnnouncedKeyframe& announced : robot->detector->map().takeAnnounced()) {
       robot->announced.push_back(announced.summary.id);
     }
   }
@@ -97,7 +97,7 @@ GraphKeyframe graphKeyframe(const Robot& robot, uint64_t id) {
       robot.detector->database().summary(*robot.detector->database().indexOf(id));
   GraphKeyframe keyframe;
   keyframe.id = id;
-  keyframe.map_id = robot.detector->mapId();
+  keyframe.map_id = robot.detector->map().mapId();
   keyframe.session = summary.session;
   keyframe.odometry = summary.pose;
   keyframe.stamp_ns = static_cast<uint64_t>(summary.stamp * 1e9);
@@ -137,7 +137,7 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
         sharedKeyframeOf(*a.detector, id, a.name, a.name + "/odom");
     ASSERT_TRUE(row);
     row_bytes += row->wireBytes();
-    ASSERT_EQ(matcher.addRow(*row, 0.0, b.detector->mapId()), "");
+    ASSERT_EQ(matcher.addRow(*row, 0.0, b.detector->map().mapId()), "");
   }
 
   // B searches each of its keyframes in them, in the order it shares them.
@@ -186,7 +186,7 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
     found += (is_true && revisit) ? 1 : 0;
     if (!check.relative_pose || !check.relative_pose->metric) continue;
     ++with_pose;
-    inputs.emplace_back(graphLoop(b.detector->mapId(), a.detector->mapId(), id,
+    inputs.emplace_back(graphLoop(b.detector->map().mapId(), a.detector->map().mapId(), id,
                                   candidate->query_session, candidate->match.id,
                                   candidate->match.session, *check.relative_pose));
   }
@@ -200,7 +200,7 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
   // keyframe, as A's graph placed that one (A's own drift over its lap is A's map, not B's error).
   std::map<uint64_t, Pose> corrected_a;
   for (const uint64_t id : a.announced) {
-    const std::optional<Pose> pose = graph.optimisedPose(a.detector->mapId(), id);
+    const std::optional<Pose> pose = graph.optimisedPose(a.detector->map().mapId(), id);
     ASSERT_TRUE(pose);
     corrected_a[id] = *pose;
   }
@@ -209,7 +209,7 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
   std::vector<Pose> corrected, truth;
   for (const auto& [robot, ids] : {std::pair{&a, &a.announced}, std::pair{&b, &b.announced}}) {
     for (const uint64_t id : *ids) {
-      const std::optional<Pose> pose = graph.optimisedPose(robot->detector->mapId(), id);
+      const std::optional<Pose> pose = graph.optimisedPose(robot->detector->map().mapId(), id);
       ASSERT_TRUE(pose);
       corrected.push_back(*pose);
       truth.push_back(truthPose(robot->truth.at(id)));
@@ -233,7 +233,7 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
                                        truthPose(a.truth.at(*nearest)).toIsometry().inverse() *
                                        truthPose(frame).toIsometry();
     const Eigen::Vector3d error =
-        graph.optimisedPose(b.detector->mapId(), id)->position - expected.translation();
+        graph.optimisedPose(b.detector->map().mapId(), id)->position - expected.translation();
     squares_in_a += error.head<2>().squaredNorm();
     ++placed;
   }

@@ -162,7 +162,7 @@ TEST(LoopDetector, PastTheMemoryBudgetWithoutAMapFileKeyframesAreSearchedButNotS
   options.database.memory_budget_mb = static_cast<double>(probe.database().bytes()) / 1e6;
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 40; ++i) EXPECT_TRUE(feed(&detector, i, i).keyframe->stored) << i;
-  EXPECT_TRUE(detector.overMemoryBudget());
+  EXPECT_TRUE(detector.map().overMemoryBudget());
   // The map still closes loops; nothing more is added.
   FrameResult last;
   for (int i = 40; i < 43; ++i) {

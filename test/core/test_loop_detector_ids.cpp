@@ -34,9 +34,9 @@ TEST(LoopDetector, IdsPublishedDuringTheWarmUpAreNotGivenAgainAfterACrash) {
   uint64_t map_id = 0;
   {
     LoopDetector mapped(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(mapped.openMap(path), "");
+    ASSERT_EQ(mapped.map().open(path), "");
     for (int i = 0; i < 8; ++i) feed(&mapped, i, 100 + i);  // Ids 0-4 held, stored at id 5.
-    map_id = mapped.mapId();
+    map_id = mapped.map().mapId();
   }
   auto store = KeyframeStore::openExisting(path);
   ASSERT_TRUE(store->idsReservedThrough());
@@ -49,8 +49,8 @@ TEST(LoopDetector, IdsPublishedDuringTheWarmUpAreNotGivenAgainAfterACrash) {
     crashed->reserveIdsThrough(10);
   }
   LoopDetector next_run(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(next_run.openMap(path), "");
-  EXPECT_EQ(next_run.mapId(), map_id);
+  ASSERT_EQ(next_run.map().open(path), "");
+  EXPECT_EQ(next_run.map().mapId(), map_id);
   const FrameResult first = feed(&next_run, 20, 200);
   ASSERT_TRUE(first.keyframe);
   EXPECT_EQ(first.keyframe->keyframe_id, 11u) << "not 8: ids 8-10 went out before the crash";
@@ -65,16 +65,16 @@ TEST(LoopDetector, IdsALocalisationRunPublishedAreNeverGivenAgainByMapping) {
   LoopDetectorOptions options = smallOptions();
   {
     LoopDetector mapped(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(mapped.openMap(path), "");
+    ASSERT_EQ(mapped.map().open(path), "");
     for (int i = 0; i < 12; ++i) feed(&mapped, i, 100 + i);  // Ids 0-11 stored.
   }
   std::set<uint64_t> published;
   uint64_t map_id = 0;
   {
     LoopDetector localising(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(localising.openMap(path), "");
+    ASSERT_EQ(localising.map().open(path), "");
     localising.setMode(DetectorMode::kLocalization);
-    map_id = localising.mapId();
+    map_id = localising.map().mapId();
     for (int i = 0; i < 8; ++i) {
       const FrameResult result = feed(&localising, 20 + i, 300 + i);
       ASSERT_TRUE(result.keyframe);
@@ -85,8 +85,8 @@ TEST(LoopDetector, IdsALocalisationRunPublishedAreNeverGivenAgainByMapping) {
   }  // Stopped without a save, as a kill would.
   ASSERT_EQ(published.size(), 8u);
   LoopDetector mapping(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(mapping.openMap(path), "");
-  EXPECT_EQ(mapping.mapId(), map_id);
+  ASSERT_EQ(mapping.map().open(path), "");
+  EXPECT_EQ(mapping.map().mapId(), map_id);
   for (int i = 0; i < 8; ++i) {
     const FrameResult result = feed(&mapping, 40 + i, 400 + i);
     ASSERT_TRUE(result.keyframe);
@@ -104,17 +104,17 @@ TEST(LoopDetector, AMapLoadedMidRunKeepsItsIdsUnderItsOwnMapId) {
   uint64_t saved_map = 0;
   {
     LoopDetector earlier(smallOptions(), std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(earlier.openMap(path), "");
+    ASSERT_EQ(earlier.map().open(path), "");
     for (int i = 0; i < 10; ++i) feed(&earlier, i, 100 + i);  // Ids 0-9, places 100-109.
-    saved_map = earlier.mapId();
+    saved_map = earlier.map().mapId();
   }
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
-  const uint64_t first_map = detector.mapId();
+  const uint64_t first_map = detector.map().mapId();
   for (int i = 0; i < 20; ++i) feed(&detector, i, i);  // Ids 0-19 published in memory.
-  EXPECT_EQ(detector.mapId(), first_map);
-  ASSERT_EQ(detector.loadDatabase(path), "");
-  EXPECT_EQ(detector.mapId(), saved_map);
-  EXPECT_NE(detector.mapId(), first_map);
+  EXPECT_EQ(detector.map().mapId(), first_map);
+  ASSERT_EQ(detector.map().load(path), "");
+  EXPECT_EQ(detector.map().mapId(), saved_map);
+  EXPECT_NE(detector.map().mapId(), first_map);
   EXPECT_EQ(detector.database().summary(0).id, 0u) << "the loaded map keeps its own ids";
 
   // A revisit of the loaded map: its loop names the loaded map, new ids go on after 19.
@@ -129,9 +129,9 @@ TEST(LoopDetector, AMapLoadedMidRunKeepsItsIdsUnderItsOwnMapId) {
   EXPECT_EQ(loop->map_id, saved_map);
   EXPECT_LT(loop->match_id, 10u);
 
-  detector.reset();
-  EXPECT_NE(detector.mapId(), saved_map) << "a reset starts a new map";
-  EXPECT_NE(detector.mapId(), 0u);
+  detector.map().reset();
+  EXPECT_NE(detector.map().mapId(), saved_map) << "a reset starts a new map";
+  EXPECT_NE(detector.map().mapId(), 0u);
   removeMap(path);
   for (const auto& entry :
        std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
@@ -151,7 +151,7 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
   options.descriptor.condition_window = 4;
   {
     LoopDetector earlier(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(earlier.openMap(path), "");
+    ASSERT_EQ(earlier.map().open(path), "");
     for (int i = 0; i < 20; ++i) feed(&earlier, i, 100 + i);
   }
   for (const int killed_after : {21, 26}) {
@@ -162,13 +162,13 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
     if (child == 0) {
       close(pipe_ends[0]);
       LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-      detector.announceKeyframes(true);
-      if (!detector.openMap(path).empty()) _exit(2);
+      detector.map().announceKeyframes(true);
+      if (!detector.map().open(path).empty()) _exit(2);
       const int first =
           static_cast<int>(detector.database().summary(detector.database().size() - 1).id) + 1;
       for (int i = first; i <= killed_after + first - 20; ++i) {
         feed(&detector, i, i - 15);
-        for (const AnnouncedKeyframe& keyframe : detector.takeAnnounced()) {
+        for (const AnnouncedKeyframe& keyframe : detector.map().takeAnnounced()) {
           const uint64_t id = keyframe.summary.id;
           if (write(pipe_ends[1], &id, sizeof(id)) != sizeof(id)) _exit(3);
         }
@@ -198,15 +198,15 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
 
   // Localising stores nothing: announced at once, its id reserved.
   LoopDetector localising(options, std::make_shared<PlaceExtractor>());
-  localising.announceKeyframes(true);
-  ASSERT_EQ(localising.openMap(path), "");
+  localising.map().announceKeyframes(true);
+  ASSERT_EQ(localising.map().open(path), "");
   localising.setMode(DetectorMode::kLocalization);
   const FrameResult result = feed(&localising, 100, 3);
   ASSERT_TRUE(result.keyframe);
-  const std::vector<AnnouncedKeyframe> localised = localising.takeAnnounced();
+  const std::vector<AnnouncedKeyframe> localised = localising.map().takeAnnounced();
   ASSERT_EQ(localised.size(), 1u);
   EXPECT_EQ(localised[0].summary.id, result.keyframe->keyframe_id);
-  EXPECT_EQ(localised[0].map_id, localising.mapId());
+  EXPECT_EQ(localised[0].map_id, localising.map().mapId());
   removeMap(path);
 }
 
@@ -217,7 +217,7 @@ TEST(LoopDetector, ALoadedKeyframeKeepsItsStampToTheNanosecond) {
   const int64_t first_ns = 1700000000123456789;
   {
     LoopDetector mapped(smallOptions(), std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(mapped.openMap(path), "");
+    ASSERT_EQ(mapped.map().open(path), "");
     for (int i = 0; i < 3; ++i) {
       const int64_t stamp_ns = first_ns + i * 1000000001LL;
       const double stamp = static_cast<double>(stamp_ns) * 1e-9;
@@ -227,14 +227,16 @@ TEST(LoopDetector, ALoadedKeyframeKeepsItsStampToTheNanosecond) {
       mapped.addKeyframe(admission.keyframe_id, stamp, planarPose(i, 0, 0), place(i), {}, {},
                          stamp_ns);
     }
-    EXPECT_EQ(mapped.keyframeStampNs(2), first_ns + 2000000002LL) << "this run's, from memory";
+    EXPECT_EQ(mapped.map().keyframeStampNs(2), first_ns + 2000000002LL)
+        << "this run's, from memory";
   }
   LoopDetector loaded(smallOptions(), std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(loaded.openMap(path), "");
+  ASSERT_EQ(loaded.map().open(path), "");
   for (uint64_t id = 0; id < 3; ++id) {
-    ASSERT_TRUE(loaded.keyframeStampNs(id)) << id;
-    EXPECT_EQ(*loaded.keyframeStampNs(id), first_ns + static_cast<int64_t>(id) * 1000000001LL);
+    ASSERT_TRUE(loaded.map().keyframeStampNs(id)) << id;
+    EXPECT_EQ(*loaded.map().keyframeStampNs(id),
+              first_ns + static_cast<int64_t>(id) * 1000000001LL);
   }
-  EXPECT_FALSE(loaded.keyframeStampNs(7));
+  EXPECT_FALSE(loaded.map().keyframeStampNs(7));
   removeMap(path);
 }

@@ -33,11 +33,11 @@ TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
   {
     LoopDetector first_run(options, std::make_shared<PlaceExtractor>());
     for (int i = 0; i < 40; ++i) feed(&first_run, i, i);
-    ASSERT_EQ(first_run.saveDatabase(path), "");
+    ASSERT_EQ(first_run.map().save(path), "");
   }
   // The next day: the odometry starts again at another origin, stamps go on.
   LoopDetector next_run(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(next_run.loadDatabase(path), "");
+  ASSERT_EQ(next_run.map().load(path), "");
   EXPECT_EQ(next_run.database().size(), 40u);
   EXPECT_EQ(next_run.session(), 1u);
   std::optional<AcceptedLoop> loop;
@@ -67,7 +67,7 @@ TEST(LoopDetector, ASavedMapIsRecognisedInTheNextSession) {
 TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 12; ++i) feed(&detector, i, i);
-  const std::string error = detector.loadDatabase(temporaryPath("missing.lcdb"));
+  const std::string error = detector.map().load(temporaryPath("missing.lcdb"));
   EXPECT_NE(error.find("missing.lcdb"), std::string::npos) << error;
   EXPECT_EQ(detector.database().size(), 12u);
   EXPECT_EQ(detector.session(), 0u);
@@ -79,15 +79,15 @@ TEST(LoopDetector, ARefusedLoadChangesNothingAndResetForgetsAll) {
   hog.descriptor.type = "hog";
   {
     LoopDetector other(hog, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(other.saveDatabase(path), "");
+    ASSERT_EQ(other.map().save(path), "");
   }
-  const std::string refused = detector.loadDatabase(path);
+  const std::string refused = detector.map().load(path);
   EXPECT_NE(refused.find("other descriptors"), std::string::npos) << refused;
   EXPECT_NE(refused.find("type is hog in the map"), std::string::npos) << "names what differs";
   EXPECT_EQ(detector.database().size(), 12u);
   removeMap(path);
 
-  detector.reset();
+  detector.map().reset();
   EXPECT_TRUE(detector.database().empty());
   EXPECT_FALSE(feed(&detector, 12, 12).keyframe->error);
   EXPECT_EQ(detector.database().size(), 1u);
@@ -99,16 +99,16 @@ TEST(LoopDetector, AnOpenMapHasEveryStoredKeyframeAndAResetKeepsItAside) {
   LoopDetectorOptions options = smallOptions();
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
-    EXPECT_EQ(detector.mapPath(), path);
+    ASSERT_EQ(detector.map().open(path), "");
+    EXPECT_EQ(detector.map().path(), path);
     for (int i = 0; i < 15; ++i) feed(&detector, i, i);
   }  // No save: every keyframe was committed when it was stored.
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.map().open(path), "");
   EXPECT_EQ(detector.database().size(), 15u);
   EXPECT_EQ(detector.session(), 1u);
 
-  const LoopDetector::ResetOutcome outcome = detector.reset();
+  const MapSession::ResetOutcome outcome = detector.map().reset();
   EXPECT_EQ(outcome.problem, "");
   EXPECT_EQ(outcome.kept_as.rfind(path + ".reset-", 0), 0u) << outcome.kept_as;
   EXPECT_TRUE(detector.database().empty());
@@ -155,13 +155,13 @@ TEST(LoopDetector, KeyframesWaitingForTheConditionWindowAreKeptBySaveAndByTheEnd
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
     for (int i = 0; i < 3; ++i) feed(&detector, i, 10 + i);
-    ASSERT_EQ(detector.saveDatabase(saved), "");
+    ASSERT_EQ(detector.map().save(saved), "");
     EXPECT_EQ(detector.database().size(), 3u);
   }
   EXPECT_EQ(KeyframeStore::openExisting(saved)->size(), 3u);
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(open), "");
+    ASSERT_EQ(detector.map().open(open), "");
     for (int i = 0; i < 5; ++i) feed(&detector, i, 10 + i);
   }  // Shut down before the window filled.
   EXPECT_EQ(KeyframeStore::openExisting(open)->size(), 5u);
@@ -175,11 +175,11 @@ TEST(LoopDetector, AResetSaysSoWhenTheMapCouldNotBeKeptAside) {
   std::filesystem::create_directories(folder);
   const std::string path = (folder / "map.db").string();
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.map().open(path), "");
   for (int i = 0; i < 12; ++i) feed(&detector, i, i);
   // The map's folder is deleted under the running detector (a cleanup script, a full disk).
   std::filesystem::remove_all(folder);
-  const LoopDetector::ResetOutcome outcome = detector.reset();
+  const MapSession::ResetOutcome outcome = detector.map().reset();
   EXPECT_EQ(outcome.kept_as, "");
   EXPECT_NE(outcome.problem.find("is gone"), std::string::npos) << outcome.problem;
   EXPECT_NE(outcome.problem.find("kept in memory only"), std::string::npos) << outcome.problem;
@@ -197,22 +197,22 @@ TEST(LoopDetector, AMapKeepsItsSearchGraphAndLinksInWhatACrashLeftOut) {
   options.database.index.type = "approximate";
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     for (int i = 0; i < 12; ++i) feed(&detector, i, i);
-    EXPECT_EQ(detector.saveMapGraph(), "");
+    EXPECT_EQ(detector.map().saveGraph(), "");
   }
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
-    EXPECT_TRUE(detector.mapGraphReused());
+    ASSERT_EQ(detector.map().open(path), "");
+    EXPECT_TRUE(detector.map().graphReused());
     ASSERT_NE(detector.database().graph(), nullptr);
     EXPECT_EQ(detector.database().graph()->size(), 12u);
     feed(&detector, 12, 12);  // Then stopped without saving the graph, as a crash would.
   }
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.map().open(path), "");
   // The saved graph misses the last keyframe: reused, and the keyframe linked in.
-  EXPECT_TRUE(detector.mapGraphReused());
+  EXPECT_TRUE(detector.map().graphReused());
   ASSERT_NE(detector.database().graph(), nullptr);
   EXPECT_EQ(detector.database().graph()->size(), 13u);
   removeMap(path);
@@ -228,18 +228,18 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
   uint64_t last_written = 0;
   {
     LoopDetector probe(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(probe.openMap(probe_path), "");
+    ASSERT_EQ(probe.map().open(probe_path), "");
     for (int i = 0; i < 40; ++i) feed(&probe, i, i);
     options.database.memory_budget_mb = static_cast<double>(probe.database().bytes()) / 1e6;
   }
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     for (int i = 0; i < 40; ++i) {
       const KeyframeResult stored = *feed(&detector, i, i).keyframe;
       EXPECT_TRUE(stored.stored && !stored.written_not_searched) << i;
     }
-    ASSERT_TRUE(detector.overMemoryBudget());
+    ASSERT_TRUE(detector.map().overMemoryBudget());
     // Revisits still close loops; the keyframes go to the map, not to search.
     FrameResult last;
     for (int i = 40; i < 45; ++i) {
@@ -251,7 +251,7 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
     ASSERT_TRUE(last.keyframe->loop);
     EXPECT_EQ(last.keyframe->loop->match_id, 14u);
     EXPECT_EQ(detector.database().size(), 40u);
-    EXPECT_EQ(detector.saveMapGraph(), "") << "the graph over the searched keyframes is saved";
+    EXPECT_EQ(detector.map().saveGraph(), "") << "the graph over the searched keyframes is saved";
   }
   EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 45u);
   // Without a budget the next start searches the whole map.
@@ -259,9 +259,9 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
     LoopDetectorOptions unbounded_options = options;
     unbounded_options.database.memory_budget_mb = 0.0;
     LoopDetector unbounded(unbounded_options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(unbounded.openMap(path), "");
+    ASSERT_EQ(unbounded.map().open(path), "");
     EXPECT_EQ(unbounded.database().size(), 45u);
-    EXPECT_EQ(unbounded.mapKeyframesNotSearched(), 0u);
+    EXPECT_EQ(unbounded.map().keyframesNotSearched(), 0u);
   }
   // With one, what fits it by the database's own account of a keyframe (rows, summary, links;
   // bench/README.md compares it with what a 1 000 000-keyframe map takes): the map's first
@@ -273,18 +273,18 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
   {
     // The graph saved at shutdown covers 40: used whole rather than built again over 30.
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     EXPECT_EQ(detector.database().size(), 40u);
-    EXPECT_EQ(detector.mapKeyframesNotSearched(), 5u);
-    EXPECT_TRUE(detector.mapGraphReused());
+    EXPECT_EQ(detector.map().keyframesNotSearched(), 5u);
+    EXPECT_TRUE(detector.map().graphReused());
   }
   std::filesystem::remove(path + "-graph");
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     const size_t searched = detector.database().size();
     EXPECT_EQ(searched, 30u);
-    EXPECT_EQ(detector.mapKeyframesNotSearched(), 15u);
+    EXPECT_EQ(detector.map().keyframesNotSearched(), 15u);
     ASSERT_NE(detector.database().graph(), nullptr);
     EXPECT_EQ(detector.database().graph()->size(), searched);
     EXPECT_EQ(detector.database().summary(searched - 1).id, searched - 1);
@@ -293,7 +293,7 @@ TEST(LoopDetector, PastTheMemoryBudgetAMapKeepsGrowingOnDiskAndItsNextStartSearc
     EXPECT_GT(next.keyframe_id, last_written);
     EXPECT_TRUE(next.stored && next.written_not_searched && next.store_error.empty())
         << next.store_error;
-    EXPECT_EQ(detector.saveMapGraph(), "");
+    EXPECT_EQ(detector.map().saveGraph(), "");
   }
   EXPECT_EQ(KeyframeStore::openExisting(path)->size(), 46u);
   removeMap(probe_path);
@@ -307,18 +307,18 @@ std::string fileBytes(const std::string& path) {
 
 // Waits for the map's integrity check (a thread of its own).
 std::string settledMapCheck(const LoopDetector& detector) {
-  for (int wait = 0; wait < 1000 && detector.mapCheck() == "being checked"; ++wait) {
+  for (int wait = 0; wait < 1000 && detector.map().check() == "being checked"; ++wait) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  return detector.mapCheck();
+  return detector.map().check();
 }
 
 // A map of `keyframes` keyframes (places i % places), closed cleanly.
 void writeDetectorMap(const std::string& path, int keyframes, int places) {
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.map().open(path), "");
   for (int i = 0; i < keyframes; ++i) feed(&detector, i, i % places);
-  EXPECT_EQ(detector.saveMapGraph(), "");
+  EXPECT_EQ(detector.map().saveGraph(), "");
 }
 
 TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWrittenTo) {
@@ -337,7 +337,7 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWritten
   const std::string damaged_map = fileBytes(path);
   const std::string damaged_rows = fileBytes(path + "-vectors");
   LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "") << "search starts while the map is checked";
+  ASSERT_EQ(detector.map().open(path), "") << "search starts while the map is checked";
   EXPECT_EQ(detector.database().size(), 20u);
   ASSERT_EQ(settledMapCheck(detector), "damaged");
   // Revisits of places 5..9: nothing searched, no loop, said once; kept in memory, not written.
@@ -355,18 +355,18 @@ TEST(LoopDetector, AMapWhoseSealedRowsTurnOutDamagedStopsSearchAndIsNeverWritten
     }
   }
   EXPECT_EQ(detector.database().size(), 25u);
-  EXPECT_NE(detector.mapDamage(), "");
+  EXPECT_NE(detector.map().damage(), "");
   // What a stop says: the file's 20, and the 5 of this run only in memory.
-  EXPECT_EQ(detector.mapKeyframesInFile(), 20u);
-  EXPECT_EQ(detector.mapKeyframesNotWritten(), 5u);
-  EXPECT_NE(detector.saveMapGraph(), "") << "nothing is saved beside a damaged map";
+  EXPECT_EQ(detector.map().keyframesInFile(), 20u);
+  EXPECT_EQ(detector.map().keyframesNotWritten(), 5u);
+  EXPECT_NE(detector.map().saveGraph(), "") << "nothing is saved beside a damaged map";
   EXPECT_TRUE(fileBytes(path) == damaged_map);
   EXPECT_TRUE(fileBytes(path + "-vectors") == damaged_rows);
-  const LoopDetector::ResetOutcome outcome = detector.reset();  // A fresh map: searched again.
+  const MapSession::ResetOutcome outcome = detector.map().reset();  // A fresh map: searched again.
   EXPECT_EQ(outcome.problem, "");
-  EXPECT_EQ(detector.mapDamage(), "");
-  EXPECT_EQ(detector.mapKeyframesNotWritten(), 0u);
-  EXPECT_EQ(detector.mapCheck(), "checked");
+  EXPECT_EQ(detector.map().damage(), "");
+  EXPECT_EQ(detector.map().keyframesNotWritten(), 0u);
+  EXPECT_EQ(detector.map().check(), "checked");
   // The damaged map, kept aside by the reset, is as it was: its byte put back, it holds its 20.
   ASSERT_EQ(outcome.kept_as.rfind(path, 0), 0u) << outcome.kept_as;
   const std::string kept = outcome.kept_as;
@@ -388,7 +388,7 @@ TEST(LoopDetector, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
   const std::string damaged_rows = fileBytes(path + "-vectors");
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     ASSERT_EQ(settledMapCheck(detector), "damaged");
     const KeyframeResult result = *feed(&detector, 60, 5).keyframe;
     EXPECT_NE(result.map_damage.find("map " + path + ": its pages are damaged"), std::string::npos)
@@ -396,7 +396,7 @@ TEST(LoopDetector, AMapWithADamagedPageIsReportedAndNeverWrittenTo) {
     EXPECT_EQ(result.query_status, QueryStatus::kMapDamaged);
     EXPECT_TRUE(result.stored && result.store_error.empty());
     feed(&detector, 61, 6);
-    EXPECT_NE(detector.saveDatabase(temporaryPath("damaged_page_copy.db")), "");
+    EXPECT_NE(detector.map().save(temporaryPath("damaged_page_copy.db")), "");
     EXPECT_FALSE(std::filesystem::exists(temporaryPath("damaged_page_copy.db")));
   }
   EXPECT_TRUE(fileBytes(path) == damaged_map) << "a damaged map is left as it was";
@@ -411,7 +411,7 @@ TEST(LoopDetector, KeyframesAddedWhileTheMapIsCheckedAreCommittedOnceItPasses) {
   writeDetectorMap(path, 20, 20);
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     // Whether or not the check has ended by then, every keyframe reaches the map.
     for (int i = 20; i < 23; ++i) {
       const KeyframeResult result = *feed(&detector, i, i - 15).keyframe;
@@ -432,22 +432,22 @@ TEST(LoopDetector, ASaveInStepsTakesKeyframesAddedMeanwhileAndAResetAbandonsIt) 
   removeMap(path);
   removeMap(copy);
   LoopDetector detector(smallOptions(), std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(detector.openMap(path), "");
+  ASSERT_EQ(detector.map().open(path), "");
   int next = 0;
   for (; next < 30; ++next) feed(&detector, next, next);
   std::string kept;
-  ASSERT_EQ(detector.beginSave(copy, false, &kept), "");
+  ASSERT_EQ(detector.map().beginSave(copy, false, &kept), "");
   EXPECT_FALSE(std::filesystem::exists(copy));
   int steps = 0;
   bool done = false;
   while (!done && steps < 100000) {
-    done = detector.continueSave(1);  // One 2 KB page per step.
+    done = detector.map().continueSave(1);  // One 2 KB page per step.
     if (!done) feed(&detector, next, next), ++next, ++steps;
     EXPECT_FALSE(std::filesystem::exists(copy)) << "the copy appears whole or not at all";
   }
   ASSERT_TRUE(done);
   EXPECT_GT(next, 35) << "keyframes went on between the steps (" << steps << " steps)";
-  std::unique_ptr<MapCopy> finishing = detector.takeSave();
+  std::unique_ptr<MapCopy> finishing = detector.map().takeSave();
   ASSERT_TRUE(finishing);
   feed(&detector, next, next), ++next;  // The copy no longer needs the detector.
   finishing->finish();
@@ -455,17 +455,17 @@ TEST(LoopDetector, ASaveInStepsTakesKeyframesAddedMeanwhileAndAResetAbandonsIt) 
   {
     auto copied = KeyframeStore::openExisting(copy);
     EXPECT_EQ(copied->size(), static_cast<size_t>(next - 1)) << "each keyframe stored meanwhile";
-    EXPECT_NE(copied->mapId(), detector.mapId());
+    EXPECT_NE(copied->mapId(), detector.map().mapId());
   }
 
   removeMap(copy);
-  ASSERT_EQ(detector.beginSave(copy, false, nullptr), "");
-  EXPECT_FALSE(detector.continueSave(1));
-  const LoopDetector::ResetOutcome outcome = detector.reset();
-  EXPECT_THROW(detector.continueSave(1), std::runtime_error);
+  ASSERT_EQ(detector.map().beginSave(copy, false, nullptr), "");
+  EXPECT_FALSE(detector.map().continueSave(1));
+  const MapSession::ResetOutcome outcome = detector.map().reset();
+  EXPECT_THROW(detector.map().continueSave(1), std::runtime_error);
   EXPECT_FALSE(std::filesystem::exists(copy));
   EXPECT_FALSE(std::filesystem::exists(copy + ".partial"));
-  EXPECT_TRUE(detector.continueSave(1)) << "said once; nothing is being saved now";
+  EXPECT_TRUE(detector.map().continueSave(1)) << "said once; nothing is being saved now";
   removeMap(path);
   removeMap(outcome.kept_as);
 }
@@ -482,21 +482,21 @@ TEST(LoopDetector, AMapWithoutItsGraphIsSearchedExactlyWhileTheGraphBuildsInTheB
   options.odometry_gate.enabled = true;
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    ASSERT_EQ(detector.openMap(path), "");
+    ASSERT_EQ(detector.map().open(path), "");
     for (int i = 0; i < 40; ++i) feed(&detector, i, i);
-    EXPECT_EQ(detector.saveMapGraph(), "");
+    EXPECT_EQ(detector.map().saveGraph(), "");
   }
   std::filesystem::remove(path + "-graph");
 
   {
     LoopDetector detector(options, std::make_shared<PlaceExtractor>());
-    MapReadSettings settings = detector.mapReadSettings();
+    MapReadSettings settings = detector.map().readSettings();
     settings.graph_rows_built_inline = 10;
     ReadMap map = readMap(path, settings);
     ASSERT_NE(map.graph_build, nullptr) << "40 keyframes to link, more than 10";
     EXPECT_EQ(map.database.graph(), nullptr) << "exact search until it is ready";
-    ASSERT_EQ(detector.adoptMap(std::move(map)), "");
-    EXPECT_TRUE(detector.mapGraphBuilding());
+    ASSERT_EQ(detector.map().adopt(std::move(map)), "");
+    EXPECT_TRUE(detector.map().graphBuilding());
     std::optional<AcceptedLoop> loop;
     for (int i = 0; i < 3; ++i) {
       const FrameResult result =
@@ -506,19 +506,19 @@ TEST(LoopDetector, AMapWithoutItsGraphIsSearchedExactlyWhileTheGraphBuildsInTheB
     }
     ASSERT_TRUE(loop) << "found while (or after) the graph was built";
     EXPECT_EQ(loop->match_id, 39u);
-    detector.awaitMapGraph();
-    EXPECT_FALSE(detector.mapGraphBuilding());
+    detector.map().awaitGraph();
+    EXPECT_FALSE(detector.map().graphBuilding());
     ASSERT_NE(detector.database().graph(), nullptr);
     EXPECT_EQ(detector.database().graph()->size(), detector.database().size())
         << "the keyframes added meanwhile are linked in too";
     EXPECT_EQ(detector.database().size(), 43u);
 
     // Saved at the stop: the next open reads it and builds nothing.
-    EXPECT_EQ(detector.saveMapGraph(), "");
+    EXPECT_EQ(detector.map().saveGraph(), "");
   }
   LoopDetector next(options, std::make_shared<PlaceExtractor>());
-  ASSERT_EQ(next.openMap(path), "");
-  EXPECT_FALSE(next.mapGraphBuilding());
-  EXPECT_TRUE(next.mapGraphReused());
+  ASSERT_EQ(next.map().open(path), "");
+  EXPECT_FALSE(next.map().graphBuilding());
+  EXPECT_TRUE(next.map().graphReused());
   removeMap(path);
 }

@@ -58,7 +58,7 @@ class MapFileSafety : public ::testing::Test {
         std::make_unique<LoopDetector>(options, std::make_shared<test_support::PlaceExtractor>());
     const int first = map.empty() ? 0 : 1000;
     if (!map.empty()) {
-      EXPECT_EQ(detector->loadDatabase(map), "");
+      EXPECT_EQ(detector->map().load(map), "");
     }
     for (int i = first; i < first + 12; ++i) {
       EXPECT_TRUE(test_support::feed(detector.get(), i, i).keyframe);
@@ -129,11 +129,11 @@ TEST_F(MapFileSafety, DetectorSaveRefusesAndLeavesNothing) {
   fs::create_directory(path("adir.db"));
   write(path("notes.txt"), "my notes");
   const std::set<std::string> before = entries();
-  EXPECT_NE(detector->saveDatabase(path("pipe")), "");
-  EXPECT_NE(detector->saveDatabase(path("pipe"), true), "");
-  EXPECT_NE(detector->saveDatabase(path("adir.db")), "");
-  EXPECT_NE(detector->saveDatabase(path("notes.txt")), "");
-  EXPECT_NE(detector->saveDatabase(path("notes.txt"), true), "");
+  EXPECT_NE(detector->map().save(path("pipe")), "");
+  EXPECT_NE(detector->map().save(path("pipe"), true), "");
+  EXPECT_NE(detector->map().save(path("adir.db")), "");
+  EXPECT_NE(detector->map().save(path("notes.txt")), "");
+  EXPECT_NE(detector->map().save(path("notes.txt"), true), "");
   EXPECT_EQ(entries(), before);  // No stray -vectors, no partial file.
   EXPECT_TRUE(fs::is_fifo(path("pipe")));
   EXPECT_EQ(read(path("notes.txt")), "my notes");
@@ -141,11 +141,11 @@ TEST_F(MapFileSafety, DetectorSaveRefusesAndLeavesNothing) {
 
 TEST_F(MapFileSafety, DetectorOverwriteKeepsTheEarlierMap) {
   auto first = detectorWithKeyframes();
-  ASSERT_EQ(first->saveDatabase(path("map.db")), "");
-  const std::string refused = first->saveDatabase(path("map.db"));
+  ASSERT_EQ(first->map().save(path("map.db")), "");
+  const std::string refused = first->map().save(path("map.db"));
   EXPECT_NE(refused.find("exists"), std::string::npos) << refused;
   std::string kept;
-  ASSERT_EQ(first->saveDatabase(path("map.db"), true, &kept), "");
+  ASSERT_EQ(first->map().save(path("map.db"), true, &kept), "");
   ASSERT_FALSE(kept.empty());
   EXPECT_TRUE(fs::exists(kept));
   EXPECT_TRUE(fs::exists(path("map.db")));
@@ -153,7 +153,7 @@ TEST_F(MapFileSafety, DetectorOverwriteKeepsTheEarlierMap) {
   for (const std::string& map : {path("map.db"), kept}) {
     LoopDetector reader(test_support::smallOptions(),
                         std::make_shared<test_support::PlaceExtractor>());
-    EXPECT_EQ(reader.loadDatabase(map), "") << map;
+    EXPECT_EQ(reader.map().load(map), "") << map;
     EXPECT_EQ(reader.database().size(), 12u) << map;
   }
 }
@@ -161,22 +161,22 @@ TEST_F(MapFileSafety, DetectorOverwriteKeepsTheEarlierMap) {
 TEST_F(MapFileSafety, DetectorRefusesItsOwnMapUnderAnotherName) {
   {
     auto writer = detectorWithKeyframes();
-    ASSERT_EQ(writer->saveDatabase(path("map.db")), "");
+    ASSERT_EQ(writer->map().save(path("map.db")), "");
   }
   auto live = detectorWithKeyframes(path("map.db"));
-  EXPECT_EQ(live->saveDatabase(path("map.db")), "");  // Its own path: a commit.
+  EXPECT_EQ(live->map().save(path("map.db")), "");  // Its own path: a commit.
   fs::create_symlink(path("map.db"), path("alias.db"));
-  const std::string alias = live->saveDatabase(path("alias.db"), true);
+  const std::string alias = live->map().save(path("alias.db"), true);
   EXPECT_NE(alias.find("open map itself"), std::string::npos) << alias;
 }
 
 TEST_F(MapFileSafety, TwoResetsKeepBothEarlierMaps) {
   {
     auto writer = detectorWithKeyframes();
-    ASSERT_EQ(writer->saveDatabase(path("map.db")), "");
+    ASSERT_EQ(writer->map().save(path("map.db")), "");
   }
   auto live = detectorWithKeyframes(path("map.db"));  // 12 loaded + 12 new.
-  const LoopDetector::ResetOutcome first = live->reset();
+  const MapSession::ResetOutcome first = live->map().reset();
   ASSERT_EQ(first.problem, "");
   ASSERT_NE(first.kept_as, "");
   for (int i = 1012; i < 1017; ++i) {
@@ -184,7 +184,7 @@ TEST_F(MapFileSafety, TwoResetsKeepBothEarlierMaps) {
     ASSERT_TRUE(result.keyframe);
     EXPECT_FALSE(result.keyframe->error) << result.keyframe->error->message;
   }
-  const LoopDetector::ResetOutcome second = live->reset();
+  const MapSession::ResetOutcome second = live->map().reset();
   ASSERT_EQ(second.problem, "") << live->database().size();
   ASSERT_NE(second.kept_as, "");
   const std::string& first_name = first.kept_as;
@@ -195,7 +195,7 @@ TEST_F(MapFileSafety, TwoResetsKeepBothEarlierMaps) {
        std::vector<std::pair<std::string, size_t>>{{first_name, 24u}, {second_name, 5u}}) {
     LoopDetector reader(test_support::smallOptions(),
                         std::make_shared<test_support::PlaceExtractor>());
-    EXPECT_EQ(reader.loadDatabase(map), "") << map;
+    EXPECT_EQ(reader.map().load(map), "") << map;
     EXPECT_EQ(reader.database().size(), keyframes) << map;
   }
 }
@@ -225,7 +225,7 @@ TEST_F(MapFileSafety, AnEmptyForeignOrTextFileIsNoMapAndIsLeftAlone) {
     }
     EXPECT_NE(refused.find("map " + path(name) + ": " + reason), std::string::npos) << refused;
     auto detector = detectorWithKeyframes();
-    const std::string load = detector->loadDatabase(path(name));
+    const std::string load = detector->map().load(path(name));
     EXPECT_NE(load.find(reason), std::string::npos) << load;
     EXPECT_EQ(detector->database().size(), 12u) << "the map in use is kept";
     EXPECT_TRUE(read(path(name)) == bytes) << name << " was changed";
@@ -256,19 +256,19 @@ TEST_F(MapFileSafety, AMapWhoseWriterWasKilledIsKeptAsideWhole) {
   // Another map is saved over it: the one that was there is kept with every commit.
   auto detector = detectorWithKeyframes();
   std::string kept;
-  ASSERT_EQ(detector->saveDatabase(path("A.db"), true, &kept), "");
+  ASSERT_EQ(detector->map().save(path("A.db"), true, &kept), "");
   EXPECT_TRUE(fs::exists(kept + "-wal") || !fs::exists(path("A.db-wal")));
   EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 300u);
   LoopDetector reader(test_support::smallOptions(),
                       std::make_shared<test_support::PlaceExtractor>());
-  EXPECT_EQ(reader.loadDatabase(path("A.db")), "");
+  EXPECT_EQ(reader.map().load(path("A.db")), "");
   EXPECT_EQ(reader.database().size(), 12u);
 }
 
 TEST_F(MapFileSafety, AJournalWithoutItsMapIsNeverDeleted) {
   write(path("stray.db-wal"), "another map's last commits");
   auto detector = detectorWithKeyframes();
-  const std::string refused = detector->saveDatabase(path("stray.db"));
+  const std::string refused = detector->map().save(path("stray.db"));
   EXPECT_NE(refused.find("stray.db-wal"), std::string::npos) << refused;
   EXPECT_THROW(KeyframeStore::open(path("stray.db"), kIdentity, kDimension), std::runtime_error);
   EXPECT_EQ(read(path("stray.db-wal")), "another map's last commits");
@@ -307,7 +307,7 @@ TEST_F(MapFileSafety, AMapAnotherProcessStillWritesIsNotReplaced) {
   auto detector = detectorWithKeyframes();
   const std::set<std::string> before = entries();
   std::string kept;
-  const std::string refused = detector->saveDatabase(path("A.db"), true, &kept);
+  const std::string refused = detector->map().save(path("A.db"), true, &kept);
   EXPECT_NE(refused.find("is open in another process (pid " + std::to_string(child) + ")"),
             std::string::npos)
       << refused;
@@ -318,7 +318,7 @@ TEST_F(MapFileSafety, AMapAnotherProcessStillWritesIsNotReplaced) {
   int status = 0;
   ASSERT_EQ(::waitpid(child, &status, 0), child);
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-  ASSERT_EQ(detector->saveDatabase(path("A.db"), true, &kept), "");
+  ASSERT_EQ(detector->map().save(path("A.db"), true, &kept), "");
   EXPECT_EQ(KeyframeStore::openExisting(kept)->size(), 20u);
   ::close(ready[0]);
 }

@@ -113,7 +113,7 @@ TEST(SequenceMatching, ResetForgetsTheHistory) {
   LoopDetector detector(sequenceOptions(), std::make_shared<PlaceExtractor>());
   for (int i = 0; i < 40; ++i) feed(&detector, i, i);
   for (int k = 0; k < 3; ++k) feed(&detector, 40 + k, 10 + k);
-  detector.reset();
+  detector.map().reset();
   for (int i = 0; i < 40; ++i) feed(&detector, 100 + i, i);
   // The history restarted with the new map: 3 old revisit keyframes no longer count.
   const FrameResult result = feed(&detector, 140, 13);

@@ -177,16 +177,13 @@ class NodeHarness {
   void waitUntilQuiet(double quiet = 2.0, double timeout = 60.0) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
     last_output_ = ros::WallTime::now();
-    // Silence alone is not the end: online training holds keyframes for seconds on a busy
-    // machine, and the worker may still have a queue; the diagnostics say both.
+    // Silence alone is not the end: the worker may still have a queue on a busy machine; the
+    // diagnostics say so.
     const auto busy = [this] {
       // A node that is gone (killed by the test) says nothing more: its last word is not held.
       if ((ros::WallTime::now() - last_diagnostics_).toSec() > 3.0) return false;
-      for (const char* key : {"keyframes held for training", "queued keyframes"}) {
-        const std::string value = diagnostic(key);
-        if (!value.empty() && value != "0") return true;
-      }
-      return false;
+      const std::string queued = diagnostic("queued keyframes");
+      return !queued.empty() && queued != "0";
     };
     while (ros::ok() && ros::WallTime::now() < end &&
            ((ros::WallTime::now() - last_output_).toSec() < quiet || busy())) {

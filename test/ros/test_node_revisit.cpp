@@ -65,7 +65,7 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   }
   harness.waitUntilQuiet();
 
-  // Fewer where online training makes the worker catch up on held keyframes at 6x speed.
+  // A launch file may lower it (~min_keyframes).
   int min_keyframes = 400;
   ros::param::get("~min_keyframes", min_keyframes);
   // At 6x speed on a loaded machine the worker may fall behind: it then drops the oldest queued

@@ -146,9 +146,6 @@ struct DescriptorOptions {
   /// broad: FLCD-BA's broad autoencoder (methods.md section 3).
   struct Broad {
     std::string model;  ///< File written by `lcd_train broad`; required.
-    /// > 0 and no model file yet: the detector trains on the session's first N keyframes,
-    /// writes the model file, then describes them and every later keyframe.
-    int online_training_keyframes = 0;
 
     static const ParameterTable<Broad>& parameters();  ///< Keys under advanced/descriptor/broad/.
   } broad;

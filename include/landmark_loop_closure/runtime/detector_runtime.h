@@ -2,7 +2,7 @@
 // (cheap checks and the keyframe rule), keyframes go through a bounded queue to one worker thread
 // that describes and searches them, so the caller never waits. It owns the drop policy (the
 // oldest queued keyframe goes when the queue is full), time jumping back (drop the frame, or start
-// a new timeline), the keyframes online training holds, and the lock the map services share with
+// a new timeline), and the lock the map services share with
 // the worker. The node only feeds it and listens.
 #pragma once
 
@@ -93,13 +93,6 @@ struct PreparedKeyframe {
   cv::Mat depth;  ///< Registered depth, or empty.
 };
 
-/// A keyframe online training held, handed back to the caller when training ends.
-/// (Its source is not kept: holding every image until training ends would cost their memory.)
-struct ReleasedKeyframe {
-  uint64_t id = 0;
-  double stamp = 0.0;
-};
-
 /// What the runtime calls back, all on the worker thread: prepare() with the detector free (a
 /// service may run meanwhile), the others with the detector locked.
 struct RuntimeListener {
@@ -110,13 +103,6 @@ struct RuntimeListener {
   std::function<void(const InputError&)> rejected;
   /// The first keyframe of a new timeline: the map was just forgotten.
   std::function<void()> timeline_reset;
-  /// Online training holds this keyframe (result.held_for_training of them so far).
-  std::function<void(const KeyframeJob&, const KeyframeResult&)> held;
-  /// Online training ended with this keyframe: `released` were stored (detector has an
-  /// extractor) or are lost (it has none; result.training_summary says why).
-  std::function<void(const KeyframeJob&, const KeyframeResult&,
-                     const std::vector<ReleasedKeyframe>&)>
-      training_finished;
   /// A keyframe described, searched and (in mapping mode) stored.
   std::function<void(const KeyframeJob&, const KeyframeResult&, const PreparedKeyframe&)> keyframe;
   /// An exception escaped the work on this job (OpenCV, oneDNN, SQLite, a listener): the job is
@@ -140,9 +126,8 @@ class DetectorRuntime {
   RuntimeAdmission admit(FrameInput frame);
 
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
-  /// true when it replaced or forgot the map: the keyframes online training held are dropped, and
-  /// so are the keyframes queued before it (their ids and stamps were given against the previous
-  /// map); returns how many were queued then.
+  /// true when it replaced or forgot the map: the keyframes queued before it are dropped (their ids
+  /// and stamps were given against the previous map); returns how many were queued then.
   size_t withDetector(const std::function<bool(LoopDetector&)>& action);
   /// The same when the detector is free now; false (nothing run) while a keyframe or service
   /// holds it, so a timer never waits on the worker.
@@ -156,8 +141,8 @@ class DetectorRuntime {
     size_t keyframes = 0;  ///< In the saved map.
     std::string kept_as;   ///< Where an overwritten map was kept.
   };
-  /// Any thread but the worker's (map services): saves as LoopDetector::saveDatabase() says,
-  /// `path` "" meaning the open map. A copy goes step by step (LoopDetector::beginSave: 2048
+  /// Any thread but the worker's (map services): saves as MapSession::save() says,
+  /// `path` "" meaning the open map. A copy goes step by step (MapSession::beginSave: 2048
   /// SQLite pages, ~4 MB, per hold of the detector), the rows file and the rename with the
   /// detector free, so the worker keeps describing keyframes meanwhile.
   SaveOutcome saveMap(const std::string& path, bool overwrite);
@@ -193,8 +178,7 @@ class DetectorRuntime {
   std::atomic<bool> restart_timeline_{false};
   size_t not_increasing_in_a_row_ = 0;  ///< Caller's thread (admit).
   std::atomic<uint64_t> time_jumps_{0};
-  uint64_t worker_generation_ = 0;      ///< Worker: the timeline it is in.
-  std::vector<ReleasedKeyframe> held_;  ///< Worker, under detector_mutex_.
+  uint64_t worker_generation_ = 0;  ///< Worker: the timeline it is in.
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> stale_{0};
   std::atomic<uint64_t> map_epoch_{0};  ///< Bumped when a map service replaced the map.

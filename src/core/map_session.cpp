@@ -1,11 +1,9 @@
-// LoopDetector and its map file: opening it (search within the memory budget, the rows checked
-// beside search), storing keyframes in it and announcing them once committed, saving, copying
-// and resetting it.
+#include "landmark_loop_closure/core/map_session.h"
+
 #include <algorithm>
 #include <filesystem>
 #include <optional>
 
-#include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/database/map_file_safety.h"
 #include "landmark_loop_closure/database/map_tools.h"
 
@@ -31,24 +29,22 @@ std::string clearSaveTarget(const std::string& path, const std::string& open_map
 
 }  // namespace
 
-std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
-                                       std::string* kept_as) {
-  KeyframeResult unreported;
-  storeWarmedUp(&unreported);  // A map saved now holds every keyframe so far.
-  if (training_) {
-    return "nothing to save yet: the broad autoencoder is still training (" +
-           std::to_string(training_->held()) + " of " + std::to_string(training_->wanted()) +
-           " keyframes held)";
-  }
+MapSession::MapSession(Settings settings, MapUser* user)
+    : settings_(std::move(settings)),
+      user_(user),
+      database_(settings_.global_dimension, settings_.database.index) {}
+
+std::string MapSession::save(const std::string& path, bool overwrite, std::string* kept_as) {
+  storeHeldKeyframes();                             // A map saved now holds every keyframe so far.
   if (store_ && path == store_->path()) return "";  // Every keyframe is committed already.
   std::string kept;
-  const std::string refused = clearSaveTarget(path, mapPath(), overwrite, &kept);
+  const std::string refused = clearSaveTarget(path, this->path(), overwrite, &kept);
   if (!refused.empty()) return refused;
   try {
     if (store_) {
       store_->copyTo(path);
     } else {
-      writeMap(database_, descriptor_identity_, path);
+      writeMap(database_, settings_.descriptor_identity, path);
     }
   } catch (const std::exception& error) {
     return std::string(error.what()) + (kept.empty() ? "" : "; the earlier map is kept as " + kept);
@@ -57,23 +53,22 @@ std::string LoopDetector::saveDatabase(const std::string& path, bool overwrite,
   return "";
 }
 
-std::string LoopDetector::beginSave(const std::string& path, bool overwrite, std::string* kept_as) {
-  KeyframeResult unreported;
-  storeWarmedUp(&unreported);
+std::string MapSession::beginSave(const std::string& path, bool overwrite, std::string* kept_as) {
+  storeHeldKeyframes();
   save_.reset();
   save_abandoned_ = false;
-  if (!store_ || training_ || path == store_->path()) {
-    return saveDatabase(path, overwrite, kept_as);  // At once: nothing to copy page by page.
+  if (!store_ || path == store_->path()) {
+    return save(path, overwrite, kept_as);  // At once: nothing to copy page by page.
   }
   std::string kept;
-  const std::string refused = clearSaveTarget(path, mapPath(), overwrite, &kept);
+  const std::string refused = clearSaveTarget(path, this->path(), overwrite, &kept);
   if (!refused.empty()) return refused;
   save_ = store_->startCopy(path);
   if (kept_as) *kept_as = kept;
   return "";
 }
 
-bool LoopDetector::continueSave(int pages) {
+bool MapSession::continueSave(int pages) {
   if (save_abandoned_) {
     save_abandoned_ = false;
     throw std::runtime_error(
@@ -83,83 +78,59 @@ bool LoopDetector::continueSave(int pages) {
   return !save_ || save_->step(pages);
 }
 
-void LoopDetector::abandonSave() {
+void MapSession::abandonSave() {
   if (!save_) return;
   save_.reset();
   save_abandoned_ = true;
 }
 
-std::string LoopDetector::openMap(const std::string& path) {
-  if (training_) {
-    // The map's descriptor identity is known once training has made the descriptor.
-    pending_map_path_ = path;
-    return "";
-  }
+std::string MapSession::open(const std::string& path) {
   try {
-    return adoptMap(readMap(path, mapReadSettings()));
+    return adopt(readMap(path, readSettings()));
   } catch (const std::exception& error) {
     return error.what();
   }
 }
 
-MapReadSettings LoopDetector::mapReadSettings() const {
+MapReadSettings MapSession::readSettings() const {
   MapReadSettings settings;
-  settings.index = options_.database.index;  // The database's may be exact while its graph builds.
+  settings.index = settings_.database.index;  // The database's may be exact while its graph builds.
   settings.global_dimension = database_.globalDimension();
-  settings.descriptor_identity = descriptor_identity_;
-  settings.memory_budget_mb = options_.database.memory_budget_mb;
-  settings.cached_records = cachedRecords();
+  settings.descriptor_identity = settings_.descriptor_identity;
+  settings.memory_budget_mb = settings_.database.memory_budget_mb;
+  settings.cached_records = settings_.cached_records;
   return settings;
 }
 
-std::string LoopDetector::adoptMap(ReadMap map) {
-  if (training_ || map.descriptor_identity != descriptor_identity_) {
-    return "map " + map.store->path() +
-           ": not switched to, the descriptor changed while it was read (online training)";
+std::string MapSession::adopt(ReadMap map) {
+  if (map.descriptor_identity != settings_.descriptor_identity) {
+    return "map " + map.store->path() + ": not switched to, it was read for another descriptor";
   }
-  KeyframeResult unreported;
-  storeWarmedUp(&unreported);  // They belong to the map open until now.
-  abandonSave();               // It copies the map replaced here.
-  map_graph_reused_ = map.graph_reused;
+  storeHeldKeyframes();  // They belong to the map open until now.
+  abandonSave();         // It copies the map replaced here.
+  graph_reused_ = map.graph_reused;
   graph_build_ = std::move(map.graph_build);
-  map_leftovers_removed_ = map.store->leftoversRemoved();
-  map_repairs_ = map.store->repairs();
-  map_damage_.clear();
-  map_unwritten_ = 0;
-  map_unsearched_ = map.keyframes - map.database.size();
+  leftovers_removed_ = map.store->leftoversRemoved();
+  repairs_ = map.store->repairs();
+  damage_.clear();
+  unwritten_ = 0;
+  unsearched_ = map.keyframes - map.database.size();
   database_ = std::move(map.database);
   store_ = std::move(map.store);
-  session_ = map.keyframes == 0 ? 0 : map.last_session + 1;
   // After the map's last keyframe, and after any id it published before storing (warm-up).
-  const std::optional<uint64_t> reserved =
-      store_ ? store_->idsReservedThrough() : std::optional<uint64_t>();
-  const bool any = map.keyframes > 0 || reserved.has_value();
-  const uint64_t after =
-      std::max(map.keyframes > 0 ? map.last_id + 1 : 0, reserved ? *reserved + 1 : 0);
-  uint64_t next = next_keyframe_id_.load();
-  while (any && next < after && !next_keyframe_id_.compare_exchange_weak(next, after)) {
+  const std::optional<uint64_t> reserved = store_->idsReservedThrough();
+  std::optional<uint64_t> next_id;
+  if (map.keyframes > 0 || reserved) {
+    next_id = std::max(map.keyframes > 0 ? map.last_id + 1 : 0, reserved ? *reserved + 1 : 0);
   }
-  consistency_.reset();
-  sequence_.reset();
-  backgrounds_.clear();
-  last_loop_.reset();
-  passed_places_.clear();
-  last_keyframe_.reset();
+  if (user_) user_->mapReplaced(map.keyframes == 0 ? 0 : map.last_session + 1, next_id);
   return "";
 }
 
-size_t LoopDetector::cachedRecords() const {
-  // The newest keyframes (triangulation, the consistency chain) and a few queries' candidates.
-  return static_cast<size_t>(4 * options_.database.top_k + options_.triangulation_keyframes +
-                             options_.acceptance.sequence.length) +
-         16;
-}
-
-std::string LoopDetector::saveMapGraph() {
+std::string MapSession::saveGraph() {
   if (!store_) return "";
-  KeyframeResult unreported;
-  storeWarmedUp(&unreported);  // The graph, and the counts said at a stop, include them.
-  adoptBuiltGraph(true);       // A graph still building is finished and kept for the next start.
+  storeHeldKeyframes();   // The graph, and the counts said at a stop, include them.
+  adoptBuiltGraph(true);  // A graph still building is finished and kept for the next start.
   try {
     store_->saveGraph(database_.indexOptions().graphIdentity(), database_);
   } catch (const std::exception& error) {
@@ -168,26 +139,26 @@ std::string LoopDetector::saveMapGraph() {
   return "";
 }
 
-std::string LoopDetector::loadDatabase(const std::string& path) {
+std::string MapSession::load(const std::string& path) {
   const std::string missing = missingMapProblem(path);
-  return missing.empty() ? openMap(path) : missing;
+  return missing.empty() ? open(path) : missing;
 }
 
-size_t LoopDetector::mapKeyframesNotWritten() const {
+size_t MapSession::keyframesNotWritten() const {
   if (!store_) return 0;
   // Held during a check that failed: never committed.
   const size_t held =
       store_->integrityCheck() == KeyframeStore::MapCheck::kFailed ? store_->heldKeyframes() : 0;
-  return map_unwritten_ + held;
+  return unwritten_ + held;
 }
 
-size_t LoopDetector::mapKeyframesInFile() const {
+size_t MapSession::keyframesInFile() const {
   if (!store_) return 0;
   const bool failed = store_->integrityCheck() == KeyframeStore::MapCheck::kFailed;
   return store_->size() - (failed ? store_->heldKeyframes() : 0);
 }
 
-std::string LoopDetector::mapCheck() const {
+std::string MapSession::check() const {
   if (!store_) return "";
   switch (store_->integrityCheck()) {
     case KeyframeStore::MapCheck::kPassed:
@@ -201,24 +172,16 @@ std::string LoopDetector::mapCheck() const {
   return "being checked";
 }
 
-LoopDetector::ResetOutcome LoopDetector::reset() {
-  KeyframeResult unreported;
-  storeWarmedUp(&unreported);  // A reset keeps what came before it on disk.
+MapSession::ResetOutcome MapSession::reset() {
+  storeHeldKeyframes();  // A reset keeps what came before it on disk.
   abandonSave();
-  if (training_) training_->clear();
-  map_damage_.clear();
-  map_unsearched_ = 0;
-  map_unwritten_ = 0;
+  damage_.clear();
+  unsearched_ = 0;
+  unwritten_ = 0;
   graph_build_.reset();
-  database_ = KeyframeDatabase(database_.globalDimension(), options_.database.index);
-  session_ = 0;
+  database_ = KeyframeDatabase(database_.globalDimension(), settings_.database.index);
   memory_map_id_ = KeyframeStore::drawMapId();
-  consistency_.reset();
-  sequence_.reset();
-  backgrounds_.clear();
-  last_loop_.reset();
-  passed_places_.clear();
-  last_keyframe_.reset();
+  if (user_) user_->mapReplaced(0, std::nullopt);
   ResetOutcome outcome;
   if (!store_ || store_->size() == 0) return outcome;
   // The forgotten keyframes stay on disk: a reset never shortens a saved map.
@@ -239,8 +202,8 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
     return outcome;
   }
   try {
-    store_ = KeyframeStore::open(path, descriptor_identity_, database_.globalDimension());
-    readRecordsFrom(&database_, store_.get(), cachedRecords());
+    store_ = KeyframeStore::open(path, settings_.descriptor_identity, database_.globalDimension());
+    readRecordsFrom(&database_, store_.get(), settings_.cached_records);
   } catch (const std::exception& open_error) {
     outcome.problem = "no fresh map could start at " + path + ": " + open_error.what() +
                       "; keyframes are kept in memory only";
@@ -248,25 +211,26 @@ LoopDetector::ResetOutcome LoopDetector::reset() {
   return outcome;
 }
 
-bool LoopDetector::overMemoryBudget() const {
-  const double budget = options_.database.memory_budget_mb;
+bool MapSession::overMemoryBudget() const {
+  const double budget = settings_.database.memory_budget_mb;
   return budget > 0.0 && static_cast<double>(database_.bytes()) >= budget * 1e6;
 }
 
-void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
+std::string MapSession::reserveId(uint64_t id) {
   // Published now but stored later (the warm-up) or never (localisation): a restart, or a later
   // mapping run on the map, must not give the id to another frame.
-  if (!store_ || !map_damage_.empty()) return;
+  if (!store_ || !damage_.empty()) return "";
   try {
     store_->reserveIdsThrough(id);
   } catch (const std::exception& error) {
-    result->store_error = error.what();
+    return error.what();
   }
+  return "";
 }
 
-void LoopDetector::announce(const KeyframeRecord& keyframe, bool wait_for_commit) {
+void MapSession::announce(const KeyframeSummary& keyframe, bool wait_for_commit) {
   if (!announcing_) return;
-  AnnouncedKeyframe announced{mapId(), static_cast<const KeyframeSummary&>(keyframe)};
+  AnnouncedKeyframe announced{mapId(), keyframe};
   // In id order: behind keyframes that still wait, whatever this one's state.
   if (wait_for_commit || !waiting_for_commit_.empty()) {
     waiting_for_commit_.push_back(std::move(announced));
@@ -275,15 +239,15 @@ void LoopDetector::announce(const KeyframeRecord& keyframe, bool wait_for_commit
   }
 }
 
-bool LoopDetector::awaitingCommit(uint64_t id) const {
+bool MapSession::awaitingCommit(uint64_t id) const {
   return std::any_of(waiting_for_commit_.begin(), waiting_for_commit_.end(),
                      [&](const AnnouncedKeyframe& waiting) {
                        return waiting.summary.id == id && waiting.map_id == mapId();
                      });
 }
 
-std::vector<AnnouncedKeyframe> LoopDetector::takeAnnounced() {
-  if (store_ && map_damage_.empty() && store_->heldKeyframes() > 0) {
+std::vector<AnnouncedKeyframe> MapSession::takeAnnounced() {
+  if (store_ && damage_.empty() && store_->heldKeyframes() > 0) {
     try {
       store_->commitHeldIfChecked();
     } catch (const std::exception&) {
@@ -296,7 +260,7 @@ std::vector<AnnouncedKeyframe> LoopDetector::takeAnnounced() {
     const AnnouncedKeyframe& next = waiting_for_commit_.front();
     // Released once committed, or once no file will take it: the map switched (closing it
     // commits what it held), was found damaged, or holds nothing back any more.
-    const bool settled = !store_ || next.map_id != store_->mapId() || !map_damage_.empty() ||
+    const bool settled = !store_ || next.map_id != store_->mapId() || !damage_.empty() ||
                          store_->heldKeyframes() == 0 ||
                          (committed && next.summary.id <= *committed);
     if (!settled) break;
@@ -308,31 +272,40 @@ std::vector<AnnouncedKeyframe> LoopDetector::takeAnnounced() {
   return ready;
 }
 
-void LoopDetector::storeWarmedUp(KeyframeResult* result) {
-  std::vector<WarmingKeyframe> warming = std::move(warming_);
-  warming_.clear();
-  for (WarmingKeyframe& waiting : warming) {
-    if (!standardiser_.warmingUp()) {
-      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
-    }
-    store(std::move(waiting.keyframe), result);
+std::string MapSession::takeNewDamage() {
+  if (store_ && damage_.empty() && store_->integrityCheck() == KeyframeStore::MapCheck::kFailed) {
+    damage_ = store_->integrityProblem();
+    return damage_;
   }
+  return "";
 }
 
-void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
-  noteMapDamage(result);
-  if (!map_damage_.empty()) {
-    // A damaged map is left as it is: keyframes stay in memory (mapDamage() said so once).
-    ++map_unwritten_;
-    result->stored = true;
+QueryResult MapSession::query(const std::vector<float>& global, double stamp,
+                              const DatabaseOptions& search, uint32_t session) {
+  adoptBuiltGraph(false);
+  if (!damage_.empty()) {
+    QueryResult damaged;
+    damaged.status = QueryStatus::kMapDamaged;  // Its rows cannot be trusted to find loops.
+    return damaged;
+  }
+  return database_.query(global, stamp, search, session);
+}
+
+StoredKeyframe MapSession::store(KeyframeRecord keyframe) {
+  StoredKeyframe outcome;
+  outcome.map_damage = takeNewDamage();
+  if (!damage_.empty()) {
+    // A damaged map is left as it is: keyframes stay in memory (damage() said so once).
+    ++unwritten_;
+    outcome.stored = true;
     announce(keyframe, false);
     database_.addUnstored(std::move(keyframe));
-    return;
+    return outcome;
   }
   const bool over_budget = overMemoryBudget();
   if (over_budget && !store_) {
     announce(keyframe, false);
-    return;
+    return outcome;
   }
   if (store_) {
     bool written = false;
@@ -340,28 +313,29 @@ void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
       store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
       written = true;
     } catch (const std::exception& error) {
-      result->store_error = error.what();
-      ++map_unwritten_;
+      outcome.store_error = error.what();
+      ++unwritten_;
     }
     // Held by the map's check: announced once committed.
     const std::optional<uint64_t> committed = store_->lastCommittedId();
     announce(keyframe, written && (!committed || *committed < keyframe.id));
-    if (!written && over_budget) return;
+    if (!written && over_budget) return outcome;
   } else {
     announce(keyframe, false);
   }
-  result->stored = true;
+  outcome.stored = true;
   if (over_budget) {
     // The budget bounds search's RAM, not the map: the keyframe went to disk only.
-    result->written_not_searched = true;
-  } else if (result->store_error.empty()) {
+    outcome.written_not_searched = true;
+  } else if (outcome.store_error.empty()) {
     database_.add(std::move(keyframe));
   } else {
     database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
   }
+  return outcome;
 }
 
-std::optional<int64_t> LoopDetector::keyframeStampNs(uint64_t id) const {
+std::optional<int64_t> MapSession::keyframeStampNs(uint64_t id) const {
   const std::optional<size_t> index = database_.indexOf(id);
   if (!index) return std::nullopt;
   const std::shared_ptr<const KeyframeRecord> record = database_.record(*index);
@@ -369,14 +343,14 @@ std::optional<int64_t> LoopDetector::keyframeStampNs(uint64_t id) const {
   return record->stamp_ns;
 }
 
-void LoopDetector::adoptBuiltGraph(bool wait) {
+void MapSession::adoptBuiltGraph(bool wait) {
   if (!graph_build_ || (!wait && !graph_build_->ready())) return;
   std::unique_ptr<ApproximateIndex> graph = graph_build_->take();
   if (graph) {
     graph->rebind(database_.vectors());
-    database_.setIndex(options_.database.index, std::move(graph));  // Links the rows added since.
+    database_.setIndex(settings_.database.index, std::move(graph));  // Links the rows added since.
   } else {
-    database_.setIndex(options_.database.index);  // The build failed: one more try, here.
+    database_.setIndex(settings_.database.index);  // The build failed: one more try, here.
   }
   graph_build_.reset();
 }
