@@ -109,7 +109,7 @@ class LoopClosureNode {
   /// Diagnostics read the map's real size and bytes: called wherever the database changes
   /// (start, keyframe, held keyframes, load, reset). Caller holds the detector.
   void noteMapSize(const LoopDetector& detector);
-  /// One ERROR for a map found damaged (LoopDetector::takeNewMapDamage()); nothing for "".
+  /// One ERROR for a map found damaged (MapSession::takeNewDamage()); nothing for "".
   void reportMapDamage(const std::string& damage);
   std::string cameraInfoProblem();
   void produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);

@@ -302,7 +302,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  // Reopened as LoopDetector::openMap does: the dimension is the descriptor's, the map opened once.
+  // Reopened as MapSession::open does: the dimension is the descriptor's, the map opened once.
   const int dimension = shippedExtractor()->globalDimension();
   const auto open_start = Clock::now();
   auto store = KeyframeStore::open(path, identity, dimension);

@@ -74,7 +74,7 @@ struct CandidateReport {
 };
 
 struct AcceptedLoop {
-  uint64_t map_id = 0;  ///< The map both keyframes belong to (LoopDetector::mapId()).
+  uint64_t map_id = 0;  ///< The map both keyframes belong to (MapSession::mapId()).
   uint64_t query_id = 0;
   uint32_t query_session = 0;
   double query_stamp = 0.0;

@@ -2,7 +2,7 @@
 
 // Reading a map file for search, apart from the detector that will use it: a load opens and
 // reads the new map beside the live one (seconds for a large map) while the worker goes on, and
-// the detector only swaps it in (LoopDetector::adoptMap).
+// the map session only swaps it in (MapSession::adopt).
 
 #include <cstddef>
 #include <cstdint>
@@ -15,7 +15,7 @@
 
 namespace landmark_loop_closure {
 
-/// What reading a map needs from the detector (LoopDetector::mapReadSettings, worker thread).
+/// What reading a map needs from the detector (MapSession::readSettings, worker thread).
 struct MapReadSettings {
   IndexOptions index;
   int global_dimension = 0;
