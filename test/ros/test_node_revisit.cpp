@@ -90,7 +90,14 @@ TEST(LoopClosureNode, RevisitPublishesLoopsThatMatchTheTruth) {
   std::vector<double> scale_free_turn_errors_deg;
   std::size_t orb_verified = 0;  // Loops the geometric check confirmed (others: appearance).
   for (const LoopClosure& loop : harness.loops()) {
-    SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id));
+    // What a failure needs to be told apart: a neighbour of the true match, or another place.
+    SCOPED_TRACE("loop " + std::to_string(loop.query_id) + " -> " + std::to_string(loop.match_id) +
+                 ": score " + std::to_string(loop.score) + ", " +
+                 std::to_string(loop.consistent_frames) + " consistent keyframes, " +
+                 (loop.verified
+                      ? "verified, " + std::to_string(loop.inliers) + " inliers"
+                      : "by appearance, " + std::to_string(loop.appearance_inliers) + " cells") +
+                 (loop.relative_pose_metric ? ", metric pose" : ""));
     ASSERT_EQ(harness.keyframes().count(loop.query_id), 1u);
     ASSERT_EQ(harness.keyframes().count(loop.match_id), 1u);
     EXPECT_EQ(harness.keyframes().at(loop.query_id), loop.query_stamp);
