@@ -55,7 +55,8 @@ class MapUser {
 /// says otherwise.
 class MapSession {
  public:
-  /// Keys of the map's contents: what a map must have been made with.
+  /// Search's options, the descriptor every map must have been made with, and how many records
+  /// stay in memory.
   struct Settings {
     DatabaseOptions database;
     int global_dimension = 1;
