@@ -393,9 +393,9 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
-  // Held keyframes come back here in order, so the session changes where the odometry did; a
-  // marked keyframe that never came (refused, dropped) passes its mark to the next. After a load
-  // or a reset (no keyframe yet) the session is new already.
+  // Keyframes come in id order, so the session changes where the odometry did; a marked keyframe
+  // that never came (refused, dropped) passes its mark to the next. After a load or a reset (no
+  // keyframe yet) the session is new already.
   const auto marks_end = odometry_restarts_.upper_bound(keyframe_id);
   const bool odometry_restarted = odometry_restarts_.begin() != marks_end;
   odometry_restarts_.erase(odometry_restarts_.begin(), marks_end);

@@ -107,7 +107,7 @@ class LoopClosureNode {
   void publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
                          const cv::Mat& grey);
   /// Diagnostics read the map's real size and bytes: called wherever the database changes
-  /// (start, keyframe, held keyframes, load, reset). Caller holds the detector.
+  /// (start, keyframe, load, reset). Caller holds the detector.
   void noteMapSize(const LoopDetector& detector);
   /// One ERROR for a map found damaged (MapSession::takeNewDamage()); nothing for "".
   void reportMapDamage(const std::string& damage);

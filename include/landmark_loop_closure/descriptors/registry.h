@@ -1,6 +1,6 @@
 // Every descriptor type in one list. A type's own file defines its entry (name, validation,
 // identity, factory, variant names); registry.cpp lists the entries, one line each. The node,
-// online training, lcd_evaluate and lcd_train all find types here, by the same names.
+// lcd_evaluate and lcd_train all find types here, by the same names.
 #pragma once
 
 #include <functional>
