@@ -22,6 +22,7 @@ set(CORE_TESTS
   test_detector_runtime
   test_input_monitor
   test_odometry_history
+  test_camera_gap
   test_keyframe_store
   test_map_formats
   test_saved_search_rows
@@ -88,6 +89,17 @@ catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)
 target_link_libraries(test_pose_graph_session ${PROJECT_NAME}_backend GTest::gtest_main)
 target_compile_definitions(test_pose_graph_session PRIVATE
   PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+
+# A full disk (SQLite's file system wrapped so that writes fail) and the sessions of runs on one
+# map, down to the pose graph's chains.
+catkin_add_gtest(test_map_full_disk test/core/test_map_full_disk.cpp)
+target_link_libraries(test_map_full_disk ${PROJECT_NAME}_backend ${PROJECT_NAME}_config
+  ${PROJECT_NAME}_sim SQLite::SQLite3 GTest::gtest_main)
+
+# Files written so that a failed write says so and leaves the earlier file (the pose graph's, a
+# model).
+catkin_add_gtest(test_durable_file test/core/test_durable_file.cpp)
+target_link_libraries(test_durable_file ${PROJECT_NAME}_backend GTest::gtest_main)
 
 include(cmake/ros_tests.cmake OPTIONAL)
 

@@ -1,10 +1,10 @@
 #include "common/checksummed_file.h"
 
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 
 #include "common/crc32c.h"
+#include "landmark_loop_closure/common/durable_file.h"
 
 namespace landmark_loop_closure {
 
@@ -22,16 +22,7 @@ void beginChecksummedFile(LittleEndianWriter* writer, const char (&magic)[8], ui
 
 std::string finishChecksummedFile(const std::string& path, LittleEndianWriter* writer) {
   writer->u32(crc32c(0, writer->data(), writer->size()));
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-    file.write(reinterpret_cast<const char*>(writer->data()),
-               static_cast<std::streamsize>(writer->size()));
-    if (!file) return "cannot write " + temporary;
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  return error ? "cannot rename " + temporary + " to " + path : "";
+  return writeFileDurably(path, writer->data(), writer->size());
 }
 
 std::string readChecksummedFile(const std::string& path, const char (&magic)[8], uint32_t version,

@@ -2,8 +2,8 @@
 
 // The layout of the package's model files (whitening, broad autoencoder) and of a map's saved
 // summaries: 8-byte magic,
-// byte-order mark, version, the body, then the CRC-32C of everything before it; written to a
-// temporary file and renamed, so a crash never leaves half a file under the real name.
+// byte-order mark, version, the body, then the CRC-32C of everything before it; written through
+// DurableFile, so a crash or a full disk never leaves half a file under the real name.
 
 #include <cstdint>
 #include <string>
@@ -16,7 +16,8 @@ namespace landmark_loop_closure {
 /// Starts a file: magic, byte-order mark, version.
 void beginChecksummedFile(LittleEndianWriter* writer, const char (&magic)[8], uint32_t version);
 
-/// Appends the checksum and writes the file atomically. Returns "" or what failed.
+/// Appends the checksum and writes the file atomically and durably (durable_file.h). Returns ""
+/// or what failed; the earlier file is then as it was.
 std::string finishChecksummedFile(const std::string& path, LittleEndianWriter* writer);
 
 /// Reads a whole file, checks magic, checksum, byte-order mark and version; `body` receives the

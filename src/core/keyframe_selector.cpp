@@ -64,13 +64,29 @@ double KeyframeSelector::motion(const Pose& from, const Pose& to) const {
   return options_.translation_weight * translation + options_.rotation_weight * rotation;
 }
 
-Selection KeyframeSelector::select(double stamp, const Pose& pose) {
+bool KeyframeSelector::continuousSinceKeyframe(const std::vector<Pose>& path,
+                                               const Pose& pose) const {
+  if (path.size() < 2) return false;
+  const Pose* previous = &last_keyframe_->pose;
+  for (const Pose& next : path) {
+    if (motion(*previous, next) > options_.max_motion) return false;
+    previous = &next;
+  }
+  return motion(*previous, pose) <= options_.max_motion;
+}
+
+Selection KeyframeSelector::select(double stamp, const Pose& pose, const OdometrySince& odometry) {
   Selection selection{SelectionVerdict::kKeyframe};
   if (last_keyframe_) {
     selection.motion = motion(last_keyframe_->pose, pose);
     const bool time_gap_passed =
         options_.max_time_gap > 0.0 && stamp - last_keyframe_->stamp >= options_.max_time_gap;
-    if (selection.motion > options_.max_motion) {
+    // Motion is measured from the last keyframe: after a camera gap it is the whole way driven
+    // meanwhile, which only the odometry between can tell from a reset.
+    if (selection.motion > options_.max_motion && odometry &&
+        continuousSinceKeyframe(odometry(last_keyframe_->stamp), pose)) {
+      selection.across_gap = true;
+    } else if (selection.motion > options_.max_motion) {
       ++consecutive_jumps_;
       if (options_.jump_reanchor_frames == 0 ||
           consecutive_jumps_ <= options_.jump_reanchor_frames) {

@@ -310,12 +310,13 @@ void LoopDetector::mapReplaced(uint32_t first_session, std::optional<uint64_t> n
   last_keyframe_.reset();
 }
 
-void LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
+bool LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
   StoredKeyframe outcome = map_.store(std::move(keyframe));
   result->stored = result->stored || outcome.stored;
   result->written_not_searched = result->written_not_searched || outcome.written_not_searched;
   if (!outcome.store_error.empty()) result->store_error = std::move(outcome.store_error);
   if (!outcome.map_damage.empty()) result->map_damage = std::move(outcome.map_damage);
+  return outcome.stored;
 }
 
 void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
@@ -352,7 +353,8 @@ void LoopDetector::setMode(DetectorMode mode) {
 }
 
 FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_width,
-                                   int image_height, int image_cv_type) {
+                                   int image_height, int image_cv_type,
+                                   const OdometrySince& odometry) {
   FrameAdmission admission;
   if (!std::isfinite(stamp)) {
     admission.error = InputError{InputErrorCode::kNonFiniteStamp, "stamp is not finite"};
@@ -380,7 +382,7 @@ FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_wid
     return admission;
   }
   image_size_ = size;
-  admission.selection = selector_.select(stamp, normalisedPose(pose));
+  admission.selection = selector_.select(stamp, normalisedPose(pose), odometry);
   if (admission.selection.verdict == SelectionVerdict::kKeyframe) {
     admission.keyframe_id = next_keyframe_id_++;
   }
@@ -416,10 +418,13 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     result.loop->query_stamp = stamp;
     result.loop->query_pose = keyframe.pose;
   }
+  bool kept = true;
   if (mode_ == DetectorMode::kLocalization) {
-    // Published under the map's id but never stored: a later mapping run must not reuse it.
-    reserveId(keyframe.id, &result);
-    map_.announce(keyframe, false);
+    // Published under the map's id but never stored: a later run must reuse neither its id nor
+    // its session. Announced once the map holds that; never when it cannot be written.
+    result.store_error = map_.reserveUnstored(keyframe.id, session_);
+    kept = result.store_error.empty();
+    if (kept) map_.announce(keyframe, true);
   } else {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {
@@ -431,8 +436,13 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
       storeWarmedUp(&warmed);
       if (!warmed.map_damage.empty()) result.map_damage = warmed.map_damage;
       if (!warmed.store_error.empty()) result.store_error = warmed.store_error;
-      store(std::move(keyframe), &result);
+      const bool over_budget_in_memory = map_.path().empty() && map_.overMemoryBudget();
+      kept = store(std::move(keyframe), &result) || over_budget_in_memory;
     }
+  }
+  if (!kept && result.loop) {
+    result.loop.reset();  // Its query keyframe is announced nowhere.
+    result.loop_dropped = true;
   }
   return result;
 }
@@ -542,9 +552,10 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
 }
 
 FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat& image,
-                                  const CameraIntrinsics& intrinsics, const cv::Mat& depth) {
+                                  const CameraIntrinsics& intrinsics, const cv::Mat& depth,
+                                  const OdometrySince& odometry) {
   FrameResult result;
-  result.admission = admit(stamp, pose, image.cols, image.rows, image.type());
+  result.admission = admit(stamp, pose, image.cols, image.rows, image.type(), odometry);
   if (result.admission.isKeyframe() &&
       (result.admission.selection.reanchored || odometry_restart_pending_)) {
     markOdometryRestart(result.admission.keyframe_id);

@@ -123,7 +123,16 @@ std::string MapSession::adopt(ReadMap map) {
   if (map.keyframes > 0 || reserved) {
     next_id = std::max(map.keyframes > 0 ? map.last_id + 1 : 0, reserved ? *reserved + 1 : 0);
   }
-  if (user_) user_->mapReplaced(map.keyframes == 0 ? 0 : map.last_session + 1, next_id);
+  // After every session of the map: its keyframes' and those runs that stored none used
+  // (localisation), so no two runs share one.
+  std::optional<uint32_t> last_session;
+  if (map.keyframes > 0) last_session = map.last_session;
+  if (const std::optional<uint32_t> reserved = store_->sessionsReservedThrough()) {
+    last_session = std::max(last_session.value_or(0), *reserved);
+  }
+  const uint32_t first_session = last_session ? *last_session + 1 : 0;
+  write_problem_.clear();
+  if (user_) user_->mapReplaced(first_session, next_id);
   return "";
 }
 
@@ -165,6 +174,8 @@ std::string MapSession::check() const {
       return "checked";
     case KeyframeStore::MapCheck::kFailed:
       return "damaged";
+    case KeyframeStore::MapCheck::kDeferred:
+      return "not checked yet: " + store_->integrityDeferredBy();
     case KeyframeStore::MapCheck::kPending:
     case KeyframeStore::MapCheck::kRunning:
       break;
@@ -178,6 +189,7 @@ MapSession::ResetOutcome MapSession::reset() {
   damage_.clear();
   unsearched_ = 0;
   unwritten_ = 0;
+  write_problem_.clear();
   graph_build_.reset();
   database_ = KeyframeDatabase(database_.globalDimension(), settings_.database.index);
   memory_map_id_ = KeyframeStore::drawMapId();
@@ -223,9 +235,23 @@ std::string MapSession::reserveId(uint64_t id) {
   try {
     store_->reserveIdsThrough(id);
   } catch (const std::exception& error) {
+    write_problem_ = error.what();
     return error.what();
   }
   return "";
+}
+
+std::string MapSession::reserveUnstored(uint64_t id, uint32_t session) {
+  if (!store_ || !damage_.empty()) return "";
+  // Ahead of need: a map that cannot be written for a while (a full disk) still takes this run's
+  // next keyframes, and the map is written once per block, not per keyframe.
+  const std::optional<uint64_t> reserved = store_->idsReservedThrough();
+  const std::optional<uint32_t> sessions = store_->sessionsReservedThrough();
+  const bool reserved_already = reserved && id <= *reserved && sessions && session <= *sessions &&
+                                store_->idsReservedInFile() == reserved;
+  if (reserved_already) return "";
+  store_->reserveSession(session);
+  return reserveId(reserved && id <= *reserved ? *reserved : id + kUnstoredIdBlock - 1);
 }
 
 void MapSession::announce(const KeyframeSummary& keyframe, bool wait_for_commit) {
@@ -247,7 +273,7 @@ bool MapSession::awaitingCommit(uint64_t id) const {
 }
 
 std::vector<AnnouncedKeyframe> MapSession::takeAnnounced() {
-  if (store_ && damage_.empty() && store_->heldKeyframes() > 0) {
+  if (store_ && damage_.empty() && (store_->heldKeyframes() > 0 || store_->reservationUnsaved())) {
     try {
       store_->commitHeldIfChecked();
     } catch (const std::exception&) {
@@ -256,13 +282,16 @@ std::vector<AnnouncedKeyframe> MapSession::takeAnnounced() {
   }
   const std::optional<uint64_t> committed =
       store_ ? store_->lastCommittedId() : std::optional<uint64_t>();
+  const std::optional<uint64_t> reserved =
+      store_ ? store_->idsReservedInFile() : std::optional<uint64_t>();
   while (!waiting_for_commit_.empty()) {
     const AnnouncedKeyframe& next = waiting_for_commit_.front();
-    // Released once committed, or once no file will take it: the map switched (closing it
-    // commits what it held), was found damaged, or holds nothing back any more.
+    // Released once the file holds it (committed, or its id reserved for a keyframe stored
+    // nowhere), or once no file will take it: the map switched (closing it commits what it held)
+    // or was found damaged (kept in memory, as damage() said).
     const bool settled = !store_ || next.map_id != store_->mapId() || !damage_.empty() ||
-                         store_->heldKeyframes() == 0 ||
-                         (committed && next.summary.id <= *committed);
+                         (committed && next.summary.id <= *committed) ||
+                         (reserved && next.summary.id <= *reserved);
     if (!settled) break;
     announced_.push_back(std::move(waiting_for_commit_.front()));
     waiting_for_commit_.pop_front();
@@ -308,18 +337,21 @@ StoredKeyframe MapSession::store(KeyframeRecord keyframe) {
     return outcome;
   }
   if (store_) {
-    bool written = false;
     try {
       store_->add(keyframe);  // Committed before it is searched for: a crash cannot lose it.
-      written = true;
     } catch (const std::exception& error) {
+      // Not in the file: neither announced nor searched, so that no backend hears of a keyframe
+      // the map lacks and no loop names one; its id is never announced, so a later run may
+      // give it again. The next keyframe tries the file again.
       outcome.store_error = error.what();
+      write_problem_ = error.what();
       ++unwritten_;
+      return outcome;
     }
+    write_problem_.clear();
     // Held by the map's check: announced once committed.
     const std::optional<uint64_t> committed = store_->lastCommittedId();
-    announce(keyframe, written && (!committed || *committed < keyframe.id));
-    if (!written && over_budget) return outcome;
+    announce(keyframe, !committed || *committed < keyframe.id);
   } else {
     announce(keyframe, false);
   }
@@ -327,10 +359,8 @@ StoredKeyframe MapSession::store(KeyframeRecord keyframe) {
   if (over_budget) {
     // The budget bounds search's RAM, not the map: the keyframe went to disk only.
     outcome.written_not_searched = true;
-  } else if (outcome.store_error.empty()) {
-    database_.add(std::move(keyframe));
   } else {
-    database_.addUnstored(std::move(keyframe));  // Disk full: kept in RAM, still compared.
+    database_.add(std::move(keyframe));
   }
   return outcome;
 }

@@ -1,5 +1,7 @@
 #include "landmark_loop_closure/database/approximate_index.h"
 
+#include "landmark_loop_closure/common/durable_file.h"
+
 #include <hnswlib/hnswlib.h>
 
 #include <cstring>
@@ -224,10 +226,8 @@ void ApproximateIndex::save(const std::string& path) const {
     std::filesystem::remove(temporary, error);
     throw std::runtime_error("search graph " + path + ": could not be written (disk full?)");
   }
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::filesystem::remove(temporary, error);
-    throw std::runtime_error("search graph " + path + ": " + error.message());
+  if (const std::string failed = syncAndRename(temporary, path); !failed.empty()) {
+    throw std::runtime_error("search graph " + path + ": " + failed);
   }
 }
 

@@ -4,6 +4,7 @@
 #include "database/keyframe_codec.h"
 #include "database/store_connection.h"
 #include "database/vector_file.h"
+#include "landmark_loop_closure/common/durable_file.h"
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/database/map_file_safety.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
@@ -154,22 +155,49 @@ uint32_t KeyframeStore::insert(const KeyframeRecord& keyframe) {
 }
 
 void KeyframeStore::reserveIdsThrough(uint64_t id) {
-  if (reserved_through_ && id <= *reserved_through_) return;
-  reserved_through_ = id;
-  reservation_unsaved_ = true;
+  if (!reserved_through_ || id > *reserved_through_) {
+    reserved_through_ = id;
+    reservation_unsaved_ = true;
+  }
+  if (!reservation_unsaved_) return;
+  if (!retryDeferredCheck()) {
+    throw storeError(path_, "keyframe ids through " + std::to_string(id) +
+                                " not reserved: " + integrityDeferredBy());
+  }
   if (integrityCheck() == MapCheck::kPassed) saveReservation();
 }
 
+void KeyframeStore::reserveSession(uint32_t session) {
+  if (sessions_reserved_through_ && session <= *sessions_reserved_through_) return;
+  sessions_reserved_through_ = session;
+  reservation_unsaved_ = true;
+}
+
 void KeyframeStore::saveReservation() {
-  if (!reservation_unsaved_ || !reserved_through_) return;
+  if (!reservation_unsaved_) return;
   Connection& c = *connection_;
-  c.setMeta("ids_reserved_through", std::to_string(*reserved_through_));
-  if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
+  c.execute("BEGIN IMMEDIATE", "cannot write its reservations");
+  try {
+    if (reserved_through_) c.setMeta("ids_reserved_through", std::to_string(*reserved_through_));
+    if (sessions_reserved_through_) {
+      c.setMeta("sessions_reserved_through", std::to_string(*sessions_reserved_through_));
+    }
+    if (map_id_unsaved_) c.setMeta("map_id", std::to_string(map_id_));
+    c.execute("COMMIT", "cannot write its reservations");
+  } catch (...) {
+    if (sqlite3_get_autocommit(c.db) == 0) {
+      sqlite3_exec(c.db, "ROLLBACK", nullptr, nullptr, nullptr);
+    }
+    throw;
+  }
   map_id_unsaved_ = false;
   reservation_unsaved_ = false;
+  reserved_in_file_ = reserved_through_;
 }
 
 std::optional<uint64_t> KeyframeStore::idsReservedThrough() const { return reserved_through_; }
+
+std::optional<uint64_t> KeyframeStore::idsReservedInFile() const { return reserved_in_file_; }
 
 std::optional<uint64_t> KeyframeStore::lastCommittedId() const { return connection_->last_id; }
 
@@ -183,7 +211,10 @@ void KeyframeStore::add(const KeyframeRecord& keyframe) {
       // kFailed: refused below.
     }
   }
+  if (!retryDeferredCheck()) throw storeError(path_, not_stored + ": " + integrityDeferredBy());
   switch (integrityCheck()) {
+    case MapCheck::kDeferred:
+      throw storeError(path_, not_stored + ": " + integrityDeferredBy());
     case MapCheck::kFailed:
       throw storeError(path_, not_stored + ": the map is damaged and is left as it is");
     case MapCheck::kRunning:
@@ -339,6 +370,10 @@ void KeyframeStore::replaceFile(const std::string& from, const std::string& to) 
   }
   std::filesystem::rename(from, to, error);
   if (error) throw storeError(to, "cannot be written: " + error.message());
+  // The renames reach the disk with the folder: a power cut after this keeps the new map.
+  if (const std::string unsynced = syncFolderOf(to); !unsynced.empty()) {
+    throw storeError(to, "written, but " + unsynced);
+  }
 }
 
 std::optional<KeyframeRecord> KeyframeStore::get(uint64_t id) const {

@@ -228,6 +228,12 @@ std::unique_ptr<KeyframeStore> KeyframeStore::openChecked(const std::string& pat
   store->map_id_ = map_id.value_or(drawMapId());
   store->map_id_unsaved_ = !map_id;
   store->reserved_through_ = store->connection_->metaNumber("ids_reserved_through");
+  store->reserved_in_file_ = store->reserved_through_;
+  if (const std::optional<uint64_t> sessions =
+          store->connection_->metaNumber("sessions_reserved_through");
+      sessions && *sessions <= std::numeric_limits<uint32_t>::max()) {
+    store->sessions_reserved_through_ = static_cast<uint32_t>(*sessions);
+  }
   if (existed) {
     store->check_ = std::make_unique<IntegrityCheck>();
     store->check_->map_path = path;

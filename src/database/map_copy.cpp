@@ -50,6 +50,8 @@ bool MapCopy::step(int pages) {
       case KeyframeStore::MapCheck::kPending:
         source_->checkIntegrity();
         break;
+      case KeyframeStore::MapCheck::kDeferred:
+        throw storeError(target_, "not written: the map " + source_->integrityDeferredBy());
       case KeyframeStore::MapCheck::kFailed:
       case KeyframeStore::MapCheck::kPassed:
         break;
@@ -115,14 +117,14 @@ void MapCopy::finish() {
       if (written) done += static_cast<uint64_t>(got);
     }
     written = written && ::fdatasync(out) == 0;
-    ::close(out);
+    written = ::close(out) == 0 && written;  // A tail that fails to reach the disk says so here.
     if (!written) fail("its search rows cannot be written");
     ::close(rows_fd_);
     rows_fd_ = -1;
   }
   const int database = ::open(partial_.c_str(), O_RDONLY | O_CLOEXEC);
-  const bool synced = database >= 0 && ::fdatasync(database) == 0;
-  if (database >= 0) ::close(database);
+  bool synced = database >= 0 && ::fdatasync(database) == 0;
+  if (database >= 0) synced = ::close(database) == 0 && synced;
   if (!synced) fail("cannot be written to disk");
   try {
     KeyframeStore::replaceFile(partial_, target_);

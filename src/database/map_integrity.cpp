@@ -1,6 +1,7 @@
 // A map's integrity check (KeyframeStore::IntegrityCheck) and the keyframes held while it runs.
 #include <sqlite3.h>
 
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -31,49 +32,77 @@ std::string immutableUri(const std::string& path) {
   return uri + "?immutable=1";
 }
 
-// What SQLite's quick_check finds wrong with the pages of the database at `path` ("" when
-// nothing); nullopt when `stop` came first.
-std::optional<std::string> pagesProblem(const std::string& path, const std::atomic<bool>& stop) {
+// What SQLite's quick_check says of the pages of the database at `path`.
+struct PagesVerdict {
+  bool stopped = false;  ///< `stop` came first.
+  std::string damage;    ///< What is wrong with the pages; "" when nothing.
+  std::string unread;    ///< Why they could not be read (the disk, not the file); "" when read.
+};
+
+// Whether an SQLite status says the disk or the system failed, not the file's content.
+bool isSystemFailure(int status) {
+  switch (status & 0xFF) {
+    case SQLITE_IOERR:
+    case SQLITE_FULL:
+    case SQLITE_CANTOPEN:
+    case SQLITE_NOMEM:
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+    case SQLITE_PERM:
+    case SQLITE_READONLY:
+      return true;
+    default:
+      return false;
+  }
+}
+
+PagesVerdict pagesVerdict(const std::string& path, const std::atomic<bool>& stop) {
+  PagesVerdict verdict;
   sqlite3* db = nullptr;
   const std::string uri = immutableUri(path);
-  if (sqlite3_open_v2(uri.c_str(), &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr) !=
-      SQLITE_OK) {
+  const int opened =
+      sqlite3_open_v2(uri.c_str(), &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
+  if (opened != SQLITE_OK) {
     const std::string reason = db != nullptr ? sqlite3_errmsg(db) : "cannot be opened";
     sqlite3_close(db);
-    return "cannot be read to check it: " + reason;
+    (isSystemFailure(opened) ? verdict.unread : verdict.damage) =
+        "cannot be read to check it: " + reason;
+    return verdict;
   }
   sqlite3_progress_handler(
       db, 10000,
       [](void* flag) -> int { return static_cast<const std::atomic<bool>*>(flag)->load() ? 1 : 0; },
       const_cast<std::atomic<bool>*>(&stop));
   sqlite3_stmt* statement = nullptr;
-  std::string problem;
   int status = sqlite3_prepare_v2(db, "PRAGMA quick_check(1)", -1, &statement, nullptr);
   if (status == SQLITE_OK) status = sqlite3_step(statement);
   if (status == SQLITE_ROW) {
     const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(statement, 0));
-    const std::string verdict = text != nullptr ? text : "";
-    if (verdict != "ok") {
+    const std::string found = text != nullptr ? text : "";
+    if (found != "ok") {
       // Its first finding, on one line ("*** in database main ***" heads the list).
       std::string line;
-      for (size_t start = 0; start < verdict.size();) {
-        const size_t end = std::min(verdict.find('\n', start), verdict.size());
-        line = verdict.substr(start, end - start);
+      for (size_t start = 0; start < found.size();) {
+        const size_t end = std::min(found.find('\n', start), found.size());
+        line = found.substr(start, end - start);
         if (line.rfind("***", 0) != 0) break;
         start = end + 1;
       }
-      problem = "its pages are damaged (SQLite's quick_check: " + line + ")";
+      verdict.damage = "its pages are damaged (SQLite's quick_check: " + line + ")";
     }
   } else if (status == SQLITE_INTERRUPT || stop) {
-    sqlite3_finalize(statement);
-    sqlite3_close(db);
-    return std::nullopt;
+    verdict.stopped = true;
   } else {
-    problem = std::string("its pages cannot be read: ") + sqlite3_errmsg(db);
+    std::string reason = sqlite3_errmsg(db);
+    if (const int system_error = sqlite3_system_errno(db); system_error != 0) {
+      reason += std::string(" (") + std::strerror(system_error) + ")";
+    }
+    (isSystemFailure(status) ? verdict.unread : verdict.damage) =
+        "its pages cannot be read: " + reason;
   }
   sqlite3_finalize(statement);
   sqlite3_close(db);
-  return problem;
+  return verdict;
 }
 
 }  // namespace
@@ -87,38 +116,78 @@ void KeyframeStore::IntegrityCheck::run() {
       return;
     }
   }
-  const std::optional<std::string> pages = pagesProblem(map_path, stop);
-  if (!pages) return;
-  if (!pages->empty()) {
-    fail(storeError(map_path, *pages).what());
-    return;
+  const PagesVerdict pages = pagesVerdict(map_path, stop);
+  if (pages.stopped) return;
+  if (!pages.unread.empty()) {
+    defer(pages.unread);
+  } else if (!pages.damage.empty()) {
+    fail(storeError(map_path, pages.damage).what());
+  } else {
+    state = MapCheck::kPassed;
   }
-  state = MapCheck::kPassed;
 }
 
-void KeyframeStore::beginIntegrityCheck() {
-  check_->state = MapCheck::kRunning;
+void KeyframeStore::beginIntegrityCheck(bool background) {
+  check_->background = background;
   check_->stop = false;
-  // A log left by a crash goes into the file first, so the check reads what the map holds.
-  sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
+  // A log left by a crash, or by a close that could not write it back (a full disk), goes into
+  // the file first, so the check reads what the map holds. Until it has, the file alone is a mix
+  // of old and new pages that only the log makes whole: checked then, an intact map would look
+  // damaged.
+  int log_frames = -1;
+  int checkpointed = -1;
+  const int status = sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE,
+                                               &log_frames, &checkpointed);
+  if (status != SQLITE_OK || checkpointed < log_frames) {
+    std::string reason = status != SQLITE_OK ? sqlite3_errmsg(connection_->db)
+                                             : "part of the log is not written back";
+    if (const int system_error = sqlite3_system_errno(connection_->db); system_error != 0) {
+      reason += std::string(" (") + std::strerror(system_error) + ")";
+    }
+    check_->defer("the map cannot be checked while its log cannot be written back into the file (" +
+                  reason + "); tried again with the next keyframe");
+    return;
+  }
+  check_->state = MapCheck::kRunning;
 }
 
 void KeyframeStore::checkIntegrity() {
   if (integrityCheck() == MapCheck::kPending) {
-    beginIntegrityCheck();
-    check_->run();
+    beginIntegrityCheck(false);
+    if (integrityCheck() == MapCheck::kRunning) check_->run();
   }
   if (awaitIntegrityCheck() == MapCheck::kFailed) throw std::runtime_error(check_->problem());
 }
 
 void KeyframeStore::startIntegrityCheck() {
   if (integrityCheck() != MapCheck::kPending) return;
-  beginIntegrityCheck();
+  beginIntegrityCheck(true);
+  if (integrityCheck() != MapCheck::kRunning) return;
   try {
     check_->thread = std::thread([check = check_.get()] { check->run(); });
   } catch (const std::system_error&) {
     check_->run();  // No thread to be had: checked now.
   }
+}
+
+bool KeyframeStore::retryDeferredCheck() {
+  if (integrityCheck() != MapCheck::kDeferred) return true;
+  if (std::chrono::steady_clock::now() - check_->deferred_at < std::chrono::seconds(1)) {
+    return false;
+  }
+  if (check_->thread.joinable()) check_->thread.join();  // It deferred itself and ended.
+  const bool background = check_->background;
+  check_->state = MapCheck::kPending;
+  if (background) {
+    startIntegrityCheck();
+  } else {
+    try {
+      checkIntegrity();
+    } catch (const std::runtime_error&) {
+      // kFailed: the caller refuses.
+    }
+  }
+  return integrityCheck() != MapCheck::kDeferred;
 }
 
 KeyframeStore::MapCheck KeyframeStore::integrityCheck() const {
@@ -132,6 +201,10 @@ KeyframeStore::MapCheck KeyframeStore::awaitIntegrityCheck() {
 
 std::string KeyframeStore::integrityProblem() const {
   return integrityCheck() == MapCheck::kFailed ? check_->problem() : "";
+}
+
+std::string KeyframeStore::integrityDeferredBy() const {
+  return integrityCheck() == MapCheck::kDeferred ? check_->problem() : "";
 }
 
 void KeyframeStore::commitHeld() {
@@ -148,7 +221,7 @@ void KeyframeStore::settleBeforeClose() {
   }
   check_->halt();
   if (check_->state == MapCheck::kRunning) check_->state = MapCheck::kPending;
-  if (integrityCheck() != MapCheck::kFailed) commitHeld();
+  if (integrityCheck() == MapCheck::kPending) commitHeld();
 }
 
 }  // namespace landmark_loop_closure

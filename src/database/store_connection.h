@@ -8,6 +8,7 @@
 #include <sqlite3.h>
 
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -158,6 +159,8 @@ struct KeyframeStore::IntegrityCheck {
   std::atomic<MapCheck> state{MapCheck::kPending};
   std::atomic<bool> stop{false};
   std::thread thread;
+  bool background = false;  ///< Started by startIntegrityCheck(): a retry runs on a thread too.
+  std::chrono::steady_clock::time_point deferred_at;  ///< When it was last deferred.
 
   /// Reads the rows and pages and sets `state`; leaves it when stopped first.
   void run();
@@ -173,6 +176,15 @@ struct KeyframeStore::IntegrityCheck {
       problem_text = why;
     }
     state = MapCheck::kFailed;
+  }
+  /// It could not run for the disk's sake (`why`): not damage, tried again later.
+  void defer(const std::string& why) {
+    {
+      const std::lock_guard<std::mutex> lock(problem_mutex);
+      problem_text = why;
+    }
+    deferred_at = std::chrono::steady_clock::now();
+    state = MapCheck::kDeferred;
   }
   // Under a lock of its own, so that no reader depends on the order of `state`'s writes.
   mutable std::mutex problem_mutex;

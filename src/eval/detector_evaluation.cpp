@@ -1,5 +1,7 @@
 #include "landmark_loop_closure/eval/detector_evaluation.h"
 
+#include "landmark_loop_closure/common/durable_file.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -343,7 +345,7 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
   fs::create_directories(folder);
   const fs::path base(folder);
   const std::string path = (base / ("detector_" + name + ".json")).string();
-  std::ofstream json(path);
+  DurableText json(path);
   json << std::setprecision(6);
   const auto write_pass = [&json](const DetectorPass& pass) {
     json << "{\"min_score\": " << pass.min_score << ", \"loops\": " << pass.loops.size()
@@ -372,7 +374,8 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
     json << (i + 1 < result.sweep.size() ? ",\n" : "\n");
   }
   json << "  ]\n}\n";
-  std::ofstream loops(base / ("loops_" + name + ".csv"));
+  json.commit();
+  DurableText loops(base / ("loops_" + name + ".csv"));
   loops << "query_id,match_id,query_frame,match_frame,score,verified,correct\n"
         << std::setprecision(6);
   for (const PublishedLoop& loop : result.configured.loops) {
@@ -380,7 +383,8 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
           << loop.match_frame << "," << loop.score << "," << loop.verified << "," << loop.correct
           << "\n";
   }
-  std::ofstream candidates(base / ("candidates_" + name + ".csv"));
+  loops.commit();
+  DurableText candidates(base / ("candidates_" + name + ".csv"));
   candidates << "query_id,match_id,query_frame,match_frame,global_score,score,verdict,correct,"
                 "place_ratio,false_alarms,detail\n"
              << std::setprecision(6);
@@ -390,6 +394,7 @@ std::string writeDetectorReport(const std::string& folder, const std::string& na
                << row.verdict << "," << row.correct << "," << row.place_ratio << ","
                << row.false_alarms << "," << csvQuoted(row.detail) << "\n";
   }
+  candidates.commit();
   return path;
 }
 

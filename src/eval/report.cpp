@@ -1,5 +1,7 @@
 #include "landmark_loop_closure/eval/report.h"
 
+#include "landmark_loop_closure/common/durable_file.h"
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -96,7 +98,7 @@ void writeContactSheet(const std::string& path, const std::vector<QueryOutcome>&
   }
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
-  cv::imwrite(path, sheet);
+  writeImageDurably(path, sheet);
 }
 
 std::string jsonString(const std::string& text) {
@@ -129,7 +131,7 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
   fs::create_directories(folder);
   const fs::path base(folder);
   const std::string results_path = (base / "results.json").string();
-  std::ofstream json(results_path);
+  DurableText json(results_path);
   json << std::setprecision(6);
   json << "{\n  \"dataset\": " << jsonString(run.dataset)
        << ",\n  \"mode\": " << jsonString(run.mode)
@@ -162,17 +164,19 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
     json << "      \"pr_curve\": " << jsonString("pr_" + e.name + ".csv") << "\n    }"
          << (k + 1 < evaluations.size() ? "," : "") << "\n";
 
-    std::ofstream curve(base / ("pr_" + e.name + ".csv"));
+    DurableText curve(base / ("pr_" + e.name + ".csv"));
     curve << "threshold,precision,recall\n" << std::setprecision(6);
     for (const PrPoint& point : m.curve) {
       curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
     }
-    std::ofstream vpr_curve(base / ("pr_vprbench_" + e.name + ".csv"));
+    curve.commit();
+    DurableText vpr_curve(base / ("pr_vprbench_" + e.name + ".csv"));
     vpr_curve << "threshold,precision,recall\n" << std::setprecision(6);
     for (const PrPoint& point : m.vprbench.curve) {
       vpr_curve << point.threshold << "," << point.precision << "," << point.recall << "\n";
     }
-    std::ofstream matches(base / ("matches_" + e.name + ".csv"));
+    vpr_curve.commit();
+    DurableText matches(base / ("matches_" + e.name + ".csv"));
     matches << "query,match,score,correct,query_has_place,accepted_at_100p,geometry_inliers,"
                "appearance_inliers,refused\n"
             << std::setprecision(6);
@@ -183,21 +187,24 @@ std::string writeReport(const std::string& folder, const RunDescription& run,
               << o.has_truth << "," << accepted << "," << o.geometry_inliers << ","
               << o.appearance_inliers << "," << o.refused << "\n";
     }
+    matches.commit();
     if (!e.similarity.empty()) {
-      cv::imwrite((base / ("similarity_" + e.name + ".png")).string(),
-                  similarityPicture(e.similarity));
+      writeImageDurably((base / ("similarity_" + e.name + ".png")).string(),
+                        similarityPicture(e.similarity));
     }
   }
   json << "  ]\n}\n";
+  json.commit();
   if (!run.trajectory.empty()) {
-    std::ofstream trajectory(base / "trajectory.csv");
+    DurableText trajectory(base / "trajectory.csv");
     trajectory << "index,x,y,z\n" << std::setprecision(9);
     for (size_t i = 0; i < run.trajectory.size(); ++i) {
       const Eigen::Vector3d& p = run.trajectory[i].position;
       trajectory << i << "," << p.x() << "," << p.y() << "," << p.z() << "\n";
     }
+    trajectory.commit();
   }
-  cv::imwrite((base / "ground_truth.png").string(), groundTruthPicture(truth, matrix_size));
+  writeImageDurably((base / "ground_truth.png").string(), groundTruthPicture(truth, matrix_size));
   return results_path;
 }
 

@@ -42,6 +42,10 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node);
 /// only do cheap checks and keyframe selection; describing and searching run on the
 /// DetectorRuntime's worker thread, whose callbacks publish the results, so a callback never
 /// waits for it.
+/// The diagnostics' summary while the map file refuses writes: "map file full: N keyframes not
+/// stored (why)" for a full disk, "map file not written: ..." otherwise.
+std::string mapWriteSummary(const std::string& problem, size_t keyframes_not_stored);
+
 class LoopClosureNode {
  public:
   /// Throws std::runtime_error when the map at database_path cannot be opened.
@@ -80,8 +84,9 @@ class LoopClosureNode {
   void retryPendingTf();
   void onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info);
   void onDepth(const sensor_msgs::ImageConstPtr& depth);
+  /// `odometry_since`: the odometry up to this image, where the node holds it (not with tf).
   void admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
-                  const std::string& frame_id);
+                  const std::string& frame_id, OdometrySince odometry_since = nullptr);
   void reportRejected(const InputError& error);
   /// Records (and warns once per period and cause) whether camera_info suits an accepted frame.
   void noteCalibration(const std::optional<CalibrationProblem>& problem);
@@ -211,6 +216,8 @@ class LoopClosureNode {
   std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
   std::string map_check_;                        ///< MapSession::check().
   std::string map_damage_;                       ///< MapSession::damage().
+  std::string map_write_problem_;                ///< MapSession::writeProblem().
+  size_t keyframes_not_written_ = 0;             ///< MapSession::keyframesNotWritten().
 
   // Other robots (fleet/): null without advanced/fleet/share and advanced/fleet/peers; stopped
   // before the worker.

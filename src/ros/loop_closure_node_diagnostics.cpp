@@ -18,6 +18,13 @@ constexpr double kTimeJumpErrorS = 30.0;  // A time jump keeps diagnostics at ER
 
 }  // namespace
 
+std::string mapWriteSummary(const std::string& problem, size_t keyframes_not_stored) {
+  const bool full = problem.find("disk is full") != std::string::npos ||
+                    problem.find("No space left") != std::string::npos;
+  return std::string(full ? "map file full: " : "map file not written: ") +
+         std::to_string(keyframes_not_stored) + " keyframes not stored (" + problem + ")";
+}
+
 void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double now = wallNow();
   const uint64_t drops = runtime_->keyframesDropped();
@@ -72,6 +79,10 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR,
                         "no loops searched: " + map_damage_);
   }
+  if (!map_write_problem_.empty()) {
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                        mapWriteSummary(map_write_problem_, keyframes_not_written_));
+  }
   status.add("image topic", image_topic_);
   if (use_odom) status.add("odometry topic", odom_topic_);
   status.addf("image rate (Hz)", "%.1f", rates.image_hz);
@@ -83,6 +94,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
   status.add("keyframes", map_keyframes_.load());
   status.add("database bytes", database_bytes_);
   status.add("keyframes past the memory budget", keyframes_over_budget_.load());
+  status.add("keyframes not stored (map file refused them)", keyframes_not_written_);
   status.add("map", database_status_);
   if (!map_check_.empty()) status.add("map check", map_check_);
   status.add("session", session_.load());

@@ -87,7 +87,11 @@ void LoopClosureNode::pairPendingWithOdometry() {
     pending_odometry_.pop_front();
     if (lookup.status == OdometryAt::kFound) {
       inputs_.paired(wallNow());
-      admitFrame(image, lookup.pose, odometry_frame_);
+      // The odometry between the last keyframe and this image, so that a camera gap while the
+      // robot drives on is not taken for a reset.
+      admitFrame(image, lookup.pose, odometry_frame_, [this, stamp](double since) {
+        return odometry_history_.posesBetween(since, stamp, options_.odometry_max_interval);
+      });
       continue;
     }
     if (lookup.status == OdometryAt::kGapTooLong) {
@@ -154,7 +158,7 @@ void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
 }
 
 void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
-                                 const std::string& frame_id) {
+                                 const std::string& frame_id, OdometrySince odometry_since) {
   if (auto error = checkImageMessage(*image)) {
     reportRejected(*error);
     return;
@@ -177,6 +181,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     }
   }
   frame.source = FrameSource{image, frame_id};
+  frame.odometry_since = std::move(odometry_since);
   const double frame_stamp = frame.stamp;
   const RuntimeAdmission admitted = runtime_->admit(std::move(frame));
   if (admitted.timeline_restarted_after_s) {
@@ -216,6 +221,12 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
                       "advanced/keyframe/max_motion %.2f; frame refused (tracking lost?)",
                       selection.motion, options_.detector.keyframe.max_motion);
     return;
+  }
+  if (selection.across_gap) {
+    ROS_INFO_THROTTLE(kWarningPeriod,
+                      "Keyframe %lu after a camera gap: motion %.2f since the last keyframe, the "
+                      "odometry continuous all the way (the same session)",
+                      static_cast<unsigned long>(admission.keyframe_id), selection.motion);
   }
   if (selection.reanchored) {
     ROS_WARN(

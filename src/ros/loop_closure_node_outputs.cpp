@@ -29,6 +29,8 @@ void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
   database_bytes_ = detector.database().bytes();
   map_check_ = detector.map().check();
   map_damage_ = detector.map().damage();
+  map_write_problem_ = detector.map().writeProblem();
+  keyframes_not_written_ = detector.map().keyframesNotWritten();
 }
 
 void LoopClosureNode::reportMapDamage(const std::string& damage) {
@@ -66,11 +68,16 @@ void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResul
   }
   reportMapDamage(result.map_damage);
   keyframe_stamps_[job.id] = keyframe.stamp;
+  // The keyframes carry the session (a camera gap keeps it, an odometry restart starts one).
+  session_ = detector_.session();
   publishResults(keyframe, result, prepared.grey);
   if (!result.store_error.empty()) {
-    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu is %s: %s", static_cast<unsigned long>(job.id),
-                       result.stored ? "kept in memory only" : "lost (past the memory budget)",
-                       result.store_error.c_str());
+    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu %s: %s (%zu keyframes not stored so far)",
+                       static_cast<unsigned long>(job.id),
+                       result.stored         ? "is held back, but its id could not be reserved"
+                       : result.loop_dropped ? "is neither stored nor published, nor its loop"
+                                             : "is neither stored nor published",
+                       result.store_error.c_str(), detector_.map().keyframesNotWritten());
   }
   noteMapSize(detector_);
 }

@@ -45,7 +45,8 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
     not_increasing_in_a_row_ = 0;
   }
   const auto admit_frame = [&] {
-    return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type);
+    return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type,
+                            frame.odometry_since);
   };
   result.admission = admit_frame();
   const bool not_increasing =

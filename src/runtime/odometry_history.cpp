@@ -59,4 +59,26 @@ OdometryLookup OdometryHistory::at(double stamp, double max_interval) const {
   return lookup;
 }
 
+std::vector<Pose> OdometryHistory::posesBetween(double from, double to, double max_interval) const {
+  const OdometryLookup first = at(from, max_interval);
+  const OdometryLookup last = at(to, max_interval);
+  if (first.status != OdometryAt::kFound || last.status != OdometryAt::kFound || to < from) {
+    return {};
+  }
+  std::vector<Pose> poses{first.pose};
+  const auto after =
+      std::upper_bound(messages_.begin(), messages_.end(), from + kSameStamp,
+                       [](double value, const Message& message) { return value < message.stamp; });
+  double previous = from;
+  for (auto message = after; message != messages_.end() && message->stamp < to - kSameStamp;
+       ++message) {
+    if (message->stamp - previous > max_interval) return {};
+    poses.push_back(message->pose);
+    previous = message->stamp;
+  }
+  if (to - previous > max_interval) return {};
+  poses.push_back(last.pose);
+  return poses;
+}
+
 }  // namespace landmark_loop_closure

@@ -17,6 +17,7 @@
 #include <opencv2/dnn.hpp>
 
 #include "command_line.h"
+#include "landmark_loop_closure/common/durable_file.h"
 #include "landmark_loop_closure/common/stopwatch.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
@@ -27,10 +28,10 @@ namespace {
 using namespace landmark_loop_closure;
 
 bool writeFloats(const std::string& path, const cv::Mat& values) {
-  std::ofstream file(path, std::ios::binary);
-  file.write(reinterpret_cast<const char*>(values.ptr<float>()),
-             static_cast<std::streamsize>(values.total() * sizeof(float)));
-  return static_cast<bool>(file);
+  const std::string failed =
+      writeFileDurably(path, values.ptr<float>(), values.total() * sizeof(float));
+  if (!failed.empty()) std::fprintf(stderr, "lcd_bench_network: %s\n", failed.c_str());
+  return failed.empty();
 }
 
 }  // namespace

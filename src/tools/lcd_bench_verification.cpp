@@ -35,6 +35,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "command_line.h"
+#include "landmark_loop_closure/common/durable_file.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
@@ -237,9 +238,9 @@ Outcome run(const LoopDetectorOptions& options, FrameSource* source,
 void exportKitti(FrameSource* source, const std::string& folder) {
   namespace fs = std::filesystem;
   fs::create_directories(fs::path(folder) / "image_0");
-  std::ofstream poses(fs::path(folder) / "poses.txt");
-  std::ofstream times(fs::path(folder) / "times.txt");
-  std::ofstream calib(fs::path(folder) / "calib.txt");
+  DurableText poses((fs::path(folder) / "poses.txt").string());
+  DurableText times((fs::path(folder) / "times.txt").string());
+  DurableText calib((fs::path(folder) / "calib.txt").string());
   const CameraIntrinsics k = source->intrinsics();
   calib.precision(12);
   calib << "P0: " << k.fx << " 0 " << k.cx << " 0 0 " << k.fy << " " << k.cy << " 0 0 0 1 0\n";
@@ -257,8 +258,11 @@ void exportKitti(FrameSource* source, const std::string& folder) {
     times << frame.stamp << "\n";
     char name[32];
     std::snprintf(name, sizeof(name), "%06zu.png", frame.index);
-    cv::imwrite((fs::path(folder) / "image_0" / name).string(), source->image(frame));
+    writeImageDurably((fs::path(folder) / "image_0" / name).string(), source->image(frame));
   }
+  calib.commit();
+  poses.commit();
+  times.commit();
 }
 
 }  // namespace

@@ -1,11 +1,13 @@
 // The ids and stamps a map gives its keyframes: never published twice for two frames (a crash
 // in the warm-up, a localisation run, a map loaded mid-run), published only once the file holds
 // them, and stamps kept to the nanosecond. Split from test_loop_detector_map.cpp.
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -196,14 +198,19 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
     }
   }
 
-  // Localising stores nothing: announced at once, its id reserved.
+  // Localising stores nothing: announced once the map holds its id's reservation, which is
+  // written once the map's check has passed (milliseconds here).
   LoopDetector localising(options, std::make_shared<PlaceExtractor>());
   localising.map().announceKeyframes(true);
   ASSERT_EQ(localising.map().open(path), "");
   localising.setMode(DetectorMode::kLocalization);
   const FrameResult result = feed(&localising, 100, 3);
   ASSERT_TRUE(result.keyframe);
-  const std::vector<AnnouncedKeyframe> localised = localising.map().takeAnnounced();
+  std::vector<AnnouncedKeyframe> localised;
+  for (int wait = 0; wait < 500 && localised.empty(); ++wait) {
+    localised = localising.map().takeAnnounced();
+    if (localised.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   ASSERT_EQ(localised.size(), 1u);
   EXPECT_EQ(localised[0].summary.id, result.keyframe->keyframe_id);
   EXPECT_EQ(localised[0].map_id, localising.map().mapId());

@@ -1,7 +1,9 @@
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/geometry/pose.h"
@@ -40,7 +42,15 @@ struct Selection {
   double motion = 0.0;          ///< M against the last keyframe (0 for the first frame).
   bool forced_by_time = false;  ///< Keyframe only because max_time_gap passed.
   bool reanchored = false;      ///< Keyframe accepted after a run of odometry jumps.
+  /// Keyframe although M > max_motion: the frames stopped (a camera gap) while the odometry went
+  /// on without a jump, so this is the same odometry frame and the same session.
+  bool across_gap = false;
 };
+
+/// The odometry's poses from `since` (the last keyframe's stamp) to the frame being selected,
+/// oldest first, the first at `since` and the last at the frame; empty when the odometry held
+/// does not cover that span without a gap of its own.
+using OdometrySince = std::function<std::vector<Pose>(double since)>;
 
 /// Decides which frames become keyframes. Pure pose arithmetic, cheap enough for a
 /// subscriber callback. Stamps and poses must already be validated.
@@ -51,8 +61,10 @@ class KeyframeSelector {
   /// M between two poses under this selector's weights.
   double motion(const Pose& from, const Pose& to) const;
 
-  /// Classifies a frame; a keyframe becomes the new reference.
-  Selection select(double stamp, const Pose& pose);
+  /// Classifies a frame; a keyframe becomes the new reference. M > max_motion is a jump unless
+  /// `odometry` (when given) shows that the odometry moved there step by step, each step within
+  /// max_motion: a camera gap while the robot drove on, not a reset.
+  Selection select(double stamp, const Pose& pose, const OdometrySince& odometry = nullptr);
 
   bool hasKeyframe() const { return last_keyframe_.has_value(); }
   double lastKeyframeStamp() const;
@@ -62,6 +74,8 @@ class KeyframeSelector {
     double stamp;
     Pose pose;
   };
+  /// Whether `path` (OdometrySince's) joins the last keyframe to `pose` without a jump.
+  bool continuousSinceKeyframe(const std::vector<Pose>& path, const Pose& pose) const;
   KeyframeSelectorOptions options_;
   std::optional<Reference> last_keyframe_;
   int consecutive_jumps_ = 0;

@@ -123,9 +123,13 @@ struct KeyframeResult {
   std::optional<AcceptedLoop> loop;         ///< The accepted loop, if any.
   std::vector<CandidateReport> candidates;  ///< Every candidate considered, best first.
   StageTimes times;
-  /// Not committed to the map on disk (disk full, file gone): why. The keyframe is kept in
-  /// memory (`stored`) unless search is past its memory budget.
+  /// The map on disk refused it (disk full, file gone, the map not checkable while the disk is
+  /// full): why. Such a keyframe is not kept, not searched and never announced, and its loop is
+  /// dropped (`loop_dropped`): no backend hears of a keyframe the map lacks. Localising, its id
+  /// could not be reserved: the same.
   std::string store_error;
+  /// The loop this keyframe found, dropped with it (store_error).
+  bool loop_dropped = false;
   /// On the first keyframe after the map's search rows failed their check (MapSession::damage()).
   std::string map_damage;
 };
@@ -152,9 +156,10 @@ class LoopDetector : private MapUser {
   LoopDetector(const LoopDetector&) = delete;
   LoopDetector& operator=(const LoopDetector&) = delete;
 
-  /// Validates stamp, pose and image shape, then applies the keyframe rule.
+  /// Validates stamp, pose and image shape, then applies the keyframe rule (`odometry`, when
+  /// given, tells a camera gap from an odometry jump: KeyframeSelector::select).
   FrameAdmission admit(double stamp, const Pose& pose, int image_width, int image_height,
-                       int image_cv_type);
+                       int image_cv_type, const OdometrySince& odometry = nullptr);
 
   /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
   /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
@@ -168,7 +173,8 @@ class LoopDetector : private MapUser {
                              const cv::Mat& depth = {}, int64_t stamp_ns = 0);
 
   FrameResult process(double stamp, const Pose& pose, const cv::Mat& image,
-                      const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {});
+                      const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {},
+                      const OdometrySince& odometry = nullptr);
 
   /// Worker thread: the camera's pose on the odometry's body frame, as it becomes known (tf); until
   /// then (nullopt) keypoint depths are not triangulated from the odometry. Starts as
@@ -233,8 +239,8 @@ class LoopDetector : private MapUser {
   KeyframeRecord makeKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,
                               const cv::Mat& image, const CameraIntrinsics& intrinsics,
                               const cv::Mat& depth, StageTimes* times);
-  /// map_.store(), its outcome told in `result`.
-  void store(KeyframeRecord keyframe, KeyframeResult* result);
+  /// map_.store(), its outcome told in `result`; whether the keyframe was stored.
+  bool store(KeyframeRecord keyframe, KeyframeResult* result);
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);

@@ -137,8 +137,8 @@ class MapSession {
   /// budget).
   size_t keyframesNotSearched() const { return unsearched_; }
   /// Keyframes of this run the open map file will not hold: the map was found damaged (those held
-  /// during its check, and every one after) or a write failed (disk full). They are in memory
-  /// only. 0 without a map file.
+  /// during its check, and every one after: in memory only) or a write failed (disk full: not
+  /// kept at all, neither announced nor searched). 0 without a map file.
   size_t keyframesNotWritten() const;
   /// Keyframes the open map file holds, or will once its check passes.
   size_t keyframesInFile() const;
@@ -175,9 +175,10 @@ class MapSession {
   /// The keyframes that became safe to publish since the last call, in id order. With a map
   /// file a keyframe is announced once it is committed to it (the standardisation's warm-up and
   /// the map's integrity check hold keyframes back; a crash before loses them unannounced), or
-  /// once it is clear the file will not hold it (damaged map, write failed); without one, once
-  /// stored in memory; localising, at once (its id is reserved in the map). Keyframes the check
-  /// held are committed here when it has passed meanwhile.
+  /// once it is clear the file will not hold it (a damaged map); without one, once
+  /// stored in memory; localising, once the map holds its id's reservation. A keyframe the file
+  /// refused (disk full) is never announced. Keyframes the check held are committed here when it
+  /// has passed meanwhile.
   std::vector<AnnouncedKeyframe> takeAnnounced();
   /// Whether stored keyframe `id` still waits for the map file to commit it (not announced yet:
   /// a crash would lose it, and its id may be given again).
@@ -193,6 +194,16 @@ class MapSession {
   /// Marks `id` published in the map before its keyframe is stored (KeyframeStore's reserve);
   /// returns "" or why it could not be written.
   std::string reserveId(uint64_t id);
+  /// Ids reserved at once by reserveUnstored().
+  static constexpr uint64_t kUnstoredIdBlock = 256;
+  /// For a keyframe published under the map's id and stored nowhere (localisation): reserves its
+  /// id (a block of kUnstoredIdBlock at a time) and its session in the map, so that no later run
+  /// gives either again. Returns "" or why it could not be written; announce() such a keyframe
+  /// with wait_for_commit, and it is released once the map holds the reservation.
+  std::string reserveUnstored(uint64_t id, uint32_t session);
+  /// Why the map file refuses writes now (a full disk, the map not checkable while it lasts); ""
+  /// once a write has succeeded again.
+  const std::string& writeProblem() const { return write_problem_; }
   /// Announces a keyframe that is not stored (localising) or stored elsewhere.
   void announce(const KeyframeSummary& keyframe, bool wait_for_commit);
 
@@ -217,7 +228,8 @@ class MapSession {
   std::vector<std::string> repairs_;
   std::string damage_;
   size_t unsearched_ = 0;
-  size_t unwritten_ = 0;  ///< Keyframes store() could not write (see keyframesNotWritten).
+  size_t unwritten_ = 0;       ///< Keyframes store() could not write (see keyframesNotWritten).
+  std::string write_problem_;  ///< See writeProblem().
   uint64_t memory_map_id_ = KeyframeStore::drawMapId();  ///< mapId() without a map file.
   /// announceKeyframes(): keyframes waiting for the map's check to commit them, and those ready.
   bool announcing_ = false;

@@ -62,6 +62,10 @@ class KeyframeStore {
     kPending,  ///< Not started.
     kRunning,  ///< On its thread.
     kFailed,   ///< Damaged or another map's rows: integrityProblem() says so.
+    /// Could not be checked for the disk's sake (no room to write the log into the file, an I/O
+    /// error reading it): not damage. Nothing is written meanwhile; add() and
+    /// reserveIdsThrough() try the check again (at most once a second) and refuse until it runs.
+    kDeferred,
   };
 
   /// Opens `path`, creating it when missing. Throws std::runtime_error naming the path and the
@@ -111,6 +115,8 @@ class KeyframeStore {
   MapCheck awaitIntegrityCheck();
   /// Why the check failed; "" unless kFailed.
   std::string integrityProblem() const;
+  /// Why the check could not run; "" unless kDeferred.
+  std::string integrityDeferredBy() const;
   /// Keyframes added while the check runs, not yet committed.
   size_t heldKeyframes() const { return held_.size(); }
   /// Commits the held keyframes once the check has passed (add() does too, with the next one).
@@ -128,10 +134,19 @@ class KeyframeStore {
   /// Keyframe ids up to `id` have been published (a keyframe held back before it is stored, as
   /// while the standardisation warms up): the map keeps the mark, so a run on it after a crash
   /// does not give them again. Written now, or once the integrity check passes; a damaged map is
-  /// not written. Throws std::runtime_error when the disk refuses it.
+  /// not written. Throws std::runtime_error when the disk refuses it (or the check is deferred).
   void reserveIdsThrough(uint64_t id);
   /// The highest id reserved so far (this run's or the map's), if any.
   std::optional<uint64_t> idsReservedThrough() const;
+  /// A reservation waits for the integrity check to be written (commitHeldIfChecked writes it).
+  bool reservationUnsaved() const { return reservation_unsaved_; }
+  /// The highest id whose reservation the file holds, if any.
+  std::optional<uint64_t> idsReservedInFile() const;
+  /// Session `session` has been used by a run that stores nothing (localisation): kept with the
+  /// ids' reservation, so that the next run on the map takes the session after it.
+  void reserveSession(uint32_t session);
+  /// The highest session reserved so far, if any.
+  std::optional<uint32_t> sessionsReservedThrough() const { return sessions_reserved_through_; }
   /// Writes every keyframe of `database` in one transaction: all or none.
   void addAll(const KeyframeDatabase& database);
   /// The keyframe with this id, read from disk; nullopt when there is none. Throws
@@ -233,8 +248,12 @@ class KeyframeStore {
   uint64_t map_id_ = 0;
   bool map_id_unsaved_ = false;               ///< Drawn at this open, written with the next commit.
   std::optional<uint64_t> reserved_through_;  ///< reserveIdsThrough(), the map's mark at open.
-  bool reservation_unsaved_ = false;          ///< Not written yet (the check had not passed).
+  std::optional<uint64_t> reserved_in_file_;  ///< What the file holds of it.
+  std::optional<uint32_t> sessions_reserved_through_;  ///< reserveSession(), the map's at open.
+  bool reservation_unsaved_ = false;  ///< Not written yet (the check had not passed).
   void saveReservation();
+  /// A deferred check tried again (at most once a second); false while it stays deferred.
+  bool retryDeferredCheck();
   std::unique_ptr<Connection> connection_;
   std::unique_ptr<vector_file::Writer> rows_;
   /// Commits the held keyframes in one transaction (the check passed, or was given up at close).
@@ -242,8 +261,9 @@ class KeyframeStore {
   /// Writes keyframes in one transaction: all or none. Throws std::runtime_error.
   void insertInOneTransaction(size_t count,
                               const std::function<const KeyframeRecord*(size_t)>& keyframe);
-  /// Marks a pending check running and checkpoints the log into the file it reads.
-  void beginIntegrityCheck();
+  /// Marks a pending check running and checkpoints the log into the file it reads; when the
+  /// checkpoint fails (a full disk) the check is deferred instead. `background`: on a thread.
+  void beginIntegrityCheck(bool background);
   /// Stops a running check and commits what it held: the map was not found damaged.
   void settleBeforeClose();
   struct IntegrityCheck;

@@ -71,6 +71,9 @@ struct FrameInput {
   /// The receiver's clock when the frame came (wall or simulated), seconds; 0 or less: unknown
   /// (a simulated clock not started yet), no check.
   double clock = 0.0;
+  /// The odometry up to this frame, when the caller holds it (a camera gap is no jump); called
+  /// within admit() only.
+  OdometrySince odometry_since;
 };
 
 struct RuntimeAdmission {

@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <deque>
 #include <string>
+#include <vector>
 
 #include "landmark_loop_closure/geometry/pose.h"
 
@@ -43,6 +44,10 @@ class OdometryHistory {
   bool add(double stamp, const Pose& pose);
   /// The pose at `stamp` when the messages around it are at most `max_interval` s apart.
   OdometryLookup at(double stamp, double max_interval) const;
+  /// The poses from `from` to `to`: the pose at `from`, every message between, the pose at
+  /// `to`; empty when either is not found (at()) or messages anywhere between are more than
+  /// `max_interval` apart (the odometry itself stopped).
+  std::vector<Pose> posesBetween(double from, double to, double max_interval) const;
   void clear() { messages_.clear(); }
   size_t size() const { return messages_.size(); }
   double newest() const { return messages_.empty() ? 0.0 : messages_.back().stamp; }
