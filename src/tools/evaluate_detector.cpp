@@ -266,7 +266,69 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
     }
   };
   source.same_place = [truth](size_t query, size_t match) { return truth.contains(query, match); };
+  source.offset = [truth](size_t query, size_t match) {
+    return framesFromTruth(truth, query, match);
+  };
+  source.offset_unit = "frames";
   return source;
+}
+
+double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match) {
+  if (query >= truth.rows() || truth.positives(query).empty()) return NAN;
+  const std::vector<uint32_t>& positives = truth.positives(query);
+  // The run of consecutive true frames nearest to the match: its centre is the place.
+  size_t nearest = 0;
+  for (size_t i = 1; i < positives.size(); ++i) {
+    const auto gap = [&](size_t k) {
+      return std::abs(static_cast<double>(positives[k]) - static_cast<double>(match));
+    };
+    if (gap(i) < gap(nearest)) nearest = i;
+  }
+  size_t first = nearest;
+  size_t last = nearest;
+  while (first > 0 && positives[first - 1] + 1 == positives[first]) --first;
+  while (last + 1 < positives.size() && positives[last] + 1 == positives[last + 1]) ++last;
+  const double centre = 0.5 * (static_cast<double>(positives[first]) + positives[last]);
+  return std::abs(static_cast<double>(match) - centre);
+}
+
+std::string offsetHistogram(const std::vector<eval::PublishedLoop>& loops,
+                            const DetectorSource& source) {
+  if (!source.offset || loops.empty()) return "";
+  const bool metres = source.offset_unit == "m";
+  const double bin = metres ? 0.5 : 1.0;
+  const int bins = static_cast<int>(std::ceil(source.offset_tolerance / bin)) + 1;
+  std::vector<size_t> counts(static_cast<size_t>(bins) + 1, 0);  // The last: beyond.
+  std::vector<double> offsets;
+  size_t without_truth = 0;
+  for (const eval::PublishedLoop& loop : loops) {
+    const double offset = source.offset(loop.query_frame, loop.match_frame);
+    if (std::isnan(offset)) {
+      ++without_truth;
+      continue;
+    }
+    offsets.push_back(offset);
+    const int index = static_cast<int>(std::floor(offset / bin + 1e-9));
+    ++counts[static_cast<size_t>(std::min(index, bins))];
+  }
+  std::ostringstream line;
+  line.precision(metres ? 2 : 1);
+  line << std::fixed << "  offset from the truth (" << source.offset_unit
+       << ", a loop is true within " << source.offset_tolerance << "):";
+  for (int i = 0; i < bins; ++i) {
+    if (metres) {
+      line << " [" << i * bin << "," << (i + 1) * bin << ") " << counts[static_cast<size_t>(i)];
+    } else {
+      line << " " << i << ": " << counts[static_cast<size_t>(i)];
+    }
+  }
+  line << " beyond: " << counts.back();
+  if (!offsets.empty()) {
+    std::sort(offsets.begin(), offsets.end());
+    line << "; median " << offsets[offsets.size() / 2] << ", largest " << offsets.back();
+  }
+  if (without_truth > 0) line << "; " << without_truth << " without a true place";
+  return line.str();
 }
 
 namespace {
@@ -284,6 +346,12 @@ struct FrameTruth {
     stamps[index] = stamp;
   }
 };
+
+std::function<double(size_t, size_t)> metresApart(std::shared_ptr<FrameTruth> truth) {
+  return [truth](size_t query, size_t match) {
+    return (truth->poses[query].position - truth->poses[match].position).norm();
+  };
+}
 
 eval::SamePlace trueLoops(std::shared_ptr<FrameTruth> truth, const eval::TrueLoopRule& rule) {
   return [truth, rule](size_t query, size_t match) {
@@ -373,6 +441,9 @@ DetectorSource corridorSource(double laps, const CorridorRun& run) {
   };
   source.same_place = trueLoops(truth, eval::TrueLoopRule{});
   source.true_pose = [truth](size_t frame) { return truth->poses.at(frame); };
+  source.offset = metresApart(truth);
+  source.offset_unit = "m";
+  source.offset_tolerance = eval::TrueLoopRule{}.max_distance_m;
   return source;
 }
 
@@ -405,6 +476,9 @@ DetectorSource bagSource(const std::string& path, const std::string& image_topic
                   });
   };
   source.same_place = trueLoops(truth, rule);
+  source.offset = metresApart(truth);
+  source.offset_unit = "m";
+  source.offset_tolerance = rule.max_distance_m;
   // Without a truth topic the "truth" is the odometry itself: no trajectory error to report.
   if (!truth_topic.empty())
     source.true_pose = [truth](size_t frame) { return truth->poses.at(frame); };
@@ -536,6 +610,10 @@ int runDetectorMode(const Arguments& arguments, const DetectorSource& source,
       std::printf("  descriptor %s\n", extractor->describesAs(first_image).c_str());
     }
     printPass("configured", result.configured);
+    if (const std::string histogram = offsetHistogram(result.configured.loops, source);
+        !histogram.empty()) {
+      std::printf("%s\n", histogram.c_str());
+    }
     // The headline pair: what the configuration publishes, and the best it could without a
     // false loop (a threshold chosen knowing the truth).
     std::printf("  headline: recall %.3f at the configuration (%zu false loops), ",

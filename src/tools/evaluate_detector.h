@@ -26,7 +26,23 @@ struct DetectorSource {
   /// The true pose at a frame, where the source has one besides its odometry (the corridor, a
   /// bag with a truth topic): the keyframes' trajectory error is then reported.
   std::function<Pose(size_t frame)> true_pose;
+  /// How far a loop (query frame, match frame) lands from the truth, in `offset_unit`: frames
+  /// from the centre of the query's true place (image sequences), metres between the two true
+  /// positions (sources with true poses); NaN where the query has no true place.
+  std::function<double(size_t query, size_t match)> offset;
+  std::string offset_unit = "frames";
+  /// How far a loop may land and still be true, in offset_unit (printed beside the histogram).
+  double offset_tolerance = 0.0;
 };
+
+/// Frames from `match` to the centre of the run of consecutive true frames of `query` nearest
+/// to it; NaN when the query has no true frame.
+double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match);
+
+/// The published loops by how far they land from the truth: one line, bins of one unit (frames)
+/// or of half a unit (metres) up to the tolerance and one beyond, with the median and the largest.
+std::string offsetHistogram(const std::vector<eval::PublishedLoop>& loops,
+                            const DetectorSource& source);
 
 /// How an image-only sequence of several runs (traversals) is played: as one sequence, or each
 /// run with its own odometry (eval::RunProtocol).

@@ -348,11 +348,12 @@ int run(const Arguments& arguments) {
           "be known before it plays: --still-threshold 0 (every image a step) or --still-joint");
     }
     runs.heading_drift = arguments.number("--odometry-drift", runs.heading_drift);
-    return runDetectorMode(arguments,
-                           imageSequenceSource(database_paths, truth, poses, stamps, camera,
-                                               arguments.number("--still-threshold", 5.0),
-                                               image_width, standing, runs),
-                           run.dataset, output_folder);
+    DetectorSource source = imageSequenceSource(database_paths, truth, poses, stamps, camera,
+                                                arguments.number("--still-threshold", 5.0),
+                                                image_width, standing, runs);
+    // The histogram's bins reach the tolerance the truth allows: beyond it a loop is false.
+    source.offset_tolerance = arguments.number("--gt-aligned", 0.0);
+    return runDetectorMode(arguments, source, run.dataset, output_folder);
   }
 
   // Training images of the learned descriptors: --train-images, or with --train-on-eval the

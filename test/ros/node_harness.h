@@ -141,6 +141,19 @@ class NodeHarness {
     camera_info_publisher_.publish(info);
   }
 
+  /// Publishes odometry alone (nav_msgs/Odometry and tf), as while the camera is silent.
+  void publishOdometry(double stamp, const sim::Pose2D& odom) {
+    nav_msgs::Odometry odometry;
+    odometry.header.stamp = ros::Time(stamp);
+    odometry.header.frame_id = "odom";
+    odometry.child_frame_id = "base_link";
+    odometry.pose.pose.position.x = odom.x;
+    odometry.pose.pose.position.y = odom.y;
+    odometry.pose.pose.orientation.z = std::sin(0.5 * odom.yaw);
+    odometry.pose.pose.orientation.w = std::cos(0.5 * odom.yaw);
+    odom_publisher_.publish(odometry);
+  }
+
   /// Publishes frames [first, last) of the generated corridor at kPublishRateHz, the odometry
   /// (and tf) `odometry_offset` s after each image; returns how many were published.
   size_t publishCorridor(size_t first, size_t last, double odometry_offset = 0.0,
