@@ -104,7 +104,8 @@ class LoopClosureNode {
   /// empty when none, or when it is not in `camera_frame` (unregistered) or unusable.
   cv::Mat depthFor(const ros::Time& stamp, const std::string& camera_frame);
   /// advanced/camera_mount/from_tf: looks base_frame <- `camera_frame` up until tf has it.
-  void updateCameraMount(const std::string& camera_frame);
+  /// The mount found goes into `prepared` (the runtime gives it to the detector under its lock).
+  void updateCameraMount(const std::string& camera_frame, PreparedKeyframe* prepared);
   /// The loop's relative pose in the frame relative_pose_frame asks for, when possible; returns
   /// the frame it is in.
   std::string expressRelativePose(AcceptedLoop* loop, const std::string& camera_frame) const;

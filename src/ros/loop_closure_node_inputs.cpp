@@ -290,7 +290,7 @@ bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
   }
   const std::string& camera_frame = source.image->header.frame_id;
   if (options_.camera_mount_from_tf || options_.mountFromTfWhereKnown()) {
-    updateCameraMount(camera_frame);
+    updateCameraMount(camera_frame, prepared);
   }
   if (options_.use_depth) {
     prepared->depth = depthFor(source.image->header.stamp, camera_frame);
@@ -353,7 +353,8 @@ cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& cam
   return depth;
 }
 
-void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
+void LoopClosureNode::updateCameraMount(const std::string& camera_frame,
+                                        PreparedKeyframe* prepared) {
   if (!camera_mount_frame_.empty() && camera_frame == camera_mount_frame_ &&
       detector_.cameraMount()) {
     return;
@@ -379,7 +380,7 @@ void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
   }
   std::string error;
   if (!tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
-    detector_.setCameraMount(std::nullopt);
+    prepared->camera_mount = std::optional<Pose>();
     ROS_WARN_THROTTLE(
         kWarningPeriod,
         "No tf %s -> %s yet for advanced/camera_mount/from_tf (%s): keypoint depths are not "
@@ -389,7 +390,7 @@ void LoopClosureNode::updateCameraMount(const std::string& camera_frame) {
   }
   const Pose mount = Pose::fromIsometry(tf2::transformToEigen(
       tf_buffer_->lookupTransform(options_.base_frame, camera_frame, ros::Time(0))));
-  detector_.setCameraMount(mount);
+  prepared->camera_mount = mount;
   camera_mount_frame_ = camera_frame;
   ROS_INFO("Camera mount from tf: %s in %s at (%.3f, %.3f, %.3f) m", camera_frame.c_str(),
            options_.base_frame.c_str(), mount.position.x(), mount.position.y(), mount.position.z());

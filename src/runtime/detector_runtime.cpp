@@ -201,6 +201,7 @@ void DetectorRuntime::process(KeyframeJob& job) {
   };
   // Marked even when this keyframe is refused: the next one then starts the new session.
   if (job.odometry_restarted) detector_->markOdometryRestart(job.id);
+  if (prepared.camera_mount) detector_->setCameraMount(*prepared.camera_mount);
   if (!ready) {
     reject(error);
     return;

@@ -2,6 +2,7 @@
 // loops, a full queue drops the oldest while the caller never waits, time jumping back is refused
 // or starts a new timeline (stale keyframes dropped), refused jobs are reported, and the map
 // services run between keyframes.
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -473,4 +474,44 @@ TEST(DetectorRuntime, AJobThatThrowsIsReportedAndTheWorkerGoesOn) {
   EXPECT_EQ(failures[1].second, "an exception that is not a std::exception");
   EXPECT_EQ(detector->database().size(), 5u)
       << "the job that threw before the detector stored nothing";
+}
+
+// The camera mount found while a keyframe is prepared (tf, with the detector free) reaches the
+// detector under its lock, so a thread that reads it with the detector held (the fleet link
+// expressing a loop in the base frame) never races the worker (issue 82 point 1; scripts/tsan.sh
+// runs this test under ThreadSanitizer).
+TEST(DetectorRuntime, TheCameraMountFoundWhilePreparingIsGivenWithTheDetectorHeld) {
+  const std::unique_ptr<LoopDetector> detector = smallDetector();
+  RuntimeListener listener;
+  std::atomic<int> done{0};
+  listener.prepare = [](const KeyframeJob& job, bool, PreparedKeyframe* prepared, InputError*) {
+    prepared->image = prepared->grey = std::any_cast<const cv::Mat&>(job.source);
+    // Known from the second keyframe on, as tf's static transform comes a little late.
+    prepared->camera_mount =
+        job.id == 0 ? std::optional<Pose>() : std::optional<Pose>(planarPose(0.1 * job.id, 0, 0));
+    return true;
+  };
+  listener.keyframe = [&](const KeyframeJob&, const KeyframeResult&, const PreparedKeyframe&) {
+    ++done;
+  };
+  DetectorRuntime runtime(detector.get(), RuntimeOptions{}, listener);
+  std::atomic<bool> stop{false};
+  std::atomic<double> seen{0.0};
+  std::thread reader([&] {
+    while (!stop) {
+      runtime.withDetector([&](LoopDetector& held) {
+        // What expressing a loop in the base frame reads.
+        if (held.cameraMount()) seen = held.cameraMount()->position.x();
+        return false;
+      });
+    }
+  });
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_TRUE(runtime.admit(frame(i, 100 + i)).queued);
+    while (done < i + 1) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  stop = true;
+  reader.join();
+  ASSERT_TRUE(detector->cameraMount());
+  EXPECT_NEAR(detector->cameraMount()->position.x(), 1.9, 1e-9) << "the last keyframe's mount";
 }

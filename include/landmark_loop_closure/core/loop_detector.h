@@ -176,9 +176,11 @@ class LoopDetector : private MapUser {
                       const CameraIntrinsics& intrinsics = {}, const cv::Mat& depth = {},
                       const OdometrySince& odometry = nullptr);
 
-  /// Worker thread: the camera's pose on the odometry's body frame, as it becomes known (tf); until
-  /// then (nullopt) keypoint depths are not triangulated from the odometry. Starts as
-  /// options.camera_mount.
+  /// The camera's pose on the odometry's body frame, as it becomes known (tf); until then
+  /// (nullopt) keypoint depths are not triangulated from the odometry. Starts as
+  /// options.camera_mount. With the detector held, as every reader holds it: the node looks the
+  /// mount up while preparing a keyframe and DetectorRuntime sets it under its lock
+  /// (PreparedKeyframe::camera_mount); before the runtime starts, any thread.
   void setCameraMount(const std::optional<Pose>& mount);
   const std::optional<Pose>& cameraMount() const { return camera_mount_; }
 

@@ -94,6 +94,10 @@ struct PreparedKeyframe {
   cv::Mat image;  ///< Grey, or BGR when the descriptor asked for colour.
   cv::Mat grey;   ///< Always grey (match images).
   cv::Mat depth;  ///< Registered depth, or empty.
+  /// Set: the camera mount to give the detector before this keyframe (nullopt inside: not known
+  /// any more). Looked up while preparing, given with the detector locked, so that no thread
+  /// reading the mount (the fleet link, a service) races the worker.
+  std::optional<std::optional<Pose>> camera_mount;
 };
 
 /// What the runtime calls back, all on the worker thread: prepare() with the detector free (a
