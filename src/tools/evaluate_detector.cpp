@@ -297,7 +297,8 @@ std::string offsetHistogram(const std::vector<eval::PublishedLoop>& loops,
   if (!source.offset || loops.empty()) return "";
   const bool metres = source.offset_unit == "m";
   const double bin = metres ? 0.5 : 1.0;
-  const int bins = static_cast<int>(std::ceil(source.offset_tolerance / bin)) + 1;
+  // Frames: 0, 1, ..., the tolerance; metres: half-metre bins up to the tolerance.
+  const int bins = static_cast<int>(std::ceil(source.offset_tolerance / bin)) + (metres ? 0 : 1);
   std::vector<size_t> counts(static_cast<size_t>(bins) + 1, 0);  // The last: beyond.
   std::vector<double> offsets;
   size_t without_truth = 0;

@@ -2,7 +2,7 @@
 # Every tool's command line goes through CLI11: --help prints the generated usage and exits 0; an
 # unknown option, a missing required value or a bad number exits 2 with one line naming it and a
 # pointer to --help; values keep their meaning (a negative number is a value, lists split on
-# commas). Nothing here does the tools' work.
+# commas). Nothing here does the tools' work but one short corridor evaluation.
 # And lcd_evaluate --gt-mat reads a MATLAB v7.3 (HDF5) file (written by WRITE_MAT73_FIXTURE).
 #   command_lines.sh TOOLS_DIR WRITE_MAT73_FIXTURE
 set -euo pipefail
@@ -84,6 +84,10 @@ expect 2 "scale error must be within" make_demo_bag "$folder/demo.bag" 1 10 -0.9
 expect 2 "--two-robots takes OUTPUT" make_demo_bag --two-robots "$folder/demo.bag" 10 20
 # lcd_evaluate: a dry run reads its options and stops.
 expect 0 "corridor|dry run" lcd_evaluate --corridor 1 --detector --dry-run --output "$folder/results"
+# The one evaluation here (9 s): each loop's distance from the truth is printed, binned to the
+# true-loop rule's 2.5 m, none beyond it.
+expect 0 "offset from the truth \(m, a loop is true within 2.50\): \[0.00,0.50\) [1-9][0-9]* .* beyond: 0" \
+  lcd_evaluate --corridor 1.3 --detector --sweep-steps 0 --output "$folder/results"
 
 # Ground truth saved by MATLAB with -v7.3 (HDF5): read, checked against the images, and its 3
 # revisits found.
