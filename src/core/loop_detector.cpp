@@ -424,7 +424,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     // its session. Announced once the map holds that; never when it cannot be written.
     result.store_error = map_.reserveUnstored(keyframe.id, session_);
     kept = result.store_error.empty();
-    if (kept) map_.announce(keyframe, true);
+    if (kept) map_.announceUnstored(keyframe);
   } else {
     keyframe.descriptor = std::move(descriptor);
     if (standardiser_.warmingUp()) {

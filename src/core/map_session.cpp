@@ -259,17 +259,22 @@ void MapSession::announce(const KeyframeSummary& keyframe, bool wait_for_commit)
   AnnouncedKeyframe announced{mapId(), keyframe};
   // In id order: behind keyframes that still wait, whatever this one's state.
   if (wait_for_commit || !waiting_for_commit_.empty()) {
-    waiting_for_commit_.push_back(std::move(announced));
+    waiting_for_commit_.push_back({std::move(announced), !wait_for_commit});
   } else {
     announced_.push_back(std::move(announced));
   }
 }
 
+void MapSession::announceUnstored(const KeyframeSummary& keyframe) {
+  if (!announcing_) return;
+  waiting_for_commit_.push_back({AnnouncedKeyframe{mapId(), keyframe}, false, true});
+}
+
 bool MapSession::awaitingCommit(uint64_t id) const {
-  return std::any_of(waiting_for_commit_.begin(), waiting_for_commit_.end(),
-                     [&](const AnnouncedKeyframe& waiting) {
-                       return waiting.summary.id == id && waiting.map_id == mapId();
-                     });
+  return std::any_of(
+      waiting_for_commit_.begin(), waiting_for_commit_.end(), [&](const Waiting& waiting) {
+        return waiting.announced.summary.id == id && waiting.announced.map_id == mapId();
+      });
 }
 
 std::vector<AnnouncedKeyframe> MapSession::takeAnnounced() {
@@ -285,15 +290,16 @@ std::vector<AnnouncedKeyframe> MapSession::takeAnnounced() {
   const std::optional<uint64_t> reserved =
       store_ ? store_->idsReservedInFile() : std::optional<uint64_t>();
   while (!waiting_for_commit_.empty()) {
-    const AnnouncedKeyframe& next = waiting_for_commit_.front();
-    // Released once the file holds it (committed, or its id reserved for a keyframe stored
-    // nowhere), or once no file will take it: the map switched (closing it commits what it held)
-    // or was found damaged (kept in memory, as damage() said).
-    const bool settled = !store_ || next.map_id != store_->mapId() || !damage_.empty() ||
-                         (committed && next.summary.id <= *committed) ||
-                         (reserved && next.summary.id <= *reserved);
+    const Waiting& waiting = waiting_for_commit_.front();
+    const AnnouncedKeyframe& next = waiting.announced;
+    // Released once the file holds it (committed; for a keyframe stored nowhere, its id's
+    // reservation), or once no file will take it: the map switched (closing it commits what it
+    // held) or was found damaged (kept in memory, as damage() said).
+    const std::optional<uint64_t>& held_through = waiting.stored_nowhere ? reserved : committed;
+    const bool settled = waiting.ready || !store_ || next.map_id != store_->mapId() ||
+                         !damage_.empty() || (held_through && next.summary.id <= *held_through);
     if (!settled) break;
-    announced_.push_back(std::move(waiting_for_commit_.front()));
+    announced_.push_back(std::move(waiting_for_commit_.front().announced));
     waiting_for_commit_.pop_front();
   }
   std::vector<AnnouncedKeyframe> ready = std::move(announced_);

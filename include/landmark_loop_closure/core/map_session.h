@@ -198,14 +198,17 @@ class MapSession {
   static constexpr uint64_t kUnstoredIdBlock = 256;
   /// For a keyframe published under the map's id and stored nowhere (localisation): reserves its
   /// id (a block of kUnstoredIdBlock at a time) and its session in the map, so that no later run
-  /// gives either again. Returns "" or why it could not be written; announce() such a keyframe
-  /// with wait_for_commit, and it is released once the map holds the reservation.
+  /// gives either again. Returns "" or why it could not be written; announce such a keyframe
+  /// with announceUnstored(), and it is released once the map holds the reservation.
   std::string reserveUnstored(uint64_t id, uint32_t session);
   /// Why the map file refuses writes now (a full disk, the map not checkable while it lasts); ""
   /// once a write has succeeded again.
   const std::string& writeProblem() const { return write_problem_; }
-  /// Announces a keyframe that is not stored (localising) or stored elsewhere.
+  /// Announces a keyframe stored elsewhere, or in this map (`wait_for_commit`: once committed).
   void announce(const KeyframeSummary& keyframe, bool wait_for_commit);
+  /// Announces a keyframe stored nowhere (localising) once the map holds its id's reservation
+  /// (reserveUnstored()).
+  void announceUnstored(const KeyframeSummary& keyframe);
 
  private:
   /// Swaps the background graph in when it is ready (or, `wait`, once it is).
@@ -233,7 +236,12 @@ class MapSession {
   uint64_t memory_map_id_ = KeyframeStore::drawMapId();  ///< mapId() without a map file.
   /// announceKeyframes(): keyframes waiting for the map's check to commit them, and those ready.
   bool announcing_ = false;
-  std::deque<AnnouncedKeyframe> waiting_for_commit_;
+  struct Waiting {
+    AnnouncedKeyframe announced;
+    bool ready = false;           ///< Settled already; waits only behind the ones before it.
+    bool stored_nowhere = false;  ///< announceUnstored(): released by its id's reservation.
+  };
+  std::deque<Waiting> waiting_for_commit_;
   std::vector<AnnouncedKeyframe> announced_;
 };
 
