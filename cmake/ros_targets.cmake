@@ -93,7 +93,7 @@ install(TARGETS make_demo_bag demo_report loop_injector RUNTIME DESTINATION ${CA
 
 # Offline evaluation tool: image folders, the generated corridor, and bags (hence ROS).
 add_executable(lcd_evaluate src/tools/lcd_evaluate.cpp src/tools/evaluate_support.cpp
-  src/tools/evaluate_detector.cpp)
+  src/tools/evaluate_detector.cpp src/tools/loop_offsets.cpp)
 target_include_directories(lcd_evaluate SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(lcd_evaluate ${PROJECT_NAME}_bag ${PROJECT_NAME}_config ${PROJECT_NAME}_sim
   ${catkin_LIBRARIES})
