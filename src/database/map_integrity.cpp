@@ -46,10 +46,6 @@ bool isSystemFailure(int status) {
     case SQLITE_FULL:
     case SQLITE_CANTOPEN:
     case SQLITE_NOMEM:
-    case SQLITE_BUSY:
-    case SQLITE_LOCKED:
-    case SQLITE_PERM:
-    case SQLITE_READONLY:
       return true;
     default:
       return false;
@@ -138,7 +134,12 @@ void KeyframeStore::beginIntegrityCheck(bool background) {
   int checkpointed = -1;
   const int status = sqlite3_wal_checkpoint_v2(connection_->db, nullptr, SQLITE_CHECKPOINT_TRUNCATE,
                                                &log_frames, &checkpointed);
-  if (status != SQLITE_OK || checkpointed < log_frames) {
+  // Only the disk defers it (a full disk, an I/O error part way through the log); a checkpoint
+  // that another reader holds back leaves the file as it was, consistent, and the check reads it.
+  const bool disk_failed =
+      (status & 0xFF) == SQLITE_FULL || (status & 0xFF) == SQLITE_IOERR ||
+      (status == SQLITE_OK && log_frames > 0 && checkpointed >= 0 && checkpointed < log_frames);
+  if (disk_failed) {
     std::string reason = status != SQLITE_OK ? sqlite3_errmsg(connection_->db)
                                              : "part of the log is not written back";
     if (const int system_error = sqlite3_system_errno(connection_->db); system_error != 0) {
@@ -215,13 +216,15 @@ void KeyframeStore::commitHeld() {
 }
 
 void KeyframeStore::settleBeforeClose() {
+  // What was held is committed unless the map was found damaged (a deferred check found nothing
+  // wrong with the file: the disk may take them now).
   if (integrityCheck() != MapCheck::kRunning) {
-    if (integrityCheck() == MapCheck::kPassed) commitHeld();
+    if (integrityCheck() != MapCheck::kFailed) commitHeld();
     return;
   }
   check_->halt();
   if (check_->state == MapCheck::kRunning) check_->state = MapCheck::kPending;
-  if (integrityCheck() == MapCheck::kPending) commitHeld();
+  if (integrityCheck() != MapCheck::kFailed) commitHeld();
 }
 
 }  // namespace landmark_loop_closure
