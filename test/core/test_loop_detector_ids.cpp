@@ -166,6 +166,9 @@ TEST(LoopDetector, AKeyframeIsAnnouncedOnlyOnceTheMapFileHoldsIt) {
       LoopDetector detector(options, std::make_shared<PlaceExtractor>());
       detector.map().announceKeyframes(true);
       if (!detector.map().open(path).empty()) _exit(2);
+      // The map's check runs beside the first keyframes and holds them until it passes: waited
+      // for here, so that on a busy machine the kill still comes after keyframes were announced.
+      for (int wait = 0; wait < 1000 && detector.map().check() != "checked"; ++wait) usleep(10000);
       const int first =
           static_cast<int>(detector.database().summary(detector.database().size() - 1).id) + 1;
       for (int i = first; i <= killed_after + first - 20; ++i) {
