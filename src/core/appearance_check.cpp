@@ -1,5 +1,6 @@
 #include "landmark_loop_closure/core/appearance_check.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include <opencv2/calib3d.hpp>
@@ -21,6 +22,19 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                    "fit one affine map of positions. Chosen on Gardens Point's first half: the "
                    "same place by day and by night has 25 / 38 (10th percentile / median), the "
                    "most alike wrong places 21-31 at the 90th percentile (bench/README.md).")
+          .integer("sure_min_inliers", &O::sure_min_inliers, between(3, 10000),
+                   "cells a candidate needs when the calibrated decision is sure of it (see "
+                   "sure_false_alarms): a change of viewpoint moves cells out of one affine map "
+                   "(the same place seen from the other side of a path keeps 12-27 of them), and "
+                   "a look-alike place is refused by the decision before it gets here.")
+          .number("sure_false_alarms", &O::sure_false_alarms, between(0, 1),
+                  "a candidate with at most this many wrong places expected to score as high "
+                  "(advanced/acceptance/max_false_alarms' estimate; between robots, "
+                  "advanced/fleet/max_false_alarms') needs sure_min_inliers cells, others "
+                  "min_inliers. 0 = off. 20 and 1e-4 were chosen on the first halves of Gardens "
+                  "Point and Nordland, a step inside the values with no wrong loop (16-24 cells, "
+                  "1e-5 to 1e-3; any candidate at 20 or 24 cells: 3-5 wrong loops on Nordland); "
+                  "reported on the second halves (bench/README.md).")
           .number("ransac_threshold_cells", &O::ransac_threshold_cells,
                   openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.")
           .evaluationOnly();
@@ -56,12 +70,20 @@ CellFeatures cellFeatures(const FeatureMaps& maps) {
 std::string AppearanceCheckResult::describe() const {
   std::ostringstream text;
   text << "appearance: " << inliers << " of " << mutual_matches << " cells agree";
+  if (required > 0) text << " (" << required << " needed)";
   return text.str();
 }
 
+int requiredCells(const AppearanceCheckOptions& options, double false_alarms) {
+  const bool sure = options.sure_false_alarms > 0.0 && false_alarms >= 0.0 &&
+                    false_alarms <= options.sure_false_alarms;
+  return sure ? std::min(options.min_inliers, options.sure_min_inliers) : options.min_inliers;
+}
+
 AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
-                                      const AppearanceCheckOptions& options) {
+                                      const AppearanceCheckOptions& options, double false_alarms) {
   AppearanceCheckResult result;
+  result.required = requiredCells(options, false_alarms);
   if (query.empty() || match.empty() || query.features.cols != match.features.cols ||
       query.centres.size() != match.centres.size()) {
     return result;
@@ -78,7 +100,7 @@ AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatu
                                                 options.ransac_threshold_cells, 2000, 0.995, 10);
     if (!affine.empty()) result.inliers = cv::countNonZero(inlier_mask);
   }
-  result.confirmed = result.inliers >= options.min_inliers;
+  result.confirmed = result.inliers >= result.required;
   return result;
 }
 

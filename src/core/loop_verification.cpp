@@ -16,7 +16,8 @@ bool LoopDetector::verify(const KeyframeRecord& query, const KeyframeRecord& mat
   PlaceCheck check = checkPlace(
       verifier_, {options_.verification, options_.appearance, options_.metric_pose},
       query.local_features, match.local_features, intrinsics, query_cells,
-      [&] { return thumbnailCells(query); }, [&] { return thumbnailCells(match); });
+      [&] { return thumbnailCells(query); }, [&] { return thumbnailCells(match); },
+      report->false_alarms);
   report->inliers = check.inliers;
   if (!check.detail.empty()) report->detail = check.detail;
   if (!check.accepted) {

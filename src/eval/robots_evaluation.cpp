@@ -105,10 +105,11 @@ DetectorEvaluation evaluateRobots(const LoopDetectorOptions& options,
         ++pass.refused["unreadable"];
         continue;
       }
-      const PlaceCheck check = checkFleetCandidate(
-          verifier, settings, query->local_features, robot.intrinsics, *evidence,
-          thumbnailCellsOf(*robot.detector, query->thumbnail),
-          thumbnailCellsOf(*owner->detector, evidence->thumbnail), fleet.appearance_confirms);
+      const PlaceCheck check =
+          checkFleetCandidate(verifier, settings, query->local_features, robot.intrinsics,
+                              *evidence, thumbnailCellsOf(*robot.detector, query->thumbnail),
+                              thumbnailCellsOf(*owner->detector, evidence->thumbnail),
+                              fleet.appearance_confirms, candidate->false_alarms);
       if (!check.accepted) {
         ++pass.refused["place_not_confirmed"];
         continue;

@@ -10,6 +10,7 @@
 #include "landmark_loop_closure/common/text_and_files.h"
 #include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/core/sequence_matching.h"
 
 namespace landmark_loop_closure {
 
@@ -47,13 +48,28 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                 "by spaces or commas: their ~shared_keyframes are kept and searched, and a "
                 "candidate's evidence is fetched from their ~keyframe_evidence. Empty: none.")
           .number("min_score", &O::min_score, between(-1, 1),
-                  "cosine of the global vectors (the shortlist's, as stored) a keyframe of "
-                  "another robot needs to become a candidate.")
+                  "score a keyframe of another robot needs to become a candidate: the best "
+                  "path's mean cosine of the global vectors (the shortlist's, as stored), the "
+                  "cosine itself with sequence_length 1. With max_false_alarms a floor under "
+                  "the calibrated decision, as advanced/acceptance/min_score (a floor of 0.3, "
+                  "as before paths, halves the loops between robots on Gardens Point; "
+                  "bench/history.md).")
+          .integer("sequence_length", &O::sequence_length, between(1, 100),
+                   "L > 1: a candidate's score is the best mean cosine along a straight path of "
+                   "the last L own keyframes against the other map's keyframes ending at it (as "
+                   "advanced/acceptance/sequence_length scores the detector's own loops); nothing "
+                   "is a candidate before L own keyframes have come. 1 = single keyframes.")
           .integer("consistent_keyframes", &O::consistent_keyframes, between(1, 100),
                    "consecutive own keyframes that must match one stretch of another robot's "
                    "map before its evidence is fetched.")
           .integer("place_window", &O::place_window, between(1, 1000),
-                   "ids of the other map within which consecutive matches are one stretch.")
+                   "ids of the other map within which two matches are one place.")
+          .integer("index_window", &O::index_window, between(0, 1000),
+                   "ids of the other map within which consecutive own keyframes' matches "
+                   "continue each other (the chain, a continuing loop), and within which a "
+                   "candidate must lie of its place's best-scoring one, as "
+                   "advanced/acceptance/index_window: a path that agrees on the place names its "
+                   "keyframe, not a neighbour.")
           .integer("top_k", &O::top_k, between(1, 100),
                    "candidates kept per keyframe over every other robot's map.")
           .integer("max_rows_per_robot", &O::max_rows_per_robot, between(1, 100000000),
@@ -85,11 +101,12 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "chained "
                   "candidate is believed only where fewer wrong places than this are expected to "
                   "score as high, from an exponential tail fitted to what the other places of "
-                  "its map scored against the keyframe (a candidate that continues the previous "
-                  "keyframe's stretch counts only the places that would continue it). Chosen on "
-                  "the generated aliasing corridor as the largest bound with no wrong loop (0.3 "
-                  "published 4 of 56 wrong), reported on the corridor (bench/history.md, \"Robots "
-                  "sharing keyframes\").")
+                  "its map scored against the keyframe's path (a candidate that continues the "
+                  "previous keyframe's stretch counts only the places that would continue it). "
+                  "0.03: the largest of 0.003, 0.03, 0.1, 0.3 with no wrong loop on the first "
+                  "halves of Gardens Point and Nordland as two robots (all four) and on the "
+                  "generated corridors (0.1 published 1 wrong of 51 on the aliasing corridor), "
+                  "reported on the second halves (bench/README.md).")
           .flag("appearance_confirms", &O::appearance_confirms,
                 "the appearance check alone (where ORB cannot confirm the place: day against "
                 "night, a large change of view) may confirm a loop between robots, as it does "
@@ -108,7 +125,11 @@ FleetMatcher::FleetMatcher(FleetOptions options, const std::string& descriptor_i
     : options_(std::move(options)),
       fingerprint_(descriptorFingerprint(descriptor_identity)),
       identity_(descriptor_identity),
-      dimension_(dimension) {}
+      dimension_(dimension) {
+  SequenceMatchingOptions sequence;
+  sequence.length = options_.sequence_length;
+  speeds_ = sequence.enabled() ? sequence.speeds() : std::vector<double>{1.0};
+}
 
 std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64_t own_map_id) {
   if (row.map_id == own_map_id) return "";
@@ -160,6 +181,16 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
   }
   map.ids.insert(row.id);
   robot.map_ids.insert(row.map_id);
+  const size_t position = map.rows.size();
+  const auto later =
+      std::upper_bound(map.by_id.begin(), map.by_id.end(), row.id,
+                       [&map](uint64_t id, size_t other) { return id < map.rows[other].id; });
+  const bool newest = later == map.by_id.end();
+  map.by_id.insert(later, position);
+  map.rank.push_back(map.by_id.size() - 1);
+  if (!newest) {  // An earlier keyframe (a backlog): the later ones move up.
+    for (size_t r = 0; r < map.by_id.size(); ++r) map.rank[map.by_id[r]] = r;
+  }
   map.vectors->appendRow(row.global_row.data(), row.global_row.size());
   SharedKeyframe kept = row;
   kept.global_row.clear();
@@ -169,16 +200,49 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
   return back;
 }
 
+std::vector<double> FleetMatcher::pathScores(const ForeignMap& map, uint64_t map_id,
+                                             QueryingRun* run) const {
+  const size_t rows = map.rows.size();
+  // Each of the run's keyframes' cosines to the rows that came since it last looked.
+  for (QuerySlot& slot : run->history) {
+    std::vector<float>& cosines = slot.cosines[map_id];
+    for (size_t index = cosines.size(); index < rows; ++index) {
+      cosines.push_back(map.vectors->dot(slot.row.data(), index));
+    }
+  }
+  std::vector<double> scores(rows, -HUGE_VAL);
+  const size_t slots = run->history.size();
+  for (size_t position = 0; position < rows; ++position) {
+    const size_t rank = map.rank[position];
+    for (const double speed : speeds_) {
+      double sum = 0.0;
+      bool complete = true;
+      for (size_t slot = 0; slot < slots; ++slot) {
+        const size_t step = static_cast<size_t>(std::lround(static_cast<double>(slot) * speed));
+        if (step > rank) {
+          complete = false;
+          break;
+        }
+        sum += run->history[slot].cosines.at(map_id)[map.by_id[rank - step]];
+      }
+      if (complete) scores[position] = std::max(scores[position], sum / static_cast<double>(slots));
+      if (slots == 1) break;
+    }
+  }
+  return scores;
+}
+
 std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   if (own.global_row.size() != sizeof(float) + static_cast<size_t>(dimension_)) {
     return std::nullopt;
   }
   // Each querying robot's run chains its own keyframes (a fleet node searches several robots').
-  TemporalConsistency& consistency =
-      consistency_
-          .try_emplace({own.map_id, own.session}, ConsistencyUnit::kKeyframes,
-                       options_.place_window)
-          .first->second;
+  QueryingRun& run =
+      runs_.try_emplace({own.map_id, own.session}, options_.index_window).first->second;
+  run.history.push_front(QuerySlot{own.global_row, {}});
+  while (run.history.size() > static_cast<size_t>(options_.sequence_length)) {
+    run.history.pop_back();
+  }
   struct Scored {
     const ForeignMap* map;
     size_t index;
@@ -187,9 +251,16 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   std::vector<Scored> scored;  // Every row of every other map.
   for (const auto& [map_id, map] : maps_) {
     if (map_id == own.map_id) continue;
+    const std::vector<double> scores = pathScores(map, map_id, &run);
     for (size_t index = 0; index < map.rows.size(); ++index) {
-      scored.push_back({&map, index, map.vectors->dot(own.global_row.data(), index)});
+      if (scores[index] > -HUGE_VAL) scored.push_back({&map, index, scores[index]});
     }
+  }
+  if (run.history.size() < static_cast<size_t>(options_.sequence_length)) {
+    // Too short a history for a path: nothing is believed yet.
+    run.consistency.reset();
+    run.last_candidate.reset();
+    return std::nullopt;
   }
   std::vector<Scored> best;
   for (const Scored& row : scored) {
@@ -203,7 +274,8 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   for (const Scored& row : best) {
     matches.push_back({(row.map->ordinal << kMapIdBits) | row.map->rows[row.index].id, 0.0});
   }
-  const std::vector<TemporalConsistency::Chain> chains = consistency.update({own.id, 0.0}, matches);
+  const std::vector<TemporalConsistency::Chain> chains =
+      run.consistency.update({own.id, 0.0}, matches);
   // Another place of the candidate's map: more than place_window ids away and, in the same
   // session, more than kSamePlaceMetres by its odometry (a robot's second pass of a place is
   // the same place). Other maps are not compared: two robots that both saw the place are not
@@ -217,8 +289,39 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
            !(x.session == y.session &&
              (x.pose.position - y.pose.position).norm() <= kSamePlaceMetres);
   };
+  const auto id_gap = [](uint64_t a, uint64_t b) { return a > b ? a - b : b - a; };
+  std::vector<size_t> refused;  // Positions in `best` of candidates refused so far.
   for (size_t k = 0; k < best.size(); ++k) {
-    if (chains[k].keyframes < options_.consistent_keyframes) continue;
+    const SharedKeyframe& match = best[k].map->rows[best[k].index];
+    // A place's best-scoring candidate was refused: a neighbour of it that passes would name
+    // the place's wrong keyframe.
+    bool off_its_place = false;
+    for (const size_t j : refused) {
+      const SharedKeyframe& better = best[j].map->rows[best[j].index];
+      const uint64_t gap = id_gap(better.id, match.id);
+      if (best[j].map == best[k].map && gap <= static_cast<uint64_t>(options_.place_window) &&
+          gap > static_cast<uint64_t>(options_.index_window)) {
+        off_its_place = true;
+      }
+    }
+    // Along the stretch the run's latest candidate named (a few own keyframes back), the match
+    // moves as fast as a path may (min to max speed keyframes per own keyframe): farther on is a
+    // neighbour of the place.
+    if (run.last_candidate && run.last_candidate->map_id == match.map_id &&
+        own.id > run.last_candidate->query_id &&
+        own.id - run.last_candidate->query_id <= static_cast<uint64_t>(options_.place_window) &&
+        id_gap(match.id, run.last_candidate->match_id) <=
+            static_cast<uint64_t>(options_.place_window)) {
+      const double steps = static_cast<double>(own.id - run.last_candidate->query_id);
+      const double advance =
+          static_cast<double>(match.id) - static_cast<double>(run.last_candidate->match_id);
+      if (advance < std::floor(speeds_.front() * steps) ||
+          advance > std::ceil(speeds_.back() * steps)) {
+        off_its_place = true;
+      }
+    }
+    refused.push_back(k);  // Unless it is returned below.
+    if (off_its_place || chains[k].keyframes < options_.consistent_keyframes) continue;
     // The place-level ratio test: where the keyframe looks about as much like another place of
     // the candidate's map (look-alike bays, a corridor), the best is a guess.
     double other_place = 0.0;
@@ -237,18 +340,18 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     // score as high that the candidate may be believed. A candidate that continues the stretch
     // the previous keyframe's candidate began could only be mistaken for the places that would
     // continue it, as the detector counts them.
-    const SharedKeyframe& match = best[k].map->rows[best[k].index];
-    const std::optional<LastCandidate>& last = last_candidate_[{own.map_id, own.session}];
-    const bool continues =
-        last && last->map_id == match.map_id &&
-        (last->match_id > match.id ? last->match_id - match.id : match.id - last->match_id) <=
-            static_cast<uint64_t>(options_.place_window);
+    const bool continues = run.last_candidate && run.last_candidate->query_id + 1 == own.id &&
+                           run.last_candidate->map_id == match.map_id &&
+                           id_gap(run.last_candidate->match_id, match.id) <=
+                               static_cast<uint64_t>(options_.index_window);
     const size_t places = continues ? std::min(other_scores.size(),
-                                               static_cast<size_t>(2 * options_.place_window + 1))
+                                               static_cast<size_t>(2 * options_.index_window + 1))
                                     : other_scores.size();
     const ScoreTail tail = fitScoreTail(std::move(other_scores));
-    if (options_.max_false_alarms > 0.0 && tail.valid() &&
-        tail.expectedFalseAlarms(best[k].score, places) > options_.max_false_alarms) {
+    const double false_alarms = options_.max_false_alarms > 0.0 && tail.valid()
+                                    ? tail.expectedFalseAlarms(best[k].score, places)
+                                    : -1.0;
+    if (false_alarms > options_.max_false_alarms) {
       ++ambiguous_;
       continue;
     }
@@ -256,15 +359,15 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     candidate.query_map_id = own.map_id;
     candidate.query_id = own.id;
     candidate.query_session = own.session;
-    candidate.match = best[k].map->rows[best[k].index];
+    candidate.match = match;
     candidate.score = best[k].score;
     candidate.place_ratio = other_place > 0.0 ? best[k].score / other_place : 0.0;
     candidate.consistent_keyframes = chains[k].keyframes;
-    last_candidate_[{own.map_id, own.session}] = LastCandidate{match.map_id, match.id};
+    candidate.false_alarms = false_alarms;
+    run.last_candidate = QueryingRun::Candidate{own.id, match.map_id, match.id};
     return candidate;  // The best scoring one: `best` is in score order.
   }
-  last_candidate_[{own.map_id, own.session}].reset();
-  return std::nullopt;
+  return std::nullopt;  // The latest candidate stays: it still says where the stretch leads.
 }
 
 std::vector<std::string> FleetMatcher::checkSilence(double now_s) {
@@ -332,7 +435,8 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
                                const PlaceCheckSettings& settings, const LocalFeatures& query,
                                const CameraIntrinsics& query_intrinsics,
                                const KeyframeEvidence& match, const CellsOfKeyframe& query_cells_of,
-                               const CellsOfKeyframe& match_cells_of, bool appearance_confirms) {
+                               const CellsOfKeyframe& match_cells_of, bool appearance_confirms,
+                               double false_alarms) {
   PlaceCheck refused;
   if (const std::string problem = match.problem(); !problem.empty()) {
     refused.detail = "its evidence is malformed: " + problem;
@@ -360,7 +464,7 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
   }
   std::optional<CellFeatures> query_cells;
   PlaceCheck check = checkPlace(verifier, settings, query, match_features, query_intrinsics,
-                                &query_cells, query_cells_of, match_cells_of);
+                                &query_cells, query_cells_of, match_cells_of, false_alarms);
   if (check.accepted && !check.place_confirmed) {
     // Unverified (verification off, or no intrinsics): no odometry relates two robots, so an
     // unconfirmed place is never published between them.

@@ -289,7 +289,8 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     PlaceCheck check = checkFleetCandidate(
         verifier, {settings.verification, settings.appearance, settings.metric_pose},
         query->local_features, intrinsics, evidence, thumbnailCellsOf(detector, query->thumbnail),
-        thumbnailCellsOf(detector, evidence.thumbnail), options_.appearance_confirms);
+        thumbnailCellsOf(detector, evidence.thumbnail), options_.appearance_confirms,
+        candidate.false_alarms);
     if (!check.accepted) {
       refused = check.detail;
       return;

@@ -266,8 +266,9 @@ DetectorSource imageSequenceSource(const std::vector<std::string>& paths,
     }
   };
   source.same_place = [truth](size_t query, size_t match) { return truth.contains(query, match); };
+  // Each run's centre until the caller sets the tolerance the truth allows (lcd_evaluate does).
   source.offset = [truth](size_t query, size_t match) {
-    return framesFromTruth(truth, query, match);
+    return framesFromTruth(truth, query, match, HUGE_VAL);
   };
   source.offset_unit = "frames";
   return source;

@@ -35,9 +35,11 @@ struct DetectorSource {
   double offset_tolerance = 0.0;
 };
 
-/// Frames from `match` to the centre of the run of consecutive true frames of `query` nearest
-/// to it; NaN when the query has no true frame.
-double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match);
+/// Frames from `match` to the place of the run of consecutive true frames of `query` nearest to
+/// it: the run's centre, or, for a run longer than 2 * `tolerance` + 1 frames (the vehicle stood
+/// still), its frames more than `tolerance` from either end. NaN when the query has no true frame.
+double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match,
+                       double tolerance);
 
 /// The published loops by how far they land from the truth: one line, bins of one unit (frames)
 /// or of half a unit (metres) up to the tolerance and one beyond, with the median and the largest.

@@ -353,6 +353,9 @@ int run(const Arguments& arguments) {
                                                 image_width, standing, runs);
     // The histogram's bins reach the tolerance the truth allows: beyond it a loop is false.
     source.offset_tolerance = arguments.number("--gt-aligned", 0.0);
+    source.offset = [truth, tolerance = source.offset_tolerance](size_t query, size_t match) {
+      return framesFromTruth(truth, query, match, tolerance);
+    };
     return runDetectorMode(arguments, source, run.dataset, output_folder);
   }
 

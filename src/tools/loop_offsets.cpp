@@ -10,7 +10,8 @@
 namespace landmark_loop_closure {
 namespace tools {
 
-double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match) {
+double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t match,
+                       double tolerance) {
   if (query >= truth.rows() || truth.positives(query).empty()) return NAN;
   const std::vector<uint32_t>& positives = truth.positives(query);
   // The run of consecutive true frames nearest to the match: its centre is the place.
@@ -26,7 +27,12 @@ double framesFromTruth(const eval::GroundTruth& truth, size_t query, size_t matc
   while (first > 0 && positives[first - 1] + 1 == positives[first]) --first;
   while (last + 1 < positives.size() && positives[last] + 1 == positives[last + 1]) ++last;
   const double centre = 0.5 * (static_cast<double>(positives[first]) + positives[last]);
-  return std::abs(static_cast<double>(match) - centre);
+  const double from = static_cast<double>(positives[first]) + tolerance;
+  const double to = static_cast<double>(positives[last]) - tolerance;
+  if (from >= to) return std::abs(static_cast<double>(match) - centre);
+  // A stop: every frame of it is the place.
+  const double position = static_cast<double>(match);
+  return position < from ? from - position : position > to ? position - to : 0.0;
 }
 
 std::string offsetHistogram(const std::vector<eval::PublishedLoop>& loops,

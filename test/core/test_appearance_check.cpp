@@ -102,6 +102,32 @@ TEST(AppearanceCheck, EmptyOrMismatchedMapsAreNotConfirmed) {
   EXPECT_EQ(result.mutual_matches, 0);
 }
 
+// A candidate the calibrated decision is sure of needs fewer cells; one it is less sure of, or
+// one it did not test (-1), needs min_inliers.
+TEST(AppearanceCheck, ACandidateTheDecisionIsSureOfNeedsFewerCells) {
+  const Scene scene(1);
+  const CellFeatures query = cellFeatures(view(scene, 0, 1.0f, 0.2f, 2));
+  const CellFeatures match = cellFeatures(view(scene, 3, 0.2f, 0.05f, 3));
+  AppearanceCheckOptions options;
+  const int inliers = checkAppearance(query, match, options).inliers;
+  options.min_inliers = inliers + 1;
+  options.sure_min_inliers = inliers;
+  options.sure_false_alarms = 1e-4;
+  EXPECT_FALSE(checkAppearance(query, match, options).confirmed);
+  EXPECT_FALSE(checkAppearance(query, match, options, 2e-4).confirmed);
+  const AppearanceCheckResult sure = checkAppearance(query, match, options, 1e-5);
+  EXPECT_TRUE(sure.confirmed);
+  EXPECT_EQ(sure.required, inliers);
+  EXPECT_NE(sure.describe().find("(" + std::to_string(inliers) + " needed)"), std::string::npos)
+      << sure.describe();
+  options.sure_false_alarms = 0.0;  // Off.
+  EXPECT_FALSE(checkAppearance(query, match, options, 1e-5).confirmed);
+  // sure_min_inliers above min_inliers never asks for more.
+  options.sure_false_alarms = 1e-4;
+  options.sure_min_inliers = inliers + 10;
+  EXPECT_EQ(requiredCells(options, 1e-5), inliers + 1);
+}
+
 TEST(AppearanceCheck, OptionsSayWhatIsWrong) {
   AppearanceCheckOptions options;
   EXPECT_EQ(options.validate(), "");

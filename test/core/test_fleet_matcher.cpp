@@ -37,12 +37,111 @@ SharedKeyframe row(const std::string& robot, uint64_t map_id, uint64_t id, int p
   return shared;
 }
 
+/// Single keyframes (sequence_length 1): the chain alone joins consecutive keyframes.
 FleetOptions options() {
   FleetOptions fleet;
   fleet.min_score = 0.9;
+  fleet.sequence_length = 1;
   fleet.consistent_keyframes = 3;
   fleet.place_window = 2;
   return fleet;
+}
+
+/// Places along robot a's route: each appears three to six times; three in a row appear once,
+/// at any of the paths' speeds.
+const std::vector<int> kRoute = {5, 0, 0, 4, 1, 0, 2, 3, 4, 6, 5, 4, 1, 6, 7, 6,
+                                 5, 6, 3, 6, 2, 1, 7, 3, 4, 2, 7, 5, 2, 0, 6, 7};
+
+// Each keyframe of robot b looks as much like four places of robot a's map: alone it is a guess.
+// Three in a row name one stretch of a's route, and the path through it finds the right ids.
+TEST(FleetMatcher, AStretchOfKeyframesFindsWhatEachAloneCannot) {
+  const auto run = [](int length) {
+    FleetOptions fleet = options();
+    fleet.sequence_length = length;
+    fleet.consistent_keyframes = 1;
+    fleet.max_false_alarms = 0.0;
+    FleetMatcher matcher(fleet, kIdentity, kDimension);
+    for (uint64_t id = 0; id < kRoute.size(); ++id) {
+      SharedKeyframe kept = row("a", 1, id, kRoute[id]);
+      kept.pose.position.x() = 5.0 * static_cast<double>(id);  // Each id another place.
+      EXPECT_EQ(matcher.addRow(kept, 0.0, 2), "");
+    }
+    std::vector<std::optional<FleetCandidate>> found;
+    for (uint64_t id = 0; id < 6; ++id) {
+      found.push_back(matcher.query(row("b", 2, id, kRoute[10 + id])));
+    }
+    return found;
+  };
+  for (const auto& candidate : run(1)) EXPECT_FALSE(candidate);
+  const std::vector<std::optional<FleetCandidate>> found = run(3);
+  EXPECT_FALSE(found[0]);  // Fewer keyframes than a path: nothing is believed yet.
+  EXPECT_FALSE(found[1]);
+  for (uint64_t id = 2; id < 6; ++id) {
+    ASSERT_TRUE(found[id]) << id;
+    EXPECT_EQ(found[id]->match.id, 10 + id);
+    EXPECT_GT(found[id]->score, 0.9);
+    EXPECT_GE(found[id]->place_ratio, 1.3);
+  }
+}
+
+/// A unit vector of its own for each id below 64: two axes mixed.
+SharedKeyframe distinctRow(const std::string& robot, uint64_t map_id, uint64_t id, uint64_t look) {
+  SharedKeyframe shared = row(robot, map_id, id, 0);
+  std::vector<float> vector(kDimension, 0.0f);
+  vector[look % kDimension] += 1.0f;
+  vector[(look / kDimension + 3) % kDimension] += 0.6f;
+  float norm = 0.0f;
+  for (const float value : vector) norm += value * value;
+  for (float& value : vector) value /= std::sqrt(norm);
+  shared.global_row = QuantizedVectors::encode(vector);
+  return shared;
+}
+
+// Robot b's matches walk along robot a's map; a keyframe whose best match runs ahead of the
+// stretch faster than a path may (here one id per keyframe) names a neighbour of its place and
+// is refused, and the stretch goes on where it leads.
+TEST(FleetMatcher, AMatchThatRunsAheadOfItsStretchIsANeighbourAndRefused) {
+  FleetOptions fleet = options();
+  fleet.consistent_keyframes = 1;
+  fleet.place_window = 10;
+  fleet.index_window = 3;
+  fleet.top_k = 1;
+  fleet.min_place_ratio = 0.0;
+  fleet.max_false_alarms = 0.0;
+  FleetMatcher matcher(fleet, kIdentity, kDimension);
+  for (uint64_t id = 0; id < 30; ++id) matcher.addRow(distinctRow("a", 1, id, id), 0.0, 2);
+  const auto found = [&](uint64_t query, uint64_t look) -> int64_t {
+    const std::optional<FleetCandidate> candidate = matcher.query(distinctRow("b", 2, query, look));
+    return candidate ? static_cast<int64_t>(candidate->match.id) : -1;
+  };
+  EXPECT_EQ(found(0, 10), 10);
+  EXPECT_EQ(found(1, 11), 11);
+  EXPECT_EQ(found(2, 14), -1);  // Three ids on in one keyframe.
+  EXPECT_EQ(found(3, 13), 13);  // Two keyframes after 11: where the stretch leads.
+}
+
+// Rows of robot a's first pass arrive after its later ones (a backlog sent once b subscribed):
+// paths follow a's ids, not the order the rows came in.
+TEST(FleetMatcher, PathsFollowTheOtherMapsIdsWhateverOrderItsRowsCameIn) {
+  FleetOptions fleet = options();
+  fleet.sequence_length = 3;
+  fleet.consistent_keyframes = 1;
+  fleet.max_false_alarms = 0.0;
+  FleetMatcher matcher(fleet, kIdentity, kDimension);
+  for (uint64_t id = 16; id < kRoute.size(); ++id) {
+    SharedKeyframe kept = row("a", 1, id, kRoute[id]);
+    kept.pose.position.x() = 5.0 * static_cast<double>(id);
+    matcher.addRow(kept, 0.0, 2);
+  }
+  for (uint64_t id = 0; id < 16; ++id) {
+    SharedKeyframe kept = row("a", 1, id, kRoute[id]);
+    kept.pose.position.x() = 5.0 * static_cast<double>(id);
+    matcher.addRow(kept, 0.0, 2);
+  }
+  std::optional<FleetCandidate> last;
+  for (uint64_t id = 0; id < 5; ++id) last = matcher.query(row("b", 2, id, kRoute[12 + id]));
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->match.id, 16u);  // Its path runs over ids 14, 15 (late) and 16 (early).
 }
 
 TEST(FleetMatcher, ACandidateNeedsItsChainOfConsecutiveKeyframes) {

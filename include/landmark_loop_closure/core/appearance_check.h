@@ -20,6 +20,11 @@ struct AppearanceCheckOptions {
   bool enabled = true;
   /// Cells that one affine map must explain; fewer: the candidate is refused.
   int min_inliers = 28;
+  /// A candidate the calibrated decision is surer of (at most sure_false_alarms wrong places
+  /// expected to score as high) needs only sure_min_inliers: a change of viewpoint moves cells
+  /// out of one affine map, a look-alike place fails the decision first.
+  int sure_min_inliers = 20;
+  double sure_false_alarms = 1e-4;      ///< 0 = every candidate needs min_inliers.
   double ransac_threshold_cells = 1.5;  ///< Affine RANSAC inlier distance, in feature-map cells.
 
   /// Keys under advanced/verification/appearance/, documented in config/default.yaml.
@@ -40,12 +45,19 @@ CellFeatures cellFeatures(const FeatureMaps& maps);
 struct AppearanceCheckResult {
   int mutual_matches = 0;        ///< Cells that are each other's nearest neighbour.
   int inliers = 0;               ///< Of those, explained by the best affine map.
-  bool confirmed = false;        ///< inliers >= min_inliers.
-  std::string describe() const;  ///< "appearance: 31 of 52 cells agree".
+  int required = 0;              ///< Cells it needed (min_inliers or sure_min_inliers).
+  bool confirmed = false;        ///< inliers >= required.
+  std::string describe() const;  ///< "appearance: 31 of 52 cells agree (28 needed)".
 };
+
+/// The cells a candidate needs: sure_min_inliers when `false_alarms` (the calibrated decision's
+/// expected wrong places as high, -1 when it was not tested) is at most sure_false_alarms, else
+/// min_inliers.
+int requiredCells(const AppearanceCheckOptions& options, double false_alarms);
 
 /// Compares two images' cells; images of other cell grids or channel counts are not confirmed.
 AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
-                                      const AppearanceCheckOptions& options);
+                                      const AppearanceCheckOptions& options,
+                                      double false_alarms = -1.0);
 
 }  // namespace landmark_loop_closure

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -28,17 +29,24 @@ struct FleetOptions {
   /// Other robots' detector namespaces, separated by spaces or commas: their rows are kept and
   /// searched. Empty: no loops between robots.
   std::string peers;
-  double min_score = 0.3;          ///< Cosine of the global vectors a candidate needs.
-  int consistent_keyframes = 3;    ///< Consecutive own keyframes matching one stretch of a map.
-  int place_window = 10;           ///< Ids within which two matches are one stretch.
+  /// A candidate's score (the best path mean with sequence_length > 1) needs at least this.
+  double min_score = 0.1;
+  /// Own keyframes per path (SeqSLAM-style, as advanced/acceptance/sequence_length); 1 = single
+  /// keyframes' cosines.
+  int sequence_length = 5;
+  int consistent_keyframes = 3;  ///< Consecutive own keyframes matching one stretch of a map.
+  int place_window = 10;         ///< Ids within which two matches are one place.
+  /// Ids within which consecutive own keyframes' matches continue each other (the chain, a
+  /// continuing loop, a place's best candidate against its neighbours).
+  int index_window = 3;
   int top_k = 5;                   ///< Candidates kept per keyframe over every other map.
   int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
   double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
   /// Rows a second sent to a peer that subscribes after they were shared (the map so far).
   double backlog_rows_per_s = 500.0;
-  double min_place_ratio = 1.1;   ///< Score over the best other place's (0 = off).
-  double max_false_alarms = 0.1;  ///< Expected wrong places as high (0 = off).
+  double min_place_ratio = 1.1;    ///< Score over the best other place's (0 = off).
+  double max_false_alarms = 0.03;  ///< Expected wrong places as high (0 = off).
   /// The appearance check alone (ORB could not confirm the place) may confirm a loop between
   /// robots, as it does the detector's own (behind the calibrated decision above).
   bool appearance_confirms = true;
@@ -57,8 +65,11 @@ struct FleetCandidate {
   uint64_t query_id = 0;
   uint32_t query_session = 0;
   SharedKeyframe match;      ///< The other robot's row, its vector left out.
-  double score = 0.0;        ///< Cosine of the global vectors.
+  double score = 0.0;        ///< The best path's mean cosine (the cosine with sequence_length 1).
   double place_ratio = 0.0;  ///< score over the best other place's (0: none scored).
+  /// Wrong places of its map expected to score as high (max_false_alarms' estimate; -1: not
+  /// tested, too few other places or the decision off).
+  double false_alarms = -1.0;
   int consistent_keyframes = 0;
 };
 
@@ -104,9 +115,35 @@ class FleetMatcher {
     std::string robot;
     uint64_t ordinal = 0;  ///< Keeps chain ids of two maps apart.
     std::unique_ptr<QuantizedVectors> vectors;
-    std::vector<SharedKeyframe> rows;  ///< Without their vectors.
+    std::vector<SharedKeyframe> rows;  ///< Without their vectors, in the order they came.
     std::set<uint64_t> ids;
+    /// Row positions in id order (a peer's backlog may come after its newer rows), and each
+    /// row's place in it: a path steps back through the map's keyframes as the robot drove them.
+    std::vector<size_t> by_id;
+    std::vector<size_t> rank;
   };
+  /// One of the querying run's last keyframes: its row and its cosines to each map's rows (by row
+  /// position, computed as rows come).
+  struct QuerySlot {
+    std::vector<uint8_t> row;
+    std::map<uint64_t, std::vector<float>> cosines;
+  };
+  /// What one querying (map, session) remembers from keyframe to keyframe.
+  struct QueryingRun {
+    explicit QueryingRun(int index_window)
+        : consistency(ConsistencyUnit::kKeyframes, index_window) {}
+    TemporalConsistency consistency;
+    std::deque<QuerySlot> history;  ///< Front: the newest keyframe.
+    struct Candidate {
+      uint64_t query_id = 0;
+      uint64_t map_id = 0;
+      uint64_t match_id = 0;
+    };
+    /// The latest keyframe's candidate, if it had one.
+    std::optional<Candidate> last_candidate;
+  };
+  /// Each row's best path score for the run's newest keyframe, by row position.
+  std::vector<double> pathScores(const ForeignMap& map, uint64_t map_id, QueryingRun* run) const;
 
   FleetOptions options_;
   uint64_t fingerprint_;
@@ -115,13 +152,8 @@ class FleetMatcher {
   std::map<uint64_t, ForeignMap> maps_;  ///< By map_id.
   std::map<std::string, FleetRobot> robots_;
   /// By querying (map, session): each robot's run chains its own keyframes.
-  std::map<std::pair<uint64_t, uint32_t>, TemporalConsistency> consistency_;
-  struct LastCandidate {
-    uint64_t map_id = 0;
-    uint64_t match_id = 0;
-  };
-  /// By querying (map, session): the previous keyframe's candidate, if it had one.
-  std::map<std::pair<uint64_t, uint32_t>, std::optional<LastCandidate>> last_candidate_;
+  std::map<std::pair<uint64_t, uint32_t>, QueryingRun> runs_;
+  std::vector<double> speeds_;  ///< Path speeds tried (map keyframes per own keyframe).
   size_t ambiguous_ = 0;
 };
 
@@ -135,10 +167,12 @@ CellsOfKeyframe thumbnailCellsOf(const LoopDetector& detector,
 /// own loops (checkPlace), except that only a confirmed place passes (no odometry relates two
 /// robots), by ORB unless `appearance_confirms`. Cameras may differ (lens, image size): the
 /// match's keypoints are moved to the query camera's pixels first, which needs both intrinsics.
+/// `false_alarms`: the candidate's (FleetCandidate::false_alarms), for the cells it needs.
 PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
                                const PlaceCheckSettings& settings, const LocalFeatures& query,
                                const CameraIntrinsics& query_intrinsics,
                                const KeyframeEvidence& match, const CellsOfKeyframe& query_cells_of,
-                               const CellsOfKeyframe& match_cells_of, bool appearance_confirms);
+                               const CellsOfKeyframe& match_cells_of, bool appearance_confirms,
+                               double false_alarms = -1.0);
 
 }  // namespace landmark_loop_closure
