@@ -15,14 +15,18 @@ namespace {
 constexpr int kDimension = 8;
 const std::string kIdentity = "test descriptor";
 
-/// A unit vector pointing mostly along axis `place` (places 0..7 are far apart).
-std::vector<float> placeVector(int place, float noise = 0.0f) {
-  std::vector<float> vector(kDimension, noise);
-  vector[place % kDimension] = 1.0f;
+std::vector<float> unit(std::vector<float> vector) {
   float norm = 0.0f;
   for (const float value : vector) norm += value * value;
   for (float& value : vector) value /= std::sqrt(norm);
   return vector;
+}
+
+/// A unit vector pointing mostly along axis `place` (places 0..7 are far apart).
+std::vector<float> placeVector(int place, float noise = 0.0f) {
+  std::vector<float> vector(kDimension, noise);
+  vector[place % kDimension] = 1.0f;
+  return unit(vector);
 }
 
 SharedKeyframe row(const std::string& robot, uint64_t map_id, uint64_t id, int place) {
@@ -90,10 +94,7 @@ SharedKeyframe distinctRow(const std::string& robot, uint64_t map_id, uint64_t i
   std::vector<float> vector(kDimension, 0.0f);
   vector[look % kDimension] += 1.0f;
   vector[(look / kDimension + 3) % kDimension] += 0.6f;
-  float norm = 0.0f;
-  for (const float value : vector) norm += value * value;
-  for (float& value : vector) value /= std::sqrt(norm);
-  shared.global_row = QuantizedVectors::encode(vector);
+  shared.global_row = QuantizedVectors::encode(unit(vector));
   return shared;
 }
 
