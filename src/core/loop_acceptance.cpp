@@ -276,10 +276,9 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
     }
     const size_t span = static_cast<size_t>(options_.database.exclude_recent_keyframes);
     const double passed_alarms = passed.expectedFalseAlarms(report->score, span);
-    if (passed_alarms <= bound)
-      report->false_alarms = std::max(report->false_alarms, passed_alarms);
+    // The larger estimate also sets the cells the appearance check asks of a passing candidate.
+    report->false_alarms = std::max(report->false_alarms, passed_alarms);
     if (passed_alarms > bound) {
-      report->false_alarms = std::max(report->false_alarms, passed_alarms);
       detail.precision(3);
       detail << passed_alarms << " of the " << span
              << " places just passed expected to score as high, more than " << bound

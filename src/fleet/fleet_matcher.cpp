@@ -185,12 +185,11 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
   const auto later =
       std::upper_bound(map.by_id.begin(), map.by_id.end(), row.id,
                        [&map](uint64_t id, size_t other) { return id < map.rows[other].id; });
-  const bool newest = later == map.by_id.end();
+  const size_t inserted = static_cast<size_t>(later - map.by_id.begin());
   map.by_id.insert(later, position);
-  map.rank.push_back(map.by_id.size() - 1);
-  if (!newest) {  // An earlier keyframe (a backlog): the later ones move up.
-    for (size_t r = 0; r < map.by_id.size(); ++r) map.rank[map.by_id[r]] = r;
-  }
+  map.rank.push_back(inserted);
+  // An earlier keyframe (a backlog): the later ones move up one place.
+  for (size_t r = inserted + 1; r < map.by_id.size(); ++r) map.rank[map.by_id[r]] = r;
   map.vectors->appendRow(row.global_row.data(), row.global_row.size());
   SharedKeyframe kept = row;
   kept.global_row.clear();
@@ -243,6 +242,12 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   while (run.history.size() > static_cast<size_t>(options_.sequence_length)) {
     run.history.pop_back();
   }
+  if (run.history.size() < static_cast<size_t>(options_.sequence_length)) {
+    // Too short a history for a path: nothing is believed yet (its cosines come when it is).
+    run.consistency.reset();
+    run.last_candidate.reset();
+    return std::nullopt;
+  }
   struct Scored {
     const ForeignMap* map;
     size_t index;
@@ -255,12 +260,6 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     for (size_t index = 0; index < map.rows.size(); ++index) {
       if (scores[index] > -HUGE_VAL) scored.push_back({&map, index, scores[index]});
     }
-  }
-  if (run.history.size() < static_cast<size_t>(options_.sequence_length)) {
-    // Too short a history for a path: nothing is believed yet.
-    run.consistency.reset();
-    run.last_candidate.reset();
-    return std::nullopt;
   }
   std::vector<Scored> best;
   for (const Scored& row : scored) {
