@@ -35,6 +35,16 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                   "Point and Nordland, a step inside the values with no wrong loop (16-24 cells, "
                   "1e-5 to 1e-3; any candidate at 20 or 24 cells: 3-5 wrong loops on Nordland); "
                   "reported on the second halves (bench/README.md).")
+          .integer("continuing_min_inliers", &O::continuing_min_inliers, between(0, 10000),
+                   "cells a candidate needs when it continues the loop the keyframe before "
+                   "published and keeps up with it (its match at most "
+                   "advanced/acceptance/index_window ahead of that loop's, not behind it, nor on "
+                   "it a second keyframe in a row: a stretch falling behind names the place's "
+                   "neighbour): the place was confirmed a keyframe ago, and a change of "
+                   "viewpoint moves cells out of one affine map keyframe after keyframe. 0 = as "
+                   "any other. 16 was chosen on the first halves of Gardens Point and Nordland: "
+                   "6-18 published no wrong loop there, 16 is the largest that kept 12's loops "
+                   "(bench/history.md).")
           .number("ransac_threshold_cells", &O::ransac_threshold_cells,
                   openBetween(0, 100, true, false), "affine RANSAC inlier distance in cells.")
           .evaluationOnly();
@@ -74,16 +84,22 @@ std::string AppearanceCheckResult::describe() const {
   return text.str();
 }
 
-int requiredCells(const AppearanceCheckOptions& options, double false_alarms) {
-  const bool sure = options.sure_false_alarms > 0.0 && false_alarms >= 0.0 &&
-                    false_alarms <= options.sure_false_alarms;
-  return sure ? std::min(options.min_inliers, options.sure_min_inliers) : options.min_inliers;
+int requiredCells(const AppearanceCheckOptions& options, const CandidateCertainty& certainty) {
+  int required = options.min_inliers;
+  const bool sure = options.sure_false_alarms > 0.0 && certainty.false_alarms >= 0.0 &&
+                    certainty.false_alarms <= options.sure_false_alarms;
+  if (sure) required = std::min(required, options.sure_min_inliers);
+  if (certainty.continues_loop && options.continuing_min_inliers > 0) {
+    required = std::min(required, options.continuing_min_inliers);
+  }
+  return required;
 }
 
 AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
-                                      const AppearanceCheckOptions& options, double false_alarms) {
+                                      const AppearanceCheckOptions& options,
+                                      const CandidateCertainty& certainty) {
   AppearanceCheckResult result;
-  result.required = requiredCells(options, false_alarms);
+  result.required = requiredCells(options, certainty);
   if (query.empty() || match.empty() || query.features.cols != match.features.cols ||
       query.centres.size() != match.centres.size()) {
     return result;

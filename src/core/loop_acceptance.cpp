@@ -141,7 +141,11 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       loop.score = report.score;
       loop.consistent_keyframes = report.consistent_keyframes;
       result->loop = loop;
-      last_loop_ = PublishedLoop{query_keyframe.id, session_, match->id, match->session};
+      const bool stood = last_loop_ && last_loop_->query_session == session_ &&
+                         last_loop_->query_id + 1 == query_keyframe.id &&
+                         last_loop_->match_session == match->session &&
+                         last_loop_->match_id >= match->id;
+      last_loop_ = PublishedLoop{query_keyframe.id, session_, match->id, match->session, stood};
     }
   }
 }
@@ -258,6 +262,11 @@ bool LoopDetector::passesFalseAlarms(CandidateReport* report,
                                                     static_cast<double>(newest_searchable) /
                                                     static_cast<double>(sampled))));
   const bool continues = match && continuesLastLoop(*match, query_keyframe.id);
+  // Only a stretch that keeps up with the query continues on fewer cells: a match behind the
+  // last one, or on it for a second keyframe, is falling behind its place (the neighbour a
+  // loop must not name) and is checked as any other candidate.
+  report->continues_loop = continues && match->id >= last_loop_->match_id &&
+                           !(last_loop_->stood && last_loop_->match_id == match->id);
   // Continuing the last keyframe's loop, it is one of the few places that would continue it.
   const size_t tested =
       continues ? std::min(places, 2 * static_cast<size_t>(options_.acceptance.index_window) + 1)

@@ -17,7 +17,7 @@ bool LoopDetector::verify(const KeyframeRecord& query, const KeyframeRecord& mat
       verifier_, {options_.verification, options_.appearance, options_.metric_pose},
       query.local_features, match.local_features, intrinsics, query_cells,
       [&] { return thumbnailCells(query); }, [&] { return thumbnailCells(match); },
-      report->false_alarms);
+      CandidateCertainty{report->false_alarms, report->continues_loop});
   report->inliers = check.inliers;
   if (!check.detail.empty()) report->detail = check.detail;
   if (!check.accepted) {

@@ -9,7 +9,7 @@ PlaceCheck checkPlace(const GeometricVerifier& verifier, const PlaceCheckSetting
                       const LocalFeatures& query, const LocalFeatures& match,
                       const CameraIntrinsics& intrinsics, std::optional<CellFeatures>* query_cells,
                       const CellsOfKeyframe& query_cells_of, const CellsOfKeyframe& match_cells_of,
-                      double false_alarms) {
+                      const CandidateCertainty& certainty) {
   PlaceCheck outcome;
   if (!settings.verification.enabled) {
     outcome.accepted = true;
@@ -47,7 +47,7 @@ PlaceCheck checkPlace(const GeometricVerifier& verifier, const PlaceCheckSetting
     const CellFeatures match_cells = (*query_cells)->empty() ? CellFeatures{} : match_cells_of();
     if (!match_cells.empty()) {
       const AppearanceCheckResult appearance =
-          checkAppearance(**query_cells, match_cells, settings.appearance, false_alarms);
+          checkAppearance(**query_cells, match_cells, settings.appearance, certainty);
       outcome.inliers = appearance.inliers;
       outcome.detail = std::string(toString(check.verdict)) + "; " + appearance.describe();
       if (appearance.confirmed) {

@@ -462,8 +462,9 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
     match_features.image_size = query.image_size;
   }
   std::optional<CellFeatures> query_cells;
-  PlaceCheck check = checkPlace(verifier, settings, query, match_features, query_intrinsics,
-                                &query_cells, query_cells_of, match_cells_of, false_alarms);
+  PlaceCheck check =
+      checkPlace(verifier, settings, query, match_features, query_intrinsics, &query_cells,
+                 query_cells_of, match_cells_of, CandidateCertainty{false_alarms});
   if (check.accepted && !check.place_confirmed) {
     // Unverified (verification off, or no intrinsics): no odometry relates two robots, so an
     // unconfirmed place is never published between them.

@@ -36,11 +36,13 @@ void warnUnknownKeys(const YamlParameterSource& source, const OptionReader& read
 
 NodeOptions readConfig(const std::string& path) {
   NodeOptions node;
-  if (path.empty()) return node;
-  const YamlParameterSource source = YamlParameterSource::fromFile(path);
+  // No file: an empty one, read as the node reads its parameters (the network's description,
+  // the fallback without it), so that the built-in defaults run as the node runs them.
+  const YamlParameterSource source =
+      path.empty() ? YamlParameterSource(YAML::Node()) : YamlParameterSource::fromFile(path);
   OptionReader reader(source);
   readEvaluationOptions(&reader, &node);
-  warnUnknownKeys(source, reader, path);
+  if (!path.empty()) warnUnknownKeys(source, reader, path);
   const std::string problems = reader.errors() + node.validate();
   if (!problems.empty()) throw std::invalid_argument(path + ":\n" + problems);
   if (!node.fallback_warning.empty()) {

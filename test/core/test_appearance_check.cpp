@@ -114,18 +114,41 @@ TEST(AppearanceCheck, ACandidateTheDecisionIsSureOfNeedsFewerCells) {
   options.sure_min_inliers = inliers;
   options.sure_false_alarms = 1e-4;
   EXPECT_FALSE(checkAppearance(query, match, options).confirmed);
-  EXPECT_FALSE(checkAppearance(query, match, options, 2e-4).confirmed);
-  const AppearanceCheckResult sure = checkAppearance(query, match, options, 1e-5);
+  EXPECT_FALSE(checkAppearance(query, match, options, {2e-4}).confirmed);
+  const AppearanceCheckResult sure = checkAppearance(query, match, options, {1e-5});
   EXPECT_TRUE(sure.confirmed);
   EXPECT_EQ(sure.required, inliers);
   EXPECT_NE(sure.describe().find("(" + std::to_string(inliers) + " needed)"), std::string::npos)
       << sure.describe();
   options.sure_false_alarms = 0.0;  // Off.
-  EXPECT_FALSE(checkAppearance(query, match, options, 1e-5).confirmed);
+  EXPECT_FALSE(checkAppearance(query, match, options, {1e-5}).confirmed);
   // sure_min_inliers above min_inliers never asks for more.
   options.sure_false_alarms = 1e-4;
   options.sure_min_inliers = inliers + 10;
-  EXPECT_EQ(requiredCells(options, 1e-5), inliers + 1);
+  EXPECT_EQ(requiredCells(options, {1e-5}), inliers + 1);
+}
+
+// A candidate continuing the loop the keyframe before published needs continuing_min_inliers
+// when that is set, whatever the decision's estimate; never more than the others would.
+TEST(AppearanceCheck, ACandidateContinuingALoopNeedsContinuingMinInliers) {
+  const Scene scene(1);
+  const CellFeatures query = cellFeatures(view(scene, 0, 1.0f, 0.2f, 2));
+  const CellFeatures match = cellFeatures(view(scene, 3, 0.2f, 0.05f, 3));
+  AppearanceCheckOptions options;
+  const int inliers = checkAppearance(query, match, options).inliers;
+  options.min_inliers = inliers + 2;
+  options.sure_min_inliers = inliers + 1;
+  options.continuing_min_inliers = inliers;
+  EXPECT_FALSE(checkAppearance(query, match, options, {1e-2, false}).confirmed);
+  EXPECT_FALSE(checkAppearance(query, match, options, {1e-5, false}).confirmed);
+  const AppearanceCheckResult continuing = checkAppearance(query, match, options, {1e-2, true});
+  EXPECT_TRUE(continuing.confirmed);
+  EXPECT_EQ(continuing.required, inliers);
+  options.continuing_min_inliers = 0;  // Off.
+  EXPECT_FALSE(checkAppearance(query, match, options, {1e-2, true}).confirmed);
+  EXPECT_EQ(requiredCells(options, {1e-5, true}), inliers + 1);
+  options.continuing_min_inliers = inliers + 10;
+  EXPECT_EQ(requiredCells(options, {1e-2, true}), inliers + 2);
 }
 
 TEST(AppearanceCheck, OptionsSayWhatIsWrong) {

@@ -24,7 +24,11 @@ struct AppearanceCheckOptions {
   /// expected to score as high) needs only sure_min_inliers: a change of viewpoint moves cells
   /// out of one affine map, a look-alike place fails the decision first.
   int sure_min_inliers = 20;
-  double sure_false_alarms = 1e-4;      ///< 0 = every candidate needs min_inliers.
+  double sure_false_alarms = 1e-4;  ///< 0 = every candidate needs min_inliers.
+  /// A candidate that continues the loop the keyframe before published and keeps up with it
+  /// (CandidateReport::continues_loop: the place was confirmed one keyframe ago) needs only
+  /// continuing_min_inliers: 0 = as any other.
+  int continuing_min_inliers = 16;
   double ransac_threshold_cells = 1.5;  ///< Affine RANSAC inlier distance, in feature-map cells.
 
   /// Keys under advanced/verification/appearance/, documented in config/default.yaml.
@@ -45,19 +49,27 @@ CellFeatures cellFeatures(const FeatureMaps& maps);
 struct AppearanceCheckResult {
   int mutual_matches = 0;        ///< Cells that are each other's nearest neighbour.
   int inliers = 0;               ///< Of those, explained by the best affine map.
-  int required = 0;              ///< Cells it needed (min_inliers or sure_min_inliers).
+  int required = 0;              ///< Cells it needed (requiredCells).
   bool confirmed = false;        ///< inliers >= required.
   std::string describe() const;  ///< "appearance: 31 of 52 cells agree (28 needed)".
 };
 
-/// The cells a candidate needs: sure_min_inliers when `false_alarms` (the calibrated decision's
-/// expected wrong places as high, -1 when it was not tested) is at most sure_false_alarms, else
-/// min_inliers.
-int requiredCells(const AppearanceCheckOptions& options, double false_alarms);
+/// What the decision knows of a candidate before it is checked.
+struct CandidateCertainty {
+  /// The calibrated decision's expected wrong places as high; -1 when it was not tested.
+  double false_alarms = -1.0;
+  /// It continues the loop the keyframe before published.
+  bool continues_loop = false;
+};
+
+/// The cells a candidate needs: the fewest of min_inliers, sure_min_inliers when its false alarms
+/// are at most sure_false_alarms, and continuing_min_inliers when it continues a loop (and that is
+/// set).
+int requiredCells(const AppearanceCheckOptions& options, const CandidateCertainty& certainty);
 
 /// Compares two images' cells; images of other cell grids or channel counts are not confirmed.
 AppearanceCheckResult checkAppearance(const CellFeatures& query, const CellFeatures& match,
                                       const AppearanceCheckOptions& options,
-                                      double false_alarms = -1.0);
+                                      const CandidateCertainty& certainty = {});
 
 }  // namespace landmark_loop_closure

@@ -67,6 +67,9 @@ struct CandidateReport {
   /// The places those were counted over: the map's that the odometry does not rule out, or the
   /// few that would continue the last keyframe's loop (0 when not tested).
   size_t false_alarm_places = 0;
+  /// It continues the loop the keyframe before published (within acceptance/index_window) and
+  /// keeps up with it: not behind its match, nor a second keyframe in a row on one match.
+  bool continues_loop = false;
   int consistent_keyframes = 0;
   CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
   std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
@@ -363,6 +366,9 @@ class LoopDetector : private MapUser {
     uint32_t query_session = 0;
     uint64_t match_id = 0;
     uint32_t match_session = 0;
+    /// It continued a loop on the same match or one behind it: the stretch stood while the
+    /// query moved on.
+    bool stood = false;
   };
   std::optional<PublishedLoop> last_loop_;
   size_t background_places_ = 0;  ///< Eligible places of the newest background.

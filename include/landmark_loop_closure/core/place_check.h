@@ -44,12 +44,12 @@ using CellsOfKeyframe = std::function<CellFeatures()>;
 /// metric pose from the match's keypoint depths when it has them. Where ORB cannot confirm the
 /// place, the appearance check of the two thumbnails: `query_cells` holds the query's once
 /// computed (several candidates share it), `match_cells` computes the match's on demand;
-/// `false_alarms` is the calibrated decision's estimate for the candidate (-1: not tested), which
-/// sets the cells it needs (requiredCells).
+/// `certainty` (the calibrated decision's estimate, whether it continues a loop) sets the cells
+/// it needs (requiredCells).
 PlaceCheck checkPlace(const GeometricVerifier& verifier, const PlaceCheckSettings& settings,
                       const LocalFeatures& query, const LocalFeatures& match,
                       const CameraIntrinsics& intrinsics, std::optional<CellFeatures>* query_cells,
                       const CellsOfKeyframe& query_cells_of, const CellsOfKeyframe& match_cells_of,
-                      double false_alarms = -1.0);
+                      const CandidateCertainty& certainty = {});
 
 }  // namespace landmark_loop_closure
