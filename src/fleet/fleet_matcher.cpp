@@ -18,9 +18,26 @@ namespace {
 
 /// Chain ids of two maps never come within a place window of each other.
 constexpr int kMapIdBits = 40;
+/// Longest odometry frame name a row may carry.
+constexpr size_t kMaxFrameNameBytes = 256;
 /// A robot's two keyframes of one session this close by its odometry are one place (the true
 /// loop rule's radius).
 constexpr double kSamePlaceMetres = 2.5;
+
+/// Longest robot name a row may carry (it is named in log lines and diagnostics).
+constexpr size_t kMaxRobotNameBytes = 64;
+
+std::string robotNameProblem(const std::string& name) {
+  if (name.empty()) return "no robot name";
+  if (name.size() > kMaxRobotNameBytes) {
+    return "a robot name of " + std::to_string(name.size()) + " bytes (at most " +
+           std::to_string(kMaxRobotNameBytes) + ")";
+  }
+  for (const char c : name) {
+    if (c < 0x20 || c > 0x7e) return "a robot name with characters other than printable ASCII";
+  }
+  return "";
+}
 
 std::string seconds(double value) {
   char text[32];
@@ -29,96 +46,6 @@ std::string seconds(double value) {
 }
 
 }  // namespace
-
-const ParameterTable<FleetOptions>& FleetOptions::parameters() {
-  using O = FleetOptions;
-  static const auto table =
-      ParameterTable<O>("advanced/fleet/",
-                        "loops between robots while they run (docs/robots.md): each "
-                        "detector shares its keyframes' search rows on ~shared_keyframes and "
-                        "answers ~keyframe_evidence; a detector naming peers searches theirs.")
-          .flag("share", &O::share,
-                "publish each stored keyframe's search row (4.45 KB with the default backbone) "
-                "on ~shared_keyframes and answer ~keyframe_evidence for its keypoints and "
-                "thumbnail (11.7 KB a candidate on the generated corridor).")
-          .text("robot", &O::robot,
-                "this robot's name in the rows it shares; empty: the node's namespace.")
-          .text("peers", &O::peers,
-                "other robots' detector namespaces (e.g. \"/robot_b/loop_closure\"), separated "
-                "by spaces or commas: their ~shared_keyframes are kept and searched, and a "
-                "candidate's evidence is fetched from their ~keyframe_evidence. Empty: none.")
-          .number("min_score", &O::min_score, between(-1, 1),
-                  "score a keyframe of another robot needs to become a candidate: the best "
-                  "path's mean cosine of the global vectors (the shortlist's, as stored), the "
-                  "cosine itself with sequence_length 1. With max_false_alarms a floor under "
-                  "the calibrated decision, as advanced/acceptance/min_score (a floor of 0.3, "
-                  "as before paths, halves the loops between robots on Gardens Point; "
-                  "bench/history.md).")
-          .integer("sequence_length", &O::sequence_length, between(1, 100),
-                   "L > 1: a candidate's score is the best mean cosine along a straight path of "
-                   "the last L own keyframes against the other map's keyframes ending at it (as "
-                   "advanced/acceptance/sequence_length scores the detector's own loops); nothing "
-                   "is a candidate before L own keyframes have come. 1 = single keyframes.")
-          .integer("consistent_keyframes", &O::consistent_keyframes, between(1, 100),
-                   "consecutive own keyframes that must match one stretch of another robot's "
-                   "map before its evidence is fetched.")
-          .integer("place_window", &O::place_window, between(1, 1000),
-                   "ids of the other map within which two matches are one place.")
-          .integer("index_window", &O::index_window, between(0, 1000),
-                   "ids of the other map within which consecutive own keyframes' matches "
-                   "continue each other (the chain, a continuing loop), and within which a "
-                   "candidate must lie of its place's best-scoring one, as "
-                   "advanced/acceptance/index_window: a path that agrees on the place names its "
-                   "keyframe, not a neighbour.")
-          .integer("top_k", &O::top_k, between(1, 100),
-                   "candidates kept per keyframe over every other robot's map.")
-          .integer("max_rows_per_robot", &O::max_rows_per_robot, between(1, 100000000),
-                   "rows kept of one robot (4.45 KB each with the default backbone, 89 MB at the "
-                   "default): later ones are refused, with one line, and the earliest places "
-                   "stay searchable.")
-          .number("silent_after_s", &O::silent_after_s, above(0),
-                  "a peer whose rows stop this long is reported silent (its rows are kept); a "
-                  "line says when it is back.")
-          .number("fetch_timeout_s", &O::fetch_timeout_s, above(0),
-                  "a peer's answer for a candidate's evidence is waited for this long; the "
-                  "candidate is then given up (the next keyframe may ask again).")
-          .number("backlog_rows_per_s", &O::backlog_rows_per_s, between(1, 100000),
-                  "with share: a peer that subscribes later (started after this robot, or "
-                  "restarted) is sent the map's rows so far, at most this many a second (500: "
-                  "2.2 MB/s with the default backbone), beside the new ones; rows it holds "
-                  "already are not kept twice. A map loaded from database_path is shared so too.")
-          .evaluationOnly()
-          .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
-                  "a chained candidate's score over the best score of another place of its map "
-                  "must reach this (0 = off): where a keyframe looks about as much like several "
-                  "places (look-alike bays), the best is a guess. Another place: more than "
-                  "place_window ids away and, in the same session, more than 2.5 m away by its "
-                  "odometry; other robots' maps are not compared (two robots that saw the place "
-                  "are not two places). It decides alone on maps too small for the tail below "
-                  "(under 20 other places); beside it, it changed nothing on the corridors.")
-          .number("max_false_alarms", &O::max_false_alarms, between(0, 1000000),
-                  "the calibrated decision (0 = off), as advanced/acceptance/max_false_alarms: a "
-                  "chained "
-                  "candidate is believed only where fewer wrong places than this are expected to "
-                  "score as high, from an exponential tail fitted to what the other places of "
-                  "its map scored against the keyframe's path (a candidate that continues the "
-                  "previous keyframe's stretch counts only the places that would continue it). "
-                  "0.03: the largest of 0.003, 0.03, 0.1, 0.3 with no wrong loop on the first "
-                  "halves of Gardens Point and Nordland as two robots (all four) and on the "
-                  "generated corridors (0.1 published 1 wrong of 51 on the aliasing corridor), "
-                  "reported on the second halves (bench/README.md).")
-          .flag("appearance_confirms", &O::appearance_confirms,
-                "the appearance check alone (where ORB cannot confirm the place: day against "
-                "night, a large change of view) may confirm a loop between robots, as it does "
-                "the detector's own. Off: only ORB confirms (Gardens Point day -> night as two "
-                "robots then finds none; with it 51 of 100, none wrong; without the calibrated "
-                "decision it confirmed 5 look-alike places 21 m apart on the corridor).");
-  return table;
-}
-
-std::string FleetOptions::validate() const { return parameters().check(*this); }
-
-std::vector<std::string> FleetOptions::peerList() const { return parseNameList(peers); }
 
 FleetMatcher::FleetMatcher(FleetOptions options, const std::string& descriptor_identity,
                            int dimension)
@@ -132,50 +59,97 @@ FleetMatcher::FleetMatcher(FleetOptions options, const std::string& descriptor_i
 }
 
 std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64_t own_map_id) {
-  if (row.map_id == own_map_id) return "";
-  FleetRobot& robot = robots_[row.robot];
-  robot.robot = row.robot;
+  return addRowFrom(row.robot, row, now_s, own_map_id).line;
+}
+
+RowVerdict FleetMatcher::addRowFrom(const std::string& peer, const SharedKeyframe& row,
+                                    double now_s, uint64_t own_map_id) {
+  RowVerdict verdict;
+  if (row.map_id == own_map_id) return verdict;  // This detector's own rows, echoed back.
+  // Everything the row says is checked before it touches any state; only the peer (a
+  // subscription this detector chose) keys what is kept.
+  std::string reason, why;
+  if (const std::string problem = robotNameProblem(row.robot); !problem.empty()) {
+    reason = "robot name";
+    why = problem;
+  } else if (row.id >= (uint64_t{1} << kMapIdBits)) {
+    reason = "id range";
+    why = "its id is 2^" + std::to_string(kMapIdBits) + " or more";
+  } else if (row.odometry_frame.size() > kMaxFrameNameBytes) {
+    reason = "frame name";
+    why = "an odometry frame name of " + std::to_string(row.odometry_frame.size()) +
+          " bytes (at most " + std::to_string(kMaxFrameNameBytes) + ")";
+  } else if (row.descriptor_fingerprint != fingerprint_) {
+    reason = "descriptor";
+    why = "it was described by another descriptor (fingerprint " +
+          std::to_string(row.descriptor_fingerprint) + ", this detector's " +
+          std::to_string(fingerprint_) + " is " + identity_ +
+          "): both robots need the same descriptor settings and model";
+  } else if (const std::string problem = row.problem(dimension_); !problem.empty()) {
+    reason = "malformed";
+    why = problem;
+  }
+  FleetRobot& robot = robots_[peer];
+  robot.peer = peer;
   std::string back;
   if (robot.silent) {
-    back = "robot '" + row.robot + "' is heard again after " + seconds(now_s - robot.last_heard_s) +
+    back = "peer " + peer + " is heard again after " + seconds(now_s - robot.last_heard_s) +
            "; its " + std::to_string(robot.rows) + " keyframes were kept";
     robot.silent = false;
   }
   robot.last_heard_s = now_s;
-  const auto refuse = [&](const std::string& why) {
-    ++robot.rows_refused;
-    return (back.empty() ? "" : back + "; ") + "a shared keyframe from robot '" + row.robot +
-           "' (map " + std::to_string(row.map_id) + ", id " + std::to_string(row.id) +
-           ") was refused: " + why;
-  };
-  if (row.descriptor_fingerprint != fingerprint_) {
-    return refuse("it was described by another descriptor (fingerprint " +
-                  std::to_string(row.descriptor_fingerprint) + ", this detector's " +
-                  std::to_string(fingerprint_) + " is " + identity_ +
-                  "): both robots need the same descriptor settings and model");
-  }
-  if (const std::string problem = row.problem(dimension_); !problem.empty()) {
-    return refuse(problem);
+  if (reason.empty() && !robot.robot.empty() && row.robot != robot.robot) {
+    reason = "robot name";
+    why = "it names robot '" + row.robot + "' where this peer's first row named '" + robot.robot +
+          "'";
   }
   const auto held = maps_.find(row.map_id);
+  if (reason.empty() && held != maps_.end() && held->second.peer != peer) {
+    reason = "map of another peer";
+    why = "map " + std::to_string(row.map_id) + " was shared first by peer " + held->second.peer;
+  }
+  const bool new_map = held == maps_.end() && robot.map_ids.count(row.map_id) == 0;
+  if (reason.empty() && new_map &&
+      robot.map_ids.size() >= static_cast<size_t>(options_.max_maps_per_robot)) {
+    reason = "maps bound";
+    why = "it starts map " + std::to_string(robot.map_ids.size() + 1) +
+          " of this peer, past advanced/fleet/max_maps_per_robot";
+  }
+  if (!reason.empty()) {
+    ++robot.rows_refused;
+    ++robot.refusals[reason];  // The caller throttles the line by peer and reason.
+    verdict.line = (back.empty() ? "" : back + "; ") + "a shared keyframe from peer " + peer +
+                   " (map " + std::to_string(row.map_id) + ", id " + std::to_string(row.id) +
+                   ") was refused: " + why;
+    verdict.reason = reason;
+    return verdict;
+  }
+  if (robot.robot.empty()) robot.robot = row.robot;
+  verdict.line = back;
   if (held != maps_.end() && held->second.ids.count(row.id) > 0) {
     ++robot.rows_repeated;  // A peer that re-sends after a restart.
-    return back;
+    verdict.kept = true;
+    return verdict;
   }
   if (robot.rows >= static_cast<size_t>(options_.max_rows_per_robot)) {
     // Said once, at the first row past the bound.
     const bool first = robot.rows_past_bound++ == 0;
     ++robot.rows_refused;
-    if (!first) return back;
-    return (back.empty() ? "" : back + "; ") + "robot '" + row.robot + "' has shared " +
-           std::to_string(robot.rows) +
-           " keyframes, advanced/fleet/max_rows_per_robot: its later ones "
-           "are not kept (its earlier places stay searchable)";
+    ++robot.refusals["rows bound"];
+    verdict.reason = "rows bound";
+    if (first) {
+      verdict.line = (back.empty() ? "" : back + "; ") + "robot '" + robot.robot + "' (peer " +
+                     peer + ") has shared " + std::to_string(robot.rows) +
+                     " keyframes, advanced/fleet/max_rows_per_robot: its later ones are not kept "
+                     "(its earlier places stay searchable)";
+    }
+    return verdict;
   }
   auto [found, added] = maps_.try_emplace(row.map_id);
   ForeignMap& map = found->second;
   if (added) {
     map.robot = row.robot;
+    map.peer = peer;
     map.ordinal = maps_.size();
     map.vectors = std::make_unique<QuantizedVectors>(dimension_);
   }
@@ -196,7 +170,8 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
   kept.global_row.shrink_to_fit();
   map.rows.push_back(std::move(kept));
   ++robot.rows;
-  return back;
+  verdict.kept = true;
+  return verdict;
 }
 
 std::vector<double> FleetMatcher::pathScores(const ForeignMap& map, uint64_t map_id,
@@ -359,6 +334,7 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     candidate.query_id = own.id;
     candidate.query_session = own.session;
     candidate.match = match;
+    candidate.peer = best[k].map->peer;
     candidate.score = best[k].score;
     candidate.place_ratio = other_place > 0.0 ? best[k].score / other_place : 0.0;
     candidate.consistent_keyframes = chains[k].keyframes;
@@ -371,10 +347,10 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
 
 std::vector<std::string> FleetMatcher::checkSilence(double now_s) {
   std::vector<std::string> lines;
-  for (auto& [name, robot] : robots_) {
+  for (auto& [peer, robot] : robots_) {
     if (robot.silent || now_s - robot.last_heard_s < options_.silent_after_s) continue;
     robot.silent = true;
-    lines.push_back("robot '" + name + "' has shared nothing for " +
+    lines.push_back("peer " + peer + " has shared nothing for " +
                     seconds(now_s - robot.last_heard_s) + ": its " + std::to_string(robot.rows) +
                     " keyframes are kept and still searched");
   }
@@ -437,7 +413,8 @@ PlaceCheck checkFleetCandidate(const GeometricVerifier& verifier,
                                const CellsOfKeyframe& match_cells_of, bool appearance_confirms,
                                double false_alarms) {
   PlaceCheck refused;
-  if (const std::string problem = match.problem(); !problem.empty()) {
+  const size_t max_keypoints = static_cast<size_t>(std::max(settings.verification.max_features, 0));
+  if (const std::string problem = match.problem(max_keypoints); !problem.empty()) {
     refused.detail = "its evidence is malformed: " + problem;
     return refused;
   }

@@ -15,6 +15,35 @@ bool finitePose(const Pose& pose) {
   return pose.position.allFinite() && pose.orientation.coeffs().allFinite();
 }
 
+uint32_t littleEndian(const std::vector<uint8_t>& bytes, size_t at, int count) {
+  uint32_t value = 0;
+  for (int k = count - 1; k >= 0; --k) value = (value << 8) | bytes[at + static_cast<size_t>(k)];
+  return value;
+}
+
+/// The canvas a WebP file's header declares (0 x 0 when it is not WebP or too short).
+cv::Size webpHeaderSize(const std::vector<uint8_t>& bytes) {
+  const auto tag = [&](size_t at, const char* text) {
+    return bytes.size() >= at + 4 && std::memcmp(bytes.data() + at, text, 4) == 0;
+  };
+  if (bytes.size() < 30 || !tag(0, "RIFF") || !tag(8, "WEBP")) return {};
+  if (tag(12, "VP8 ")) {  // Lossy: a frame tag, the start code, then 14-bit width and height.
+    if (bytes[23] != 0x9d || bytes[24] != 0x01 || bytes[25] != 0x2a) return {};
+    return {static_cast<int>(littleEndian(bytes, 26, 2) & 0x3fff),
+            static_cast<int>(littleEndian(bytes, 28, 2) & 0x3fff)};
+  }
+  if (tag(12, "VP8L")) {  // Lossless: a signature byte, then 14-bit width - 1 and height - 1.
+    if (bytes[20] != 0x2f) return {};
+    const uint32_t bits = littleEndian(bytes, 21, 4);
+    return {static_cast<int>((bits & 0x3fff) + 1), static_cast<int>(((bits >> 14) & 0x3fff) + 1)};
+  }
+  if (tag(12, "VP8X")) {  // Extended: flags, then 24-bit canvas width - 1 and height - 1.
+    return {static_cast<int>(littleEndian(bytes, 24, 3) + 1),
+            static_cast<int>(littleEndian(bytes, 27, 3) + 1)};
+  }
+  return {};
+}
+
 }  // namespace
 
 size_t SharedKeyframe::wireBytes() const {
@@ -59,8 +88,29 @@ size_t KeyframeEvidence::wireBytes() const {
          (4 + thumbnail.size());
 }
 
-std::string KeyframeEvidence::problem() const {
+std::string thumbnailProblem(const std::vector<uint8_t>& bytes) {
+  if (bytes.empty()) return "";
+  if (bytes.size() > kMaxThumbnailBytes) {
+    return "a thumbnail of " + std::to_string(bytes.size()) + " bytes (at most " +
+           std::to_string(kMaxThumbnailBytes) + ")";
+  }
+  const cv::Size size = webpHeaderSize(bytes);
+  if (size.area() == 0) return "a thumbnail that is not WebP";
+  if (size.width > kThumbnailWidth || size.height > kThumbnailHeight) {
+    return "a thumbnail of " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+           " (at most " + std::to_string(kThumbnailWidth) + "x" + std::to_string(kThumbnailHeight) +
+           ")";
+  }
+  return "";
+}
+
+std::string KeyframeEvidence::problem(size_t max_keypoints) const {
   const LocalFeatures& features = local_features;
+  if (features.points.size() > max_keypoints) {
+    return std::to_string(features.points.size()) +
+           " keypoints, more than advanced/verification/max_features (" +
+           std::to_string(max_keypoints) + ")";
+  }
   if (!features.points.empty() &&
       (features.descriptors.type() != CV_8U || features.descriptors.cols != 32 ||
        static_cast<size_t>(features.descriptors.rows) != features.points.size())) {
@@ -76,7 +126,30 @@ std::string KeyframeEvidence::problem() const {
   for (const cv::Point2f& point : features.points) {
     if (!std::isfinite(point.x) || !std::isfinite(point.y)) return "a keypoint that is not finite";
   }
-  return "";
+  // A keypoint without a depth carries NaN in all three (and its uncertainty); any other depth
+  // is finite and in front of the camera.
+  for (size_t k = 0; k < features.points3d.size(); ++k) {
+    const cv::Point3f& point = features.points3d[k];
+    const bool none = std::isnan(point.x) && std::isnan(point.y) && std::isnan(point.z);
+    if (none) continue;
+    if (!std::isfinite(point.x) || !std::isfinite(point.y) || !std::isfinite(point.z) ||
+        !(point.z > 0.0f)) {
+      return "a keypoint depth that is not finite and in front of the camera";
+    }
+    if (!std::isfinite(features.depth_sd[k]) || features.depth_sd[k] < 0.0f) {
+      return "a depth uncertainty that is not finite";
+    }
+  }
+  if (features.image_size.width < 0 || features.image_size.height < 0 ||
+      features.image_size.width > kMaxImageSide || features.image_size.height > kMaxImageSide) {
+    return "an image size of " + std::to_string(features.image_size.width) + "x" +
+           std::to_string(features.image_size.height);
+  }
+  if (!std::isfinite(intrinsics.fx) || !std::isfinite(intrinsics.fy) ||
+      !std::isfinite(intrinsics.cx) || !std::isfinite(intrinsics.cy)) {
+    return "intrinsics that are not finite";
+  }
+  return thumbnailProblem(thumbnail);
 }
 
 std::optional<SharedKeyframe> sharedKeyframeOf(const LoopDetector& detector, uint64_t id,

@@ -441,4 +441,26 @@ KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
   return evidence;
 }
 
+std::string evidenceResponseProblem(const FleetEvidenceResponse& response, size_t max_keypoints) {
+  const auto over = [&](size_t count, size_t per_keypoint) {
+    return count > per_keypoint * max_keypoints;
+  };
+  if (over(response.keypoints.size(), 2) || over(response.descriptors.size(), 32) ||
+      over(response.points3d.size(), 3) || over(response.depth_sd.size(), 1)) {
+    return std::to_string(response.keypoints.size() / 2) +
+           " keypoints (or their descriptors or depths), more than "
+           "advanced/verification/max_features (" +
+           std::to_string(max_keypoints) + ")";
+  }
+  if (response.thumbnail.size() > kMaxThumbnailBytes) {
+    return "a thumbnail of " + std::to_string(response.thumbnail.size()) + " bytes (at most " +
+           std::to_string(kMaxThumbnailBytes) + ")";
+  }
+  constexpr size_t kMaxProblemBytes = 512;
+  if (response.problem.size() > kMaxProblemBytes) {
+    return "a problem text of " + std::to_string(response.problem.size()) + " bytes";
+  }
+  return "";
+}
+
 }  // namespace landmark_loop_closure

@@ -81,5 +81,9 @@ SharedKeyframe sharedKeyframeFromMsg(const FleetKeyframe& msg);
 void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse* response);
 KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
                                       const FleetEvidenceResponse& response);
+/// Why a peer's answer is too large to convert ("" when it is not): more than `max_keypoints`
+/// keypoints (or descriptors, depths for them), a thumbnail over kMaxThumbnailBytes, a problem
+/// string past a log line.
+std::string evidenceResponseProblem(const FleetEvidenceResponse& response, size_t max_keypoints);
 
 }  // namespace landmark_loop_closure

@@ -121,22 +121,19 @@ void FleetLink::stop() {
 }
 
 void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg) {
-  std::string line;
+  // Converted outside the lock; the matcher validates the row whole before it keeps anything.
+  const SharedKeyframe row = sharedKeyframeFromMsg(*msg);
+  RowVerdict verdict;
   {
     std::lock_guard<std::mutex> lock(matcher_mutex_);
-    line = matcher_->addRow(sharedKeyframeFromMsg(*msg), ros::WallTime::now().toSec(),
-                            own_map_id_.load());
-    peer_of_map_.emplace(msg->map_id, peer);
+    verdict = matcher_->addRowFrom(peer, row, ros::WallTime::now().toSec(), own_map_id_.load());
   }
-  if (line.empty()) return;
-  if (const size_t refused = line.find("refused: "); refused != std::string::npos) {
-    // One line per robot and reason a period: a robot sending bad rows at 10 Hz is said once.
-    const std::string kind = msg->robot + ":" + line.substr(refused, 40);
-    if (refusals_.allow(kind, ros::WallTime::now().toSec())) {
-      ROS_WARN("fleet: %s", line.c_str());
-    }
-  } else {
-    ROS_INFO("fleet: %s", line.c_str());
+  if (verdict.line.empty()) return;
+  if (verdict.reason.empty()) {
+    ROS_INFO("fleet: %s", verdict.line.c_str());
+  } else if (refusals_.allow(peer + ":" + verdict.reason, ros::WallTime::now().toSec())) {
+    // Keyed by the subscription and a fixed reason: names a sender invents add no keys.
+    ROS_WARN("fleet: %s", verdict.line.c_str());
   }
 }
 
@@ -219,8 +216,7 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
   {
     std::lock_guard<std::mutex> lock(matcher_mutex_);
     if (std::optional<FleetCandidate> candidate = matcher_->query(*own)) {
-      const auto peer = peer_of_map_.find(candidate->match.map_id);
-      if (peer != peer_of_map_.end()) fetch = Fetch{*candidate, peer->second, odometry_frame};
+      fetch = Fetch{*candidate, candidate->peer, odometry_frame};
     }
   }
   if (!fetch) return;
@@ -264,7 +260,10 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
   const std::optional<FleetEvidence> answer =
       callWithTimeout(service, request, options_.fetch_timeout_s, &problem);
   ++fetches_made_;
-  if (answer && !answer->response.found) problem = answer->response.problem;
+  if (answer && !answer->response.found) {
+    // Its words, cut to a log line's length.
+    problem = answer->response.problem.substr(0, 200);
+  }
   if (!answer || !answer->response.found) {
     ++fetches_failed_;
     ROS_WARN_THROTTLE(kWarningPeriod,
@@ -274,27 +273,51 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
                       service.c_str(), problem.c_str());
     return;
   }
-  const KeyframeEvidence evidence = evidenceFromResponse(request, answer->response);
-  evidence_bytes_ += evidence.wireBytes();
-  const CameraIntrinsics intrinsics = hooks_.intrinsics();
-  std::optional<LoopClosure> message;
-  std::string refused;
+  std::shared_ptr<const KeyframeRecord> query;
+  std::optional<LoopDetectorOptions> settings;
   hooks_.with_detector([&](LoopDetector& detector) {
     if (detector.map().mapId() != candidate.query_map_id) return;  // A load or reset meanwhile.
-    const std::shared_ptr<const KeyframeRecord> query =
-        detector.database().findRecord(candidate.query_id);
-    if (!query || !detector.extractor()) return;
-    const LoopDetectorOptions& settings = detector.options();
-    const GeometricVerifier verifier(settings.verification);
-    PlaceCheck check = checkFleetCandidate(
-        verifier, {settings.verification, settings.appearance, settings.metric_pose},
-        query->local_features, intrinsics, evidence, thumbnailCellsOf(detector, query->thumbnail),
-        thumbnailCellsOf(detector, evidence.thumbnail), options_.appearance_confirms,
-        candidate.false_alarms);
-    if (!check.accepted) {
-      refused = check.detail;
-      return;
-    }
+    query = detector.database().findRecord(candidate.query_id);
+    settings = detector.options();
+  });
+  if (!query || !settings) return;
+  // The peer's answer is untrusted: its sizes are bounded before it is converted, and it is
+  // validated whole, then matched, with the detector free; only the network's pass over the two
+  // thumbnails (the appearance check) takes it.
+  const size_t max_keypoints =
+      static_cast<size_t>(std::max(settings->verification.max_features, 0));
+  std::string refused = evidenceResponseProblem(answer->response, max_keypoints);
+  std::optional<KeyframeEvidence> evidence;
+  if (refused.empty()) {
+    evidence = evidenceFromResponse(request, answer->response);
+    evidence_bytes_ += evidence->wireBytes();
+    refused = evidence->problem(max_keypoints);
+  }
+  if (!refused.empty()) {
+    ++fetches_failed_;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "fleet: the evidence of keyframe %lu of robot %s from %s was refused: %s",
+                      static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
+                      service.c_str(), refused.c_str());
+    return;
+  }
+  const auto cells_of = [this](const std::vector<uint8_t>& thumbnail) -> CellsOfKeyframe {
+    return [this, &thumbnail] {
+      CellFeatures cells;
+      hooks_.with_detector(
+          [&](LoopDetector& detector) { cells = thumbnailCellsOf(detector, thumbnail)(); });
+      return cells;
+    };
+  };
+  const GeometricVerifier verifier(settings->verification);
+  PlaceCheck check = checkFleetCandidate(
+      verifier, {settings->verification, settings->appearance, settings->metric_pose},
+      query->local_features, hooks_.intrinsics(), *evidence, cells_of(query->thumbnail),
+      cells_of(evidence->thumbnail), options_.appearance_confirms, candidate.false_alarms);
+  std::optional<LoopClosure> message;
+  if (!check.accepted) refused = check.detail;
+  hooks_.with_detector([&](LoopDetector& detector) {
+    if (!check.accepted || detector.map().mapId() != candidate.query_map_id) return;
     AcceptedLoop loop;
     loop.map_id = detector.map().mapId();
     loop.query_id = query->id;
@@ -352,7 +375,8 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
       bytes = matcher_->bytes();
       for (const FleetRobot& robot : matcher_->robots()) {
         refused += robot.rows_refused;
-        robots += (robots.empty() ? "" : ", ") + robot.robot + " (" + std::to_string(robot.rows) +
+        robots += (robots.empty() ? "" : ", ") + robot.peer + " (" +
+                  (robot.robot.empty() ? "" : robot.robot + ", ") + std::to_string(robot.rows) +
                   (robot.silent ? ", silent)" : ")");
       }
     }

@@ -90,10 +90,9 @@ class FleetLink {
   ros::ServiceServer evidence_service_;
   ros::WallTimer silence_timer_;
 
-  std::mutex matcher_mutex_;  ///< Guards matcher_ and peer_of_map_.
+  std::mutex matcher_mutex_;  ///< Guards matcher_.
   std::unique_ptr<FleetMatcher> matcher_;
-  std::map<uint64_t, std::string> peer_of_map_;  ///< Which peer shared each map.
-  KindThrottle refusals_{10.0};  ///< Callback thread only: refused rows, by robot and reason.
+  KindThrottle refusals_{10.0};  ///< Callback thread only: refused rows, by peer and reason.
   std::atomic<uint64_t> own_map_id_{0};
 
   std::mutex fetch_mutex_;

@@ -237,7 +237,7 @@ TEST(FleetMatcher, RowsThatCannotBeUsedAreRefusedWithOneLineEach) {
   SharedKeyframe other_descriptor = row("a", 1, 0, 0);
   other_descriptor.descriptor_fingerprint = descriptorFingerprint("another network");
   std::string line = matcher.addRow(other_descriptor, 0.0, 2);
-  EXPECT_NE(line.find("robot 'a' (map 1, id 0) was refused: it was described by another "
+  EXPECT_NE(line.find("peer a (map 1, id 0) was refused: it was described by another "
                       "descriptor"),
             std::string::npos)
       << line;
@@ -278,8 +278,9 @@ TEST(FleetMatcher, OwnRowsRepeatsAndRowsPastTheBoundAreNotKept) {
   for (uint64_t id = 0; id < 3; ++id) EXPECT_EQ(matcher.addRow(row("a", 1, id, 0), 0.0, 2), "");
   EXPECT_EQ(matcher.addRow(row("a", 1, 1, 0), 0.0, 2), "");  // Sent again after a restart.
   const std::string past = matcher.addRow(row("a", 1, 3, 0), 0.0, 2);
-  EXPECT_NE(past.find("robot 'a' has shared 3 keyframes, advanced/fleet/max_rows_per_robot"),
-            std::string::npos)
+  EXPECT_NE(
+      past.find("robot 'a' (peer a) has shared 3 keyframes, advanced/fleet/max_rows_per_robot"),
+      std::string::npos)
       << past;
   EXPECT_EQ(matcher.addRow(row("a", 1, 4, 0), 0.0, 2), "");  // Said once.
   EXPECT_EQ(matcher.rows(), 3u);
@@ -296,7 +297,7 @@ TEST(FleetMatcher, ASilentRobotIsReportedOnceAndWelcomedBack) {
   const std::vector<std::string> silent = matcher.checkSilence(66.0);
   ASSERT_EQ(silent.size(), 1u);
   EXPECT_EQ(silent[0],
-            "robot 'a' has shared nothing for 61 s: its 8 keyframes are kept and "
+            "peer a has shared nothing for 61 s: its 8 keyframes are kept and "
             "still searched");
   EXPECT_TRUE(matcher.checkSilence(90.0).empty());
   // Its rows are still searched while it is silent.
@@ -306,8 +307,70 @@ TEST(FleetMatcher, ASilentRobotIsReportedOnceAndWelcomedBack) {
   }
   EXPECT_EQ(candidates, 2);
   const std::string back = matcher.addRow(row("a", 1, 8, 0), 125.0, 2);
-  EXPECT_EQ(back, "robot 'a' is heard again after 120 s; its 8 keyframes were kept");
+  EXPECT_EQ(back, "peer a is heard again after 120 s; its 8 keyframes were kept");
   EXPECT_EQ(matcher.rows(), 9u);
+}
+
+// What a peer sends is untrusted: a row is validated whole before anything is kept, the peer (the
+// subscription) keys every bound, and names or ids it invents create no state.
+TEST(FleetMatcher, APeerCannotInventRobotsMapsOrIdsPastItsBounds) {
+  FleetOptions bounded = options();
+  bounded.max_maps_per_robot = 2;
+  FleetMatcher matcher(bounded, kIdentity, kDimension);
+  const std::string peer = "/robot_a/loop_closure";
+  EXPECT_TRUE(matcher.addRowFrom(peer, row("a", 1, 0, 0), 0.0, 9).kept);
+  // A new robot name in every row: refused, counted under the one peer.
+  for (int k = 0; k < 100; ++k) {
+    const RowVerdict verdict =
+        matcher.addRowFrom(peer, row("invented_" + std::to_string(k), 1, 1 + k, 0), 0.0, 9);
+    EXPECT_FALSE(verdict.kept);
+    EXPECT_EQ(verdict.reason, "robot name");
+  }
+  // A name too long to log, one that is not printable, an id that would alias another map's
+  // chain ids, an odometry frame name of a megabyte, a NaN pose, this detector's own map.
+  const RowVerdict long_name =
+      matcher.addRowFrom(peer, row(std::string(1 << 20, 'x'), 1, 200, 0), 0.0, 9);
+  EXPECT_EQ(long_name.reason, "robot name");
+  EXPECT_LT(long_name.line.size(), 300u) << "the name is not repeated";
+  EXPECT_EQ(matcher.addRowFrom(peer, row("a\n", 1, 201, 0), 0.0, 9).reason, "robot name");
+  EXPECT_EQ(matcher.addRowFrom(peer, row("a", 1, uint64_t{1} << 40, 0), 0.0, 9).reason, "id range");
+  SharedKeyframe long_frame = row("a", 1, 202, 0);
+  long_frame.odometry_frame.assign(1 << 20, 'f');
+  EXPECT_EQ(matcher.addRowFrom(peer, long_frame, 0.0, 9).reason, "frame name");
+  SharedKeyframe nan_pose = row("a", 1, 203, 0);
+  nan_pose.pose.position.x() = std::nan("");
+  EXPECT_EQ(matcher.addRowFrom(peer, nan_pose, 0.0, 9).reason, "malformed");
+  const RowVerdict own = matcher.addRowFrom(peer, row("a", 9, 204, 0), 0.0, 9);
+  EXPECT_FALSE(own.kept);
+  EXPECT_EQ(own.line, "");
+  // Another peer cannot add to (or redirect evidence requests for) a map the first one shared.
+  EXPECT_EQ(matcher.addRowFrom("/robot_c/loop_closure", row("c", 1, 300, 0), 0.0, 9).reason,
+            "map of another peer");
+  // Maps per peer are bounded.
+  EXPECT_TRUE(matcher.addRowFrom(peer, row("a", 2, 0, 0), 0.0, 9).kept);
+  EXPECT_EQ(matcher.addRowFrom(peer, row("a", 3, 0, 0), 0.0, 9).reason, "maps bound");
+
+  EXPECT_EQ(matcher.rows(), 2u);
+  const std::vector<FleetRobot> robots = matcher.robots();
+  ASSERT_EQ(robots.size(), 2u);  // The two peers, never a name a row gave.
+  const FleetRobot& a = robots.front();
+  EXPECT_EQ(a.peer, peer);
+  EXPECT_EQ(a.robot, "a");
+  EXPECT_EQ(a.map_ids.size(), 2u);
+  EXPECT_EQ(a.refusals.at("robot name"), 102u);
+  EXPECT_EQ(a.refusals.at("id range"), 1u);
+  EXPECT_EQ(a.refusals.at("maps bound"), 1u);
+  // A candidate names the peer that shared its map, for its evidence.
+  FleetMatcher single(options(), kIdentity, kDimension);
+  for (uint64_t id = 0; id < 6; ++id) {
+    single.addRowFrom(peer, row("a", 1, id, static_cast<int>(id)), 0.0, 9);
+  }
+  std::optional<FleetCandidate> candidate;
+  for (uint64_t id = 0; id < 6 && !candidate; ++id) {
+    candidate = single.query(row("b", 9, id, static_cast<int>(id)));
+  }
+  ASSERT_TRUE(candidate);
+  EXPECT_EQ(candidate->peer, peer);
 }
 
 TEST(FleetMatcher, PeerListsSplitOnSpacesAndCommas) {

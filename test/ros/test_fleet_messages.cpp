@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
 
 #include "../../src/messages/ros_conversions.h"
+#include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
 
 using namespace landmark_loop_closure;
@@ -55,14 +57,14 @@ TEST(FleetMessages, SharedRowsAndEvidenceRoundTripAndMalformedOnesAreCaught) {
   evidence.intrinsics.fx = evidence.intrinsics.fy = 500.0;
   evidence.intrinsics.cx = 320.0;
   evidence.intrinsics.cy = 240.0;
-  evidence.thumbnail = {1, 2, 3};
+  evidence.thumbnail = makeThumbnail(cv::Mat(480, 640, CV_8U, cv::Scalar(90)));
   FleetEvidence::Response response;
   toEvidenceResponse(evidence, &response);
   FleetEvidence::Request request;
   request.map_id = 77;
   request.id = 12;
   const KeyframeEvidence received = evidenceFromResponse(request, response);
-  EXPECT_EQ(received.problem(), "");
+  EXPECT_EQ(received.problem(400), "");
   EXPECT_EQ(received.local_features.points, evidence.local_features.points);
   EXPECT_EQ(cv::norm(received.local_features.descriptors, evidence.local_features.descriptors,
                      cv::NORM_HAMMING),
@@ -76,10 +78,70 @@ TEST(FleetMessages, SharedRowsAndEvidenceRoundTripAndMalformedOnesAreCaught) {
   EXPECT_EQ(received.wireBytes(), evidence.wireBytes());
 
   response.descriptors.resize(40);  // Not 32 bytes a keypoint.
-  EXPECT_NE(evidenceFromResponse(request, response).problem().find("32-byte descriptor"),
+  EXPECT_NE(evidenceFromResponse(request, response).problem(400).find("32-byte descriptor"),
             std::string::npos);
   toEvidenceResponse(evidence, &response);
   response.points3d.resize(3);  // One depth for two keypoints.
-  EXPECT_NE(evidenceFromResponse(request, response).problem().find("keypoint depths"),
+  EXPECT_NE(evidenceFromResponse(request, response).problem(400).find("keypoint depths"),
             std::string::npos);
+}
+
+// A peer's evidence is validated whole before anything decodes or matches it.
+TEST(FleetMessages, EvidenceOutsideItsLimitsIsRefusedBeforeItIsDecoded) {
+  KeyframeEvidence evidence;
+  evidence.local_features.points = {{10.5f, 20.25f}, {30.0f, 40.0f}};
+  evidence.local_features.descriptors = cv::Mat(2, 32, CV_8U, cv::Scalar(7));
+  evidence.local_features.points3d = {{0.1f, 0.2f, 3.0f}, {NAN, NAN, NAN}};
+  evidence.local_features.depth_sd = {0.05f, NAN};
+  evidence.local_features.image_size = cv::Size(640, 480);
+  evidence.intrinsics.fx = evidence.intrinsics.fy = 500.0;
+  evidence.thumbnail = makeThumbnail(cv::Mat(480, 640, CV_8U, cv::Scalar(90)));
+  ASSERT_EQ(evidence.problem(400), "");
+  EXPECT_NE(evidence.problem(1).find("2 keypoints, more than advanced/verification/max_features"),
+            std::string::npos);
+
+  KeyframeEvidence behind = evidence;
+  behind.local_features.points3d[0].z = -1.0f;
+  EXPECT_NE(behind.problem(400).find("in front of the camera"), std::string::npos);
+  KeyframeEvidence infinite = evidence;
+  infinite.local_features.points3d[0].x = INFINITY;
+  EXPECT_NE(infinite.problem(400).find("not finite"), std::string::npos);
+  KeyframeEvidence bad_sd = evidence;
+  bad_sd.local_features.depth_sd[0] = NAN;
+  EXPECT_NE(bad_sd.problem(400).find("uncertainty"), std::string::npos);
+  KeyframeEvidence bad_intrinsics = evidence;
+  bad_intrinsics.intrinsics.cx = NAN;
+  EXPECT_NE(bad_intrinsics.problem(400).find("intrinsics"), std::string::npos);
+
+  // A thumbnail is WebP of at most 160x120, judged from its header: a PNG, a large WebP and a
+  // WebP whose header was cut are refused without decoding them.
+  std::vector<uint8_t> png;
+  cv::imencode(".png", cv::Mat(2000, 2000, CV_8U, cv::Scalar(0)), png);
+  EXPECT_EQ(thumbnailProblem(png), "a thumbnail that is not WebP");
+  std::vector<uint8_t> large;
+  cv::imencode(".webp", cv::Mat(240, 320, CV_8U, cv::Scalar(0)), large);
+  EXPECT_EQ(thumbnailProblem(large), "a thumbnail of 320x240 (at most 160x120)");
+  std::vector<uint8_t> lossless;
+  cv::imencode(".webp", cv::Mat(121, 100, CV_8U, cv::Scalar(0)), lossless,
+               {cv::IMWRITE_WEBP_QUALITY, 101});
+  EXPECT_EQ(thumbnailProblem(lossless), "a thumbnail of 100x121 (at most 160x120)");
+  std::vector<uint8_t> cut(evidence.thumbnail.begin(), evidence.thumbnail.begin() + 20);
+  EXPECT_EQ(thumbnailProblem(cut), "a thumbnail that is not WebP");
+  EXPECT_EQ(thumbnailProblem(std::vector<uint8_t>(kMaxThumbnailBytes + 1, 0)),
+            "a thumbnail of 65537 bytes (at most 65536)");
+  EXPECT_EQ(thumbnailProblem({}), "");
+
+  // The answer's sizes are bounded before it is converted.
+  FleetEvidence::Response response;
+  toEvidenceResponse(evidence, &response);
+  EXPECT_EQ(evidenceResponseProblem(response, 400), "");
+  response.keypoints.resize(2 * 1000000);
+  EXPECT_NE(evidenceResponseProblem(response, 400).find("1000000 keypoints"), std::string::npos);
+  toEvidenceResponse(evidence, &response);
+  response.thumbnail.resize(1 << 20);
+  EXPECT_NE(evidenceResponseProblem(response, 400).find("a thumbnail of 1048576 bytes"),
+            std::string::npos);
+  toEvidenceResponse(evidence, &response);
+  response.problem.assign(1 << 20, 'p');
+  EXPECT_NE(evidenceResponseProblem(response, 400).find("problem text"), std::string::npos);
 }

@@ -309,12 +309,12 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
   late_peer.shutdown();
 
   // robot_a has shared nothing since its lap: said once; then a row of it again, and bad ones.
-  EXPECT_TRUE(watch.waitForLine("robot 'robot_a' has shared nothing for", 15.0));
+  EXPECT_TRUE(watch.waitForLine("peer /robot_a/loop_closure has shared nothing for", 15.0));
   ASSERT_FALSE(shared.empty());
   FleetKeyframe again = shared.back();
   again.id += 1000;
   forged.publish(again);
-  EXPECT_TRUE(watch.waitForLine("robot 'robot_a' is heard again after", 10.0));
+  EXPECT_TRUE(watch.waitForLine("peer /robot_a/loop_closure is heard again after", 10.0));
   FleetKeyframe short_vector = shared.back();
   short_vector.id += 1001;
   short_vector.global_values.resize(10);
@@ -323,9 +323,18 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
   FleetKeyframe other_descriptor = shared.back();
   other_descriptor.id += 1002;
   other_descriptor.descriptor_fingerprint ^= 1;
-  // Refusals are throttled by robot and reason: this is another reason.
+  // Refusals are throttled by peer and reason: this is another reason.
   forged.publish(other_descriptor);
   EXPECT_TRUE(watch.waitForLine("it was described by another descriptor", 15.0));
+  // A sender inventing a robot name in every row adds no robot, only refusals of its peer.
+  for (int k = 0; k < 20; ++k) {
+    FleetKeyframe invented = shared.back();
+    invented.id += 1003 + k;
+    invented.robot = "invented_" + std::to_string(k);
+    forged.publish(invented);
+    ros::WallDuration(0.02).sleep();  // Within the publisher's queue.
+  }
+  EXPECT_TRUE(watch.waitForLine("where this peer's first row named 'robot_a'", 15.0));
   // Still running: the diagnostics count what came.
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(4.0);
   while (ros::ok() && ros::WallTime::now() < until) {
@@ -333,7 +342,14 @@ TEST(TwoRobots, RobotBPublishesTrueLoopsIntoRobotAsMapAndSurvivesItsSilenceAndBa
     ros::WallDuration(0.05).sleep();
   }
   EXPECT_EQ(watch.values["fleet rows kept"], std::to_string(a.keyframes.size() + 1));
-  EXPECT_EQ(watch.values["fleet rows refused"], "2");
+  EXPECT_EQ(watch.values["fleet rows refused"], "22");
+  // One peer, named as its first row named it (", silent" may follow: it shares nothing now).
+  const std::string heard = watch.values["fleet robots heard"];
+  EXPECT_EQ(
+      heard.rfind("/robot_a/loop_closure (robot_a, " + std::to_string(a.keyframes.size() + 1), 0),
+      0u)
+      << heard;
+  EXPECT_EQ(heard.find("invented"), std::string::npos) << heard;
 }
 
 int main(int argc, char** argv) {

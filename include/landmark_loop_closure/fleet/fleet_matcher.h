@@ -41,6 +41,7 @@ struct FleetOptions {
   int index_window = 3;
   int top_k = 5;                   ///< Candidates kept per keyframe over every other map.
   int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
+  int max_maps_per_robot = 32;     ///< Maps (map_ids) kept of one robot; rows of more are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
   double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
   /// Rows a second sent to a peer that subscribes after they were shared (the map so far).
@@ -65,6 +66,7 @@ struct FleetCandidate {
   uint64_t query_id = 0;
   uint32_t query_session = 0;
   SharedKeyframe match;      ///< The other robot's row, its vector left out.
+  std::string peer;          ///< The peer that shared the match's map: it answers for its evidence.
   double score = 0.0;        ///< The best path's mean cosine (the cosine with sequence_length 1).
   double place_ratio = 0.0;  ///< score over the best other place's (0: none scored).
   /// Wrong places of its map expected to score as high (max_false_alarms' estimate; -1: not
@@ -73,16 +75,26 @@ struct FleetCandidate {
   int consistent_keyframes = 0;
 };
 
-/// Per robot heard from: for diagnostics and the silence lines.
+/// Per peer heard from (a subscription this detector chose): for bounds, diagnostics and the
+/// silence lines.
 struct FleetRobot {
-  std::string robot;
+  std::string peer;
+  std::string robot;  ///< The name its first kept row gave; later rows must give the same.
   std::set<uint64_t> map_ids;
   size_t rows = 0;             ///< Kept and searched.
   size_t rows_refused = 0;     ///< Malformed, of another descriptor, or past max_rows_per_robot.
   size_t rows_repeated = 0;    ///< Already held (a peer that re-sends after a restart).
   size_t rows_past_bound = 0;  ///< Of rows_refused: past max_rows_per_robot.
+  std::map<std::string, size_t> refusals;  ///< Of rows_refused, by reason (RowVerdict::reason).
   double last_heard_s = 0.0;
   bool silent = false;
+};
+
+/// What became of a row offered to the matcher.
+struct RowVerdict {
+  bool kept = false;   ///< Kept, or held already.
+  std::string reason;  ///< Refused: a short fixed name of why ("robot name", "rows bound"...).
+  std::string line;    ///< What to say, once a peer and reason ("" when nothing).
 };
 
 class FleetMatcher {
@@ -90,9 +102,16 @@ class FleetMatcher {
   /// Rows must be of `descriptor_identity` (its fingerprint) and `dimension` values.
   FleetMatcher(FleetOptions options, const std::string& descriptor_identity, int dimension);
 
-  /// A row from another robot, heard at `now_s`: kept (returns "") or refused, with one line
-  /// saying why. Rows of the map `own_map_id` (this detector's own, echoed back) are ignored.
-  /// A row from a robot that was silent also returns a line saying it is back.
+  /// A row heard from `peer` (the subscription it came on) at `now_s`. The row is untrusted: it
+  /// is validated whole (robot name, id range, lengths, finite values, descriptor) before it
+  /// touches any state, its robot name must stay the one the peer's first kept row gave, its
+  /// map must not be another peer's, and the peer's rows and maps are bounded
+  /// (max_rows_per_robot, max_maps_per_robot). Rows of `own_map_id` (this detector's own,
+  /// echoed back) are ignored. A peer that was silent also gets a line saying it is back.
+  RowVerdict addRowFrom(const std::string& peer, const SharedKeyframe& row, double now_s,
+                        uint64_t own_map_id);
+  /// addRowFrom with the row's robot as its peer (one process: an evaluation, a benchmark);
+  /// returns the line.
   std::string addRow(const SharedKeyframe& row, double now_s, uint64_t own_map_id);
   /// One of this detector's own keyframes (its own row): the other maps' rows scoring at least
   /// min_score, chained with the previous keyframes' matches; the best whose chain is long
@@ -113,6 +132,7 @@ class FleetMatcher {
  private:
   struct ForeignMap {
     std::string robot;
+    std::string peer;      ///< Who shared it first; only its rows are kept.
     uint64_t ordinal = 0;  ///< Keeps chain ids of two maps apart.
     std::unique_ptr<QuantizedVectors> vectors;
     std::vector<SharedKeyframe> rows;  ///< Without their vectors, in the order they came.
@@ -149,8 +169,8 @@ class FleetMatcher {
   uint64_t fingerprint_;
   std::string identity_;
   int dimension_;
-  std::map<uint64_t, ForeignMap> maps_;  ///< By map_id.
-  std::map<std::string, FleetRobot> robots_;
+  std::map<uint64_t, ForeignMap> maps_;       ///< By map_id.
+  std::map<std::string, FleetRobot> robots_;  ///< By peer.
   /// By querying (map, session): each robot's run chains its own keyframes.
   std::map<std::pair<uint64_t, uint32_t>, QueryingRun> runs_;
   std::vector<double> speeds_;  ///< Path speeds tried (map keyframes per own keyframe).

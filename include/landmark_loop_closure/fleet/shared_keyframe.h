@@ -52,10 +52,25 @@ struct KeyframeEvidence {
 
   /// Bytes on the wire as the keyframe_evidence service answers it.
   size_t wireBytes() const;
-  /// Why it cannot be checked against ("" when it can): keypoints without a 32-byte descriptor
-  /// each, depths of another count.
-  std::string problem() const;
+  /// Why it cannot be checked against ("" when it can). It comes from another process and is
+  /// validated whole before anything decodes or matches it: at most `max_keypoints` keypoints
+  /// (advanced/verification/max_features), each with a 32-byte descriptor, finite; depths of
+  /// the same count, each NaN (none) or finite and in front of the camera with a finite
+  /// uncertainty; finite intrinsics; a thumbnail as thumbnailProblem() allows.
+  std::string problem(size_t max_keypoints) const;
 };
+
+/// The thumbnail a detector shares (makeThumbnail): WebP, at most this size and these bytes.
+constexpr int kThumbnailWidth = 160;
+constexpr int kThumbnailHeight = 120;
+constexpr size_t kMaxThumbnailBytes = 64 * 1024;
+/// Longest image side evidence may name.
+constexpr int kMaxImageSide = 16384;
+
+/// Why `bytes` cannot be a shared thumbnail ("" when it can, or is empty): over
+/// kMaxThumbnailBytes, not WebP, or a canvas larger than kThumbnailWidth x kThumbnailHeight, read
+/// from its header before anything is decoded.
+std::string thumbnailProblem(const std::vector<uint8_t>& bytes);
 
 /// Worker thread: stored keyframe `id` of `detector` as it is shared; nullopt when it is not in
 /// search (past the memory budget, or unknown).
