@@ -3,6 +3,7 @@
 // (map_id, id) never repeats, and every map file holds exactly the keyframes published for it.
 #include <algorithm>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <future>
 #include <map>
@@ -78,14 +79,24 @@ TEST(LoopClosureNode, SaveLoadAndResetWhileFramesStreamKeepEveryKeyframeNamedOnc
   std::set<uint64_t> in_copy;
   // From frame 10 of the second lap frames go out as fast as they can, faster than the worker
   // describes them, the load is asked for at frame 35 and the burst lasts until it answers: the
-  // worker still has keyframes queued against the first map when the load switches maps (with a
-  // burst of 15 frames before the load, a busy machine's worker once emptied its queue first).
+  // worker still has keyframes queued against the first map when the load switches maps. The
+  // burst's frames are rendered before it starts, so that it outruns the worker by far however
+  // busy the machine is (rendered as they went, a busy machine's worker once emptied its queue
+  // before the load switched maps).
   constexpr size_t kBurstStart = 10, kBurstEnd = 35;
+  constexpr size_t kRenderedAhead = 400;  // Frames rendered before the burst (about 30 MB).
+  std::deque<SequenceFrame> rendered;
+  const auto next_frame = [&](SequenceFrame* next) {
+    if (rendered.empty()) return sequence.next(next);
+    *next = std::move(rendered.front());
+    rendered.pop_front();
+    return true;
+  };
   // The reset comes this many paced frames after the load answered, however long the load took
   // on a busy machine, so that the second lap has time to close loops into the loaded copy.
   constexpr size_t kLoadedFrames = 265;
   SequenceFrame frame;
-  while (ros::ok() && sequence.next(&frame)) {
+  while (ros::ok() && next_frame(&frame)) {
     harness.publish(frame.stamp, frame.odom, frame.image);
     ros::spinOnce();
     const bool loading =
@@ -105,6 +116,10 @@ TEST(LoopClosureNode, SaveLoadAndResetWhileFramesStreamKeepEveryKeyframeNamedOnc
     } else if (second_lap_frames + 1 == kBurstStart) {
       ASSERT_EQ(save.wait_for(std::chrono::seconds(30)), std::future_status::ready);
       in_copy = idsInMap(copy);  // Read before the node opens it (one process per map).
+      SequenceFrame ahead;
+      while (rendered.size() < kRenderedAhead && sequence.next(&ahead)) {
+        rendered.push_back(std::move(ahead));
+      }
     } else if (second_lap_frames + 1 == kBurstEnd) {
       DatabaseFile request;
       request.request.path = copy;
