@@ -25,6 +25,7 @@ add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_closure_node_outputs.cpp
   src/ros/loop_closure_node_database.cpp
   src/ros/fleet_link.cpp
+  src/ros/evidence_channel.cpp
   src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

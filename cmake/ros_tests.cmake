@@ -24,7 +24,7 @@ catkin_add_gtest(test_bag_source test/ros/test_bag_source.cpp)
 target_link_libraries(test_bag_source ${PROJECT_NAME}_bag ${catkin_LIBRARIES})
 
 foreach(name node_revisit node_bad_input node_restart node_time_jump node_tf_timeout node_odometry
-    node_depth_silent node_map_switch node_two_robots node_camera_gap)
+    node_depth_silent node_map_switch node_two_robots node_camera_gap node_rogue_peer)
   add_rostest_gtest(test_${name} test/ros/${name}.test test/ros/test_${name}.cpp)
   target_include_directories(test_${name} SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
   target_link_libraries(test_${name} ${PROJECT_NAME}_sim ${PROJECT_NAME}_eval ${catkin_LIBRARIES})

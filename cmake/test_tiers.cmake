@@ -125,4 +125,6 @@ set_tests_properties(_ctest_${PROJECT_NAME}_gtest_test_baselines_regression_shar
 set_property(TEST ${llc_tests} APPEND PROPERTY ENVIRONMENT OMP_WAIT_POLICY=PASSIVE)
 set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_ros_node_two_robots.test PROPERTIES
   COST 45)
+set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_ros_node_rogue_peer.test PROPERTIES
+  COST 125)
 set_tests_properties(_ctest_${PROJECT_NAME}_gtest_test_fleet_corridor PROPERTIES COST 30)

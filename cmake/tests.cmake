@@ -40,6 +40,7 @@ set(CORE_TESTS
   test_covariance_conventions
   test_shipped_config
   test_fleet_matcher
+  test_request_rate
   test_sim)
 foreach(name ${CORE_TESTS})
   catkin_add_gtest(${name} test/core/${name}.cpp)

@@ -65,11 +65,13 @@ std::string FleetMatcher::addRow(const SharedKeyframe& row, double now_s, uint64
 RowVerdict FleetMatcher::addRowFrom(const std::string& peer, const SharedKeyframe& row,
                                     double now_s, uint64_t own_map_id) {
   RowVerdict verdict;
-  if (row.map_id == own_map_id) return verdict;  // This detector's own rows, echoed back.
   // Everything the row says is checked before it touches any state; only the peer (a
   // subscription this detector chose) keys what is kept.
   std::string reason, why;
-  if (const std::string problem = robotNameProblem(row.robot); !problem.empty()) {
+  if (row.map_id == own_map_id) {
+    reason = "own map";
+    why = "it names this detector's own map (is this detector among its own fleet/peers?)";
+  } else if (const std::string problem = robotNameProblem(row.robot); !problem.empty()) {
     reason = "robot name";
     why = problem;
   } else if (row.id >= (uint64_t{1} << kMapIdBits)) {

@@ -59,7 +59,13 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "line says when it is back.")
           .number("fetch_timeout_s", &O::fetch_timeout_s, above(0),
                   "a peer's answer for a candidate's evidence is waited for this long; the "
-                  "candidate is then given up (the next keyframe may ask again).")
+                  "request is then ended (its connection dropped) and the candidate given up. "
+                  "One request is out per peer at a time: a candidate of a peer that has one out "
+                  "is skipped and counted (the next keyframe may ask again).")
+          .number("evidence_requests_per_s", &O::evidence_requests_per_s, between(1, 10000),
+                  "with share: evidence requests answered a second per caller (bursts of as "
+                  "many), all callers together 4 times as many; past it a request is answered "
+                  "`found: false` without reading the map. A peer asks at most one at a time.")
           .number("backlog_rows_per_s", &O::backlog_rows_per_s, between(1, 100000),
                   "with share: a peer that subscribes later (started after this robot, or "
                   "restarted) is sent the map's rows so far, at most this many a second (500: "

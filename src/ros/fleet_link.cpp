@@ -10,49 +10,17 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr size_t kMaxWaitingFetches = 4;
+constexpr size_t kMaxWaitingSearches = 8;
 constexpr double kWarningPeriod = 10.0;
 constexpr double kSilenceCheckPeriod = 5.0;
+// Each caller's evidence requests a second (bursts of as many); all callers together may make
+// kEvidenceCallersAtOnce times that.
+constexpr double kEvidenceCallersAtOnce = 4.0;
 
-/// A service call given up after `timeout_s`: the call goes on on a thread of its own, which
-/// only touches this shared state, so a peer that never answers holds nothing of the node.
-struct PendingCall {
-  std::mutex mutex;
-  std::condition_variable done_signal;
-  bool done = false;
-  bool ok = false;
-  FleetEvidence service;
-};
-
-std::optional<FleetEvidence> callWithTimeout(const std::string& name,
-                                             const FleetEvidence::Request& request,
-                                             double timeout_s, std::string* problem) {
-  auto call = std::make_shared<PendingCall>();
-  call->service.request = request;
-  std::thread([call, name] {
-    FleetEvidence service;
-    {
-      std::lock_guard<std::mutex> lock(call->mutex);
-      service.request = call->service.request;
-    }
-    const bool ok = ros::service::call(name, service);
-    std::lock_guard<std::mutex> lock(call->mutex);
-    call->ok = ok;
-    call->service.response = service.response;
-    call->done = true;
-    call->done_signal.notify_all();
-  }).detach();
-  std::unique_lock<std::mutex> lock(call->mutex);
-  if (!call->done_signal.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                                  [&] { return call->done; })) {
-    *problem = "no answer within advanced/fleet/fetch_timeout_s";
-    return std::nullopt;
-  }
-  if (!call->ok) {
-    *problem = "the service call failed (is the peer's detector running?)";
-    return std::nullopt;
-  }
-  return call->service;
+/// The largest evidence answer a receiver reads: max_features keypoints of 56 bytes (point,
+/// descriptor, 3-D point, depth sd), a thumbnail of at most 64 KB, a problem line and the fields.
+size_t maxEvidenceBytes(int max_features) {
+  return static_cast<size_t>(std::max(max_features, 0)) * 56 + 64 * 1024 + 4096;
 }
 
 }  // namespace
@@ -66,7 +34,9 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
       hooks_(std::move(hooks)),
       matcher_(std::make_unique<FleetMatcher>(options_, detector.descriptorIdentity(),
                                               detector.database().globalDimension())),
-      own_map_id_(detector.map().mapId()) {
+      own_map_id_(detector.map().mapId()),
+      evidence_rate_(options.evidence_requests_per_s,
+                     options.evidence_requests_per_s * kEvidenceCallersAtOnce) {
   if (options_.share) {
     ros::AdvertiseOptions rows;
     rows.init<FleetKeyframe>(
@@ -77,17 +47,21 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
     backlog_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &backlog_queue_);
     backlog_spinner_->start();
     ros::AdvertiseServiceOptions service;
-    service.init<FleetEvidence::Request, FleetEvidence::Response>(
+    service.initBySpecType<ros::ServiceEvent<FleetEvidence::Request, FleetEvidence::Response>>(
         "keyframe_evidence",
-        [this](FleetEvidence::Request& request, FleetEvidence::Response& response) {
-          return onEvidence(request, response);
+        [this](ros::ServiceEvent<FleetEvidence::Request, FleetEvidence::Response>& event) {
+          return onEvidence(event);
         });
     service.callback_queue = &service_queue_;
     evidence_service_ = private_node_.advertiseService(service);
     service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
     service_spinner_->start();
   }
+  const size_t max_answer_bytes = maxEvidenceBytes(detector.options().verification.max_features);
   for (const std::string& peer : options_.peerList()) {
+    channels_[peer] =
+        std::make_unique<EvidenceChannel>(ros::names::resolve(peer + "/keyframe_evidence"),
+                                          options_.fetch_timeout_s, max_answer_bytes);
     const std::string topic = ros::names::resolve(peer + "/shared_keyframes");
     row_subscribers_.push_back(node_.subscribe<FleetKeyframe>(
         topic, 1000, [this, peer](const FleetKeyframe::ConstPtr& msg) { onRow(peer, msg); }));
@@ -95,7 +69,7 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
              topic.c_str());
   }
   if (!options_.peerList().empty()) {
-    fetch_thread_ = std::thread([this] { fetchLoop(); });
+    search_thread_ = std::thread([this] { searchLoop(); });
     silence_timer_ = node_.createWallTimer(
         ros::WallDuration(kSilenceCheckPeriod), [this](const ros::WallTimerEvent&) {
           std::lock_guard<std::mutex> lock(matcher_mutex_);
@@ -113,11 +87,12 @@ void FleetLink::stop() {
   if (backlog_spinner_) backlog_spinner_->stop();
   if (service_spinner_) service_spinner_->stop();
   {
-    std::lock_guard<std::mutex> lock(fetch_mutex_);
+    std::lock_guard<std::mutex> lock(search_mutex_);
     stopping_ = true;
   }
-  fetch_ready_.notify_all();
-  if (fetch_thread_.joinable()) fetch_thread_.join();
+  search_ready_.notify_all();
+  if (search_thread_.joinable()) search_thread_.join();
+  for (auto& [peer, channel] : channels_) channel->stop();
 }
 
 void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg) {
@@ -178,7 +153,28 @@ void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
   }
 }
 
-bool FleetLink::onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response) {
+bool FleetLink::onEvidence(
+    ros::ServiceEvent<FleetEvidence::Request, FleetEvidence::Response>& event) {
+  const FleetEvidence::Request& request = event.getRequest();
+  FleetEvidence::Response& response = event.getResponse();
+  // Bounded before the detector is taken: a caller asking faster than a peer's fetches could
+  // (one out at a time per peer) is answered with a refusal, and holds the detector no longer.
+  const std::string caller = event.getCallerName().substr(0, 256);
+  if (!evidence_rate_.allow(caller, ros::WallTime::now().toSec())) {
+    ++evidence_refused_;
+    response.found = false;
+    response.problem =
+        "too many requests: at most advanced/fleet/evidence_requests_per_s a "
+        "caller";
+    // One key for every caller: names a caller invents add none.
+    if (evidence_refusals_.allow("rate", ros::WallTime::now().toSec())) {
+      ROS_WARN(
+          "fleet: evidence requests of %s refused past advanced/fleet/evidence_requests_per_s "
+          "(%.0f a second)",
+          caller.substr(0, 64).c_str(), options_.evidence_requests_per_s);
+    }
+    return true;
+  }
   hooks_.with_detector([&](LoopDetector& detector) {
     if (request.map_id != detector.map().mapId()) {
       response.problem = "map " + std::to_string(request.map_id) + " is not this detector's (" +
@@ -212,67 +208,94 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
     ++rows_shared_;
   }
   if (options_.peerList().empty()) return;
-  std::optional<Fetch> fetch;
-  {
-    std::lock_guard<std::mutex> lock(matcher_mutex_);
-    if (std::optional<FleetCandidate> candidate = matcher_->query(*own)) {
-      fetch = Fetch{*candidate, candidate->peer, odometry_frame};
-    }
+  std::lock_guard<std::mutex> lock(search_mutex_);
+  if (searches_.size() >= kMaxWaitingSearches) {
+    searches_.pop_front();  // The newest keyframes are the likeliest still to be worth it.
+    ++searches_dropped_;
   }
-  if (!fetch) return;
-  fetch->candidate.query_map_id = detector.map().mapId();
-  std::lock_guard<std::mutex> lock(fetch_mutex_);
-  if (fetches_.size() >= kMaxWaitingFetches) {
-    fetches_.pop_front();  // The newest candidates are the likeliest still to be worth it.
-    ++candidates_dropped_;
-  }
-  fetches_.push_back(std::move(*fetch));
-  fetch_ready_.notify_one();
+  searches_.push_back(Search{*own, detector.map().mapId(), odometry_frame});
+  search_ready_.notify_one();
 }
 
-void FleetLink::fetchLoop() {
+void FleetLink::searchLoop() {
   for (;;) {
-    Fetch fetch;
+    Search own;
     {
-      std::unique_lock<std::mutex> lock(fetch_mutex_);
-      fetch_ready_.wait(lock, [&] { return stopping_ || !fetches_.empty(); });
+      std::unique_lock<std::mutex> lock(search_mutex_);
+      search_ready_.wait(lock, [&] { return stopping_ || !searches_.empty(); });
       if (stopping_) return;
-      fetch = std::move(fetches_.front());
-      fetches_.pop_front();
+      own = std::move(searches_.front());
+      searches_.pop_front();
     }
     try {
-      fetchAndCheck(fetch);
+      search(own);
     } catch (const std::exception& error) {
-      ++fetches_failed_;
-      ROS_ERROR_THROTTLE(kWarningPeriod, "fleet: checking a candidate of robot %s threw (%s)",
-                         fetch.peer.c_str(), error.what());
+      ROS_ERROR_THROTTLE(kWarningPeriod,
+                         "fleet: searching keyframe %lu in other robots' maps "
+                         "threw (%s)",
+                         static_cast<unsigned long>(own.row.id), error.what());
     }
   }
 }
 
-void FleetLink::fetchAndCheck(const Fetch& fetch) {
-  const FleetCandidate& candidate = fetch.candidate;
-  FleetEvidence::Request request;
-  request.map_id = candidate.match.map_id;
-  request.id = candidate.match.id;
-  std::string problem;
-  const std::string service = ros::names::resolve(fetch.peer + "/keyframe_evidence");
-  const std::optional<FleetEvidence> answer =
-      callWithTimeout(service, request, options_.fetch_timeout_s, &problem);
-  ++fetches_made_;
-  if (answer && !answer->response.found) {
-    // Its words, cut to a log line's length.
-    problem = answer->response.problem.substr(0, 200);
+void FleetLink::search(const Search& own) {
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<FleetCandidate> candidate;
+  {
+    std::lock_guard<std::mutex> lock(matcher_mutex_);
+    candidate = matcher_->query(own.row);
   }
-  if (!answer || !answer->response.found) {
+  const double elapsed_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  last_search_ms_ = elapsed_ms;
+  if (elapsed_ms > max_search_ms_.load()) max_search_ms_ = elapsed_ms;
+  if (!candidate) return;
+  candidate->query_map_id = own.map_id;
+  const auto channel = channels_.find(candidate->peer);
+  if (channel == channels_.end()) return;  // A map is owned by a peer named in fleet/peers.
+  FleetEvidence::Request request;
+  request.map_id = candidate->match.map_id;
+  request.id = candidate->match.id;
+  EvidenceChannel* const link = channel->second.get();
+  const EvidenceChannel::Offer offer =
+      link->offer(request, [this, link, candidate = *candidate,
+                            frame = own.odometry_frame](const EvidenceChannel::Answer& answer) {
+        bool usable = false;
+        try {
+          usable = checkFetched(candidate, frame, link->service(), answer);
+        } catch (const std::exception& error) {
+          ++fetches_failed_;
+          ROS_ERROR_THROTTLE(kWarningPeriod, "fleet: checking a candidate of robot %s threw (%s)",
+                             candidate.peer.c_str(), error.what());
+        }
+        link->noteAnswer(usable);
+      });
+  // Not asked: the next keyframe may ask again.
+  if (offer == EvidenceChannel::Offer::kBusy) ++fetches_skipped_;
+  if (offer == EvidenceChannel::Offer::kBackingOff) ++fetches_backed_off_;
+}
+
+bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string& odometry_frame,
+                             const std::string& service, const EvidenceChannel::Answer& answer) {
+  ++fetches_made_;
+  std::string problem = answer.problem;
+  if (answer.response && !answer.response->found) {
+    // Its words, cut to a log line's length.
+    problem = answer.response->problem.substr(0, 200);
+  }
+  if (!answer.response || !answer.response->found) {
     ++fetches_failed_;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "fleet: the evidence of keyframe %lu of robot %s could not be fetched from "
                       "%s: %s",
-                      static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
+                      static_cast<unsigned long>(candidate.match.id), candidate.peer.c_str(),
                       service.c_str(), problem.c_str());
-    return;
+    return false;
   }
+  FleetEvidence::Request request;
+  request.map_id = candidate.match.map_id;
+  request.id = candidate.match.id;
+  const FleetEvidence::Response& response = *answer.response;
   std::shared_ptr<const KeyframeRecord> query;
   std::optional<LoopDetectorOptions> settings;
   hooks_.with_detector([&](LoopDetector& detector) {
@@ -280,17 +303,17 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     query = detector.database().findRecord(candidate.query_id);
     settings = detector.options();
   });
-  if (!query || !settings) return;
+  if (!query || !settings) return true;  // The peer's answer is not to blame.
   // The peer's answer is untrusted: its sizes are bounded before it is converted, and it is
   // validated whole, then matched, with the detector free; only the network's pass over the two
   // thumbnails (the appearance check) takes it.
   const size_t max_keypoints =
       static_cast<size_t>(std::max(settings->verification.max_features, 0));
-  std::string refused = evidenceResponseProblem(answer->response, max_keypoints);
+  std::string refused = evidenceResponseProblem(response, max_keypoints);
   std::optional<KeyframeEvidence> evidence;
+  evidence_bytes_ += answer.bytes;
   if (refused.empty()) {
-    evidence = evidenceFromResponse(request, answer->response);
-    evidence_bytes_ += evidence->wireBytes();
+    evidence = evidenceFromResponse(request, response);
     refused = evidence->problem(max_keypoints);
   }
   if (!refused.empty()) {
@@ -299,7 +322,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
                       "fleet: the evidence of keyframe %lu of robot %s from %s was refused: %s",
                       static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
                       service.c_str(), refused.c_str());
-    return;
+    return false;
   }
   const auto cells_of = [this](const std::vector<uint8_t>& thumbnail) -> CellsOfKeyframe {
     return [this, &thumbnail] {
@@ -339,7 +362,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
     query_stamp.fromNSec(static_cast<uint64_t>(detector.map().keyframeStampNs(query->id).value_or(
         static_cast<int64_t>(query->stamp * 1e9))));
     match_stamp.fromNSec(static_cast<uint64_t>(std::max<int64_t>(candidate.match.stamp_ns, 0)));
-    message = toLoopMsg(loop, query_stamp, match_stamp, fetch.odometry_frame, pose_frame);
+    message = toLoopMsg(loop, query_stamp, match_stamp, odometry_frame, pose_frame);
     message->match_map_id = candidate.match.map_id;
   });
   if (!message) {
@@ -349,7 +372,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
                       static_cast<unsigned long>(candidate.query_id),
                       static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
                       refused.empty() ? "the keyframe left this detector's map" : refused.c_str());
-    return;
+    return true;
   }
   hooks_.publish_loop(*message);
   ++loops_published_;
@@ -361,6 +384,7 @@ void FleetLink::fetchAndCheck(const Fetch& fetch) {
       static_cast<unsigned long>(candidate.match.map_id), candidate.score,
       candidate.consistent_keyframes, message->inliers,
       message->has_relative_pose ? ", with a relative pose" : "");
+  return true;
 }
 
 void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -388,10 +412,18 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("fleet evidence fetched", fetches_made_.load());
   status.add("fleet evidence fetch failures", fetches_failed_.load());
   status.add("fleet evidence bytes fetched", evidence_bytes_.load());
-  status.add("fleet candidates dropped", candidates_dropped_.load());
+  status.add("fleet searches dropped (the link behind)", searches_dropped_.load());
+  status.add("fleet fetches skipped (one out)", fetches_skipped_.load());
+  status.add("fleet fetches skipped (backing off a peer)", fetches_backed_off_.load());
+  uint64_t timeouts = 0;
+  for (const auto& [peer, channel] : channels_) timeouts += channel->timeouts();
+  status.add("fleet fetches timed out", timeouts);
+  status.addf("fleet search ms (last, max)", "%.2f, %.2f", last_search_ms_.load(),
+              max_search_ms_.load());
   status.add("fleet loops refused", loops_refused_.load());
   status.add("fleet loops published", loops_published_.load());
   status.add("fleet evidence answered", evidence_answered_.load());
+  status.add("fleet evidence requests refused (rate)", evidence_refused_.load());
 }
 
 }  // namespace landmark_loop_closure

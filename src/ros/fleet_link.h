@@ -1,7 +1,9 @@
 // The detector's link to other robots over ROS (fleet/): its stored keyframes' rows published on
-// ~shared_keyframes and its keyframes' evidence answered on ~keyframe_evidence; the peers' rows
-// kept and searched (FleetMatcher), a chained candidate's evidence fetched from its robot on a
-// thread of its own, checked with the detector held, and the loop published as any other.
+// ~shared_keyframes and its keyframes' evidence answered on ~keyframe_evidence (at a bounded rate
+// per caller); the peers' rows kept and searched (FleetMatcher) on the link's own thread, never
+// the worker's; a chained candidate's evidence fetched from its robot over that robot's
+// EvidenceChannel, checked with the detector free but for the thumbnails' network pass, and the
+// loop published as any other.
 #pragma once
 
 #include <atomic>
@@ -20,12 +22,14 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
+#include "evidence_channel.h"
 #include "landmark_loop_closure/FleetEvidence.h"
 #include "landmark_loop_closure/FleetKeyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
+#include "landmark_loop_closure/fleet/request_rate.h"
 
 namespace landmark_loop_closure {
 
@@ -43,7 +47,7 @@ class FleetLink {
     std::function<void(const LoopClosure&)> publish_loop;
   };
 
-  /// `detector` (held by the caller, no worker running yet) gives the descriptor identity.
+  /// `detector` (held by the caller) gives the descriptor identity and the evidence's limits.
   FleetLink(ros::NodeHandle node, ros::NodeHandle private_node, const FleetOptions& options,
             const LoopDetector& detector, Hooks hooks);
   ~FleetLink();
@@ -54,24 +58,31 @@ class FleetLink {
   void stop();
 
   /// Worker thread, detector held: keyframe `id` was just announced (committed): shared with
-  /// the peers, and searched in theirs.
+  /// the peers, and handed to the link's thread to be searched in theirs (the worker does not
+  /// wait for the search).
   void onAnnounced(LoopDetector& detector, uint64_t id, const std::string& odometry_frame);
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
  private:
-  struct Fetch {
-    FleetCandidate candidate;
-    std::string peer;            ///< The namespace whose ~keyframe_evidence answers for it.
-    std::string odometry_frame;  ///< The query keyframe's.
+  /// An own keyframe's row waiting to be searched in the peers' maps.
+  struct Search {
+    SharedKeyframe row;
+    uint64_t map_id = 0;         ///< The own map it was announced in.
+    std::string odometry_frame;  ///< Its odometry frame.
   };
   void onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg);
   /// Backlog thread: a peer that subscribed is sent the rows of the map so far (paced).
   void sendBacklog(const ros::SingleSubscriberPublisher& subscriber);
-  bool onEvidence(FleetEvidence::Request& request, FleetEvidence::Response& response);
-  void fetchLoop();
-  /// Fetch thread: the candidate's evidence from its robot, checked with the detector held.
-  void fetchAndCheck(const Fetch& fetch);
+  bool onEvidence(ros::ServiceEvent<FleetEvidence::Request, FleetEvidence::Response>& event);
+  /// The link's thread: own rows searched in the peers' maps, candidates handed to their robots'
+  /// channels.
+  void searchLoop();
+  void search(const Search& own);
+  /// A channel's thread: the candidate's evidence as it came, checked and the loop published;
+  /// false when the answer was of no use (none, "not found", malformed).
+  bool checkFetched(const FleetCandidate& candidate, const std::string& odometry_frame,
+                    const std::string& service, const EvidenceChannel::Answer& answer);
 
   ros::NodeHandle node_;
   ros::NodeHandle private_node_;
@@ -95,21 +106,30 @@ class FleetLink {
   KindThrottle refusals_{10.0};  ///< Callback thread only: refused rows, by peer and reason.
   std::atomic<uint64_t> own_map_id_{0};
 
-  std::mutex fetch_mutex_;
-  std::condition_variable fetch_ready_;
-  std::deque<Fetch> fetches_;
+  std::map<std::string, std::unique_ptr<EvidenceChannel>> channels_;  ///< By peer; fixed at start.
+  RequestRate evidence_rate_;                                         ///< Service thread only.
+  KindThrottle evidence_refusals_{10.0};                              ///< Service thread only.
+
+  std::mutex search_mutex_;
+  std::condition_variable search_ready_;
+  std::deque<Search> searches_;
   bool stopping_ = false;
-  std::thread fetch_thread_;
+  std::thread search_thread_;
 
   std::atomic<uint64_t> rows_shared_{0};
   std::atomic<uint64_t> backlog_rows_sent_{0};
-  std::atomic<uint64_t> candidates_dropped_{0};  ///< A fetch was still waiting.
+  std::atomic<uint64_t> searches_dropped_{0};    ///< The link's thread was behind.
+  std::atomic<uint64_t> fetches_skipped_{0};     ///< Its robot's channel had one out.
+  std::atomic<uint64_t> fetches_backed_off_{0};  ///< Its robot's answers were of no use.
   std::atomic<uint64_t> fetches_made_{0};
   std::atomic<uint64_t> fetches_failed_{0};
   std::atomic<uint64_t> evidence_bytes_{0};
   std::atomic<uint64_t> loops_refused_{0};
   std::atomic<uint64_t> loops_published_{0};
   std::atomic<uint64_t> evidence_answered_{0};
+  std::atomic<uint64_t> evidence_refused_{0};  ///< Past a caller's rate.
+  std::atomic<double> last_search_ms_{0.0};
+  std::atomic<double> max_search_ms_{0.0};
 };
 
 }  // namespace landmark_loop_closure

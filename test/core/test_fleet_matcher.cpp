@@ -273,7 +273,9 @@ TEST(FleetMatcher, OwnRowsRepeatsAndRowsPastTheBoundAreNotKept) {
   FleetOptions bounded = options();
   bounded.max_rows_per_robot = 3;
   FleetMatcher matcher(bounded, kIdentity, kDimension);
-  EXPECT_EQ(matcher.addRow(row("b", 2, 0, 0), 0.0, 2), "");  // Its own map, echoed back.
+  // Its own map, echoed back (or sent by a peer that claims it): refused, with a line.
+  EXPECT_NE(matcher.addRow(row("b", 2, 0, 0), 0.0, 2).find("this detector's own map"),
+            std::string::npos);
   EXPECT_EQ(matcher.rows(), 0u);
   for (uint64_t id = 0; id < 3; ++id) EXPECT_EQ(matcher.addRow(row("a", 1, id, 0), 0.0, 2), "");
   EXPECT_EQ(matcher.addRow(row("a", 1, 1, 0), 0.0, 2), "");  // Sent again after a restart.
@@ -342,7 +344,7 @@ TEST(FleetMatcher, APeerCannotInventRobotsMapsOrIdsPastItsBounds) {
   EXPECT_EQ(matcher.addRowFrom(peer, nan_pose, 0.0, 9).reason, "malformed");
   const RowVerdict own = matcher.addRowFrom(peer, row("a", 9, 204, 0), 0.0, 9);
   EXPECT_FALSE(own.kept);
-  EXPECT_EQ(own.line, "");
+  EXPECT_EQ(own.reason, "own map");
   // Another peer cannot add to (or redirect evidence requests for) a map the first one shared.
   EXPECT_EQ(matcher.addRowFrom("/robot_c/loop_closure", row("c", 1, 300, 0), 0.0, 9).reason,
             "map of another peer");

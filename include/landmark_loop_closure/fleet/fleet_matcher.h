@@ -44,6 +44,8 @@ struct FleetOptions {
   int max_maps_per_robot = 32;     ///< Maps (map_ids) kept of one robot; rows of more are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
   double fetch_timeout_s = 2.0;    ///< A fetch of evidence unanswered this long is given up.
+  /// Evidence requests answered a second per caller (all callers together: 4 times as many).
+  double evidence_requests_per_s = 50.0;
   /// Rows a second sent to a peer that subscribes after they were shared (the map so far).
   double backlog_rows_per_s = 500.0;
   double min_place_ratio = 1.1;    ///< Score over the best other place's (0 = off).
