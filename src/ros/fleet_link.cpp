@@ -10,7 +10,7 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr size_t kMaxWaitingSearches = 8;
+constexpr size_t kMaxWaitingSearches = 8;  // Own rows waiting for the searcher.
 constexpr double kWarningPeriod = 10.0;
 constexpr double kSilenceCheckPeriod = 5.0;
 // Each caller's evidence requests a second (bursts of as many); all callers together may make
@@ -69,7 +69,16 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
              topic.c_str());
   }
   if (!options_.peerList().empty()) {
-    search_thread_ = std::thread([this] { searchLoop(); });
+    searcher_ = std::make_unique<FleetSearcher>(
+        *matcher_, matcher_mutex_, kMaxWaitingSearches,
+        [this](const FleetSearcher::Search& own, std::optional<FleetCandidate> candidate, double) {
+          if (candidate) fetch(own, *candidate);
+        },
+        [](const FleetSearcher::Search& own, const std::string& what) {
+          ROS_ERROR_THROTTLE(kWarningPeriod,
+                             "fleet: searching keyframe %lu in other robots' maps threw (%s)",
+                             static_cast<unsigned long>(own.row.id), what.c_str());
+        });
     silence_timer_ = node_.createWallTimer(
         ros::WallDuration(kSilenceCheckPeriod), [this](const ros::WallTimerEvent&) {
           std::lock_guard<std::mutex> lock(matcher_mutex_);
@@ -86,12 +95,7 @@ void FleetLink::stop() {
   backlog_stopping_ = true;
   if (backlog_spinner_) backlog_spinner_->stop();
   if (service_spinner_) service_spinner_->stop();
-  {
-    std::lock_guard<std::mutex> lock(search_mutex_);
-    stopping_ = true;
-  }
-  search_ready_.notify_all();
-  if (search_thread_.joinable()) search_thread_.join();
+  if (searcher_) searcher_->stop();
   for (auto& [peer, channel] : channels_) channel->stop();
 }
 
@@ -207,59 +211,19 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
     row_publisher_.publish(toFleetKeyframeMsg(*own));
     ++rows_shared_;
   }
-  if (options_.peerList().empty()) return;
-  std::lock_guard<std::mutex> lock(search_mutex_);
-  if (searches_.size() >= kMaxWaitingSearches) {
-    searches_.pop_front();  // The newest keyframes are the likeliest still to be worth it.
-    ++searches_dropped_;
-  }
-  searches_.push_back(Search{*own, detector.map().mapId(), odometry_frame});
-  search_ready_.notify_one();
+  if (searcher_) searcher_->hand({*own, detector.map().mapId(), odometry_frame});
 }
 
-void FleetLink::searchLoop() {
-  for (;;) {
-    Search own;
-    {
-      std::unique_lock<std::mutex> lock(search_mutex_);
-      search_ready_.wait(lock, [&] { return stopping_ || !searches_.empty(); });
-      if (stopping_) return;
-      own = std::move(searches_.front());
-      searches_.pop_front();
-    }
-    try {
-      search(own);
-    } catch (const std::exception& error) {
-      ROS_ERROR_THROTTLE(kWarningPeriod,
-                         "fleet: searching keyframe %lu in other robots' maps "
-                         "threw (%s)",
-                         static_cast<unsigned long>(own.row.id), error.what());
-    }
-  }
-}
-
-void FleetLink::search(const Search& own) {
-  const auto start = std::chrono::steady_clock::now();
-  std::optional<FleetCandidate> candidate;
-  {
-    std::lock_guard<std::mutex> lock(matcher_mutex_);
-    candidate = matcher_->query(own.row);
-  }
-  const double elapsed_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  last_search_ms_ = elapsed_ms;
-  if (elapsed_ms > max_search_ms_.load()) max_search_ms_ = elapsed_ms;
-  if (!candidate) return;
-  candidate->query_map_id = own.map_id;
-  const auto channel = channels_.find(candidate->peer);
+void FleetLink::fetch(const FleetSearcher::Search& own, const FleetCandidate& candidate) {
+  const auto channel = channels_.find(candidate.peer);
   if (channel == channels_.end()) return;  // A map is owned by a peer named in fleet/peers.
   FleetEvidence::Request request;
-  request.map_id = candidate->match.map_id;
-  request.id = candidate->match.id;
+  request.map_id = candidate.match.map_id;
+  request.id = candidate.match.id;
   EvidenceChannel* const link = channel->second.get();
-  const EvidenceChannel::Offer offer =
-      link->offer(request, [this, link, candidate = *candidate,
-                            frame = own.odometry_frame](const EvidenceChannel::Answer& answer) {
+  const EvidenceChannel::Offer offer = link->offer(
+      request,
+      [this, link, candidate, frame = own.odometry_frame](const EvidenceChannel::Answer& answer) {
         bool usable = false;
         try {
           usable = checkFetched(candidate, frame, link->service(), answer);
@@ -412,14 +376,15 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("fleet evidence fetched", fetches_made_.load());
   status.add("fleet evidence fetch failures", fetches_failed_.load());
   status.add("fleet evidence bytes fetched", evidence_bytes_.load());
-  status.add("fleet searches dropped (the link behind)", searches_dropped_.load());
+  status.add("fleet searches dropped (the link behind)", searcher_ ? searcher_->dropped() : 0);
   status.add("fleet fetches skipped (one out)", fetches_skipped_.load());
   status.add("fleet fetches skipped (backing off a peer)", fetches_backed_off_.load());
   uint64_t timeouts = 0;
   for (const auto& [peer, channel] : channels_) timeouts += channel->timeouts();
   status.add("fleet fetches timed out", timeouts);
-  status.addf("fleet search ms (last, max)", "%.2f, %.2f", last_search_ms_.load(),
-              max_search_ms_.load());
+  status.addf("fleet search ms (last, max)", "%.2f, %.2f",
+              searcher_ ? searcher_->lastMilliseconds() : 0.0,
+              searcher_ ? searcher_->maxMilliseconds() : 0.0);
   status.add("fleet loops refused", loops_refused_.load());
   status.add("fleet loops published", loops_published_.load());
   status.add("fleet evidence answered", evidence_answered_.load());

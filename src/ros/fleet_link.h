@@ -29,6 +29,7 @@
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
+#include "landmark_loop_closure/fleet/fleet_searcher.h"
 #include "landmark_loop_closure/fleet/request_rate.h"
 
 namespace landmark_loop_closure {
@@ -65,20 +66,12 @@ class FleetLink {
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
  private:
-  /// An own keyframe's row waiting to be searched in the peers' maps.
-  struct Search {
-    SharedKeyframe row;
-    uint64_t map_id = 0;         ///< The own map it was announced in.
-    std::string odometry_frame;  ///< Its odometry frame.
-  };
   void onRow(const std::string& peer, const FleetKeyframe::ConstPtr& msg);
   /// Backlog thread: a peer that subscribed is sent the rows of the map so far (paced).
   void sendBacklog(const ros::SingleSubscriberPublisher& subscriber);
   bool onEvidence(ros::ServiceEvent<FleetEvidence::Request, FleetEvidence::Response>& event);
-  /// The link's thread: own rows searched in the peers' maps, candidates handed to their robots'
-  /// channels.
-  void searchLoop();
-  void search(const Search& own);
+  /// The searcher's thread: an own keyframe's candidate handed to its robot's channel.
+  void fetch(const FleetSearcher::Search& own, const FleetCandidate& candidate);
   /// A channel's thread: the candidate's evidence as it came, checked and the loop published;
   /// false when the answer was of no use (none, "not found", malformed).
   bool checkFetched(const FleetCandidate& candidate, const std::string& odometry_frame,
@@ -110,15 +103,10 @@ class FleetLink {
   RequestRate evidence_rate_;                                         ///< Service thread only.
   KindThrottle evidence_refusals_{10.0};                              ///< Service thread only.
 
-  std::mutex search_mutex_;
-  std::condition_variable search_ready_;
-  std::deque<Search> searches_;
-  bool stopping_ = false;
-  std::thread search_thread_;
+  std::unique_ptr<FleetSearcher> searcher_;  ///< With peers: their rows searched off the worker.
 
   std::atomic<uint64_t> rows_shared_{0};
   std::atomic<uint64_t> backlog_rows_sent_{0};
-  std::atomic<uint64_t> searches_dropped_{0};    ///< The link's thread was behind.
   std::atomic<uint64_t> fetches_skipped_{0};     ///< Its robot's channel had one out.
   std::atomic<uint64_t> fetches_backed_off_{0};  ///< Its robot's answers were of no use.
   std::atomic<uint64_t> fetches_made_{0};
@@ -128,8 +116,6 @@ class FleetLink {
   std::atomic<uint64_t> loops_published_{0};
   std::atomic<uint64_t> evidence_answered_{0};
   std::atomic<uint64_t> evidence_refused_{0};  ///< Past a caller's rate.
-  std::atomic<double> last_search_ms_{0.0};
-  std::atomic<double> max_search_ms_{0.0};
 };
 
 }  // namespace landmark_loop_closure

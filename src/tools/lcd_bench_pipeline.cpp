@@ -10,11 +10,17 @@
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
 // Without folders, views of the generated corridor are used.
+// --fleet-rows N: four other robots' N rows (the database's vectors, as peers share them) kept in
+// a fleet matcher; each keyframe's row is handed to the fleet's searcher, whose thread searches
+// them beside the worker (issue 81): the worker's time with N rows against none, and the
+// search's time on its own thread.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,11 +36,13 @@
 #include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/sequence_matching.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
+#include "landmark_loop_closure/database/quantized_vectors.h"
 #include "landmark_loop_closure/descriptors/backbone_descriptor.h"
 #include "landmark_loop_closure/descriptors/convnet_descriptor.h"
 #include "landmark_loop_closure/eval/evaluator.h"
 #include "landmark_loop_closure/eval/metrics.h"
 #include "landmark_loop_closure/eval/report.h"
+#include "landmark_loop_closure/fleet/fleet_searcher.h"
 #include "landmark_loop_closure/sim/corridor_world.h"
 
 namespace {
@@ -75,6 +83,7 @@ int main(int argc, char** argv) {
   std::string database_folder, query_folder, variant = "backbone", engine = "auto";
   size_t keyframes = 10000;
   int top_k = 10, repeat = 2;
+  size_t fleet_rows = 0;
   CLI::App app{"Time per keyframe of each stage of the node's pipeline, on one thread."};
   app.add_option("--database", database_folder, "images stored as keyframes (used in turn)")
       ->required();
@@ -82,6 +91,8 @@ int main(int argc, char** argv) {
   app.add_option("--keyframes", keyframes, "keyframes in the map")->capture_default_str();
   app.add_option("--top-k", top_k, "candidates the search returns")->capture_default_str();
   app.add_option("--repeat", repeat, "passes over the queries")->capture_default_str();
+  app.add_option("--fleet-rows", fleet_rows, "other robots' rows searched beside the worker")
+      ->capture_default_str();
   app.add_option("--descriptor", variant, "the descriptor")
       ->check(CLI::IsMember({"backbone", "landmarks", "landmarks_conv"}))
       ->capture_default_str();
@@ -134,6 +145,33 @@ int main(int argc, char** argv) {
   database_options.top_k = top_k;
   database_options.min_size = 1;
 
+  // The fleet: four peers' rows, searched on the searcher's own thread.
+  FleetMatcher fleet_matcher(FleetOptions{}, "bench descriptor", extractor->globalDimension());
+  std::mutex fleet_mutex;
+  std::mutex fleet_times_mutex;
+  std::vector<double> fleet_search_ms;
+  for (size_t i = 0; i < fleet_rows; ++i) {
+    SharedKeyframe row;
+    row.robot = "peer_" + std::to_string(i % 4);
+    row.map_id = i % 4 + 1;
+    row.id = i / 4;
+    row.stamp_ns = static_cast<int64_t>(row.id) * 100000000;
+    row.pose.position.x() = 5.0 * static_cast<double>(row.id);
+    row.odometry_frame = row.robot + "/odom";
+    row.descriptor_fingerprint = descriptorFingerprint("bench descriptor");
+    row.global_row = QuantizedVectors::encode(described[i % described.size()].global);
+    fleet_matcher.addRow(row, 0.0, 0);
+  }
+  std::optional<FleetSearcher> searcher;
+  if (fleet_rows > 0) {
+    searcher.emplace(fleet_matcher, fleet_mutex, 8,
+                     [&](const FleetSearcher::Search&, std::optional<FleetCandidate>, double ms) {
+                       std::lock_guard<std::mutex> lock(fleet_times_mutex);
+                       fleet_search_ms.push_back(ms);
+                     });
+  }
+  uint64_t own_id = 0;
+
   Stages stages;
   ConditionStandardiser standardiser(descriptor_options.condition_window);
   SequenceMatcher sequences{SequenceMatchingOptions{}};
@@ -184,6 +222,18 @@ int main(int argc, char** argv) {
       const Clock::time_point thumbnail_start = Clock::now();
       const std::vector<uint8_t> thumbnail = encodeThumbnail(toWorkingImage(image, 160, 120));
       const double thumbnail_ms = millisecondsSince(thumbnail_start);
+      // With peers: the keyframe's row (as sharedKeyframeOf makes it) handed to the searcher.
+      const Clock::time_point fleet_start = Clock::now();
+      if (searcher) {
+        FleetSearcher::Search own;
+        own.row.robot = "bench";
+        own.row.id = own_id++;
+        own.row.descriptor_fingerprint = descriptorFingerprint("bench descriptor");
+        own.row.global_row = QuantizedVectors::encode(query.global);
+        own.map_id = 99;
+        searcher->hand(std::move(own));
+      }
+      const double fleet_ms = millisecondsSince(fleet_start);
       const double total_ms = millisecondsSince(start);
       // Not every keyframe: only one whose candidate passed the threshold and the consistency
       // check and which ORB could not confirm.
@@ -221,9 +271,22 @@ int main(int argc, char** argv) {
       stages.add("thumbnail (WebP)", thumbnail_ms);
       stages.add("calibrated decision's background (advanced/acceptance/max_false_alarms)",
                  calibration_ms);
+      if (searcher) stages.add("fleet: the row handed to the searcher", fleet_ms);
       stages.add("total per keyframe", total_ms);
       stages.add("appearance check, when a candidate reaches it", appearance_ms);
     }
+  }
+  if (searcher) {
+    searcher->drain();
+    std::lock_guard<std::mutex> lock(fleet_times_mutex);
+    for (const double ms : fleet_search_ms) {
+      stages.add("fleet search of " + std::to_string(fleet_matcher.rows()) +
+                     " rows (its own thread; not in the total)",
+                 ms);
+    }
+    std::printf("fleet: %zu rows of 4 peers, %lu searches, %lu dropped (the searcher behind)\n",
+                fleet_matcher.rows(), static_cast<unsigned long>(searcher->searched()),
+                static_cast<unsigned long>(searcher->dropped()));
   }
   std::printf(
       "descriptor %s (%s), input %dx%d, %zu keyframes, top-K %d, %zu queries, one thread\n\n",

@@ -1,13 +1,16 @@
 // Loops between robots (issue 68): another robot's shared rows kept, refused with one line when
 // they cannot be used, searched and chained; a candidate's fetched evidence checked as the
 // detector's own loops are.
+#include <condition_variable>
 #include <cstring>
+#include <mutex>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
+#include "landmark_loop_closure/fleet/fleet_searcher.h"
 
 namespace landmark_loop_closure {
 namespace {
@@ -373,6 +376,83 @@ TEST(FleetMatcher, APeerCannotInventRobotsMapsOrIdsPastItsBounds) {
   }
   ASSERT_TRUE(candidate);
   EXPECT_EQ(candidate->peer, peer);
+}
+
+// The worker hands its rows to the searcher and goes on; the searcher's thread finds what the
+// matcher itself finds, and a searcher that falls behind drops the oldest rows, counted.
+TEST(FleetSearcher, SearchesOffTheCallersThreadAndDropsTheOldestWhenBehind) {
+  FleetOptions fleet = options();
+  fleet.sequence_length = 3;
+  fleet.consistent_keyframes = 1;
+  fleet.max_false_alarms = 0.0;
+  FleetMatcher matcher(fleet, kIdentity, kDimension);
+  std::mutex matcher_mutex;
+  for (uint64_t id = 0; id < kRoute.size(); ++id) {
+    SharedKeyframe kept = row("a", 1, id, kRoute[id]);
+    kept.pose.position.x() = 5.0 * static_cast<double>(id);
+    matcher.addRow(kept, 0.0, 2);
+  }
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool entered = false, hold = false;
+  std::vector<std::pair<uint64_t, uint64_t>> found;  // (own id, match id)
+  FleetSearcher searcher(matcher, matcher_mutex, 4,
+                         [&](const FleetSearcher::Search& own,
+                             std::optional<FleetCandidate> candidate, double milliseconds) {
+                           EXPECT_GE(milliseconds, 0.0);
+                           std::unique_lock<std::mutex> lock(mutex);
+                           if (candidate) {
+                             EXPECT_EQ(candidate->query_map_id, 7u);
+                             found.emplace_back(own.row.id, candidate->match.id);
+                           }
+                           entered = true;
+                           changed.notify_all();
+                           changed.wait(lock, [&] { return !hold; });
+                         });
+  for (uint64_t id = 0; id < 6; ++id) {
+    searcher.hand({row("b", 2, id, kRoute[10 + id]), 7, "odom"});
+    searcher.drain();
+  }
+  EXPECT_EQ(searcher.searched(), 6u);
+  EXPECT_EQ(searcher.dropped(), 0u);
+  // What the same matcher, asked on this thread, finds.
+  FleetMatcher direct(fleet, kIdentity, kDimension);
+  for (uint64_t id = 0; id < kRoute.size(); ++id) {
+    SharedKeyframe kept = row("a", 1, id, kRoute[id]);
+    kept.pose.position.x() = 5.0 * static_cast<double>(id);
+    direct.addRow(kept, 0.0, 2);
+  }
+  std::vector<std::pair<uint64_t, uint64_t>> expected;
+  for (uint64_t id = 0; id < 6; ++id) {
+    if (const auto candidate = direct.query(row("b", 2, id, kRoute[10 + id]))) {
+      expected.emplace_back(id, candidate->match.id);
+    }
+  }
+  EXPECT_FALSE(expected.empty());
+  EXPECT_EQ(found, expected);
+  // Held inside a search, the searcher keeps the newest 4 of 20 rows and drops the rest.
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    hold = true;
+    entered = false;
+  }
+  searcher.hand({row("b", 2, 100, 0), 7, "odom"});
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    changed.wait(lock, [&] { return entered; });
+  }
+  for (uint64_t id = 101; id <= 120; ++id) searcher.hand({row("b", 2, id, 0), 7, "odom"});
+  EXPECT_EQ(searcher.dropped(), 16u);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    hold = false;
+  }
+  changed.notify_all();
+  searcher.drain();
+  EXPECT_EQ(searcher.searched(), 6u + 1u + 4u);
+  searcher.stop();
+  searcher.hand({row("b", 2, 200, 0), 7, "odom"});  // After stop: ignored, nothing waits.
+  EXPECT_EQ(searcher.searched(), 11u);
 }
 
 TEST(FleetMatcher, PeerListsSplitOnSpacesAndCommas) {

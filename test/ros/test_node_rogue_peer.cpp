@@ -1,8 +1,8 @@
-// A hostile peer on the detector's ROS master (issue 81). The peer's rows copy the detector's own
-// map under another map_id, so that the detector's keyframes keep finding candidates in it and
+// A hostile peer on the detector's ROS master (issue 81). The peer's rows copy the detector's first
+// lap under another map_id, so that the detector's keyframes keep finding candidates in it and
 // fetching their evidence; then, one corridor lap each, the peer floods its topic with rows that
 // must be refused (a new robot name in every row, ids of 2^40 and more, NaN poses, the
-// detector's own map_id), answers evidence requests with 10^6 keypoints (about 56 MB), with a
+// detector's own map_id), answers evidence requests with 10^6 keypoints (52 MB), with a
 // 1 MB PNG that would decode to 1 GB, and never answers at all. Through every attack the detector
 // stores its keyframes as in the quiet lap before, its memory and thread count stay put, and it
 // says what it refuses in a few throttled lines.
@@ -202,6 +202,7 @@ TEST(LoopClosureNode, AHostilePeerNeitherStallsTheDetectorNorGrowsIt) {
   ros::Publisher rogue_rows =
       node.advertise<FleetKeyframe>("/rogue/loop_closure/shared_keyframes", 1000);
   RogueEvidence evidence;
+  bool relaying = true;
   std::vector<FleetKeyframe> own_rows;  // The detector's rows, as it shared them.
   uint64_t own_map_id = 0;
   ros::Subscriber relay = node.subscribe<FleetKeyframe>("/loop_closure/shared_keyframes", 1000,
@@ -209,6 +210,11 @@ TEST(LoopClosureNode, AHostilePeerNeitherStallsTheDetectorNorGrowsIt) {
                                                           own_map_id = row->map_id;
                                                           evidence.setProxiedMap(row->map_id);
                                                           own_rows.push_back(*row);
+                                                          // The peer mapped the first lap only, as
+                                                          // another robot would have: its map has
+                                                          // each place once, however far this
+                                                          // robot's odometry drifts in later laps.
+                                                          if (!relaying) return;
                                                           FleetKeyframe copy = *row;
                                                           copy.robot = "rogue";
                                                           copy.map_id = row->map_id ^ 0x5a5a5a5aULL;
@@ -254,6 +260,14 @@ TEST(LoopClosureNode, AHostilePeerNeitherStallsTheDetectorNorGrowsIt) {
   };
   const auto close_phase = [&] {
     if (phase < 0) return;
+    std::printf(
+        "after %s: skipped (one out) %s, backing off %s, searches dropped %s, search ms "
+        "%s, fetched %s\n",
+        kPhaseNames[phase], harness.diagnostic("fleet fetches skipped (one out)").c_str(),
+        harness.diagnostic("fleet fetches skipped (backing off a peer)").c_str(),
+        harness.diagnostic("fleet searches dropped (the link behind)").c_str(),
+        harness.diagnostic("fleet search ms (last, max)").c_str(),
+        harness.diagnostic("fleet evidence fetched").c_str());
     Phase& done = phases[static_cast<size_t>(phase)];
     done.end = sampleOf(pid);
     done.to_s = ros::WallTime::now().toSec();
@@ -281,6 +295,7 @@ TEST(LoopClosureNode, AHostilePeerNeitherStallsTheDetectorNorGrowsIt) {
                                 Answer::kNever};
       evidence.set(answers[phase]);
     }
+    relaying = frame.lap == 0;
     const size_t before = harness.publishedKeyframes().size();
     harness.publish(frame.stamp, frame.odom, frame.image);
     // The attacks run at 50 a second, whatever the camera's rate.
@@ -351,7 +366,7 @@ TEST(LoopClosureNode, AHostilePeerNeitherStallsTheDetectorNorGrowsIt) {
     EXPECT_GE(static_cast<double>(measured.keyframes), 0.95 * static_cast<double>(quiet.keyframes));
     EXPECT_LE(measured.max_threads, quiet.max_threads + 2);
     EXPECT_GE(measured.min_threads + 2, quiet.min_threads);
-    EXPECT_LE(measured.end.rss_mb - quiet.end.rss_mb, 50.0);
+    EXPECT_LE(measured.end.rss_mb - measured.start.rss_mb, 50.0);
     // At most one line per reason and 10 s: rows refused for four reasons, evidence refused or not
     // fetched, loops refused.
     const size_t allowed = 6 * (static_cast<size_t>(seconds / 10.0) + 1);
