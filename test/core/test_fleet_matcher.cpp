@@ -378,20 +378,30 @@ TEST(FleetMatcher, APeerCannotInventRobotsMapsOrIdsPastItsBounds) {
   EXPECT_EQ(candidate->peer, peer);
 }
 
-// The worker hands its rows to the searcher and goes on; the searcher's thread finds what the
-// matcher itself finds, and a searcher that falls behind drops the oldest rows, counted.
-TEST(FleetSearcher, SearchesOffTheCallersThreadAndDropsTheOldestWhenBehind) {
+/// Paths of three keyframes, each believed alone, over robot a's route (each id another place).
+FleetOptions pathOptions() {
   FleetOptions fleet = options();
   fleet.sequence_length = 3;
   fleet.consistent_keyframes = 1;
   fleet.max_false_alarms = 0.0;
-  FleetMatcher matcher(fleet, kIdentity, kDimension);
-  std::mutex matcher_mutex;
+  return fleet;
+}
+
+void addRoute(FleetMatcher& matcher) {
   for (uint64_t id = 0; id < kRoute.size(); ++id) {
     SharedKeyframe kept = row("a", 1, id, kRoute[id]);
     kept.pose.position.x() = 5.0 * static_cast<double>(id);
     matcher.addRow(kept, 0.0, 2);
   }
+}
+
+// The worker hands its rows to the searcher and goes on; the searcher's thread finds what the
+// matcher itself finds, and a searcher that falls behind drops the oldest rows, counted.
+TEST(FleetSearcher, SearchesOffTheCallersThreadAndDropsTheOldestWhenBehind) {
+  const FleetOptions fleet = pathOptions();
+  FleetMatcher matcher(fleet, kIdentity, kDimension);
+  std::mutex matcher_mutex;
+  addRoute(matcher);
   std::mutex mutex;
   std::condition_variable changed;
   bool entered = false, hold = false;
@@ -417,11 +427,7 @@ TEST(FleetSearcher, SearchesOffTheCallersThreadAndDropsTheOldestWhenBehind) {
   EXPECT_EQ(searcher.dropped(), 0u);
   // What the same matcher, asked on this thread, finds.
   FleetMatcher direct(fleet, kIdentity, kDimension);
-  for (uint64_t id = 0; id < kRoute.size(); ++id) {
-    SharedKeyframe kept = row("a", 1, id, kRoute[id]);
-    kept.pose.position.x() = 5.0 * static_cast<double>(id);
-    direct.addRow(kept, 0.0, 2);
-  }
+  addRoute(direct);
   std::vector<std::pair<uint64_t, uint64_t>> expected;
   for (uint64_t id = 0; id < 6; ++id) {
     if (const auto candidate = direct.query(row("b", 2, id, kRoute[10 + id]))) {
