@@ -80,10 +80,24 @@ TEST(LoopClosureNode, SaveLoadAndResetWhileFramesStreamKeepEveryKeyframeNamedOnc
   // From frame 10 of the second lap frames go out as fast as they can, faster than the worker
   // describes them, the load is asked for at frame 35 and the burst lasts until it answers: the
   // worker still has keyframes queued against the first map when the load switches maps. The
-  // burst's frames are rendered before it starts, so that it outruns the worker by far however
-  // busy the machine is (rendered as they went, a busy machine's worker once emptied its queue
-  // before the load switched maps).
+  // burst's frames are rendered before it starts, so that it outruns the worker however busy the
+  // machine is (rendered as they went, a busy machine's worker once emptied its queue before the
+  // load switched maps). It runs at most kBurstLead seconds of the sequence ahead of the newest
+  // keyframe published: about 7 keyframes, so the worker's queue (8) stays full but never
+  // overflows, and the images waiting for their odometry stay under sync_queue_size (30); sent
+  // unbounded, the node's image queue overflowed and the gaps read as odometry jumps.
   constexpr size_t kBurstStart = 10, kBurstEnd = 35;
+  constexpr double kBurstLead = 2.0;
+  const auto wait_for_worker = [&](double stamp) {
+    const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(1.0);
+    while (ros::ok() && ros::WallTime::now() < give_up) {
+      const auto& keyframes = harness.publishedKeyframes();
+      if (keyframes.empty() || stamp - keyframes.back().header.stamp.toSec() <= kBurstLead) return;
+      ros::WallDuration(0.002).sleep();
+      ros::spinOnce();
+    }
+  };
+  bool in_burst = false;
   constexpr size_t kRenderedAhead = 400;  // Frames rendered before the burst (about 30 MB).
   std::deque<SequenceFrame> rendered;
   const auto next_frame = [&](SequenceFrame* next) {
@@ -97,13 +111,13 @@ TEST(LoopClosureNode, SaveLoadAndResetWhileFramesStreamKeepEveryKeyframeNamedOnc
   constexpr size_t kLoadedFrames = 265;
   SequenceFrame frame;
   while (ros::ok() && next_frame(&frame)) {
+    if (in_burst) wait_for_worker(frame.stamp);
     harness.publish(frame.stamp, frame.odom, frame.image);
     ros::spinOnce();
     const bool loading =
         load.valid() && load.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
-    const bool in_burst =
-        frame.lap > 0 &&
-        ((second_lap_frames >= kBurstStart && second_lap_frames + 1 < kBurstEnd) || loading);
+    in_burst = frame.lap > 0 &&
+               ((second_lap_frames >= kBurstStart && second_lap_frames + 1 < kBurstEnd) || loading);
     if (!in_burst) rate.sleep();
     if (frame.lap == 0) continue;
     // The first lap's map is copied as the second lap starts, the copy loaded a moment later (a
