@@ -15,6 +15,12 @@ target_include_directories(test_fleet_messages SYSTEM PRIVATE ${catkin_INCLUDE_D
 target_link_libraries(test_fleet_messages ${PROJECT_NAME}_messages ${catkin_LIBRARIES}
   GTest::gtest_main)
 
+# LoopClosure.msg's contract between robots, read by a backend that knows only its documentation.
+catkin_add_gtest(test_loop_contract test/ros/test_loop_contract.cpp)
+target_include_directories(test_loop_contract SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(test_loop_contract ${PROJECT_NAME}_messages ${PROJECT_NAME}_backend
+  ${catkin_LIBRARIES} GTest::gtest_main)
+
 catkin_add_gtest(test_pose_graph_messages test/ros/test_pose_graph_messages.cpp)
 target_include_directories(test_pose_graph_messages SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(test_pose_graph_messages ${PROJECT_NAME}_messages ${catkin_LIBRARIES}

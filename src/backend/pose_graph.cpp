@@ -159,21 +159,20 @@ std::string toString(LoopDecision decision) {
   return "unknown";
 }
 
+LoopConstraint loopInBaseFrames(const LoopConstraint& camera_loop,
+                                const Eigen::Isometry3d& query_base_T_camera,
+                                const Eigen::Isometry3d& match_base_T_camera) {
+  LoopConstraint loop = camera_loop;
+  const BodyLoop body = loopBetweenBodies(camera_loop.query_T_match, camera_loop.covariance,
+                                          query_base_T_camera, match_base_T_camera);
+  loop.query_T_match = body.query_T_match;
+  loop.covariance = body.covariance;
+  return loop;
+}
+
 LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
                                const Eigen::Isometry3d& base_T_camera) {
-  LoopConstraint loop = camera_loop;
-  loop.query_T_match = base_T_camera * camera_loop.query_T_match * base_T_camera.inverse();
-  // R_b = M R M^T, t_b = M_R t + p_M - R_b p_M: a left rotation w becomes M_R w, and turning
-  // p_M with it moves the translation by (R_b p_M) x w_b.
-  const Eigen::Matrix3d mount = base_T_camera.rotation();
-  const Eigen::Vector3d lever = loop.query_T_match.rotation() * base_T_camera.translation();
-  Eigen::Matrix<double, 6, 6> jacobian = Eigen::Matrix<double, 6, 6>::Zero();
-  jacobian.block<3, 3>(0, 0) = mount;
-  jacobian.block<3, 3>(0, 3) = skew(lever) * mount;
-  jacobian.block<3, 3>(3, 3) = mount;
-  loop.covariance = jacobian * camera_loop.covariance * jacobian.transpose();
-  loop.covariance = 0.5 * (loop.covariance + loop.covariance.transpose());
-  return loop;
+  return loopInBaseFrames(camera_loop, base_T_camera, base_T_camera);
 }
 
 PoseGraph::PoseGraph(PoseGraphOptions options, const Eigen::Isometry3d& map_from_odometry)

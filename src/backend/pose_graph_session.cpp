@@ -260,6 +260,13 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
                       "', not this graph's base_frame '" + options_.base_frame +
                       "': set the two alike";
       left_out = "its frame is the detector's base_frame, another than the graph's";
+    } else if (loop.matchMap() != loop.map_id && !loop.match_camera_mount) {
+      // M_query T M_match^-1 needs the other robot's mount: this robot's would bias the loop by
+      // the difference between the two.
+      left_out = "a camera-frame pose between robots without the other robot's camera mount";
+    } else if (loop.match_camera_mount && !isRotation(loop.match_camera_mount->linear(),
+                                                      5e-3)) {  // As the graph checks poses.
+      left_out = "the other robot's camera mount is not a rotation";
     } else if (mount_) {
       mount = mount_(loop.relative_pose_frame, &mount_problem);
       if (!mount) left_out = "its frame is not on tf (camera_mount/from_tf)";
@@ -274,7 +281,12 @@ bool PoseGraphSession::addLoop(const GraphLoop& loop, GraphStep* step) {
     return false;
   }
   LoopConstraint constraint = loop.constraint;
-  if (mount) constraint = loopInBaseFrame(constraint, *mount);
+  if (mount) {
+    // Within one map the query's mount is at both ends; between robots each end has its own.
+    const Eigen::Isometry3d match_mount =
+        loop.matchMap() != loop.map_id ? *loop.match_camera_mount : *mount;
+    constraint = loopInBaseFrames(constraint, *mount, match_mount);
+  }
   if (!query || !match) {
     const std::string detail =
         "keyframe " + std::to_string(query ? loop.constraint.match_id : loop.constraint.query_id) +

@@ -11,6 +11,9 @@ namespace landmark_loop_closure {
 
 namespace {
 
+/// A camera this far from its robot's base is a corrupt mount.
+constexpr double kMaxMountOffsetM = 100.0;
+
 bool finitePose(const Pose& pose) {
   return pose.position.allFinite() && pose.orientation.coeffs().allFinite();
 }
@@ -82,10 +85,10 @@ size_t KeyframeEvidence::wireBytes() const {
   const size_t points = local_features.points.size();
   const size_t depths = local_features.points3d.size();
   // map_id, id, found, problem (empty), points (x, y), descriptors, points3d, depth_sd, image
-  // size, intrinsics (fx, fy, cx, cy), thumbnail.
+  // size, intrinsics (fx, fy, cx, cy), thumbnail, base_T_camera and its flag, the two frames.
   return 8 + 8 + 1 + 4 + (4 + 8 * points) + (4 + local_features.descriptors.total()) +
          (4 + 12 * depths) + (4 + 4 * local_features.depth_sd.size()) + 8 + 32 +
-         (4 + thumbnail.size());
+         (4 + thumbnail.size()) + 56 + 1 + (4 + base_frame.size()) + (4 + camera_frame.size());
 }
 
 std::string thumbnailProblem(const std::vector<uint8_t>& bytes) {
@@ -149,6 +152,16 @@ std::string KeyframeEvidence::problem(size_t max_keypoints) const {
       !std::isfinite(intrinsics.cx) || !std::isfinite(intrinsics.cy)) {
     return "intrinsics that are not finite";
   }
+  if (camera_mount &&
+      (!camera_mount->position.allFinite() || !camera_mount->orientation.coeffs().allFinite() ||
+       std::abs(camera_mount->orientation.norm() - 1.0) > 1e-3 ||
+       camera_mount->position.cwiseAbs().maxCoeff() > kMaxMountOffsetM)) {
+    return "a camera mount that is not finite, not a unit quaternion or more than " +
+           std::to_string(static_cast<int>(kMaxMountOffsetM)) + " m from the base";
+  }
+  if (base_frame.size() > kMaxEvidenceFrameBytes || camera_frame.size() > kMaxEvidenceFrameBytes) {
+    return "a frame name of more than " + std::to_string(kMaxEvidenceFrameBytes) + " bytes";
+  }
   return thumbnailProblem(thumbnail);
 }
 
@@ -185,6 +198,7 @@ std::optional<KeyframeEvidence> evidenceOf(const LoopDetector& detector, uint64_
   evidence.local_features = record->local_features;
   evidence.intrinsics = intrinsics;
   evidence.thumbnail = record->thumbnail;
+  evidence.camera_mount = detector.cameraMount();
   return evidence;
 }
 

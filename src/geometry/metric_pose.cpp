@@ -445,24 +445,22 @@ MetricPoseResult estimateMetricPose(const LocalFeatures& query, const LocalFeatu
   return result;
 }
 
+RelativePose inBodyFrames(const RelativePose& in_cameras, const Pose& query_mount,
+                          const Pose& match_mount) {
+  Eigen::Isometry3d camera_loop = Eigen::Isometry3d::Identity();
+  camera_loop.linear() = in_cameras.rotation;
+  camera_loop.translation() = in_cameras.translation;
+  const BodyLoop body = loopBetweenBodies(camera_loop, in_cameras.covariance,
+                                          query_mount.toIsometry(), match_mount.toIsometry());
+  RelativePose in_bodies = in_cameras;
+  in_bodies.rotation = body.query_T_match.rotation();
+  in_bodies.translation = body.query_T_match.translation();
+  in_bodies.covariance = body.covariance;
+  return in_bodies;
+}
+
 RelativePose inBodyFrame(const RelativePose& in_camera, const Pose& camera_mount) {
-  const Eigen::Matrix3d mount_rotation = camera_mount.orientation.toRotationMatrix();
-  const Eigen::Vector3d& mount_position = camera_mount.position;
-  RelativePose in_body = in_camera;
-  in_body.rotation = mount_rotation * in_camera.rotation * mount_rotation.transpose();
-  in_body.translation =
-      mount_rotation * in_camera.translation + mount_position - in_body.rotation * mount_position;
-  // A camera-frame step (dt, dphi), rotation applied on the left, moves the body-frame pose by
-  // (R_m dt + [R_b t_m]x R_m dphi, R_m dphi) to first order.
-  const Eigen::Vector3d lever = in_body.rotation * mount_position;
-  Eigen::Matrix3d lever_cross;
-  lever_cross << 0.0, -lever.z(), lever.y(), lever.z(), 0.0, -lever.x(), -lever.y(), lever.x(), 0.0;
-  Eigen::Matrix<double, 6, 6> jacobian = Eigen::Matrix<double, 6, 6>::Zero();
-  jacobian.block<3, 3>(0, 0) = mount_rotation;
-  jacobian.block<3, 3>(0, 3) = lever_cross * mount_rotation;
-  jacobian.block<3, 3>(3, 3) = mount_rotation;
-  in_body.covariance = jacobian * in_camera.covariance * jacobian.transpose();
-  return in_body;
+  return inBodyFrames(in_camera, camera_mount, camera_mount);
 }
 
 }  // namespace landmark_loop_closure

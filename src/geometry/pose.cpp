@@ -25,6 +25,25 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   return m;
 }
 
+BodyLoop loopBetweenBodies(const Eigen::Isometry3d& camera_query_T_match,
+                           const Eigen::Matrix<double, 6, 6>& camera_covariance,
+                           const Eigen::Isometry3d& query_mount,
+                           const Eigen::Isometry3d& match_mount) {
+  BodyLoop loop;
+  loop.query_T_match = query_mount * camera_query_T_match * match_mount.inverse();
+  // R_B = R_q R R_m^T and t_B = R_q t + p_q - R_B p_m: a left rotation w of R becomes R_q w, and
+  // turning p_m with it moves t_B by (R_B p_m) x (R_q w).
+  const Eigen::Matrix3d query_rotation = query_mount.rotation();
+  const Eigen::Vector3d lever = loop.query_T_match.rotation() * match_mount.translation();
+  Eigen::Matrix<double, 6, 6> jacobian = Eigen::Matrix<double, 6, 6>::Zero();
+  jacobian.block<3, 3>(0, 0) = query_rotation;
+  jacobian.block<3, 3>(0, 3) = skew(lever) * query_rotation;
+  jacobian.block<3, 3>(3, 3) = query_rotation;
+  loop.covariance = jacobian * camera_covariance * jacobian.transpose();
+  loop.covariance = 0.5 * (loop.covariance + loop.covariance.transpose());
+  return loop;
+}
+
 Eigen::Matrix3d scaledRotationMatrix(const Eigen::Quaterniond& q) {
   // (w^2 - |v|^2) I + 2 v v^T + 2 w [v]x: the unit-quaternion formula with 1 = w^2 + |v|^2 kept
   // as it is, so every entry scales with the squared length.

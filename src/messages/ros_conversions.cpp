@@ -158,7 +158,8 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.header.stamp = query_stamp;
   msg.header.frame_id = frame_id;
   msg.map_id = loop.map_id;
-  msg.match_map_id = loop.map_id;  // The detector's loops stay within its map.
+  msg.match_map_id = loop.match_map_id != 0 ? loop.match_map_id : loop.map_id;
+  msg.match_frame_id = loop.match_map_id != 0 ? loop.match_odometry_frame : frame_id;
   msg.query_id = loop.query_id;
   msg.query_session = loop.query_session;
   msg.match_session = loop.match_session;
@@ -171,6 +172,11 @@ LoopClosure toLoopMsg(const AcceptedLoop& loop, const ros::Time& query_stamp,
   msg.consistent_frames = static_cast<uint32_t>(loop.consistent_keyframes);
   msg.query_pose = toRos(loop.query_pose);
   msg.match_pose = toRos(loop.match_pose);
+  msg.match_camera_mount.orientation.w = 1.0;
+  if (loop.match_camera_mount) {
+    msg.match_camera_mount = toRos(*loop.match_camera_mount);
+    msg.has_match_camera_mount = true;
+  }
   msg.relative_pose.pose.orientation.w = 1.0;
   msg.has_relative_pose = false;
   if (loop.verification && loop.verification->placeConfirmed()) {
@@ -308,6 +314,13 @@ GraphLoop graphLoopFromMsg(const LoopClosure& loop) {
   constraint.query_T_match.translation() = relative.position;
   constraint.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(
       loop.relative_pose.covariance.data());
+  if (loop.has_match_camera_mount) {
+    const Pose mount = fromRos(loop.match_camera_mount);
+    Eigen::Isometry3d match_mount = Eigen::Isometry3d::Identity();
+    match_mount.linear() = scaledRotationMatrix(mount.orientation);  // Checked by the graph.
+    match_mount.translation() = mount.position;
+    graph_loop.match_camera_mount = match_mount;
+  }
   return graph_loop;
 }
 
@@ -403,6 +416,13 @@ void toEvidenceResponse(const KeyframeEvidence& evidence, FleetEvidenceResponse*
   response->intrinsics = {evidence.intrinsics.fx, evidence.intrinsics.fy, evidence.intrinsics.cx,
                           evidence.intrinsics.cy};
   response->thumbnail = evidence.thumbnail;
+  response->base_T_camera.orientation.w = 1.0;
+  if (evidence.camera_mount) {
+    response->base_T_camera = toRos(*evidence.camera_mount);
+    response->has_base_T_camera = true;
+  }
+  response->base_frame = evidence.base_frame;
+  response->camera_frame = evidence.camera_frame;
 }
 
 KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
@@ -438,6 +458,10 @@ KeyframeEvidence evidenceFromResponse(const FleetEvidenceRequest& request,
   evidence.intrinsics.cy = response.intrinsics[3];
   evidence.intrinsics.image_size = features.image_size;
   evidence.thumbnail = response.thumbnail;
+  // Not normalised: problem() refuses a quaternion that is not of unit length.
+  if (response.has_base_T_camera) evidence.camera_mount = fromRos(response.base_T_camera);
+  evidence.base_frame = response.base_frame;
+  evidence.camera_frame = response.camera_frame;
   return evidence;
 }
 
@@ -459,6 +483,10 @@ std::string evidenceResponseProblem(const FleetEvidenceResponse& response, size_
   constexpr size_t kMaxProblemBytes = 512;
   if (response.problem.size() > kMaxProblemBytes) {
     return "a problem text of " + std::to_string(response.problem.size()) + " bytes";
+  }
+  if (response.base_frame.size() > kMaxEvidenceFrameBytes ||
+      response.camera_frame.size() > kMaxEvidenceFrameBytes) {
+    return "a frame name of more than " + std::to_string(kMaxEvidenceFrameBytes) + " bytes";
   }
   return "";
 }

@@ -18,7 +18,8 @@ constexpr double kSilenceCheckPeriod = 5.0;
 constexpr double kEvidenceCallersAtOnce = 4.0;
 
 /// The largest evidence answer a receiver reads: max_features keypoints of 56 bytes (point,
-/// descriptor, 3-D point, depth sd), a thumbnail of at most 64 KB, a problem line and the fields.
+/// descriptor, 3-D point, depth sd), a thumbnail of at most 64 KB, a problem line, two frame names
+/// (256 bytes each) and the fields.
 size_t maxEvidenceBytes(int max_features) {
   return static_cast<size_t>(std::max(max_features, 0)) * 56 + 64 * 1024 + 4096;
 }
@@ -191,7 +192,10 @@ bool FleetLink::onEvidence(
       response.problem = "keyframe " + std::to_string(request.id) + " cannot be read";
       return;
     }
-    toEvidenceResponse(*evidence, &response);
+    KeyframeEvidence answer = *evidence;
+    answer.base_frame = hooks_.base_frame;
+    answer.camera_frame = hooks_.camera_frame();
+    toEvidenceResponse(answer, &response);
   });
   ++evidence_answered_;
   return true;  // `found` says whether it was.
@@ -321,13 +325,15 @@ bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string&
     loop.appearance = check.appearance;
     loop.metric_pose = std::move(check.metric_pose);
     loop.relative_pose = check.relative_pose;
+    loop.match_map_id = candidate.match.map_id;
+    loop.match_odometry_frame = candidate.match.odometry_frame;
+    loop.match_camera_mount = evidence->camera_mount;
     const std::string pose_frame = hooks_.express_relative_pose(&loop);
     ros::Time query_stamp, match_stamp;
     query_stamp.fromNSec(static_cast<uint64_t>(detector.map().keyframeStampNs(query->id).value_or(
         static_cast<int64_t>(query->stamp * 1e9))));
     match_stamp.fromNSec(static_cast<uint64_t>(std::max<int64_t>(candidate.match.stamp_ns, 0)));
     message = toLoopMsg(loop, query_stamp, match_stamp, odometry_frame, pose_frame);
-    message->match_map_id = candidate.match.map_id;
   });
   if (!message) {
     ++loops_refused_;

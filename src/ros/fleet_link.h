@@ -42,6 +42,9 @@ class FleetLink {
     std::function<void(const std::function<void(LoopDetector&)>&)> with_detector;
     /// The latest camera_info's intrinsics (invalid until one came).
     std::function<CameraIntrinsics()> intrinsics;
+    /// The robot's base frame (base_frame), and, detector held, its camera's optical frame.
+    std::string base_frame;
+    std::function<std::string()> camera_frame;
     /// Puts the loop's relative pose in the frame relative_pose_frame asks for; returns it.
     std::function<std::string(AcceptedLoop*)> express_relative_pose;
     /// Publishes a loop between robots on loop_closures.

@@ -201,6 +201,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       std::lock_guard<std::mutex> lock(stats_mutex_);
       return camera_intrinsics_;
     };
+    hooks.base_frame = options_.base_frame;
+    hooks.camera_frame = [this] { return keyframes_camera_frame_; };
     hooks.express_relative_pose = [this](AcceptedLoop* loop) {
       return expressRelativePose(loop, keyframes_camera_frame_);
     };

@@ -96,7 +96,17 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
                       camera_frame.c_str());
     return camera_frame;
   }
-  loop->relative_pose = inBodyFrame(*loop->relative_pose, *mount);
+  const bool between_maps = loop->match_map_id != 0 && loop->match_map_id != loop->map_id;
+  if (between_maps && !loop->match_camera_mount) {
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Relative pose between robots left in the camera frame %s: the other robot "
+                      "did not know its camera mount (its camera_mount, or tf)",
+                      camera_frame.c_str());
+    return camera_frame;
+  }
+  // Each end turned by its own robot's mount (the other robot's from its evidence).
+  loop->relative_pose =
+      inBodyFrames(*loop->relative_pose, *mount, between_maps ? *loop->match_camera_mount : *mount);
   return options_.base_frame;
 }
 

@@ -337,6 +337,52 @@ TEST(InBodyFrame, GivesTheBodiesRelativePoseAndCarriesTheCovariance) {
   EXPECT_LT((back.covariance - in_camera.covariance).norm(), 1e-12);
 }
 
+// Two robots whose cameras sit differently (a loop between robots): each end of the camera-frame
+// pose is turned by its own robot's mount, and the covariance follows.
+TEST(InBodyFrames, EachEndTakesItsOwnRobotsMount) {
+  CameraMount query_mount;  // Robot a: the camera 1.2 m up, looking ahead.
+  query_mount.z = 1.2;
+  CameraMount match_mount;  // Robot b: 0.3 m ahead of its base and pitched down 10 degrees.
+  match_mount.x = 0.3;
+  match_mount.z = 0.9;
+  match_mount.roll = -(90.0 + 10.0) / kRadiansToDegrees;  // The optical axis 10 degrees down.
+  const Eigen::Isometry3d mq = query_mount.toPose().toIsometry();
+  const Eigen::Isometry3d mm = match_mount.toPose().toIsometry();
+  const Eigen::Isometry3d query_body = planarPose(1.0, 2.0, 0.3).toIsometry();
+  const Eigen::Isometry3d match_body = planarPose(1.8, 1.5, -0.4).toIsometry();
+  RelativePose in_cameras = relative((query_body * mq).inverse() * match_body * mm);
+  Eigen::Matrix<double, 6, 6> spread = Eigen::Matrix<double, 6, 6>::Random();
+  in_cameras.covariance = 1e-4 * spread * spread.transpose();
+
+  const RelativePose in_bodies =
+      inBodyFrames(in_cameras, query_mount.toPose(), match_mount.toPose());
+  const Eigen::Isometry3d truth = query_body.inverse() * match_body;
+  EXPECT_LT((in_bodies.translation - truth.translation()).norm(), 1e-12);
+  EXPECT_LT((in_bodies.rotation - truth.linear()).norm(), 1e-12);
+  // The query's mount at both ends (what a single mount gives) is off by the difference.
+  const RelativePose one_mount = inBodyFrame(in_cameras, query_mount.toPose());
+  EXPECT_GT((one_mount.translation - truth.translation()).norm(), 0.2);
+
+  Eigen::Matrix<double, 6, 6> jacobian;
+  for (int axis = 0; axis < 6; ++axis) {
+    constexpr double kStep = 1e-6;
+    RelativePose moved = in_cameras;
+    if (axis < 3) {
+      moved.translation[axis] += kStep;
+    } else {
+      moved.rotation = Eigen::AngleAxisd(kStep, Eigen::Vector3d::Unit(axis - 3)) * moved.rotation;
+    }
+    const RelativePose moved_bodies =
+        inBodyFrames(moved, query_mount.toPose(), match_mount.toPose());
+    const Eigen::AngleAxisd turn(moved_bodies.rotation * in_bodies.rotation.transpose());
+    jacobian.col(axis).head<3>() = (moved_bodies.translation - in_bodies.translation) / kStep;
+    jacobian.col(axis).tail<3>() = turn.angle() * turn.axis() / kStep;
+  }
+  const Eigen::Matrix<double, 6, 6> expected =
+      jacobian * in_cameras.covariance * jacobian.transpose();
+  EXPECT_LT((in_bodies.covariance - expected).norm(), 1e-6 * expected.norm());
+}
+
 TEST(DepthImage, OnlyFiniteReadingsAboveZeroCount) {
   EXPECT_FALSE(hasUsableDepth(cv::Mat()));
   EXPECT_FALSE(hasUsableDepth(cv::Mat::zeros(4, 5, CV_16UC1)));

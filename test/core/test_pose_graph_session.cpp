@@ -417,6 +417,54 @@ TEST(PoseGraphSession, LoopsBetweenTwoRobotsMapsJoinTheirChains) {
       << corrections.at("b/odom").matrix();
 }
 
+// A camera-frame loop between two robots whose cameras sit differently: the query's end is turned
+// by this graph's mount, the match's by the other robot's (LoopClosure.match_camera_mount); without
+// the other robot's mount the loop is left out rather than biased by the difference.
+TEST(PoseGraphSession, CameraFrameLoopsBetweenRobotsTakeEachRobotsMount) {
+  constexpr uint64_t kRobotA = kMap, kRobotB = kMap + 100;
+  const Eigen::Isometry3d b_frame =
+      Eigen::Translation3d(0.0, 5.0, 0.0) * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  std::string problem;
+  const Eigen::Isometry3d b_mount = *cameraOnly("camera", &problem);  // This graph's robot.
+  const Eigen::Isometry3d a_mount =  // Robot a's: 0.5 m ahead, 0.3 m up, pitched.
+      Eigen::Translation3d(0.5, 0.0, 0.3) * Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitY());
+  const auto drive = [&](bool with_mount, PoseGraphSession* session) {
+    for (uint64_t id = 0; id < 20; ++id) {
+      GraphKeyframe a = keyframeAt(id, kRobotA, (2 * id + 1) * kSecond);
+      GraphKeyframe b = keyframeAt(id, kRobotB, (2 * id + 2) * kSecond);
+      a.odometry_frame = "a/odom";
+      b.odometry_frame = "b/odom";
+      b.odometry = Pose::fromIsometry(b_frame * a.odometry.toIsometry());
+      std::vector<PoseGraphSession::Input> inputs{a, b};
+      if (id == 8 || id == 10) {
+        GraphLoop between = loopBetween(id, id);  // The bases coincide: identity between them.
+        between.map_id = kRobotB;
+        between.match_map_id = kRobotA;
+        between.relative_pose_frame = "camera";
+        between.constraint.query_T_match = b_mount.inverse() * a_mount;
+        if (with_mount) between.match_camera_mount = a_mount;
+        inputs.emplace_back(between);
+      }
+      session->process(inputs);
+    }
+  };
+  PoseGraphSession without(PoseGraphNodeOptions{}, cameraOnly);
+  drive(false, &without);
+  EXPECT_EQ(without.graph().chainsJoinedToFirst(), 1u) << without.summary();
+  EXPECT_NE(without.summary().find("without the other robot's camera mount"), std::string::npos)
+      << without.summary();
+  PoseGraphSession with(PoseGraphNodeOptions{}, cameraOnly);
+  drive(true, &with);
+  EXPECT_EQ(with.graph().chainsJoinedToFirst(), 2u) << with.summary();
+  for (uint64_t id = 0; id < 20; ++id) {
+    EXPECT_LT(
+        (with.optimisedPose(kRobotB, id)->position - with.optimisedPose(kRobotA, id)->position)
+            .norm(),
+        0.02)
+        << id;
+  }
+}
+
 // Two robots' keyframes reach the fleet's pose graph out of stamp order (each robot's own are in
 // order): with `robots` set, only a map's own time going back starts a new graph.
 TEST(PoseGraphSession, WithSeveralRobotsTimeGoesBackOnlyWithinAMap) {

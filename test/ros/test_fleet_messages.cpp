@@ -75,7 +75,37 @@ TEST(FleetMessages, SharedRowsAndEvidenceRoundTripAndMalformedOnesAreCaught) {
   EXPECT_EQ(received.intrinsics.fx, 500.0);
   EXPECT_EQ(received.intrinsics.cy, 240.0);
   EXPECT_EQ(received.thumbnail, evidence.thumbnail);
-  EXPECT_EQ(received.wireBytes(), evidence.wireBytes());
+  EXPECT_FALSE(received.camera_mount);  // The answering robot did not know it.
+
+  // The answering robot's mount and frames come with its evidence (the match's end of a loop
+  // between two differently mounted robots).
+  CameraMount mount;
+  mount.x = 0.3;
+  mount.pitch = 0.17;
+  evidence.camera_mount = mount.toPose();
+  evidence.base_frame = "robot_a/base_link";
+  evidence.camera_frame = "robot_a/camera";
+  toEvidenceResponse(evidence, &response);
+  const KeyframeEvidence mounted = evidenceFromResponse(request, response);
+  EXPECT_EQ(mounted.problem(400), "");
+  ASSERT_TRUE(mounted.camera_mount);
+  EXPECT_TRUE(mounted.camera_mount->toIsometry().isApprox(mount.toPose().toIsometry(), 1e-12));
+  EXPECT_EQ(mounted.base_frame, "robot_a/base_link");
+  EXPECT_EQ(mounted.camera_frame, "robot_a/camera");
+  response.base_T_camera.orientation.w = 0.0;  // Not a unit quaternion.
+  EXPECT_NE(evidenceFromResponse(request, response).problem(400).find("camera mount"),
+            std::string::npos);
+  toEvidenceResponse(evidence, &response);
+  response.base_T_camera.position.x = NAN;
+  EXPECT_NE(evidenceFromResponse(request, response).problem(400).find("camera mount"),
+            std::string::npos);
+  toEvidenceResponse(evidence, &response);
+  response.camera_frame.assign(1000, 'c');
+  EXPECT_NE(evidenceResponseProblem(response, 400).find("frame name"), std::string::npos);
+  evidence.camera_mount.reset();
+  evidence.base_frame.clear();
+  evidence.camera_frame.clear();
+  toEvidenceResponse(evidence, &response);
 
   response.descriptors.resize(40);  // Not 32 bytes a keypoint.
   EXPECT_NE(evidenceFromResponse(request, response).problem(400).find("32-byte descriptor"),

@@ -72,6 +72,11 @@ struct LoopConstraint {
 /// camera sits on the base (base_T_camera); the covariance follows to first order.
 LoopConstraint loopInBaseFrame(const LoopConstraint& camera_loop,
                                const Eigen::Isometry3d& base_T_camera);
+/// The same between two robots whose cameras sit at different mounts: the query's camera on the
+/// query's base, the match's on the match's (loopBetweenBodies).
+LoopConstraint loopInBaseFrames(const LoopConstraint& camera_loop,
+                                const Eigen::Isometry3d& query_base_T_camera,
+                                const Eigen::Isometry3d& match_base_T_camera);
 
 enum class LoopDecision {
   kAccepted,

@@ -50,6 +50,9 @@ struct GraphLoop {
   std::string relative_pose_frame;
   /// The ids, query_T_match and its covariance, in relative_pose_frame.
   LoopConstraint constraint;
+  /// A loop between robots: where the match robot's camera sits on its base
+  /// (LoopClosure.match_camera_mount); its end of a camera-frame pose is turned by it.
+  std::optional<Eigen::Isometry3d> match_camera_mount;
 };
 
 /// One decision about a loop (PoseGraphLoop.msg). A loop may get several: awaiting confirmation

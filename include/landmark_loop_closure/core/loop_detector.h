@@ -103,6 +103,12 @@ struct AcceptedLoop {
   /// The relative pose for a pose graph: the metric one when found, else the verified scale-free
   /// one when advanced/verification/publish_scale_free_pose is set; absent otherwise.
   std::optional<RelativePose> relative_pose;
+  /// A loop into another robot's map (the fleet): that map, the odometry frame match_pose is in
+  /// as the other robot names it, and where its camera sits on its base (absent: not known).
+  /// match_map_id 0: a loop within map_id, the query's own mount at both ends.
+  uint64_t match_map_id = 0;
+  std::string match_odometry_frame;
+  std::optional<Pose> match_camera_mount;
 };
 
 struct StageTimes {

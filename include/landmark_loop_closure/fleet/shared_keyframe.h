@@ -49,6 +49,10 @@ struct KeyframeEvidence {
   LocalFeatures local_features;
   CameraIntrinsics intrinsics;
   std::vector<uint8_t> thumbnail;
+  /// Where the camera sits on the answering robot's base (base_T_camera); absent: not known yet.
+  std::optional<Pose> camera_mount;
+  std::string base_frame;    ///< The answering robot's base frame.
+  std::string camera_frame;  ///< Its camera's optical frame.
 
   /// Bytes on the wire as the keyframe_evidence service answers it.
   size_t wireBytes() const;
@@ -56,7 +60,8 @@ struct KeyframeEvidence {
   /// validated whole before anything decodes or matches it: at most `max_keypoints` keypoints
   /// (advanced/verification/max_features), each with a 32-byte descriptor, finite; depths of
   /// the same count, each NaN (none) or finite and in front of the camera with a finite
-  /// uncertainty; finite intrinsics; a thumbnail as thumbnailProblem() allows.
+  /// uncertainty; finite intrinsics; a camera mount, when given, finite with a unit quaternion;
+  /// frame names of at most kMaxEvidenceFrameBytes; a thumbnail as thumbnailProblem() allows.
   std::string problem(size_t max_keypoints) const;
 };
 
@@ -66,6 +71,8 @@ constexpr int kThumbnailHeight = 120;
 constexpr size_t kMaxThumbnailBytes = 64 * 1024;
 /// Longest image side evidence may name.
 constexpr int kMaxImageSide = 16384;
+/// Longest frame name evidence may carry.
+constexpr size_t kMaxEvidenceFrameBytes = 256;
 
 /// Why `bytes` cannot be a shared thumbnail ("" when it can, or is empty): over
 /// kMaxThumbnailBytes, not WebP, or a canvas larger than kThumbnailWidth x kThumbnailHeight, read
@@ -77,7 +84,8 @@ std::string thumbnailProblem(const std::vector<uint8_t>& bytes);
 std::optional<SharedKeyframe> sharedKeyframeOf(const LoopDetector& detector, uint64_t id,
                                                const std::string& robot,
                                                const std::string& odometry_frame);
-/// Worker thread: keyframe `id`'s verification data; nullopt when its record cannot be read.
+/// Worker thread: keyframe `id`'s verification data, with the detector's camera mount where it is
+/// known; nullopt when its record cannot be read.
 std::optional<KeyframeEvidence> evidenceOf(const LoopDetector& detector, uint64_t id,
                                            const CameraIntrinsics& intrinsics);
 

@@ -85,5 +85,9 @@ MetricPoseResult estimateMetricPose(const LocalFeatures& query, const LocalFeatu
 /// camera at `camera_mount` (the camera's pose in the body frame): M T M^-1, with the covariance
 /// carried along (same order: x, y, z, rotation about x, y, z of the query body's frame).
 RelativePose inBodyFrame(const RelativePose& in_camera, const Pose& camera_mount);
+/// The same between two bodies whose cameras sit at different mounts (two robots):
+/// M_query T M_match^-1 (loopBetweenBodies).
+RelativePose inBodyFrames(const RelativePose& in_cameras, const Pose& query_mount,
+                          const Pose& match_mount);
 
 }  // namespace landmark_loop_closure

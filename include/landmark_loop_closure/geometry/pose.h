@@ -57,6 +57,22 @@ struct CameraMount {
   std::string validate() const;
 };
 
+/// A loop's relative transform T_query_match between two cameras, re-expressed between the
+/// bodies that carry them: B = M_query T M_match^-1, where M_query and M_match are where each
+/// camera sits on its own body (base_T_camera; two robots' mounts may differ). The covariance
+/// (order and convention of LoopClosure.relative_pose: translation added, rotation applied on the
+/// left, both in the query's frame) follows to first order: a camera-frame step (dt, w) moves B by
+/// (R_q dt + [R_B p_match]x R_q w, R_q w). The one conjugation every loop goes through (the
+/// detector's relative_pose_frame: base, the reference backend).
+struct BodyLoop {
+  Eigen::Isometry3d query_T_match = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+};
+BodyLoop loopBetweenBodies(const Eigen::Isometry3d& camera_query_T_match,
+                           const Eigen::Matrix<double, 6, 6>& camera_covariance,
+                           const Eigen::Isometry3d& query_mount,
+                           const Eigen::Isometry3d& match_mount);
+
 /// Pose with yaw only about +z, for planar robots and tests.
 Pose planarPose(double x, double y, double yaw);
 
