@@ -279,6 +279,34 @@ cv::Mat CorridorWorld::bayTexture(int wall, int cols, int rows) const {
   return texture;
 }
 
+namespace {
+
+/// Where a ray first meets `segment`, if it does nearer than `hit`.
+template <typename Segment, typename Hit>
+void meet(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction, const Segment& segment,
+          Hit* hit) {
+  const Eigen::Vector2d edge = segment.b - segment.a;
+  const double denominator = cross2(direction, edge);
+  if (std::abs(denominator) < 1e-12) return;
+  const Eigen::Vector2d to_start = segment.a - origin;
+  const double distance = cross2(to_start, edge) / denominator;
+  const double along = cross2(to_start, direction) / denominator;
+  if (distance > 1e-6 && along >= 0.0 && along <= 1.0 && distance < hit->distance) {
+    *hit = {&segment, distance, segment.u_start + along * edge.norm()};
+  }
+}
+
+}  // namespace
+
+CorridorWorld::Hit CorridorWorld::castRayAmong(const Eigen::Vector2d& origin,
+                                               const Eigen::Vector2d& direction,
+                                               const std::vector<const Segment*>& segments) {
+  Hit hit;
+  hit.distance = std::numeric_limits<double>::infinity();
+  for (const Segment* segment : segments) meet(origin, direction, *segment, &hit);
+  return hit;
+}
+
 CorridorWorld::Hit CorridorWorld::castRay(const Eigen::Vector2d& origin,
                                           const Eigen::Vector2d& direction) const {
   Hit hit;
@@ -297,7 +325,93 @@ CorridorWorld::Hit CorridorWorld::castRay(const Eigen::Vector2d& origin,
   return hit;
 }
 
+cv::Mat CorridorWorld::renderMounted(const Pose2D& pose, const CameraModel& camera,
+                                     bool depth) const {
+  cv::Mat image(camera.height, camera.width, depth ? CV_32FC1 : CV_8UC1);
+  const double cx = 0.5 * (camera.width - 1);
+  const double cy = 0.5 * (camera.height - 1);
+  const Eigen::Vector2d heading(std::cos(pose.yaw), std::sin(pose.yaw));
+  const Eigen::Vector2d left(-heading.y(), heading.x());
+  const Eigen::Vector2d origin = Eigen::Vector2d(pose.x, pose.y) + camera.forward_m * heading;
+  const double cos_pitch = std::cos(camera.pitch_rad), sin_pitch = std::sin(camera.pitch_rad);
+  constexpr double kTile = 0.6;
+  const double ppm = options_.pixels_per_metre;
+  // A ray per pixel against every wall segment is slow: each segment is listed under the
+  // directions (buckets of angle seen from the camera) it spans, and a ray meets only its
+  // bucket's, which gives the same nearest hit.
+  constexpr int kBuckets = 2048;
+  const double bucket_width = 2.0 * M_PI / kBuckets;
+  const auto bucket_of = [&](double angle) {
+    const double wrapped = angle - 2.0 * M_PI * std::floor(angle / (2.0 * M_PI));
+    return std::min(kBuckets - 1, static_cast<int>(wrapped / bucket_width));
+  };
+  std::vector<std::vector<const Segment*>> buckets(kBuckets);
+  for (const Segment& segment : segments_) {
+    const Eigen::Vector2d to_a = segment.a - origin, to_b = segment.b - origin;
+    double start = std::atan2(to_a.y(), to_a.x());
+    double span = std::atan2(to_b.y(), to_b.x()) - start;
+    span -= 2.0 * M_PI * std::floor((span + M_PI) / (2.0 * M_PI));  // Into [-pi, pi).
+    if (span < 0.0) {
+      start += span;
+      span = -span;
+    }
+    const int first = bucket_of(start);
+    const int count = static_cast<int>(std::ceil(span / bucket_width)) + 1;
+    for (int k = 0; k <= std::min(count, kBuckets - 1); ++k) {
+      buckets[static_cast<size_t>((first + k) % kBuckets)].push_back(&segment);
+    }
+  }
+  for (int row = 0; row < camera.height; ++row) {
+    for (int col = 0; col < camera.width; ++col) {
+      // The pixel's ray, optical depth 1, in the base frame (x ahead, y left, z up), the camera
+      // pitched down about y.
+      const double to_left = (cx - col) / camera.focal_px;
+      const double up = (cy - row) / camera.focal_px;
+      const double ahead = cos_pitch + up * sin_pitch;
+      const double rise = -sin_pitch + up * cos_pitch;
+      const Eigen::Vector2d flat = ahead * heading + to_left * left;
+      const double flat_length = flat.norm();
+      const Eigen::Vector2d direction = flat / flat_length;
+      const Hit ray = castRayAmong(
+          origin, direction,
+          buckets[static_cast<size_t>(bucket_of(std::atan2(direction.y(), direction.x())))]);
+      const double wall_z = camera.height_m + rise / flat_length * ray.distance;
+      const bool wall = ray.segment && wall_z >= 0.0 && wall_z <= options_.wall_height;
+      if (depth) {
+        float value = 0.0f;  // The ceiling: nothing hit.
+        if (wall) {
+          value = static_cast<float>(ray.distance / flat_length);
+        } else if (rise < 0.0) {
+          value = static_cast<float>(camera.height_m / -rise);
+        }
+        image.at<float>(row, col) = value;
+        continue;
+      }
+      double value = 200.0 - 0.2 * row;  // Ceiling.
+      if (wall) {
+        const cv::Mat& texture = wall_textures_[ray.segment->wall];
+        const int tx = std::clamp(static_cast<int>(ray.u * ppm), 0, texture.cols - 1);
+        const int ty = std::clamp(static_cast<int>((options_.wall_height - wall_z) * ppm), 0,
+                                  texture.rows - 1);
+        value = texture.at<uchar>(ty, tx);
+      } else if (rise < 0.0) {  // Floor: tiles with per-tile shade and dark grout.
+        const double ground = camera.height_m * flat_length / -rise;
+        const Eigen::Vector2d point = origin + ground * direction;
+        const double fx = point.x() / kTile;
+        const double fy = point.y() / kTile;
+        const int ix = static_cast<int>(std::floor(fx));
+        const int iy = static_cast<int>(std::floor(fy));
+        const bool grout = fx - ix < 0.05 || fy - iy < 0.05;
+        value = grout ? 70.0 : 85.0 + hash2(ix, iy, options_.seed) % 20;
+      }
+      image.at<uchar>(row, col) = cv::saturate_cast<uchar>(value);
+    }
+  }
+  return image;
+}
+
 cv::Mat CorridorWorld::renderDepth(const Pose2D& pose, const CameraModel& camera) const {
+  if (camera.forward_m != 0.0 || camera.pitch_rad != 0.0) return renderMounted(pose, camera, true);
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
   const double cx = 0.5 * (camera.width - 1);
   const double cy = 0.5 * (camera.height - 1);
@@ -322,14 +436,16 @@ cv::Mat CorridorWorld::renderDepth(const Pose2D& pose, const CameraModel& camera
 
 cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
                               const Lighting& lighting, uint32_t noise_seed) const {
-  cv::Mat image(camera.height, camera.width, CV_8UC1);
+  const bool mounted = camera.forward_m != 0.0 || camera.pitch_rad != 0.0;
+  cv::Mat image =
+      mounted ? renderMounted(pose, camera, false) : cv::Mat(camera.height, camera.width, CV_8UC1);
   const double cx = 0.5 * (camera.width - 1);
   const double cy = 0.5 * (camera.height - 1);
   const double ppm = options_.pixels_per_metre;
   const Eigen::Vector2d origin(pose.x, pose.y);
   constexpr double kTile = 0.6;
 
-  for (int col = 0; col < camera.width; ++col) {
+  for (int col = 0; col < camera.width && !mounted; ++col) {
     const double offset_angle = std::atan2(cx - col, camera.focal_px);
     const double angle = pose.yaw + offset_angle;
     const Eigen::Vector2d direction(std::cos(angle), std::sin(angle));

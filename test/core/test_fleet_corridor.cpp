@@ -4,6 +4,8 @@
 // a chained candidate and checks it. Every loop between them must be true, most of B's revisited
 // keyframes must find one, and the pose graph fed both robots' keyframes and the loops puts B's
 // path in A's frame.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <optional>
@@ -37,10 +39,12 @@ struct Robot {
   std::map<uint64_t, GraphLoop> own_loops;  ///< Its detector's metric loops, by query id.
 };
 
-/// A metric loop as the pose graph node receives it (relative pose in the base frame).
+/// A metric loop as the pose graph node receives it (relative pose in the base frames: each end
+/// turned by its own robot's camera mount).
 GraphLoop graphLoop(uint64_t map_id, uint64_t match_map_id, uint64_t query_id,
                     uint32_t query_session, uint64_t match_id, uint32_t match_session,
-                    const RelativePose& relative) {
+                    const RelativePose& relative, const Pose& query_mount,
+                    const Pose& match_mount) {
   GraphLoop loop;
   loop.map_id = map_id;
   loop.match_map_id = match_map_id;
@@ -55,13 +59,14 @@ GraphLoop graphLoop(uint64_t map_id, uint64_t match_map_id, uint64_t query_id,
   camera.query_T_match.translation() = relative.translation;
   camera.covariance = relative.covariance;
   loop.constraint =
-      loopInBaseFrame(camera, LoopDetectorOptions{}.camera_mount.toPose().toIsometry());
+      loopInBaseFrames(camera, query_mount.toIsometry(), match_mount.toIsometry());
   return loop;
 }
 
 /// Drives frames [first, last) of `sequence` through the robot's detector; its odometry starts
 /// at the identity at `first` (an odometry frame of its own).
 void drive(SequenceGenerator& sequence, size_t first, size_t last, Robot* robot) {
+  const Pose mount = *robot->detector->cameraMount();
   std::optional<Eigen::Isometry3d> start;
   robot->detector->map().announceKeyframes(true);
   SequenceFrame frame;
@@ -80,7 +85,7 @@ void drive(SequenceGenerator& sequence, size_t first, size_t last, Robot* robot)
       const AcceptedLoop& loop = *result.keyframe->loop;
       robot->own_loops[loop.query_id] =
           graphLoop(loop.map_id, loop.map_id, loop.query_id, loop.query_session, loop.match_id,
-                    loop.match_session, *loop.relative_pose);
+                    loop.match_session, *loop.relative_pose, mount, mount);
     }
     for (const AnnouncedKeyframe& announced : robot->detector->map().takeAnnounced()) {
       robot->announced.push_back(announced.summary.id);
@@ -105,7 +110,28 @@ GraphKeyframe graphKeyframe(const Robot& robot, uint64_t id) {
   return keyframe;
 }
 
-TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+/// What one run of the two robots measured.
+struct FleetFigures {
+  int loops = 0, false_loops = 0, with_pose = 0;
+  double recall = 0.0;
+  double b_rmse = 0.0;      ///< B's corrected keyframes in A's frame (m).
+  double row_bytes = 0.0;   ///< A shared row.
+  /// Metric loops between the robots against the truth, between the bases: each end turned by
+  /// its own robot's mount, and (what a single mount gives) robot B's at both ends.
+  double translation_error_m = 0.0, rotation_error_deg = 0.0;
+  double one_mount_translation_error_m = 0.0, one_mount_rotation_error_deg = 0.0;
+};
+
+/// Robot A (the default camera) maps lap 1; robot B, its camera `b_camera` as its mount
+/// `b_mount` says, drives one lap from 0.3 laps on and searches A's shared rows.
+void runTwoRobots(const CameraModel& b_camera, const CameraMount& b_mount,
+                  FleetFigures* figures) {
   const CorridorWorld world;
   SequenceOptions sequence_options;
   sequence_options.laps = 2.3;
@@ -113,17 +139,19 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
   const size_t lap = static_cast<size_t>(sequence.size() / 2.3);
 
   const LoopDetectorOptions detector_options;
+  LoopDetectorOptions b_options = detector_options;
+  b_options.camera_mount = b_mount;
   Robot a, b;
   a.name = "robot_a";
   b.name = "robot_b";
-  for (Robot* robot : {&a, &b}) {
-    robot->detector = std::make_unique<LoopDetector>(
-        detector_options, makeDescriptorExtractor(detector_options.descriptor));
-  }
+  a.detector = std::make_unique<LoopDetector>(
+      detector_options, makeDescriptorExtractor(detector_options.descriptor));
+  b.detector =
+      std::make_unique<LoopDetector>(b_options, makeDescriptorExtractor(b_options.descriptor));
   // A maps lap 1 and drives on to where it started, its own loops closing its lap; B drives
   // one lap from 0.3 laps on, after A.
   drive(sequence, 0, lap * 12 / 10, &a);
-  SequenceGenerator second(world, CameraModel{}, sequence_options);
+  SequenceGenerator second(world, b_camera, sequence_options);
   drive(second, lap * 13 / 10, lap * 23 / 10, &b);
   ASSERT_GT(a.announced.size(), 100u);
   ASSERT_GT(b.announced.size(), 100u);
@@ -150,6 +178,9 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
                            {match.truth.x, match.truth.y, 0.0}, match.stamp);
   };
   int revisited = 0, found = 0, loops = 0, false_loops = 0, fetched = 0, with_pose = 0;
+  std::vector<double> translation_errors, rotation_errors, one_mount_translation_errors,
+      one_mount_rotation_errors;
+  const Pose b_mount_pose = *b.detector->cameraMount();
   size_t evidence_bytes = 0;
   std::vector<PoseGraphSession::Input> inputs;
   for (const uint64_t id : a.announced) {
@@ -186,9 +217,24 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
     found += (is_true && revisit) ? 1 : 0;
     if (!check.relative_pose || !check.relative_pose->metric) continue;
     ++with_pose;
-    inputs.emplace_back(graphLoop(b.detector->map().mapId(), a.detector->map().mapId(), id,
-                                  candidate->query_session, candidate->match.id,
-                                  candidate->match.session, *check.relative_pose));
+    ASSERT_TRUE(evidence->camera_mount);  // A's mount comes with its evidence.
+    const GraphLoop between = graphLoop(b.detector->map().mapId(), a.detector->map().mapId(), id,
+                                        candidate->query_session, candidate->match.id,
+                                        candidate->match.session, *check.relative_pose,
+                                        b_mount_pose, *evidence->camera_mount);
+    inputs.emplace_back(between);
+    const Eigen::Isometry3d truth = truthPose(frame).toIsometry().inverse() *
+                                    truthPose(a.truth.at(candidate->match.id)).toIsometry();
+    const auto note_error = [&truth](const Eigen::Isometry3d& estimate,
+                                     std::vector<double>* metres, std::vector<double>* degrees) {
+      const Eigen::Isometry3d error = truth.inverse() * estimate;
+      metres->push_back(error.translation().norm());
+      degrees->push_back(Eigen::AngleAxisd(error.rotation()).angle() * 180.0 / M_PI);
+    };
+    note_error(between.constraint.query_T_match, &translation_errors, &rotation_errors);
+    note_error(graphLoop(0, 0, 0, 0, 0, 0, *check.relative_pose, b_mount_pose, b_mount_pose)
+                   .constraint.query_T_match,
+               &one_mount_translation_errors, &one_mount_rotation_errors);
   }
 
   PoseGraphSession graph(PoseGraphNodeOptions{}, MountLookup());
@@ -243,20 +289,59 @@ TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
   double all_squares = 0.0;
   for (const double error : errors) all_squares += error * error;
   const double recall = revisited > 0 ? double(found) / revisited : 0.0;
+  figures->loops = loops;
+  figures->false_loops = false_loops;
+  figures->with_pose = with_pose;
+  figures->recall = recall;
+  figures->b_rmse = b_rmse;
+  figures->row_bytes = double(row_bytes) / a.announced.size();
+  figures->translation_error_m = median(translation_errors);
+  figures->rotation_error_deg = median(rotation_errors);
+  figures->one_mount_translation_error_m = median(one_mount_translation_errors);
+  figures->one_mount_rotation_error_deg = median(one_mount_rotation_errors);
   std::printf(
       "robot A %zu keyframes, robot B %zu (%d revisit A's places); %d candidates fetched, %d "
       "loops between them (%d false, %d with a metric pose), %d of the revisited keyframes found "
       "(%.0f %%); a shared row %.0f bytes, a fetched candidate's evidence %.0f bytes; B's RMSE "
       "in A's frame %.3f m (%zu keyframes; both robots against the truth, similarity-aligned, "
-      "%.3f m); %s\n",
+      "%.3f m); metric loops between them against the truth, median: %.3f m, %.2f deg with each "
+      "robot's mount, %.3f m, %.2f deg with B's at both ends; %s\n",
       a.announced.size(), b.announced.size(), revisited, fetched, loops, false_loops, with_pose,
-      found, 100.0 * recall, double(row_bytes) / a.announced.size(),
+      found, 100.0 * recall, figures->row_bytes,
       fetched > 0 ? double(evidence_bytes) / fetched : 0.0, b_rmse, placed,
-      std::sqrt(all_squares / errors.size()), graph.summary().c_str());
-  EXPECT_EQ(false_loops, 0);
-  EXPECT_GE(recall, 0.8);
-  EXPECT_LE(b_rmse, 0.05);
-  EXPECT_LE(double(row_bytes) / a.announced.size(), 5000.0);
+      std::sqrt(all_squares / errors.size()), figures->translation_error_m,
+      figures->rotation_error_deg, figures->one_mount_translation_error_m,
+      figures->one_mount_rotation_error_deg, graph.summary().c_str());
+}
+
+TEST(FleetOnCorridor, RobotBFindsRobotAsPlacesAndItsPathLiesInAsFrame) {
+  FleetFigures figures;
+  runTwoRobots(CameraModel{}, LoopDetectorOptions{}.camera_mount, &figures);
+  EXPECT_EQ(figures.false_loops, 0);
+  EXPECT_GE(figures.recall, 0.8);
+  EXPECT_LE(figures.b_rmse, 0.05);
+  EXPECT_LE(figures.row_bytes, 5000.0);
+}
+
+// Issue 81: robot B's camera sits 0.3 m ahead of its base and looks 10 degrees down; robot A's
+// as before. The metric loops between them, each end turned by its own robot's mount, land on
+// the truth between the bases, and B's corrected path lies in A's frame.
+TEST(FleetOnCorridor, TwoDifferentlyMountedRobotsGetLoopsRightBetweenTheirBases) {
+  CameraModel b_camera;
+  b_camera.forward_m = 0.3;
+  b_camera.pitch_rad = 10.0 * M_PI / 180.0;
+  CameraMount b_mount = LoopDetectorOptions{}.camera_mount;
+  b_mount.x = 0.3;
+  b_mount.roll = -(90.0 + 10.0) * M_PI / 180.0;  // The optical axis 10 degrees down.
+  FleetFigures figures;
+  runTwoRobots(b_camera, b_mount, &figures);
+  EXPECT_EQ(figures.false_loops, 0);
+  EXPECT_GT(figures.with_pose, 20);
+  EXPECT_LE(figures.translation_error_m, 0.05);
+  EXPECT_LE(figures.rotation_error_deg, 0.5);
+  EXPECT_LE(figures.b_rmse, 0.05);
+  // B's mount at both ends is off by the difference between the two mounts.
+  EXPECT_GT(figures.one_mount_translation_error_m, 0.1);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "landmark_loop_closure/geometry/pose.h"
 #include "landmark_loop_closure/sim/sequence.h"
 
 using namespace landmark_loop_closure::sim;
@@ -81,6 +82,48 @@ TEST(CorridorWorld, DepthImageGivesDistancesAlongTheOpticalAxis) {
   const double dy = floor_row - 0.5 * (camera.height - 1);
   EXPECT_NEAR(corridor.at<float>(floor_row, cx), camera.height_m * camera.focal_px / dy, 1e-3);
   EXPECT_EQ(corridor.at<float>(0, cx), 0.0f);
+}
+
+// A camera ahead of the base or pitched is rendered ray by ray: level and at the base it gives
+// the column renderer's image; 0.3 m ahead it sees what a camera at the base sees from 0.3 m on;
+// looking 30 degrees down, the centre row's ray meets the floor where the pitch says, and
+// camera_mount's roll of -100 degrees is a camera looking 10 degrees down.
+TEST(CorridorWorld, AMountedCameraSeesWhatItsMountSays) {
+  const CorridorWorld world;
+  const Lighting quiet{1.0, 0.0, 0.0};
+  const Pose2D pose = world.poseAt(8.0, 0.0);
+  CameraModel level;
+  CameraModel nearly_level = level;
+  nearly_level.pitch_rad = 1e-12;
+  cv::Mat difference;
+  cv::absdiff(world.render(pose, level, quiet, 1), world.render(pose, nearly_level, quiet, 1),
+              difference);
+  EXPECT_LT(cv::mean(difference)[0], 1.0);
+
+  CameraModel ahead = level;
+  ahead.forward_m = 0.3;
+  Pose2D moved = pose;
+  moved.x += 0.3 * std::cos(pose.yaw);
+  moved.y += 0.3 * std::sin(pose.yaw);
+  cv::absdiff(world.render(pose, ahead, quiet, 1), world.render(moved, level, quiet, 1),
+              difference);
+  EXPECT_LT(cv::mean(difference)[0], 1.0);
+
+  CameraModel down = level;
+  down.pitch_rad = 30.0 * M_PI / 180.0;
+  const cv::Mat depth = world.renderDepth(pose, down);
+  const int cx = (down.width - 1) / 2, cy = (down.height - 1) / 2;
+  // The ray of row cy, optical depth 1: it falls by sin(pitch) - up cos(pitch) per unit.
+  const double up = (0.5 * (down.height - 1) - cy) / down.focal_px;
+  EXPECT_NEAR(depth.at<float>(cy, cx),
+              down.height_m / (std::sin(down.pitch_rad) - up * std::cos(down.pitch_rad)), 1e-3);
+  landmark_loop_closure::CameraMount mount;
+  const double ten_degrees = 10.0 * M_PI / 180.0;
+  mount.roll = -M_PI / 2.0 - ten_degrees;
+  const Eigen::Vector3d optical_axis = mount.toPose().orientation * Eigen::Vector3d::UnitZ();
+  EXPECT_TRUE(optical_axis.isApprox(
+      Eigen::Vector3d(std::cos(ten_degrees), 0.0, -std::sin(ten_degrees)), 1e-12))
+      << optical_axis.transpose();
 }
 
 TEST(SequenceGenerator, OdometryDriftsAwayFromTruth) {

@@ -23,6 +23,10 @@ struct CameraModel {
   int height = 240;
   double focal_px = 200.0;  ///< Same in x and y; principal point at the image centre.
   double height_m = 1.2;    ///< Camera height above the floor.
+  /// Where the camera sits on the robot (the pose the sequence gives is the robot's base): this
+  /// far ahead of it, and pitched down by this angle (the mount x and pitch of camera_mount).
+  double forward_m = 0.0;
+  double pitch_rad = 0.0;
 
   /// Pinhole intrinsics of the rendered images (pixel centres at integer coordinates).
   CameraIntrinsics intrinsics() const {
@@ -91,6 +95,12 @@ class CorridorWorld {
     double u = 0.0;                    ///< Texture coordinate on the wall.
   };
   Hit castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction) const;
+  /// The nearest hit among `segments` only.
+  static Hit castRayAmong(const Eigen::Vector2d& origin, const Eigen::Vector2d& direction,
+                          const std::vector<const Segment*>& segments);
+  /// A camera ahead of the base or pitched: one ray per pixel (render() and renderDepth() cast
+  /// one per column for a level camera at the base). `depth` set: optical depths, else grey.
+  cv::Mat renderMounted(const Pose2D& pose, const CameraModel& camera, bool depth) const;
   Eigen::Vector2d centreAt(double s, Eigen::Vector2d* tangent) const;
   void buildWall(int wall, double offset);
   /// Walls of options_.bay_length bays: one bay drawn, repeated, each with its own plate.
