@@ -26,6 +26,17 @@ uint32_t hash2(int x, int y, uint32_t seed) {
   return h;
 }
 
+/// The floor's grey at `point`: tiles of 0.6 m with a shade each and dark grout.
+double floorGrey(const Eigen::Vector2d& point, uint32_t seed) {
+  constexpr double kTile = 0.6;
+  const double fx = point.x() / kTile;
+  const double fy = point.y() / kTile;
+  const int ix = static_cast<int>(std::floor(fx));
+  const int iy = static_cast<int>(std::floor(fy));
+  const bool grout = fx - ix < 0.05 || fy - iy < 0.05;
+  return grout ? 70.0 : 85.0 + hash2(ix, iy, seed) % 20;
+}
+
 // A poster: a framed rectangle with one of a few inner patterns, drawn into the wall texture.
 void drawPoster(cv::Mat* texture, const cv::Rect& box, cv::RNG* rng) {
   const int background = rng->uniform(20, 235);
@@ -334,7 +345,6 @@ cv::Mat CorridorWorld::renderMounted(const Pose2D& pose, const CameraModel& came
   const Eigen::Vector2d left(-heading.y(), heading.x());
   const Eigen::Vector2d origin = Eigen::Vector2d(pose.x, pose.y) + camera.forward_m * heading;
   const double cos_pitch = std::cos(camera.pitch_rad), sin_pitch = std::sin(camera.pitch_rad);
-  constexpr double kTile = 0.6;
   const double ppm = options_.pixels_per_metre;
   // A ray per pixel against every wall segment is slow: each segment is listed under the
   // directions (buckets of angle seen from the camera) it spans, and a ray meets only its
@@ -397,12 +407,7 @@ cv::Mat CorridorWorld::renderMounted(const Pose2D& pose, const CameraModel& came
       } else if (rise < 0.0) {  // Floor: tiles with per-tile shade and dark grout.
         const double ground = camera.height_m * flat_length / -rise;
         const Eigen::Vector2d point = origin + ground * direction;
-        const double fx = point.x() / kTile;
-        const double fy = point.y() / kTile;
-        const int ix = static_cast<int>(std::floor(fx));
-        const int iy = static_cast<int>(std::floor(fy));
-        const bool grout = fx - ix < 0.05 || fy - iy < 0.05;
-        value = grout ? 70.0 : 85.0 + hash2(ix, iy, options_.seed) % 20;
+        value = floorGrey(point, options_.seed);
       }
       image.at<uchar>(row, col) = cv::saturate_cast<uchar>(value);
     }
@@ -443,7 +448,6 @@ cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
   const double cy = 0.5 * (camera.height - 1);
   const double ppm = options_.pixels_per_metre;
   const Eigen::Vector2d origin(pose.x, pose.y);
-  constexpr double kTile = 0.6;
 
   for (int col = 0; col < camera.width && !mounted; ++col) {
     const double offset_angle = std::atan2(cx - col, camera.focal_px);
@@ -467,12 +471,7 @@ cv::Mat CorridorWorld::render(const Pose2D& pose, const CameraModel& camera,
       } else if (dy > 0.0) {  // Floor: tiles with per-tile shade and dark grout.
         const double ground = camera.height_m * camera.focal_px / dy / cos_offset;
         const Eigen::Vector2d point = origin + ground * direction;
-        const double fx = point.x() / kTile;
-        const double fy = point.y() / kTile;
-        const int ix = static_cast<int>(std::floor(fx));
-        const int iy = static_cast<int>(std::floor(fy));
-        const bool grout = fx - ix < 0.05 || fy - iy < 0.05;
-        value = grout ? 70.0 : 85.0 + hash2(ix, iy, options_.seed) % 20;
+        value = floorGrey(point, options_.seed);
       }
       image.at<uchar>(row, col) = cv::saturate_cast<uchar>(value);
     }
