@@ -322,17 +322,7 @@ CorridorWorld::Hit CorridorWorld::castRay(const Eigen::Vector2d& origin,
                                           const Eigen::Vector2d& direction) const {
   Hit hit;
   hit.distance = std::numeric_limits<double>::infinity();
-  for (const Segment& segment : segments_) {
-    const Eigen::Vector2d edge = segment.b - segment.a;
-    const double denominator = cross2(direction, edge);
-    if (std::abs(denominator) < 1e-12) continue;
-    const Eigen::Vector2d to_start = segment.a - origin;
-    const double distance = cross2(to_start, edge) / denominator;
-    const double along = cross2(to_start, direction) / denominator;
-    if (distance > 1e-6 && along >= 0.0 && along <= 1.0 && distance < hit.distance) {
-      hit = {&segment, distance, segment.u_start + along * edge.norm()};
-    }
-  }
+  for (const Segment& segment : segments_) meet(origin, direction, segment, &hit);
   return hit;
 }
 
