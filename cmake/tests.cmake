@@ -40,6 +40,7 @@ set(CORE_TESTS
   test_covariance_conventions
   test_shipped_config
   test_fleet_matcher
+  test_foreign_map
   test_request_rate
   test_sim)
 foreach(name ${CORE_TESTS})

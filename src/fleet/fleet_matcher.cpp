@@ -106,9 +106,9 @@ RowVerdict FleetMatcher::addRowFrom(const std::string& peer, const SharedKeyfram
           "'";
   }
   const auto held = maps_.find(row.map_id);
-  if (reason.empty() && held != maps_.end() && held->second.peer != peer) {
+  if (reason.empty() && held != maps_.end() && held->second.peer() != peer) {
     reason = "map of another peer";
-    why = "map " + std::to_string(row.map_id) + " was shared first by peer " + held->second.peer;
+    why = "map " + std::to_string(row.map_id) + " was shared first by peer " + held->second.peer();
   }
   const bool new_map = held == maps_.end() && robot.map_ids.count(row.map_id) == 0;
   if (reason.empty() && new_map &&
@@ -128,7 +128,7 @@ RowVerdict FleetMatcher::addRowFrom(const std::string& peer, const SharedKeyfram
   }
   if (robot.robot.empty()) robot.robot = row.robot;
   verdict.line = back;
-  if (held != maps_.end() && held->second.ids.count(row.id) > 0) {
+  if (held != maps_.end() && held->second.holds(row.id)) {
     ++robot.rows_repeated;  // A peer that re-sends after a restart.
     verdict.kept = true;
     return verdict;
@@ -147,65 +147,25 @@ RowVerdict FleetMatcher::addRowFrom(const std::string& peer, const SharedKeyfram
     }
     return verdict;
   }
-  auto [found, added] = maps_.try_emplace(row.map_id);
-  ForeignMap& map = found->second;
-  if (added) {
-    map.robot = row.robot;
-    map.peer = peer;
-    map.ordinal = maps_.size();
-    map.vectors = std::make_unique<QuantizedVectors>(dimension_);
+  auto found = maps_.find(row.map_id);
+  if (found == maps_.end()) {
+    found = maps_
+                .try_emplace(row.map_id, row.robot, peer, maps_.size() + 1, dimension_,
+                             options_.search())
+                .first;
   }
-  map.ids.insert(row.id);
+  found->second.add(row);
   robot.map_ids.insert(row.map_id);
-  const size_t position = map.rows.size();
-  const auto later =
-      std::upper_bound(map.by_id.begin(), map.by_id.end(), row.id,
-                       [&map](uint64_t id, size_t other) { return id < map.rows[other].id; });
-  const size_t inserted = static_cast<size_t>(later - map.by_id.begin());
-  map.by_id.insert(later, position);
-  map.rank.push_back(inserted);
-  // An earlier keyframe (a backlog): the later ones move up one place.
-  for (size_t r = inserted + 1; r < map.by_id.size(); ++r) map.rank[map.by_id[r]] = r;
-  map.vectors->appendRow(row.global_row.data(), row.global_row.size());
-  SharedKeyframe kept = row;
-  kept.global_row.clear();
-  kept.global_row.shrink_to_fit();
-  map.rows.push_back(std::move(kept));
   ++robot.rows;
   verdict.kept = true;
   return verdict;
 }
 
-std::vector<double> FleetMatcher::pathScores(const ForeignMap& map, uint64_t map_id,
-                                             QueryingRun* run) const {
-  const size_t rows = map.rows.size();
-  // Each of the run's keyframes' cosines to the rows that came since it last looked.
-  for (QuerySlot& slot : run->history) {
-    std::vector<float>& cosines = slot.cosines[map_id];
-    for (size_t index = cosines.size(); index < rows; ++index) {
-      cosines.push_back(map.vectors->dot(slot.row.data(), index));
-    }
-  }
-  std::vector<double> scores(rows, -HUGE_VAL);
-  const size_t slots = run->history.size();
-  for (size_t position = 0; position < rows; ++position) {
-    const size_t rank = map.rank[position];
-    for (const double speed : speeds_) {
-      double sum = 0.0;
-      bool complete = true;
-      for (size_t slot = 0; slot < slots; ++slot) {
-        const size_t step = static_cast<size_t>(std::lround(static_cast<double>(slot) * speed));
-        if (step > rank) {
-          complete = false;
-          break;
-        }
-        sum += run->history[slot].cosines.at(map_id)[map.by_id[rank - step]];
-      }
-      if (complete) scores[position] = std::max(scores[position], sum / static_cast<double>(slots));
-      if (slots == 1) break;
-    }
-  }
-  return scores;
+MapScores FleetMatcher::pathScores(const ForeignMap& map, uint64_t map_id, QueryingRun* run) const {
+  std::vector<QueryKeyframe> keyframes;
+  for (QuerySlot& slot : run->history)
+    keyframes.push_back({slot.row.data(), &slot.cosines[map_id]});
+  return map.score(keyframes, speeds_);
 }
 
 std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
@@ -229,13 +189,17 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     const ForeignMap* map;
     size_t index;
     double score;
+    bool sampled;  ///< Evidence of what a wrong place of its map scores.
   };
-  std::vector<Scored> scored;  // Every row of every other map.
+  // Every row of every other map, or of a large one those its search read.
+  std::vector<Scored> scored;
+  std::map<const ForeignMap*, double> rows_per_sample;
   for (const auto& [map_id, map] : maps_) {
     if (map_id == own.map_id) continue;
-    const std::vector<double> scores = pathScores(map, map_id, &run);
-    for (size_t index = 0; index < map.rows.size(); ++index) {
-      if (scores[index] > -HUGE_VAL) scored.push_back({&map, index, scores[index]});
+    const MapScores scores = pathScores(map, map_id, &run);
+    rows_per_sample[&map] = scores.rows_per_sample;
+    for (const ScoredRow& row : scores.rows) {
+      scored.push_back({&map, row.position, row.score, row.sampled});
     }
   }
   std::vector<Scored> best;
@@ -248,7 +212,7 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   best.resize(keep);
   std::vector<PathPoint> matches;
   for (const Scored& row : best) {
-    matches.push_back({(row.map->ordinal << kMapIdBits) | row.map->rows[row.index].id, 0.0});
+    matches.push_back({(row.map->ordinal() << kMapIdBits) | row.map->row(row.index).id, 0.0});
   }
   const std::vector<TemporalConsistency::Chain> chains =
       run.consistency.update({own.id, 0.0}, matches);
@@ -258,8 +222,8 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   // two places.
   const auto other_place_of = [&](const Scored& row, const Scored& candidate) {
     if (row.map != candidate.map) return false;
-    const SharedKeyframe& x = row.map->rows[row.index];
-    const SharedKeyframe& y = candidate.map->rows[candidate.index];
+    const SharedKeyframe& x = row.map->row(row.index);
+    const SharedKeyframe& y = candidate.map->row(candidate.index);
     const uint64_t gap = x.id > y.id ? x.id - y.id : y.id - x.id;
     return gap > static_cast<uint64_t>(options_.place_window) &&
            !(x.session == y.session &&
@@ -268,12 +232,12 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
   const auto id_gap = [](uint64_t a, uint64_t b) { return a > b ? a - b : b - a; };
   std::vector<size_t> refused;  // Positions in `best` of candidates refused so far.
   for (size_t k = 0; k < best.size(); ++k) {
-    const SharedKeyframe& match = best[k].map->rows[best[k].index];
+    const SharedKeyframe& match = best[k].map->row(best[k].index);
     // A place's best-scoring candidate was refused: a neighbour of it that passes would name
     // the place's wrong keyframe.
     bool off_its_place = false;
     for (const size_t j : refused) {
-      const SharedKeyframe& better = best[j].map->rows[best[j].index];
+      const SharedKeyframe& better = best[j].map->row(best[j].index);
       const uint64_t gap = id_gap(better.id, match.id);
       if (best[j].map == best[k].map && gap <= static_cast<uint64_t>(options_.place_window) &&
           gap > static_cast<uint64_t>(options_.index_window)) {
@@ -305,7 +269,7 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     for (const Scored& row : scored) {
       if (!other_place_of(row, best[k])) continue;
       other_place = std::max(other_place, row.score);
-      other_scores.push_back(row.score);
+      if (row.sampled) other_scores.push_back(row.score);
     }
     if (options_.min_place_ratio > 0.0 && other_place > 0.0 &&
         best[k].score < options_.min_place_ratio * other_place) {
@@ -320,9 +284,12 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
                            run.last_candidate->map_id == match.map_id &&
                            id_gap(run.last_candidate->match_id, match.id) <=
                                static_cast<uint64_t>(options_.index_window);
-    const size_t places = continues ? std::min(other_scores.size(),
-                                               static_cast<size_t>(2 * options_.index_window + 1))
-                                    : other_scores.size();
+    // A large map's sample stands for the rows its search did not read.
+    const size_t other_places = static_cast<size_t>(
+        std::llround(static_cast<double>(other_scores.size()) * rows_per_sample.at(best[k].map)));
+    const size_t places =
+        continues ? std::min(other_places, static_cast<size_t>(2 * options_.index_window + 1))
+                  : other_places;
     const ScoreTail tail = fitScoreTail(std::move(other_scores));
     const double false_alarms = options_.max_false_alarms > 0.0 && tail.valid()
                                     ? tail.expectedFalseAlarms(best[k].score, places)
@@ -336,7 +303,7 @@ std::optional<FleetCandidate> FleetMatcher::query(const SharedKeyframe& own) {
     candidate.query_id = own.id;
     candidate.query_session = own.session;
     candidate.match = match;
-    candidate.peer = best[k].map->peer;
+    candidate.peer = best[k].map->peer();
     candidate.score = best[k].score;
     candidate.place_ratio = other_place > 0.0 ? best[k].score / other_place : 0.0;
     candidate.consistent_keyframes = chains[k].keyframes;
@@ -367,19 +334,13 @@ std::vector<FleetRobot> FleetMatcher::robots() const {
 
 size_t FleetMatcher::rows() const {
   size_t count = 0;
-  for (const auto& [map_id, map] : maps_) count += map.rows.size();
+  for (const auto& [map_id, map] : maps_) count += map.size();
   return count;
 }
 
 size_t FleetMatcher::bytes() const {
   size_t total = 0;
-  for (const auto& [map_id, map] : maps_) {
-    total += map.vectors->bytes() + map.rows.capacity() * sizeof(SharedKeyframe) +
-             map.ids.size() * (sizeof(uint64_t) + 32);
-    for (const SharedKeyframe& row : map.rows) {
-      total += row.robot.capacity() + row.odometry_frame.capacity();
-    }
-  }
+  for (const auto& [map_id, map] : maps_) total += map.bytes();
   return total;
 }
 

@@ -10,10 +10,12 @@
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets).
 // Without folders, views of the generated corridor are used.
-// --fleet-rows N: four other robots' N rows (the database's vectors, as peers share them) kept in
-// a fleet matcher; each keyframe's row is handed to the fleet's searcher, whose thread searches
-// them beside the worker (issue 81): the worker's time with N rows against none, and the
-// search's time on its own thread.
+// --fleet-rows N: four other robots' N rows kept in a fleet matcher, each robot driving a
+// synthetic route from its own start (lcd_bench_fleet's: vectors spread like the backbone's of
+// real images); each keyframe's row, a view of the route's next place, is handed to the fleet's
+// searcher, whose thread searches them beside the worker (issue 81): the worker's time with N
+// rows against none, and the search's time on its own thread. --fleet-approximate-from R:
+// advanced/fleet/approximate_from (0: every row read, as before the graph).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -28,6 +30,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "bench_workload.h"
 #include "command_line.h"
 #include "landmark_loop_closure/common/image_helpers.h"
 #include "landmark_loop_closure/common/stopwatch.h"
@@ -84,6 +87,7 @@ int main(int argc, char** argv) {
   size_t keyframes = 10000;
   int top_k = 10, repeat = 2;
   size_t fleet_rows = 0;
+  int fleet_approximate_from = FleetOptions{}.approximate_from;
   CLI::App app{"Time per keyframe of each stage of the node's pipeline, on one thread."};
   app.add_option("--database", database_folder, "images stored as keyframes (used in turn)")
       ->required();
@@ -92,6 +96,9 @@ int main(int argc, char** argv) {
   app.add_option("--top-k", top_k, "candidates the search returns")->capture_default_str();
   app.add_option("--repeat", repeat, "passes over the queries")->capture_default_str();
   app.add_option("--fleet-rows", fleet_rows, "other robots' rows searched beside the worker")
+      ->capture_default_str();
+  app.add_option("--fleet-approximate-from", fleet_approximate_from,
+                 "advanced/fleet/approximate_from (0: every row read)")
       ->capture_default_str();
   app.add_option("--descriptor", variant, "the descriptor")
       ->check(CLI::IsMember({"backbone", "landmarks", "landmarks_conv"}))
@@ -145,30 +152,52 @@ int main(int argc, char** argv) {
   database_options.top_k = top_k;
   database_options.min_size = 1;
 
-  // The fleet: four peers' rows, searched on the searcher's own thread.
-  FleetMatcher fleet_matcher(FleetOptions{}, "bench descriptor", extractor->globalDimension());
+  // The fleet: four peers' rows, each peer driving the route from its own start, searched on the
+  // searcher's own thread.
+  FleetOptions fleet_options;
+  fleet_options.approximate_from = fleet_approximate_from;
+  FleetMatcher fleet_matcher(fleet_options, "bench descriptor", extractor->globalDimension());
   std::mutex fleet_mutex;
   std::mutex fleet_times_mutex;
   std::vector<double> fleet_search_ms;
+  size_t fleet_candidates = 0;
+  bench::Route route(extractor->globalDimension(), 11, bench::RouteShape::kMeasured);
+  const size_t route_places = std::max<size_t>(1, fleet_rows / 4);
+  std::vector<std::vector<float>> places;
+  if (fleet_rows > 0) {
+    for (size_t k = 0; k < route_places; ++k) places.push_back(route.next());
+  }
   for (size_t i = 0; i < fleet_rows; ++i) {
+    const size_t peer = i % 4;
     SharedKeyframe row;
-    row.robot = "peer_" + std::to_string(i % 4);
-    row.map_id = i % 4 + 1;
+    row.robot = "peer_" + std::to_string(peer);
+    row.map_id = peer + 1;
     row.id = i / 4;
     row.stamp_ns = static_cast<int64_t>(row.id) * 100000000;
     row.pose.position.x() = 5.0 * static_cast<double>(row.id);
     row.odometry_frame = row.robot + "/odom";
     row.descriptor_fingerprint = descriptorFingerprint("bench descriptor");
-    row.global_row = QuantizedVectors::encode(described[i % described.size()].global);
+    row.global_row = QuantizedVectors::encode(
+        route.revisit(places[(row.id + peer * route_places / 4) % route_places]));
     fleet_matcher.addRow(row, 0.0, 0);
+  }
+  // The rows this robot's keyframes hand to the searcher: views of the route's places, made
+  // before the clock runs.
+  std::vector<std::vector<uint8_t>> own_rows;
+  if (fleet_rows > 0) {
+    for (size_t k = 0; k < query_images.size() * static_cast<size_t>(std::max(repeat, 1)); ++k) {
+      own_rows.push_back(QuantizedVectors::encode(route.revisit(places[k % route_places])));
+    }
   }
   std::optional<FleetSearcher> searcher;
   if (fleet_rows > 0) {
-    searcher.emplace(fleet_matcher, fleet_mutex, 8,
-                     [&](const FleetSearcher::Search&, std::optional<FleetCandidate>, double ms) {
-                       std::lock_guard<std::mutex> lock(fleet_times_mutex);
-                       fleet_search_ms.push_back(ms);
-                     });
+    searcher.emplace(
+        fleet_matcher, fleet_mutex, 8,
+        [&](const FleetSearcher::Search&, std::optional<FleetCandidate> candidate, double ms) {
+          std::lock_guard<std::mutex> lock(fleet_times_mutex);
+          fleet_search_ms.push_back(ms);
+          if (candidate) ++fleet_candidates;
+        });
   }
   uint64_t own_id = 0;
 
@@ -229,7 +258,7 @@ int main(int argc, char** argv) {
         own.row.robot = "bench";
         own.row.id = own_id++;
         own.row.descriptor_fingerprint = descriptorFingerprint("bench descriptor");
-        own.row.global_row = QuantizedVectors::encode(query.global);
+        own.row.global_row = own_rows[own.row.id % own_rows.size()];
         own.map_id = 99;
         searcher->hand(std::move(own));
       }
@@ -284,9 +313,12 @@ int main(int argc, char** argv) {
                      " rows (its own thread; not in the total)",
                  ms);
     }
-    std::printf("fleet: %zu rows of 4 peers, %lu searches, %lu dropped (the searcher behind)\n",
-                fleet_matcher.rows(), static_cast<unsigned long>(searcher->searched()),
-                static_cast<unsigned long>(searcher->dropped()));
+    std::printf(
+        "fleet: %zu rows of 4 peers (approximate_from %d), %lu searches, %lu dropped (the "
+        "searcher behind), %zu candidates\n",
+        fleet_matcher.rows(), fleet_approximate_from,
+        static_cast<unsigned long>(searcher->searched()),
+        static_cast<unsigned long>(searcher->dropped()), fleet_candidates);
   }
   std::printf(
       "descriptor %s (%s), input %dx%d, %zu keyframes, top-K %d, %zu queries, one thread\n\n",

@@ -19,6 +19,7 @@
 #include "landmark_loop_closure/core/place_check.h"
 #include "landmark_loop_closure/core/temporal_consistency.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
+#include "landmark_loop_closure/fleet/foreign_map.h"
 #include "landmark_loop_closure/fleet/shared_keyframe.h"
 
 namespace landmark_loop_closure {
@@ -39,7 +40,11 @@ struct FleetOptions {
   /// Ids within which consecutive own keyframes' matches continue each other (the chain, a
   /// continuing loop, a place's best candidate against its neighbours).
   int index_window = 3;
-  int top_k = 5;                   ///< Candidates kept per keyframe over every other map.
+  int top_k = 5;  ///< Candidates kept per keyframe over every other map.
+  /// Rows of one map from which a search reads only the rows an HNSW graph finds nearest the
+  /// last keyframes and a fixed sample of the map (0: every row, always).
+  int approximate_from = 2000;
+  int nearest_rows = 16;           ///< Rows the graph returns per own keyframe and map.
   int max_rows_per_robot = 20000;  ///< Rows kept of one robot (~90 MB); later ones are refused.
   int max_maps_per_robot = 32;     ///< Maps (map_ids) kept of one robot; rows of more are refused.
   double silent_after_s = 30.0;    ///< A robot whose rows stop this long is reported silent.
@@ -59,6 +64,8 @@ struct FleetOptions {
   std::string validate() const;
   /// peers, split.
   std::vector<std::string> peerList() const;
+  /// How each other map is searched.
+  ForeignSearchOptions search() const;
 };
 
 /// A candidate of another robot's map that passed the score and the chain: its evidence is
@@ -132,23 +139,10 @@ class FleetMatcher {
   const FleetOptions& options() const { return options_; }
 
  private:
-  struct ForeignMap {
-    std::string robot;
-    std::string peer;      ///< Who shared it first; only its rows are kept.
-    uint64_t ordinal = 0;  ///< Keeps chain ids of two maps apart.
-    std::unique_ptr<QuantizedVectors> vectors;
-    std::vector<SharedKeyframe> rows;  ///< Without their vectors, in the order they came.
-    std::set<uint64_t> ids;
-    /// Row positions in id order (a peer's backlog may come after its newer rows), and each
-    /// row's place in it: a path steps back through the map's keyframes as the robot drove them.
-    std::vector<size_t> by_id;
-    std::vector<size_t> rank;
-  };
-  /// One of the querying run's last keyframes: its row and its cosines to each map's rows (by row
-  /// position, computed as rows come).
+  /// One of the querying run's last keyframes: its row and its cosines to each map's rows.
   struct QuerySlot {
     std::vector<uint8_t> row;
-    std::map<uint64_t, std::vector<float>> cosines;
+    std::map<uint64_t, KeyframeCosines> cosines;  ///< By map_id.
   };
   /// What one querying (map, session) remembers from keyframe to keyframe.
   struct QueryingRun {
@@ -164,8 +158,8 @@ class FleetMatcher {
     /// The latest keyframe's candidate, if it had one.
     std::optional<Candidate> last_candidate;
   };
-  /// Each row's best path score for the run's newest keyframe, by row position.
-  std::vector<double> pathScores(const ForeignMap& map, uint64_t map_id, QueryingRun* run) const;
+  /// The run's newest keyframe's path scores over one map.
+  MapScores pathScores(const ForeignMap& map, uint64_t map_id, QueryingRun* run) const;
 
   FleetOptions options_;
   uint64_t fingerprint_;
