@@ -146,7 +146,7 @@ double SequenceMatcher::blockSimilarity(Slot* slot, size_t block_start, size_t i
                                         const KeyframeDatabase& database,
                                         const DescriptorExtractor& extractor) const {
   std::vector<float>& row = slot->blocks[block_start];
-  if (row.empty()) row.assign(kBackgroundBlock + margin, std::nanf(""));
+  if (row.size() != kBackgroundBlock + margin) row.assign(kBackgroundBlock + margin, std::nanf(""));
   float& value = row[index + margin - block_start];
   if (std::isnan(value)) {
     if (slot->encoded.row.empty()) slot->encoded = database.encode(slot->descriptor.global);
@@ -167,8 +167,11 @@ ScoreBackground SequenceMatcher::background(const KeyframeDatabase& database,
   while ((size + stride - 1) / stride > kBackgroundBlocks) stride *= 2;
   const std::vector<double> speeds = options_.speeds();
   const size_t slots = history_.size();
-  const size_t margin = static_cast<size_t>(
-      std::lround(static_cast<double>(slots - 1) * std::max(1.0, options_.max_speed)));
+  // Each slot keeps its blocks while it ages through the history, so their margin is the full
+  // history's from the first keyframe on: one laid out for a shorter history would be read at
+  // other offsets, and past its end, once the history is full.
+  const size_t margin = static_cast<size_t>(std::lround(
+      static_cast<double>(std::max(1, options_.length) - 1) * std::max(1.0, options_.max_speed)));
   for (Slot& slot : history_) {
     // Blocks of a smaller stride are not read again once the map has grown past it.
     if (slot.blocks.size() > 2 * kBackgroundBlocks) slot.blocks.clear();

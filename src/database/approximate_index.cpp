@@ -4,9 +4,11 @@
 
 #include <hnswlib/hnswlib.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <new>
 #include <sstream>
 #include <stdexcept>
 
@@ -111,6 +113,20 @@ size_t savedBytes(const Hnsw& hnsw) {
   return bytes;
 }
 
+// hnswlib 0.6.2's search prefetches the link after a list's last, so a full list of an upper level
+// (allocated to its exact size, one element at a time) is read past its end. Each element's upper
+// lists get room for that link, zeroed (the prefetch then names element 0).
+void padUpperLinks(Hnsw& hnsw, size_t element) {
+  const int levels = hnsw.element_levels_[element];
+  if (levels <= 0) return;
+  const size_t bytes = hnsw.size_links_per_element_ * static_cast<size_t>(levels) + 1;
+  char* padded =
+      static_cast<char*>(std::realloc(hnsw.linkLists_[element], bytes + sizeof(hnswlib::tableint)));
+  if (padded == nullptr) throw std::bad_alloc();
+  std::memset(padded + bytes, 0, sizeof(hnswlib::tableint));
+  hnsw.linkLists_[element] = padded;
+}
+
 size_t upperLinkBytes(const Hnsw& hnsw, size_t element) {
   return static_cast<size_t>(std::max(0, hnsw.element_levels_[element])) *
          hnsw.size_links_per_element_;
@@ -182,6 +198,7 @@ void ApproximateIndex::add() {
   reserve(row + 1);
   const auto data = static_cast<Row>(row);
   graph_->hnsw->addPoint(&data, row);
+  padUpperLinks(*graph_->hnsw, row);
   graph_->upper_link_bytes += upperLinkBytes(*graph_->hnsw, row);
 }
 
@@ -251,6 +268,7 @@ std::unique_ptr<ApproximateIndex> ApproximateIndex::load(const std::string& path
   }
   if (!linksStayInside(hnsw)) throw refuse("damaged (a link leads outside the graph)");
   for (size_t i = 0; i < hnsw.cur_element_count; ++i) {
+    padUpperLinks(*graph->hnsw, i);
     graph->upper_link_bytes += upperLinkBytes(hnsw, i);
   }
   return std::unique_ptr<ApproximateIndex>(new ApproximateIndex(std::move(graph), neighbors));

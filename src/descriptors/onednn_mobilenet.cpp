@@ -244,6 +244,8 @@ std::unique_ptr<OneDnnMobileNet> OneDnnMobileNet::create(cv::dnn::Net& net, cv::
                                                          const std::vector<std::string>& outputs,
                                                          std::string* why) {
   auto implementation = std::make_unique<Implementation>();
+  // oneDNN fixes a primitive's threads when it is created: OpenCV's thread count from the start.
+  omp_set_num_threads(std::max(1, cv::getNumThreads()));
   try {
     implementation->build(net, input, outputs);
   } catch (const std::exception& error) {

@@ -52,8 +52,8 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                    "nearest the last sequence_length own keyframes (nearest_rows each), the paths "
                    "through them, and a fixed sample of at most 256 rows for the calibrated "
                    "decision's tail (standing for the rows not read), so that its time does not "
-                   "grow with the fleet's maps: 2.2 ms a keyframe at 4 maps of 5 000 rows "
-                   "against 16 ms reading every row, the same candidates (lcd_bench_pipeline "
+                   "grow with the fleet's maps: 1.5-2.0 ms a keyframe at 4 maps of 5 000 rows "
+                   "against 8.5-9 ms reading every row, the same candidates (lcd_bench_pipeline "
                    "--fleet-rows 20000). Below it every row is read, as on the maps bench/README "
                    "measures. The graph grows with each map from its first row (about 200 B a "
                    "row). 0 = every row, always (no graph).")

@@ -109,17 +109,15 @@ MapScores ForeignMap::score(const std::vector<QueryKeyframe>& run,
     newest.searched = true;
   }
   // A path ending at a row passes near a keyframe's nearest row as many steps back as that
-  // keyframe is old: each nearest row, moved forward along every speed, is a path's end.
+  // keyframe is old: the newest keyframe's nearest rows are paths' ends, and each older
+  // keyframe's, moved forward as many ids as it is old (a path at one id a keyframe), are too
+  // (where the newest keyframe alone is not near its place).
   std::vector<uint8_t> read(rows, 0);  // 1: a path's end near the run; 2: in the sample.
   for (size_t slot = 0; slot < run.size(); ++slot) {
     for (const size_t position : run[slot].cosines->nearest) {
       if (position >= rows) continue;
-      for (const double speed : speeds) {
-        const size_t end =
-            rank_[position] + static_cast<size_t>(std::lround(static_cast<double>(slot) * speed));
-        if (end < rows) read[end] |= 1;
-        if (slot == 0) break;
-      }
+      const size_t end = rank_[position] + slot;
+      if (end < rows) read[end] |= 1;
     }
   }
   // The sample: blocks of contiguous keyframes at a stride that doubles as the map grows, as the

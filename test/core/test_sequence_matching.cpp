@@ -1,8 +1,12 @@
+#include <cmath>
 #include <memory>
+#include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "landmark_loop_closure/core/sequence_matching.h"
 #include "small_detector.h"
 
 using namespace landmark_loop_closure;
@@ -138,4 +142,53 @@ TEST(SequenceMatching, OptionsAreValidated) {
   LoopDetectorOptions detector = sequenceOptions();
   detector.acceptance.sequence.length = -3;
   EXPECT_THROW(LoopDetector(detector, std::make_shared<PlaceExtractor>()), std::invalid_argument);
+}
+
+// The calibrated decision's background is computed for every keyframe, from the first: a slot's
+// cached blocks, laid out while the history was shorter, are read again once it is full. They
+// must give what a history filled before the first background gives (they were once read at
+// other offsets and past their end: a heap overflow that crashed one benchmark run in a dozen).
+TEST(SequenceMatching, ABackgroundWhileTheHistoryFillsScoresAsOneOfAFullHistory) {
+  const int dimension = 32;
+  KeyframeDatabase database(dimension);
+  std::mt19937 random(5);
+  std::normal_distribution<float> normal;
+  const auto random_descriptor = [&] {
+    ImageDescriptor descriptor;
+    descriptor.global.resize(dimension);
+    double norm = 0.0;
+    for (float& x : descriptor.global) {
+      x = normal(random);
+      norm += x * x;
+    }
+    for (float& x : descriptor.global) x = static_cast<float>(x / std::sqrt(norm));
+    return descriptor;
+  };
+  for (uint64_t id = 0; id < 3000; ++id) {
+    KeyframeRecord record;
+    record.id = id;
+    record.stamp = static_cast<double>(id);
+    record.descriptor = random_descriptor();
+    database.add(record);
+  }
+  PlaceExtractor extractor;
+  SequenceMatchingOptions options;
+  options.length = 5;
+  std::vector<ImageDescriptor> keyframes;
+  for (int k = 0; k < options.length; ++k) keyframes.push_back(random_descriptor());
+  const auto every = [](size_t) { return true; };
+  SequenceMatcher growing(options);
+  ScoreBackground grown;
+  for (const ImageDescriptor& keyframe : keyframes) {
+    growing.push(keyframe);
+    grown = growing.background(database, extractor, every);
+  }
+  SequenceMatcher full(options);
+  for (const ImageDescriptor& keyframe : keyframes) full.push(keyframe);
+  const ScoreBackground expected = full.background(database, extractor, every);
+  ASSERT_EQ(grown.index, expected.index);
+  ASSERT_EQ(grown.score.size(), expected.score.size());
+  for (size_t i = 0; i < expected.score.size(); ++i) {
+    ASSERT_NEAR(grown.score[i], expected.score[i], 1e-6) << "position " << expected.index[i];
+  }
 }
