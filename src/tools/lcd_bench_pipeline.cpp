@@ -78,6 +78,12 @@ struct Stages {
     if (found == times.end()) found = times.insert(times.end(), {stage, {}});
     found->second.push_back(milliseconds);
   }
+  const std::vector<double>* find(const std::string& stage) const {
+    for (const auto& [name, values] : times) {
+      if (name == stage) return &values;
+    }
+    return nullptr;
+  }
 };
 
 }  // namespace
@@ -329,6 +335,20 @@ int main(int argc, char** argv) {
   for (const auto& [stage, times] : stages.times) {
     const eval::Percentiles p = eval::percentiles(times);
     std::printf("| %s | %.2f | %.2f |\n", stage.c_str(), p.median, p.p99);
+  }
+  // The figure a user compares with other detectors: what the pipeline costs beyond its network.
+  const std::vector<double>* network =
+      stages.find(convnet ? "network pass" : "describe: network pass");
+  const std::vector<double>* total = stages.find("total per keyframe");
+  if (network && total) {
+    const eval::Percentiles pass = eval::percentiles(*network);
+    const eval::Percentiles whole = eval::percentiles(*total);
+    if (pass.median > 0.0) {
+      std::printf(
+          "\nthe total per keyframe is %.1fx the network pass (median %.2f / %.2f ms), p99 %.1fx "
+          "the pass's median\n",
+          whole.median / pass.median, whole.median, pass.median, whole.p99 / pass.median);
+    }
   }
   std::printf(
       "\nbytes per keyframe: %.0f (database accounting), peak RSS %.0f MB (the process, query "
