@@ -91,6 +91,8 @@ catkin_add_gtest(test_pose_graph_session test/core/test_pose_graph_session.cpp)
 target_link_libraries(test_pose_graph_session ${PROJECT_NAME}_backend GTest::gtest_main)
 target_compile_definitions(test_pose_graph_session PRIVATE
   PACKAGE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+catkin_add_gtest(test_pose_graph_runtime test/core/test_pose_graph_runtime.cpp)
+target_link_libraries(test_pose_graph_runtime ${PROJECT_NAME}_backend GTest::gtest_main)
 
 # A full disk (SQLite's file system wrapped so that writes fail) and the sessions of runs on one
 # map, down to the pose graph's chains.

@@ -14,7 +14,7 @@ case "${1:-}" in
   --build-only) build_only=true ;;
   *) echo "usage: scripts/tsan.sh [--build-only]" >&2; exit 2 ;;
 esac
-TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map test_loop_detector_ids test_pose_graph_session)
+TESTS=(test_detector_runtime test_keyframe_store test_loop_detector_map test_loop_detector_ids test_pose_graph_session test_pose_graph_runtime)
 LOG=_build_tsan.log
 echo "tsan: configuring and building ${TESTS[*]} (output in $LOG)"
 # Build type None: only these flags (Debug would add full -g, a quarter of the build's time; -g1

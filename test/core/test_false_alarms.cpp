@@ -7,6 +7,7 @@
 
 #include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/loop_detector.h"
+#include "random_descriptors.h"
 #include "small_detector.h"
 
 using namespace landmark_loop_closure;
@@ -372,33 +373,15 @@ TEST(ScoreBackground, EachSampledPlaceScoresAsItWouldAsACandidate) {
   // A map larger than the sample: 3000 keyframes, sampled in blocks.
   const int dimension = 32;
   KeyframeDatabase database(dimension);
-  std::mt19937 random(3);
-  std::normal_distribution<float> normal;
-  const auto random_descriptor = [&] {
-    ImageDescriptor descriptor;
-    descriptor.global.resize(dimension);
-    double norm = 0.0;
-    for (float& x : descriptor.global) {
-      x = normal(random);
-      norm += x * x;
-    }
-    for (float& x : descriptor.global) x = static_cast<float>(x / std::sqrt(norm));
-    return descriptor;
-  };
-  for (uint64_t id = 0; id < 3000; ++id) {
-    KeyframeRecord record;
-    record.id = id;
-    record.stamp = static_cast<double>(id);
-    record.descriptor = random_descriptor();
-    database.add(record);
-  }
+  test_support::RandomDescriptors descriptors(dimension, 3);
+  descriptors.fill(&database, 3000);
   test_support::PlaceExtractor extractor;  // globalScore is the identity.
   SequenceMatchingOptions options;
   options.length = 4;
   SequenceMatcher matcher(options);
   ImageDescriptor current;
   for (int k = 0; k < 4; ++k) {
-    current = random_descriptor();
+    current = descriptors.next();
     matcher.push(current);
   }
   const auto every = [](size_t) { return true; };

@@ -1,92 +1,22 @@
-// The pose_graph node's bookkeeping (PoseGraphSession) and its thread (PoseGraphRuntime), without
-// ROS: what enters the graph, what waits, what is left out and why, and a chain per map and
-// session.
+// The pose_graph node's bookkeeping (PoseGraphSession), without ROS: what enters the graph, what
+// waits, what is left out and why, and a chain per map and session (its thread:
+// test_pose_graph_runtime.cpp).
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cmath>
-#include <condition_variable>
-#include <mutex>
-#include <stdexcept>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "../../fuzz/pose_graph_session_input.h"
 #include "kept_fuzz_inputs.h"
-#include "landmark_loop_closure/backend/pose_graph_runtime.h"
 #include "landmark_loop_closure/backend/pose_graph_session.h"
+#include "pose_graph_fixtures.h"
 
 namespace landmark_loop_closure {
 namespace {
 
-constexpr uint64_t kMap = 7;
-constexpr uint64_t kSecond = 1000000000ull;
-
-/// Along x, 1 m a keyframe, one keyframe a second.
-GraphKeyframe keyframeAt(uint64_t id, uint64_t map_id = kMap, uint64_t stamp_ns = 0) {
-  GraphKeyframe keyframe;
-  keyframe.id = id;
-  keyframe.map_id = map_id;
-  keyframe.odometry.position = Eigen::Vector3d(static_cast<double>(id), 0.0, 0.0);
-  keyframe.stamp_ns = stamp_ns > 0 ? stamp_ns : (id + 1) * kSecond;
-  keyframe.odometry_frame = "odom";
-  return keyframe;
-}
-
-/// A metric loop in the base frame whose relative pose is the odometry's own (a true one).
-GraphLoop loopBetween(uint64_t query, uint64_t match) {
-  GraphLoop loop;
-  loop.map_id = kMap;
-  loop.constraint.query_id = query;
-  loop.constraint.match_id = match;
-  loop.query_stamp_ns = (query + 1) * kSecond;
-  loop.match_stamp_ns = (match + 1) * kSecond;
-  loop.has_relative_pose = true;
-  loop.relative_pose_metric = true;
-  loop.relative_pose_frame = "base_link";
-  loop.constraint.query_T_match.translation() =
-      Eigen::Vector3d(static_cast<double>(match) - static_cast<double>(query), 0.0, 0.0);
-  loop.constraint.covariance = 1e-4 * Eigen::Matrix<double, 6, 6>::Identity();
-  return loop;
-}
-
-/// Knows "camera" only (0.2 m ahead of the base); says why for any other frame.
-std::optional<Eigen::Isometry3d> cameraOnly(const std::string& frame, std::string* problem) {
-  if (frame == "camera") return Eigen::Isometry3d(Eigen::Translation3d(0.2, 0.0, 0.0));
-  *problem = "no tf base_link -> '" + frame + "'";
-  return std::nullopt;
-}
-
-PoseGraphNodeOptions eachLoopOnItsOwn() {
-  PoseGraphNodeOptions options;
-  options.graph.loop_confirmations = 0;
-  return options;
-}
-
-std::vector<PoseGraphSession::Input> keyframes(uint64_t first, uint64_t end) {
-  std::vector<PoseGraphSession::Input> inputs;
-  for (uint64_t id = first; id < end; ++id) inputs.emplace_back(keyframeAt(id));
-  return inputs;
-}
-
-bool hasNotice(const GraphStep& step, GraphNotice::Kind kind, const std::string& part) {
-  return std::any_of(step.notices.begin(), step.notices.end(), [&](const GraphNotice& notice) {
-    return notice.kind == kind && notice.text.find(part) != std::string::npos;
-  });
-}
-
-/// Keyframes 0-11, then a loop saying the odometry overestimated the 10 m from 1 to 11 by 0.3 m:
-/// the graph moves the last keyframes back. True when that loop was accepted.
-bool correctTwelveKeyframes(PoseGraphSession* session) {
-  session->process(keyframes(0, 12));
-  GraphLoop shorter = loopBetween(11, 1);
-  shorter.constraint.query_T_match.translation().x() += 0.3;
-  const GraphStep step = session->process({shorter});
-  return step.verdicts.size() == 1 && step.verdicts[0].decision == "accepted";
-}
+using namespace pose_graph_fixtures;
 
 TEST(PoseGraphSession, ALoopPublishedBeforeItsQueryKeyframeWaitsForIt) {
   PoseGraphSession session(eachLoopOnItsOwn(), cameraOnly);
@@ -532,105 +462,6 @@ TEST(PoseGraphSession, EveryKeptFuzzInputKeepsItsInvariants) {
     EXPECT_TRUE(fuzz::replayPoseGraphSessionInput(input.bytes.data(), input.bytes.size()));
   }
   EXPECT_GE(inputs.size(), 2u);
-}
-
-TEST(PoseGraphRuntime, InputsFromSeveralThreadsAllEnterWhileTheCorrectionIsRead) {
-  std::mutex mutex;
-  std::condition_variable changed;
-  size_t keyframes_seen = 0;
-  size_t verdicts_seen = 0;
-  bool caught_up = false;
-  PoseGraphListener listener;
-  listener.step = [&](PoseGraphSession& session, const GraphStep& step) {
-    std::lock_guard<std::mutex> lock(mutex);
-    keyframes_seen = session.graph().keyframes();
-    verdicts_seen += step.verdicts.size();
-    changed.notify_all();
-  };
-  listener.catch_up = [&](PoseGraphSession& session) {
-    session.pathsPublished();
-    std::lock_guard<std::mutex> lock(mutex);
-    caught_up = true;
-    changed.notify_all();
-  };
-  PoseGraphRuntime runtime(eachLoopOnItsOwn(), cameraOnly, listener, std::chrono::milliseconds(20));
-  EXPECT_FALSE(runtime.correction().has_value());
-  constexpr uint64_t kKeyframes = 205;  // Not a multiple of 10: the last paths need a catch-up.
-  std::atomic<bool> done{false};
-  std::thread keyframe_source([&] {
-    for (uint64_t id = 0; id < kKeyframes; ++id) runtime.push(keyframeAt(id));
-  });
-  std::thread loop_source([&] {
-    for (uint64_t query = 100; query < kKeyframes; query += 5) {
-      runtime.push(loopBetween(query, query - 100));
-    }
-  });
-  std::thread reader([&] {
-    while (!done) {
-      const std::optional<GraphCorrection> correction = runtime.correction();
-      if (correction) {
-        EXPECT_EQ(correction->odometry_frame, "odom");
-      }
-    }
-  });
-  keyframe_source.join();
-  loop_source.join();
-  {
-    std::unique_lock<std::mutex> lock(mutex);
-    EXPECT_TRUE(changed.wait_for(
-        lock, std::chrono::seconds(60),
-        [&] { return keyframes_seen == kKeyframes && verdicts_seen >= 21 && caught_up; }))
-        << keyframes_seen << " keyframes, " << verdicts_seen << " verdicts";
-  }
-  done = true;
-  reader.join();
-  runtime.stop();
-  runtime.stop();  // Idempotent.
-  ASSERT_TRUE(runtime.correction().has_value());
-  EXPECT_NE(runtime.summary().find("205 keyframes"), std::string::npos) << runtime.summary();
-}
-
-// An exception on the worker (Ceres, a listener) must not end the process, which a shared nodelet
-// manager shares with the detector and the camera driver.
-TEST(PoseGraphRuntime, ABatchThatThrowsIsReportedAndTheWorkerGoesOn) {
-  std::mutex mutex;
-  std::condition_variable changed;
-  size_t keyframes_seen = 0;
-  bool thrown = false;
-  std::vector<std::string> failures;
-  PoseGraphListener listener;
-  listener.step = [&](PoseGraphSession& session, const GraphStep&) {
-    std::lock_guard<std::mutex> lock(mutex);
-    keyframes_seen = session.graph().keyframes();
-    changed.notify_all();
-    if (!thrown) {
-      thrown = true;
-      throw std::runtime_error("publish failed");
-    }
-  };
-  listener.failed = [&](const std::string& what) {
-    std::lock_guard<std::mutex> lock(mutex);
-    failures.push_back(what);
-    changed.notify_all();
-  };
-  PoseGraphRuntime runtime(eachLoopOnItsOwn(), cameraOnly, listener, std::chrono::milliseconds(20));
-  runtime.push(keyframeAt(0));
-  {
-    std::unique_lock<std::mutex> lock(mutex);
-    ASSERT_TRUE(
-        changed.wait_for(lock, std::chrono::seconds(10), [&] { return !failures.empty(); }));
-  }
-  for (uint64_t id = 1; id < 5; ++id) runtime.push(keyframeAt(id));
-  {
-    std::unique_lock<std::mutex> lock(mutex);
-    EXPECT_TRUE(changed.wait_for(lock, std::chrono::seconds(10), [&] {
-      return keyframes_seen == 5;
-    })) << keyframes_seen;
-  }
-  runtime.stop();
-  EXPECT_EQ(runtime.failures(), 1u);
-  ASSERT_EQ(failures.size(), 1u);
-  EXPECT_EQ(failures[0], "publish failed");
 }
 
 }  // namespace

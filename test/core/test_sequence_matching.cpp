@@ -1,12 +1,12 @@
 #include <cmath>
 #include <memory>
-#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/core/sequence_matching.h"
+#include "random_descriptors.h"
 #include "small_detector.h"
 
 using namespace landmark_loop_closure;
@@ -151,31 +151,13 @@ TEST(SequenceMatching, OptionsAreValidated) {
 TEST(SequenceMatching, ABackgroundWhileTheHistoryFillsScoresAsOneOfAFullHistory) {
   const int dimension = 32;
   KeyframeDatabase database(dimension);
-  std::mt19937 random(5);
-  std::normal_distribution<float> normal;
-  const auto random_descriptor = [&] {
-    ImageDescriptor descriptor;
-    descriptor.global.resize(dimension);
-    double norm = 0.0;
-    for (float& x : descriptor.global) {
-      x = normal(random);
-      norm += x * x;
-    }
-    for (float& x : descriptor.global) x = static_cast<float>(x / std::sqrt(norm));
-    return descriptor;
-  };
-  for (uint64_t id = 0; id < 3000; ++id) {
-    KeyframeRecord record;
-    record.id = id;
-    record.stamp = static_cast<double>(id);
-    record.descriptor = random_descriptor();
-    database.add(record);
-  }
+  test_support::RandomDescriptors descriptors(dimension, 5);
+  descriptors.fill(&database, 3000);
   PlaceExtractor extractor;
   SequenceMatchingOptions options;
   options.length = 5;
   std::vector<ImageDescriptor> keyframes;
-  for (int k = 0; k < options.length; ++k) keyframes.push_back(random_descriptor());
+  for (int k = 0; k < options.length; ++k) keyframes.push_back(descriptors.next());
   const auto every = [](size_t) { return true; };
   SequenceMatcher growing(options);
   ScoreBackground grown;
