@@ -6,8 +6,6 @@
 #include <cmath>
 #include <limits>
 
-#include "landmark_loop_closure/core/sequence_matching.h"
-
 namespace landmark_loop_closure {
 
 ForeignMap::ForeignMap(std::string robot, std::string peer, uint64_t ordinal, int dimension,

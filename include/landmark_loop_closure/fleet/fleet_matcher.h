@@ -18,7 +18,6 @@
 #include "landmark_loop_closure/common/parameter_table.h"
 #include "landmark_loop_closure/core/place_check.h"
 #include "landmark_loop_closure/core/temporal_consistency.h"
-#include "landmark_loop_closure/database/quantized_vectors.h"
 #include "landmark_loop_closure/fleet/foreign_map.h"
 #include "landmark_loop_closure/fleet/shared_keyframe.h"
 
