@@ -4,7 +4,8 @@
 #         run at once)
 #   tool  the programs and scripts end to end: install, demo, rviz, README commands, launch checks
 #   data  checks on the real datasets in ../shared/data: "Not Run" (skipped) without them
-#   slow  ThreadSanitizer: the threaded core tests rebuilt and run (scripts/tsan.sh)
+#   slow  ThreadSanitizer: the threaded core tests rebuilt and run (scripts/tsan.sh); Clang's
+#         thread-safety analysis of the libraries and nodes (scripts/thread_safety.sh)
 # scripts/test.sh runs all of them (slow last); scripts/test.sh --quick the unit tier on an
 # existing build.
 # A new entry without a tier stops the configure.
@@ -66,6 +67,15 @@ set_tests_properties(tool_train_learned_descriptors PROPERTIES SKIP_RETURN_CODE 
 # both cores.
 add_test(NAME tsan_threaded_tests COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/scripts/tsan.sh)
 set_tests_properties(tsan_threaded_tests PROPERTIES LABELS slow TIMEOUT 1800)
+# Clang's thread-safety analysis: the libraries and nodes built with it (slow: a build of its own,
+# started early by scripts/test.sh like ThreadSanitizer's), and the check that it refuses code that
+# breaks an annotation (unit: one small file).
+add_test(NAME thread_safety_build COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/scripts/thread_safety.sh)
+set_tests_properties(thread_safety_build PROPERTIES LABELS slow TIMEOUT 1800)
+add_test(NAME thread_safety_refuses_violations
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/test/thread_safety/refuses_violations.sh
+          ${CMAKE_CURRENT_SOURCE_DIR}/include)
+set_tests_properties(thread_safety_refuses_violations PROPERTIES LABELS unit)
 
 get_property(llc_tests DIRECTORY PROPERTY TESTS)
 foreach(test ${llc_tests})

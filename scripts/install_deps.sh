@@ -20,6 +20,7 @@ PACKAGES=(
   python3-onnx python3-numpy python3-matplotlib
   python3-geometry-msgs  # rostopic reads the Keyframe message (scripts/kill_soak.sh)
   rviz xvfb libx11-dev
+  clang  # the thread-safety analysis (scripts/thread_safety.sh)
 )
 # npm fetches the pretrained backbone; a Node.js that brings its own npm is enough.
 if ! command -v npm > /dev/null; then PACKAGES+=(nodejs npm); fi

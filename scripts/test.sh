@@ -2,7 +2,8 @@
 # The README's test command and CI's.
 #   scripts/test.sh          installs what is missing, builds, and runs every tier: unit, node,
 #                            tool and data side by side (ctest -j, one job per core), then slow
-#                            (ThreadSanitizer, scripts/tsan.sh); cmake/test_tiers.cmake says
+#                            (ThreadSanitizer, scripts/tsan.sh; Clang's thread-safety analysis,
+#                            scripts/thread_safety.sh); cmake/test_tiers.cmake says
 #                            which entry is in which tier
 #   scripts/test.sh --quick  the unit tier (every gtest of the libraries) on the build already in
 #                            _build/, rebuilding what changed; no apt, no ROS master
@@ -46,11 +47,16 @@ set -u
 # reported by the slow tier's own run of scripts/tsan.sh, which then finds the build done.
 nice -n 19 scripts/tsan.sh --build-only > /dev/null 2>&1 &
 tsan_build=$!
+# Clang's thread-safety build the same way, after it (the two would share the same idle time).
+(wait_for_tsan() { while kill -0 "$tsan_build" 2> /dev/null; do sleep 5; done; }
+ wait_for_tsan; nice -n 19 scripts/thread_safety.sh --build-only > /dev/null 2>&1) &
+clang_build=$!
 cd _build
 status=0
 # Every tier but slow side by side, then ThreadSanitizer.
 ctest -j"$jobs" -LE slow --output-on-failure 2>&1 | tee ctest.log || status=1
 wait "$tsan_build" || true
+wait "$clang_build" || true
 ctest -L slow --output-on-failure 2>&1 | tee -a ctest.log || status=1
 catkin_test_results test_results | tee catkin_test_results.log || status=1
 if [ -d ../../shared/data ]; then

@@ -22,25 +22,25 @@ PoseGraphRuntime::~PoseGraphRuntime() { stop(); }
 
 void PoseGraphRuntime::push(PoseGraphSession::Input input) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     inputs_.push_back(std::move(input));
   }
   wake_.notify_one();
 }
 
 std::optional<GraphCorrection> PoseGraphRuntime::correction() const {
-  std::lock_guard<std::mutex> lock(correction_mutex_);
+  MutexLock lock(correction_mutex_);
   return correction_;
 }
 
 std::vector<GraphCorrection> PoseGraphRuntime::corrections() const {
-  std::lock_guard<std::mutex> lock(correction_mutex_);
+  MutexLock lock(correction_mutex_);
   return corrections_;
 }
 
 void PoseGraphRuntime::stop() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
   }
   wake_.notify_all();
@@ -110,8 +110,11 @@ void PoseGraphRuntime::work() {
     std::vector<PoseGraphSession::Input> batch;
     bool woken = false;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      woken = wake_.wait_for(lock, catch_up_, [this] { return stopping_ || !inputs_.empty(); });
+      MutexLock lock(mutex_);
+      const auto give_up = std::chrono::steady_clock::now() + catch_up_;
+      while (!stopping_ && inputs_.empty() && lock.waitUntil(wake_, give_up)) {
+      }
+      woken = stopping_ || !inputs_.empty();
       if (stopping_) return;
       batch.swap(inputs_);
     }
@@ -142,7 +145,7 @@ void PoseGraphRuntime::publish(const GraphStep& step) {
     for (const auto& [frame, correction] : session_.corrections()) {
       corrections.push_back({correction, frame});
     }
-    std::lock_guard<std::mutex> lock(correction_mutex_);
+    MutexLock lock(correction_mutex_);
     correction_ = GraphCorrection{session_.graph().mapFromOdometry(), session_.odometryFrame()};
     corrections_ = std::move(corrections);
   }

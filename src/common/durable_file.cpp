@@ -6,23 +6,24 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <mutex>
 #include <stdexcept>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
+
 namespace landmark_loop_closure {
 
 namespace {
 
-std::mutex faults_mutex;
-WriteFaults faults;
+Mutex faults_mutex;
+WriteFaults faults GUARDED_BY(faults_mutex);
 
 // write(2) through the faults a test set: a full disk past its bytes.
 ssize_t writeSome(int fd, const char* data, size_t size) {
   {
-    const std::lock_guard<std::mutex> lock(faults_mutex);
+    MutexLock lock(faults_mutex);
     if (faults.bytes_until_full) {
       if (*faults.bytes_until_full == 0) {
         errno = ENOSPC;
@@ -38,7 +39,7 @@ ssize_t writeSome(int fd, const char* data, size_t size) {
 // close(2), or EIO when a test says so (the file is closed all the same).
 int closeFile(int fd) {
   const int status = ::close(fd);
-  const std::lock_guard<std::mutex> lock(faults_mutex);
+  MutexLock lock(faults_mutex);
   if (status == 0 && faults.fail_on_close) {
     errno = EIO;
     return -1;
@@ -53,7 +54,7 @@ std::string systemError(const std::string& what, const std::string& path, int er
 }  // namespace
 
 void setWriteFaults(const WriteFaults& set) {
-  const std::lock_guard<std::mutex> lock(faults_mutex);
+  MutexLock lock(faults_mutex);
   faults = set;
 }
 

@@ -4,20 +4,22 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <mutex>
+
+#include "landmark_loop_closure/common/thread_annotations.h"
 
 namespace landmark_loop_closure {
 
 namespace {
 
-std::mutex& directoryMutex() {
-  static std::mutex mutex;
-  return mutex;
-}
+// setModelDirectory()'s choice.
+struct ChosenDirectory {
+  Mutex mutex;
+  std::string path GUARDED_BY(mutex);
+};
 
-std::string& chosenDirectory() {
-  static std::string directory;
-  return directory;
+ChosenDirectory& chosenDirectory() {
+  static ChosenDirectory chosen;
+  return chosen;
 }
 
 // <prefix>/share/landmark_loop_closure/model when this library lies in <prefix>/lib (installed).
@@ -43,8 +45,9 @@ std::string modelDirectory() {
     return environment;
   }
   {
-    const std::lock_guard<std::mutex> lock(directoryMutex());
-    if (!chosenDirectory().empty()) return chosenDirectory();
+    ChosenDirectory& chosen = chosenDirectory();
+    MutexLock lock(chosen.mutex);
+    if (!chosen.path.empty()) return chosen.path;
   }
   static const std::string installed = installedDirectory();
   return installed.empty() ? LANDMARK_LOOP_CLOSURE_MODEL_DIR : installed;
@@ -53,8 +56,9 @@ std::string modelDirectory() {
 bool setModelDirectory(const std::string& directory) {
   std::error_code error;
   if (directory.empty() || !std::filesystem::is_directory(directory, error)) return false;
-  const std::lock_guard<std::mutex> lock(directoryMutex());
-  chosenDirectory() = directory;
+  ChosenDirectory& chosen = chosenDirectory();
+  MutexLock lock(chosen.mutex);
+  chosen.path = directory;
   return true;
 }
 

@@ -257,7 +257,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                                      landmark_loop_closure::descriptorIdentity(options.descriptor)
                                : std::string()),
       verifier_(options.verification),
-      selector_(options.keyframe),
+      admission_(options.input, options.keyframe),
       map_(mapSettings(options, extractor_.get(), descriptor_identity_), this),
       standardiser_(options.descriptor.condition_window),
       consistency_(options.acceptance.consistency_unit,
@@ -299,9 +299,7 @@ void LoopDetector::storeHeldKeyframes() {
 
 void LoopDetector::mapReplaced(uint32_t first_session, std::optional<uint64_t> next_id) {
   session_ = first_session;
-  uint64_t next = next_keyframe_id_.load();
-  while (next_id && next < *next_id && !next_keyframe_id_.compare_exchange_weak(next, *next_id)) {
-  }
+  if (next_id) admission_.raiseNextId(*next_id);
   consistency_.reset();
   sequence_.reset();
   backgrounds_.clear();
@@ -323,16 +321,6 @@ void LoopDetector::reserveId(uint64_t id, KeyframeResult* result) {
   if (std::string error = map_.reserveId(id); !error.empty()) result->store_error = error;
 }
 
-void LoopDetector::restartAdmission() {
-  selector_ = KeyframeSelector(options_.keyframe);
-  image_size_.reset();
-}
-
-std::optional<double> LoopDetector::lastKeyframeStamp() const {
-  if (!selector_.hasKeyframe()) return std::nullopt;
-  return selector_.lastKeyframeStamp();
-}
-
 void LoopDetector::setCameraMount(const std::optional<Pose>& mount) {
   camera_mount_ = mount ? std::optional<Pose>(normalisedPose(*mount)) : std::nullopt;
 }
@@ -350,43 +338,6 @@ void LoopDetector::setMode(DetectorMode mode) {
     passed_places_.clear();
   }
   mode_ = mode;
-}
-
-FrameAdmission LoopDetector::admit(double stamp, const Pose& pose, int image_width,
-                                   int image_height, int image_cv_type,
-                                   const OdometrySince& odometry) {
-  FrameAdmission admission;
-  if (!std::isfinite(stamp)) {
-    admission.error = InputError{InputErrorCode::kNonFiniteStamp, "stamp is not finite"};
-    return admission;
-  }
-  if (selector_.hasKeyframe() && stamp <= selector_.lastKeyframeStamp()) {
-    std::ostringstream message;
-    message.precision(17);
-    message << "stamp " << stamp << " s is not after the last keyframe's "
-            << selector_.lastKeyframeStamp() << " s";
-    admission.error = InputError{InputErrorCode::kStampNotIncreasing, message.str()};
-    return admission;
-  }
-  if ((admission.error = checkPose(pose, options_.input))) return admission;
-  if ((admission.error = checkImage(image_width, image_height, image_cv_type, options_.input))) {
-    return admission;
-  }
-  const cv::Size size(image_width, image_height);
-  if (image_size_ && *image_size_ != size) {
-    std::ostringstream message;
-    message << "image size " << image_width << "x" << image_height
-            << " differs from the first image's " << image_size_->width << "x"
-            << image_size_->height;
-    admission.error = InputError{InputErrorCode::kImageSizeChanged, message.str()};
-    return admission;
-  }
-  image_size_ = size;
-  admission.selection = selector_.select(stamp, normalisedPose(pose), odometry);
-  if (admission.selection.verdict == SelectionVerdict::kKeyframe) {
-    admission.keyframe_id = next_keyframe_id_++;
-  }
-  return admission;
 }
 
 KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, const Pose& pose,

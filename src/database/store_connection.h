@@ -10,13 +10,13 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
 
 #include "database/vector_file.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
 
 namespace landmark_loop_closure {
@@ -166,13 +166,13 @@ struct KeyframeStore::IntegrityCheck {
   void run();
   /// Why it failed (any thread); "" unless it did.
   std::string problem() const {
-    const std::lock_guard<std::mutex> lock(problem_mutex);
+    MutexLock lock(problem_mutex);
     return problem_text;
   }
   /// The check's thread: it failed, for `why`.
   void fail(const std::string& why) {
     {
-      const std::lock_guard<std::mutex> lock(problem_mutex);
+      MutexLock lock(problem_mutex);
       problem_text = why;
     }
     state = MapCheck::kFailed;
@@ -180,15 +180,15 @@ struct KeyframeStore::IntegrityCheck {
   /// It could not run for the disk's sake (`why`): not damage, tried again later.
   void defer(const std::string& why) {
     {
-      const std::lock_guard<std::mutex> lock(problem_mutex);
+      MutexLock lock(problem_mutex);
       problem_text = why;
     }
     deferred_at = std::chrono::steady_clock::now();
     state = MapCheck::kDeferred;
   }
   // Under a lock of its own, so that no reader depends on the order of `state`'s writes.
-  mutable std::mutex problem_mutex;
-  std::string problem_text;
+  mutable Mutex problem_mutex;
+  std::string problem_text GUARDED_BY(problem_mutex);
 
   /// Stops a running check and waits for its thread.
   void halt() {

@@ -141,7 +141,7 @@ std::vector<FeatureMaps> BackboneDescriptor::forward(const cv::Mat& image,
   if (times) times->network_input = millisecondsSince(start);
   std::vector<cv::Mat> outputs;
   {
-    std::lock_guard<std::mutex> lock(net_mutex_);
+    MutexLock lock(net_mutex_);
     start = Clock::now();
     if (fast_net_) {
       outputs = fast_net_->forward(blob);

@@ -181,7 +181,7 @@ Eigen::VectorXf CnnGlobalDescriptor::rawFeature(const cv::Mat& image) const {
       networkInputBlob(image, options_.input_size, options_.colour, options_.mean, options_.std);
   cv::Mat output;
   {
-    std::lock_guard<std::mutex> lock(net_mutex_);
+    MutexLock lock(net_mutex_);
     net_.setInput(blob);
     output = net_.forward(options_.layer);
   }

@@ -31,7 +31,7 @@ std::vector<FeatureMaps> ConvNetDescriptor::forward(const cv::Mat& working_image
   const cv::Mat blob = cv::dnn::blobFromImage(working_image, 1.0 / 255.0);
   std::vector<cv::Mat> outputs;
   {
-    std::lock_guard<std::mutex> lock(net_mutex_);
+    MutexLock lock(net_mutex_);
     net_.setInput(blob);
     net_.forward(outputs,
                  std::vector<cv::String>{options_.proposal_layer, options_.descriptor_layer});

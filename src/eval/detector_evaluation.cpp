@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
-#include <mutex>
 #include <unordered_map>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/eval/report.h"
 
 namespace landmark_loop_closure {
@@ -71,20 +71,21 @@ class CachedExtractor : public DescriptorExtractor {
                const Compute& compute) const {
     const uint64_t key = imageKey(image);
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(mutex_);
       const auto found = cache->find(key);
       if (found != cache->end()) return found->second;
     }
     Value value = compute(image);
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     cache->emplace(key, value);
     return value;
   }
 
   std::shared_ptr<const DescriptorExtractor> inner_;
-  mutable std::mutex mutex_;
-  mutable std::unordered_map<uint64_t, ImageDescriptor> descriptors_;
-  mutable std::unordered_map<uint64_t, FeatureMaps> maps_;  ///< Of thumbnails.
+  mutable Mutex mutex_;
+  mutable std::unordered_map<uint64_t, ImageDescriptor> descriptors_ GUARDED_BY(mutex_);
+  /// Of thumbnails.
+  mutable std::unordered_map<uint64_t, FeatureMaps> maps_ GUARDED_BY(mutex_);
 };
 
 struct PassInput {

@@ -6,10 +6,10 @@
 
 namespace landmark_loop_closure {
 
-FleetSearcher::FleetSearcher(FleetMatcher& matcher, std::mutex& matcher_mutex, size_t max_waiting,
+FleetSearcher::FleetSearcher(FleetMatcher& matcher, Mutex& matcher_mutex, size_t max_waiting,
                              Searched searched, Failed failed)
-    : matcher_(matcher),
-      matcher_mutex_(matcher_mutex),
+    : matcher_mutex_(matcher_mutex),
+      matcher_(matcher),
       max_waiting_(std::max<size_t>(max_waiting, 1)),
       on_searched_(std::move(searched)),
       on_failed_(std::move(failed)) {
@@ -20,7 +20,7 @@ FleetSearcher::~FleetSearcher() { stop(); }
 
 void FleetSearcher::hand(Search search) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (stopping_) return;
     if (waiting_.size() >= max_waiting_) {
       waiting_.pop_front();
@@ -32,13 +32,13 @@ void FleetSearcher::hand(Search search) {
 }
 
 void FleetSearcher::drain() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  idle_.wait(lock, [&] { return stopping_ || (waiting_.empty() && !searching_); });
+  MutexLock lock(mutex_);
+  while (!stopping_ && (!waiting_.empty() || searching_)) lock.wait(idle_);
 }
 
 void FleetSearcher::stop() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
     waiting_.clear();
   }
@@ -51,10 +51,10 @@ void FleetSearcher::run() {
   for (;;) {
     Search search;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
+      MutexLock lock(mutex_);
       searching_ = false;
       idle_.notify_all();
-      ready_.wait(lock, [&] { return stopping_ || !waiting_.empty(); });
+      while (!stopping_ && waiting_.empty()) lock.wait(ready_);
       if (stopping_) return;
       search = std::move(waiting_.front());
       waiting_.pop_front();
@@ -64,7 +64,7 @@ void FleetSearcher::run() {
       const auto start = std::chrono::steady_clock::now();
       std::optional<FleetCandidate> candidate;
       {
-        std::lock_guard<std::mutex> lock(matcher_mutex_);
+        MutexLock lock(matcher_mutex_);
         candidate = matcher_.query(search.row);
       }
       const double elapsed_ms =

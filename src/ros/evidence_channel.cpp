@@ -21,7 +21,7 @@ EvidenceChannel::~EvidenceChannel() { stop(); }
 EvidenceChannel::Offer EvidenceChannel::offer(const FleetEvidenceRequest& request,
                                               Continuation then) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (stopping_) return Offer::kStopped;
     if (busy_ || next_) return Offer::kBusy;
     if (std::chrono::steady_clock::now() < next_allowed_) return Offer::kBackingOff;
@@ -33,7 +33,7 @@ EvidenceChannel::Offer EvidenceChannel::offer(const FleetEvidenceRequest& reques
 
 void EvidenceChannel::noteAnswer(bool usable) {
   const double longest_wait = 8.0 * timeout_.count();
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   if (usable) {
     unusable_in_row_ = 0;
     next_allowed_ = std::chrono::steady_clock::time_point();
@@ -50,7 +50,7 @@ void EvidenceChannel::noteAnswer(bool usable) {
 void EvidenceChannel::stop() {
   ros::ServiceServerLinkPtr link;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (stopping_ && !caller_.joinable()) return;
     stopping_ = true;
     next_.reset();
@@ -63,7 +63,7 @@ void EvidenceChannel::stop() {
 }
 
 uint64_t EvidenceChannel::timeouts() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return timeouts_;
 }
 
@@ -71,8 +71,8 @@ void EvidenceChannel::callLoop() {
   for (;;) {
     std::pair<FleetEvidenceRequest, Continuation> job;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || next_.has_value(); });
+      MutexLock lock(mutex_);
+      while (!stopping_ && !next_.has_value()) lock.wait(wake_);
       if (stopping_) return;
       job = std::move(*next_);
       next_.reset();
@@ -80,7 +80,7 @@ void EvidenceChannel::callLoop() {
     }
     const Answer answer = call(job.first);
     if (job.second) job.second(answer);
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     busy_ = false;
   }
 }
@@ -91,7 +91,7 @@ EvidenceChannel::Answer EvidenceChannel::call(const FleetEvidenceRequest& reques
   Answer answer;
   ros::ServiceServerLinkPtr link;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     link = link_;
   }
   if (!link || !link->isValid()) {
@@ -105,7 +105,7 @@ EvidenceChannel::Answer EvidenceChannel::call(const FleetEvidenceRequest& reques
   }
   uint64_t number = 0;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (stopping_) return answer;
     link_ = link;
     number = ++call_number_;
@@ -120,7 +120,7 @@ EvidenceChannel::Answer EvidenceChannel::call(const FleetEvidenceRequest& reques
   const bool ok = link->call(serialized_request, serialized_answer);
   bool timed_out = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (call_number_ == number) calling_ = false;
     timed_out = timed_out_;
     if (!ok && link_ == link) link_.reset();  // Connect again next time.
@@ -152,18 +152,20 @@ EvidenceChannel::Answer EvidenceChannel::call(const FleetEvidenceRequest& reques
 }
 
 void EvidenceChannel::watchLoop() {
-  std::unique_lock<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   while (!stopping_) {
     if (!calling_) {
-      wake_.wait(lock, [&] { return stopping_ || calling_; });
+      while (!stopping_ && !calling_) lock.wait(wake_);
       continue;
     }
     const uint64_t number = call_number_;
     const auto deadline = deadline_;
-    if (wake_.wait_until(lock, deadline,
-                         [&] { return stopping_ || !calling_ || call_number_ != number; })) {
-      continue;
+    const auto call_ended = [&]() REQUIRES(mutex_) {
+      return stopping_ || !calling_ || call_number_ != number;
+    };
+    while (!call_ended() && lock.waitUntil(wake_, deadline)) {
     }
+    if (call_ended()) continue;
     // Still out at its deadline: dropping the connection ends the wait in link->call().
     timed_out_ = true;
     ++timeouts_;
@@ -173,7 +175,7 @@ void EvidenceChannel::watchLoop() {
     if (link) link->getConnection()->drop(ros::Connection::Destructing);
     lock.lock();
     // The caller sees calling_ cleared when its call returns.
-    wake_.wait(lock, [&] { return stopping_ || !calling_ || call_number_ != number; });
+    while (!call_ended()) lock.wait(wake_);
   }
 }
 

@@ -2,15 +2,14 @@
 // connection: at most one request out at a time, and a request unanswered within its timeout is
 // ended by dropping the connection (the next request connects again). A peer whose answers are
 // of no use (none, too large, malformed, "not found") is asked less and less often, down to one
-// request in 8 fetch timeouts, until one is of use again. A peer that never answers holds this channel's two
-// threads, never more, and nothing else of the node.
+// request in 8 fetch timeouts, until one is of use again. A peer that never answers holds this
+// channel's two threads, never more, and nothing else of the node.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -18,6 +17,7 @@
 #include <ros/service_server_link.h>
 
 #include "landmark_loop_closure/FleetEvidence.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 
 namespace landmark_loop_closure {
 
@@ -63,19 +63,23 @@ class EvidenceChannel {
   const std::chrono::duration<double> timeout_;
   const size_t max_answer_bytes_;
 
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
   std::condition_variable wake_;
-  bool stopping_ = false;
-  bool busy_ = false;  ///< A request was taken and its continuation has not returned.
-  std::optional<std::pair<FleetEvidenceRequest, Continuation>> next_;
-  ros::ServiceServerLinkPtr link_;  ///< The persistent connection; reset when it drops.
-  uint64_t call_number_ = 0;        ///< Of the call out (`calling_`), so a late drop hits no other.
-  bool calling_ = false;
-  bool timed_out_ = false;  ///< The call out was ended by the watchdog.
-  std::chrono::steady_clock::time_point deadline_;
-  uint64_t timeouts_ = 0;
-  int unusable_in_row_ = 0;
-  std::chrono::steady_clock::time_point next_allowed_;  ///< Backing off until then.
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  /// A request was taken and its continuation has not returned.
+  bool busy_ GUARDED_BY(mutex_) = false;
+  std::optional<std::pair<FleetEvidenceRequest, Continuation>> next_ GUARDED_BY(mutex_);
+  /// The persistent connection; reset when it drops.
+  ros::ServiceServerLinkPtr link_ GUARDED_BY(mutex_);
+  /// Of the call out (`calling_`), so a late drop hits no other.
+  uint64_t call_number_ GUARDED_BY(mutex_) = 0;
+  bool calling_ GUARDED_BY(mutex_) = false;
+  bool timed_out_ GUARDED_BY(mutex_) = false;  ///< The call out was ended by the watchdog.
+  std::chrono::steady_clock::time_point deadline_ GUARDED_BY(mutex_);
+  uint64_t timeouts_ GUARDED_BY(mutex_) = 0;
+  int unusable_in_row_ GUARDED_BY(mutex_) = 0;
+  /// Backing off until then.
+  std::chrono::steady_clock::time_point next_allowed_ GUARDED_BY(mutex_);
   std::thread caller_;
   std::thread watchdog_;
 };

@@ -82,7 +82,7 @@ FleetLink::FleetLink(ros::NodeHandle node, ros::NodeHandle private_node,
         });
     silence_timer_ = node_.createWallTimer(
         ros::WallDuration(kSilenceCheckPeriod), [this](const ros::WallTimerEvent&) {
-          std::lock_guard<std::mutex> lock(matcher_mutex_);
+          MutexLock lock(matcher_mutex_);
           for (const std::string& line : matcher_->checkSilence(ros::WallTime::now().toSec())) {
             ROS_WARN("fleet: %s", line.c_str());
           }
@@ -105,7 +105,7 @@ void FleetLink::onRow(const std::string& peer, const FleetKeyframe::ConstPtr& ms
   const SharedKeyframe row = sharedKeyframeFromMsg(*msg);
   RowVerdict verdict;
   {
-    std::lock_guard<std::mutex> lock(matcher_mutex_);
+    MutexLock lock(matcher_mutex_);
     verdict = matcher_->addRowFrom(peer, row, ros::WallTime::now().toSec(), own_map_id_.load());
   }
   if (verdict.line.empty()) return;
@@ -125,7 +125,7 @@ void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
   const double chunk_period_s = static_cast<double>(kChunk) / options_.backlog_rows_per_s;
   std::string odometry_frame;
   {
-    std::lock_guard<std::mutex> lock(odometry_frame_mutex_);
+    MutexLock lock(odometry_frame_mutex_);
     odometry_frame = last_odometry_frame_;
   }
   size_t next = 0, sent = 0;
@@ -209,7 +209,7 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
   if (!own) return;  // Not in search (past the memory budget): nothing to share or search.
   if (options_.share) {
     {
-      std::lock_guard<std::mutex> lock(odometry_frame_mutex_);
+      MutexLock lock(odometry_frame_mutex_);
       last_odometry_frame_ = odometry_frame;
     }
     row_publisher_.publish(toFleetKeyframeMsg(*own));
@@ -363,7 +363,7 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   size_t rows = 0, bytes = 0, refused = 0;
   std::string robots;
   {
-    std::lock_guard<std::mutex> lock(matcher_mutex_);
+    MutexLock lock(matcher_mutex_);
     {
       rows = matcher_->rows();
       bytes = matcher_->bytes();

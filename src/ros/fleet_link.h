@@ -12,7 +12,6 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -26,6 +25,7 @@
 #include "landmark_loop_closure/FleetEvidence.h"
 #include "landmark_loop_closure/FleetKeyframe.h"
 #include "landmark_loop_closure/LoopClosure.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
@@ -92,13 +92,14 @@ class FleetLink {
   ros::CallbackQueue backlog_queue_;  ///< Its own thread: a long backlog delays no answer.
   std::unique_ptr<ros::AsyncSpinner> backlog_spinner_;
   std::atomic<bool> backlog_stopping_{false};
-  std::mutex odometry_frame_mutex_;
-  std::string last_odometry_frame_;  ///< Of the last keyframe shared, for the backlog's rows.
+  Mutex odometry_frame_mutex_;
+  /// Of the last keyframe shared, for the backlog's rows.
+  std::string last_odometry_frame_ GUARDED_BY(odometry_frame_mutex_);
   ros::ServiceServer evidence_service_;
   ros::WallTimer silence_timer_;
 
-  std::mutex matcher_mutex_;  ///< Guards matcher_.
-  std::unique_ptr<FleetMatcher> matcher_;
+  Mutex matcher_mutex_;
+  std::unique_ptr<FleetMatcher> matcher_ PT_GUARDED_BY(matcher_mutex_);
   KindThrottle refusals_{10.0};  ///< Callback thread only: refused rows, by peer and reason.
   std::atomic<uint64_t> own_map_id_{0};
 

@@ -198,7 +198,7 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       });
     };
     hooks.intrinsics = [this] {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
+      MutexLock lock(stats_mutex_);
       return camera_intrinsics_;
     };
     hooks.base_frame = options_.base_frame;

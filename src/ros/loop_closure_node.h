@@ -3,7 +3,6 @@
 #include <atomic>
 #include <deque>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <unordered_map>
@@ -21,6 +20,7 @@
 #include "fleet_link.h"
 #include "landmark_loop_closure/DatabaseFile.h"
 #include "landmark_loop_closure/ResetDatabase.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/loop_detector.h"
@@ -158,8 +158,10 @@ class LoopClosureNode {
   StampedBuffer<sensor_msgs::ImageConstPtr> depth_buffer_{
       kDepthQueue};                              // Callbacks fill, worker reads.
   KindThrottle depth_warnings_{kWarningPeriod};  ///< The depth decoder's reasons, one silence each.
-  std::atomic<bool> depth_silence_reported_{false};    ///< Warned of a silent depth publisher.
-  KindThrottle camera_info_warnings_{kWarningPeriod};  ///< Under stats_mutex_; one per cause.
+  std::atomic<bool> depth_silence_reported_{false};  ///< Warned of a silent depth publisher.
+  Mutex stats_mutex_;  ///< Guards what the worker, the callbacks and the timers each report.
+  /// One per cause.
+  KindThrottle camera_info_warnings_ GUARDED_BY(stats_mutex_) = KindThrottle{kWarningPeriod};
   std::string camera_mount_frame_;     // Worker thread only: the frame the tf mount was found for.
   bool default_mount_warned_ = false;  // Worker thread only: defaultMountWarning() said.
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
@@ -206,19 +208,22 @@ class LoopClosureNode {
   std::atomic<uint64_t> keyframes_unpublished_at_shutdown_{0};
   std::atomic<uint64_t> keyframes_without_depth_{0};
   std::atomic<bool> camera_info_seen_{false};
-  std::string camera_info_problem_;   ///< Under stats_mutex_: why camera_info is unusable, or "".
-  std::atomic<uint32_t> session_{0};  // The detector's, for diagnostics.
+  /// Why camera_info is unusable, or "".
+  std::string camera_info_problem_ GUARDED_BY(stats_mutex_);
+  std::atomic<uint32_t> session_{0};               // The detector's, for diagnostics.
   std::atomic<double> last_time_jump_wall_{-1e9};  ///< When time_jump_frames last restarted time.
-  std::mutex stats_mutex_;                         // Guards what follows.
-  size_t database_bytes_ = 0;
   uint64_t drops_seen_ = 0;       // Diagnostics timer only: keyframes dropped at the last look,
   double last_drop_wall_ = -1e9;  // and when that count last grew.
-  CameraIntrinsics camera_intrinsics_;  ///< From the latest camera_info; invalid until one.
-  std::string database_status_ = "memory only";  ///< The map's path, or why it failed.
-  std::string map_check_;                        ///< MapSession::check().
-  std::string map_damage_;                       ///< MapSession::damage().
-  std::string map_write_problem_;                ///< MapSession::writeProblem().
-  size_t keyframes_not_written_ = 0;             ///< MapSession::keyframesNotWritten().
+  size_t database_bytes_ GUARDED_BY(stats_mutex_) = 0;
+  /// From the latest camera_info; invalid until one.
+  CameraIntrinsics camera_intrinsics_ GUARDED_BY(stats_mutex_);
+  /// The map's path, or why it failed.
+  std::string database_status_ GUARDED_BY(stats_mutex_) = "memory only";
+  std::string map_check_ GUARDED_BY(stats_mutex_);          ///< MapSession::check().
+  std::string map_damage_ GUARDED_BY(stats_mutex_);         ///< MapSession::damage().
+  std::string map_write_problem_ GUARDED_BY(stats_mutex_);  ///< MapSession::writeProblem().
+  /// MapSession::keyframesNotWritten().
+  size_t keyframes_not_written_ GUARDED_BY(stats_mutex_) = 0;
 
   // Other robots (fleet/): null without advanced/fleet/share and advanced/fleet/peers; stopped
   // before the worker.

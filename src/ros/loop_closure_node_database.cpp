@@ -39,7 +39,7 @@ bool LoopClosureNode::onSaveDatabase(DatabaseFile::Request& request,
     ROS_INFO("%s", response.message.c_str());
   } else {
     ROS_ERROR("Could not save the map: %s", saved.error.c_str());
-    std::lock_guard<std::mutex> lock(stats_mutex_);
+    MutexLock lock(stats_mutex_);
     database_status_ = saved.error;
   }
   return true;
@@ -112,7 +112,7 @@ bool LoopClosureNode::onLoadDatabase(DatabaseFile::Request& request,
     ROS_INFO("%s", response.message.c_str());
     session_ = detector.session();
     noteMapSize(detector);
-    std::lock_guard<std::mutex> stats(stats_mutex_);
+    MutexLock stats(stats_mutex_);
     database_status_ = path;
     return true;
   });

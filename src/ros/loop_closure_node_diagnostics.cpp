@@ -7,7 +7,7 @@
 namespace landmark_loop_closure {
 
 std::string LoopClosureNode::cameraInfoProblem() {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
+  MutexLock lock(stats_mutex_);
   return camera_info_problem_;
 }
 
@@ -74,7 +74,7 @@ void LoopClosureNode::produceDiagnostics(diagnostic_updater::DiagnosticStatusWra
 
   if (fleet_) fleet_->diagnose(status);
   const InputMonitor::Rates rates = inputs_.takeRates(now);
-  std::lock_guard<std::mutex> lock(stats_mutex_);
+  MutexLock lock(stats_mutex_);
   if (!map_damage_.empty()) {
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR,
                         "no loops searched: " + map_damage_);

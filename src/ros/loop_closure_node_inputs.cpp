@@ -144,7 +144,7 @@ void LoopClosureNode::retryPendingTf() {
 }
 
 void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
+  MutexLock lock(stats_mutex_);
   // Converted once, not on every image.
   camera_intrinsics_ = fromCameraInfo(*info, options_.images_rectified);
   camera_info_seen_ = true;
@@ -173,7 +173,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   frame.clock = ros::Time::now().toSec();
   std::optional<CalibrationProblem> calibration_problem;
   {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
+    MutexLock lock(stats_mutex_);
     frame.intrinsics = camera_intrinsics_;
     if (camera_info_seen_) {
       calibration_problem = frame.intrinsics.checkFor(cv::Size(frame.width, frame.height));
@@ -262,7 +262,7 @@ void LoopClosureNode::noteCalibration(const std::optional<CalibrationProblem>& p
   // Only frames the runtime accepted judge camera_info: a dropped 1x1 image says nothing about it.
   // Unusable calibration turns the geometric check off: said once per period and cause, and in
   // the diagnostics and every loop's log line, instead of silently.
-  std::lock_guard<std::mutex> lock(stats_mutex_);
+  MutexLock lock(stats_mutex_);
   if (!camera_info_seen_) return;
   camera_info_problem_ = problem ? problem->text : "";
   if (problem && camera_info_warnings_.allow(problem->cause, ros::WallTime::now().toSec())) {

@@ -25,7 +25,7 @@ LoopClosureNode::NodeKeyframe LoopClosureNode::nodeKeyframe(const KeyframeJob& j
 
 void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
   map_keyframes_ = detector.database().size();
-  std::lock_guard<std::mutex> lock(stats_mutex_);
+  MutexLock lock(stats_mutex_);
   database_bytes_ = detector.database().bytes();
   map_check_ = detector.map().check();
   map_damage_ = detector.map().damage();

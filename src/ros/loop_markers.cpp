@@ -90,7 +90,7 @@ void LoopMarkers::Layer::markers(const std::string& frame_id, const ros::Time& s
 }
 
 LoopMarkers::LoopMarkers(std::string frame_id, double min_score, bool show_rejected)
-    : frame_id_(std::move(frame_id)), min_score_(min_score), show_rejected_(show_rejected) {
+    : min_score_(min_score), show_rejected_(show_rejected), frame_id_(std::move(frame_id)) {
   using visualization_msgs::Marker;
   keyframes_.ns = "keyframes";
   keyframes_.type = Marker::SPHERE_LIST;
@@ -109,12 +109,12 @@ LoopMarkers::LoopMarkers(std::string frame_id, double min_score, bool show_rejec
 }
 
 void LoopMarkers::setFrameId(const std::string& frame_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   frame_id_ = frame_id;
 }
 
 void LoopMarkers::addKeyframe(const Pose& pose) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   const geometry_msgs::Point point = toPoint(pose);
   keyframes_.add(point, nullptr);
   sum_x_ += point.x;
@@ -125,7 +125,7 @@ void LoopMarkers::addKeyframe(const Pose& pose) {
 }
 
 void LoopMarkers::clear() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   keyframes_.clear();
   loops_.clear();
   unverified_.clear();
@@ -137,7 +137,7 @@ void LoopMarkers::clear() {
 }
 
 void LoopMarkers::addLoop(const AcceptedLoop& loop) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   // A line's two ends always share a chunk: chunks hold an even number of points.
   if (!loop.verification && !loop.appearance) {
     unverified_.add(toPoint(loop.query_pose), nullptr);
@@ -155,7 +155,7 @@ void LoopMarkers::addLoop(const AcceptedLoop& loop) {
 
 void LoopMarkers::addRejected(const Pose& query, const Pose& match) {
   if (!show_rejected_) return;
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   rejected_ends_.push_back(toPoint(query));
   rejected_ends_.push_back(toPoint(match));
   if (rejected_ends_.size() > 2 * kMaxRejectedLines) {
@@ -191,7 +191,7 @@ visualization_msgs::Marker LoopMarkers::rejected(const ros::Time& stamp) const {
 }
 
 visualization_msgs::MarkerArray LoopMarkers::changes(const ros::Time& stamp) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   visualization_msgs::MarkerArray array;
   if (cleared_) {
     visualization_msgs::Marker everything;
@@ -211,7 +211,7 @@ visualization_msgs::MarkerArray LoopMarkers::changes(const ros::Time& stamp) {
 }
 
 visualization_msgs::MarkerArray LoopMarkers::snapshot(const ros::Time& stamp) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   visualization_msgs::MarkerArray array;
   for (const Layer* layer : {&keyframes_, &loops_, &unverified_}) {
     layer->markers(frame_id_, stamp, false, &array);

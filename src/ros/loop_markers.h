@@ -1,12 +1,12 @@
 #pragma once
 
 #include <cstddef>
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include <visualization_msgs/MarkerArray.h>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 
 namespace landmark_loop_closure {
@@ -56,27 +56,27 @@ class LoopMarkers {
                  visualization_msgs::MarkerArray* array) const;
   };
 
-  visualization_msgs::Marker legend(const ros::Time& stamp) const;
-  visualization_msgs::Marker rejected(const ros::Time& stamp) const;
+  visualization_msgs::Marker legend(const ros::Time& stamp) const REQUIRES(mutex_);
+  visualization_msgs::Marker rejected(const ros::Time& stamp) const REQUIRES(mutex_);
 
-  mutable std::mutex mutex_;
-  std::string frame_id_;
-  double min_score_;
-  bool show_rejected_;
-  Layer keyframes_;
-  Layer loops_;
-  Layer unverified_;
+  const double min_score_;
+  const bool show_rejected_;
+  mutable Mutex mutex_;
+  std::string frame_id_ GUARDED_BY(mutex_);
+  Layer keyframes_ GUARDED_BY(mutex_);
+  Layer loops_ GUARDED_BY(mutex_);
+  Layer unverified_ GUARDED_BY(mutex_);
   /// Rejected candidates: only the most recent kMaxRejectedLines (rviz slows down with many),
   /// one marker that is re-sent whole when it changes (its size is bounded).
-  std::vector<geometry_msgs::Point> rejected_ends_;
-  bool rejected_changed_ = false;
+  std::vector<geometry_msgs::Point> rejected_ends_ GUARDED_BY(mutex_);
+  bool rejected_changed_ GUARDED_BY(mutex_) = false;
   // The legend sits above the middle of the map: running sums, not a pass over every keyframe.
-  double sum_x_ = 0.0;
-  double sum_y_ = 0.0;
-  double max_z_ = 0.0;
-  size_t keyframe_count_ = 0;
-  bool legend_changed_ = false;
-  bool cleared_ = false;
+  double sum_x_ GUARDED_BY(mutex_) = 0.0;
+  double sum_y_ GUARDED_BY(mutex_) = 0.0;
+  double max_z_ GUARDED_BY(mutex_) = 0.0;
+  size_t keyframe_count_ GUARDED_BY(mutex_) = 0;
+  bool legend_changed_ GUARDED_BY(mutex_) = false;
+  bool cleared_ GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace landmark_loop_closure

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <set>
 #include <utility>
@@ -23,6 +22,7 @@
 
 #include "landmark_loop_closure/PoseGraphLoop.h"
 #include "landmark_loop_closure/backend/pose_graph_runtime.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 
@@ -153,7 +153,7 @@ class PoseGraphNode {
       robot_subscribers_.push_back(node.subscribe<Keyframe>(
           robots[robot] + "/keyframes", 1000, [this, robot](const Keyframe::ConstPtr& keyframe) {
             {
-              std::lock_guard<std::mutex> lock(robot_maps_mutex_);
+              MutexLock lock(robot_maps_mutex_);
               robot_of_map_[keyframe->map_id] = robot;
             }
             onKeyframe(*keyframe);
@@ -342,7 +342,7 @@ class PoseGraphNode {
     std::vector<nav_msgs::Path> paths(robot_paths_.size());
     for (nav_msgs::Path& path : paths) path.header = corrected.header;
     {
-      std::lock_guard<std::mutex> lock(robot_maps_mutex_);
+      MutexLock lock(robot_maps_mutex_);
       const std::vector<uint64_t>& ids = session.graph().ids();
       for (size_t i = 0; i < ids.size() && i < corrected.poses.size(); ++i) {
         const auto robot = robot_of_map_.find(session.keyOf(ids[i]).first);
@@ -418,8 +418,8 @@ class PoseGraphNode {
   // robots: each one's subscriptions and corrected path, and which robot each map is.
   std::vector<ros::Subscriber> robot_subscribers_;
   std::vector<ros::Publisher> robot_paths_;
-  std::mutex robot_maps_mutex_;
-  std::map<uint64_t, size_t> robot_of_map_;
+  Mutex robot_maps_mutex_;
+  std::map<uint64_t, size_t> robot_of_map_ GUARDED_BY(robot_maps_mutex_);
   ros::Timer tf_timer_;
 };
 

@@ -12,6 +12,8 @@ namespace landmark_loop_closure {
 DetectorRuntime::DetectorRuntime(LoopDetector* detector, const RuntimeOptions& options,
                                  RuntimeListener listener)
     : detector_(detector),
+      admission_(&detector->admission()),
+      wants_colour_(detector->extractor()->wantsColour()),
       options_(options),
       listener_(std::move(listener)),
       queue_(options.queue_size) {
@@ -41,19 +43,19 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
   // rather than storing one admitted against the previous map.
   const uint64_t map_epoch = map_epoch_.load();
   if (restart_timeline_.exchange(false)) {
-    detector_->restartAdmission();
+    admission_->restart();
     not_increasing_in_a_row_ = 0;
   }
   const auto admit_frame = [&] {
-    return detector_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type,
-                            frame.odometry_since);
+    return admission_->admit(frame.stamp, frame.pose, frame.width, frame.height, frame.cv_type,
+                             frame.odometry_since);
   };
   result.admission = admit_frame();
   const bool not_increasing =
       result.admission.error && result.admission.error->code == InputErrorCode::kStampNotIncreasing;
   not_increasing_in_a_row_ = not_increasing ? not_increasing_in_a_row_ + 1 : 0;
   if (not_increasing) {
-    const double back = detector_->lastKeyframeStamp().value_or(frame.stamp) - frame.stamp;
+    const double back = admission_->lastKeyframeStamp().value_or(frame.stamp) - frame.stamp;
     const bool jumped_far =
         options_.time_jump_back == TimeJumpPolicy::kReset && back > options_.time_jump_back_s;
     const bool stuck =
@@ -72,7 +74,7 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
         ++time_jumps_;
       }
       not_increasing_in_a_row_ = 0;
-      detector_->restartAdmission();
+      admission_->restart();
       result.admission = admit_frame();
     }
   }
@@ -94,13 +96,13 @@ RuntimeAdmission DetectorRuntime::admit(FrameInput frame) {
 }
 
 size_t DetectorRuntime::withDetector(const std::function<bool(LoopDetector&)>& action) {
-  const std::lock_guard<std::mutex> lock(detector_mutex_);
+  MutexLock lock(detector_mutex_);
   return runOnDetector(action);
 }
 
 bool DetectorRuntime::tryWithDetector(const std::function<bool(LoopDetector&)>& action) {
-  const std::unique_lock<std::mutex> lock(detector_mutex_, std::try_to_lock);
-  if (!lock.owns_lock()) return false;
+  if (!detector_mutex_.try_lock()) return false;
+  MutexLock lock(detector_mutex_, std::adopt_lock);
   runOnDetector(action);
   return true;
 }
@@ -187,9 +189,8 @@ void DetectorRuntime::process(KeyframeJob& job) {
   // conversion never holds a service back.
   PreparedKeyframe prepared;
   InputError error{InputErrorCode::kUnsupportedImageType, "the frame could not be prepared"};
-  const bool colour = detector_->extractor()->wantsColour();
-  const bool ready = !listener_.prepare || listener_.prepare(job, colour, &prepared, &error);
-  const std::lock_guard<std::mutex> lock(detector_mutex_);
+  const bool ready = !listener_.prepare || listener_.prepare(job, wants_colour_, &prepared, &error);
+  MutexLock lock(detector_mutex_);
   if (dropped()) return;  // A service switched maps while the images were prepared.
   if (job.generation > worker_generation_) {
     worker_generation_ = job.generation;

@@ -10,26 +10,26 @@ InputMonitor::InputMonitor(const InputMonitorOptions& options, double now)
     : options_(options), last_paired_(now), rate_since_(now) {}
 
 void InputMonitor::imageArrived(double now, double stamp) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   ++images_;
   last_image_ = now;
   newest_image_stamp_ = stamp;
 }
 
 void InputMonitor::poseArrived(double now, double stamp) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   ++poses_;
   last_pose_ = now;
   newest_pose_stamp_ = stamp;
 }
 
 void InputMonitor::paired(double now) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   last_paired_ = now;
 }
 
 bool InputMonitor::rejected(InputErrorCode code, double now, uint64_t* count) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   *count = ++rejected_[code];
   const auto last = last_rejection_log_.find(code);
   if (last != last_rejection_log_.end() && now - last->second < options_.rejection_log_period_s) {
@@ -40,17 +40,17 @@ bool InputMonitor::rejected(InputErrorCode code, double now, uint64_t* count) {
 }
 
 bool InputMonitor::imageSilent(double now) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return now - last_image_ > options_.timeout_s;
 }
 
 bool InputMonitor::poseSilent(double now) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return now - last_pose_ > options_.timeout_s;
 }
 
 std::string InputMonitor::unpaired(double now) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   const double timeout = options_.timeout_s;
   const bool both_arrive = now - last_image_ <= timeout && now - last_pose_ <= timeout;
   if (!both_arrive || now - last_paired_ <= timeout) return "";
@@ -67,7 +67,7 @@ std::string InputMonitor::unpaired(double now) const {
 }
 
 InputMonitor::Rates InputMonitor::takeRates(double now) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   const double elapsed = std::max(1e-3, now - rate_since_);
   Rates rates;
   rates.image_hz = static_cast<double>(images_ - images_at_rate_) / elapsed;
@@ -79,17 +79,17 @@ InputMonitor::Rates InputMonitor::takeRates(double now) {
 }
 
 uint64_t InputMonitor::images() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return images_;
 }
 
 uint64_t InputMonitor::poses() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return poses_;
 }
 
 std::map<InputErrorCode, uint64_t> InputMonitor::rejections() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(mutex_);
   return rejected_;
 }
 

@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
   FleetOptions fleet_options;
   fleet_options.approximate_from = fleet_approximate_from;
   FleetMatcher fleet_matcher(fleet_options, "bench descriptor", extractor->globalDimension());
-  std::mutex fleet_mutex;
+  Mutex fleet_mutex;
   std::mutex fleet_times_mutex;
   std::vector<double> fleet_search_ms;
   size_t fleet_candidates = 0;

@@ -400,7 +400,7 @@ void addRoute(FleetMatcher& matcher) {
 TEST(FleetSearcher, SearchesOffTheCallersThreadAndDropsTheOldestWhenBehind) {
   const FleetOptions fleet = pathOptions();
   FleetMatcher matcher(fleet, kIdentity, kDimension);
-  std::mutex matcher_mutex;
+  Mutex matcher_mutex;
   addRoute(matcher);
   std::mutex mutex;
   std::condition_variable changed;

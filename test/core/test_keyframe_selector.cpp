@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "landmark_loop_closure/core/keyframe_admission.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
 
 using namespace landmark_loop_closure;
@@ -124,4 +125,33 @@ TEST(KeyframeSelectorOptions, ValidateNamesEachProblem) {
   EXPECT_NE(errors.find("advanced/keyframe/max_motion"), std::string::npos) << errors;
   EXPECT_NE(errors.find("advanced/keyframe/max_time_gap"), std::string::npos) << errors;
   EXPECT_NE(errors.find("advanced/keyframe/translation_weight"), std::string::npos) << errors;
+}
+
+// KeyframeAdmission (the receiving thread's part of the detector): ids in order, a later map's ids
+// only ever raise the next one, and a restart forgets the last keyframe but not the ids.
+TEST(KeyframeAdmission, IdsOnlyRiseAndARestartForgetsTheLastKeyframeNotTheIds) {
+  KeyframeAdmission admission(InputLimits{}, KeyframeSelectorOptions{});
+  constexpr int kWidth = 64, kHeight = 48, kType = 0;  // CV_8UC1.
+  FrameAdmission first = admission.admit(1.0, planarPose(0, 0, 0), kWidth, kHeight, kType);
+  ASSERT_TRUE(first.isKeyframe());
+  EXPECT_EQ(first.keyframe_id, 0u);
+  admission.raiseNextId(10);
+  admission.raiseNextId(4);  // Lower than the next: ignored.
+  FrameAdmission second = admission.admit(2.0, planarPose(1, 0, 0), kWidth, kHeight, kType);
+  ASSERT_TRUE(second.isKeyframe());
+  EXPECT_EQ(second.keyframe_id, 10u);
+  EXPECT_EQ(admission.lastKeyframeStamp(), 2.0);
+  // Time went back: refused until restarted; the restart also forgets the image size.
+  const FrameAdmission back = admission.admit(1.5, planarPose(2, 0, 0), kWidth, kHeight, kType);
+  ASSERT_TRUE(back.error);
+  EXPECT_EQ(back.error->code, InputErrorCode::kStampNotIncreasing);
+  admission.restart();
+  EXPECT_FALSE(admission.lastKeyframeStamp());
+  const FrameAdmission after =
+      admission.admit(1.5, planarPose(2, 0, 0), 2 * kWidth, kHeight, kType);
+  ASSERT_TRUE(after.isKeyframe());
+  EXPECT_EQ(after.keyframe_id, 11u);
+  const FrameAdmission resized = admission.admit(9.0, planarPose(3, 0, 0), kWidth, kHeight, kType);
+  ASSERT_TRUE(resized.error);
+  EXPECT_EQ(resized.error->code, InputErrorCode::kImageSizeChanged);
 }

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -15,6 +14,7 @@
 #include <vector>
 
 #include "landmark_loop_closure/backend/pose_graph_session.h"
+#include "landmark_loop_closure/common/thread_annotations.h"
 
 namespace landmark_loop_closure {
 
@@ -86,14 +86,14 @@ class PoseGraphRuntime {
   std::chrono::steady_clock::time_point last_save_;
   uint64_t saved_revision_ = 0;  ///< keptRevision() the file holds.
 
-  mutable std::mutex correction_mutex_;
-  std::optional<GraphCorrection> correction_;
-  std::vector<GraphCorrection> corrections_;
+  mutable Mutex correction_mutex_;
+  std::optional<GraphCorrection> correction_ GUARDED_BY(correction_mutex_);
+  std::vector<GraphCorrection> corrections_ GUARDED_BY(correction_mutex_);
 
-  std::mutex mutex_;
+  Mutex mutex_;
   std::condition_variable wake_;
-  std::vector<PoseGraphSession::Input> inputs_;
-  bool stopping_ = false;
+  std::vector<PoseGraphSession::Input> inputs_ GUARDED_BY(mutex_);
+  bool stopping_ GUARDED_BY(mutex_) = false;
   std::atomic<uint64_t> failures_{0};
   std::thread worker_;
 };

@@ -17,6 +17,7 @@
 #include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/input_error.h"
+#include "landmark_loop_closure/core/keyframe_admission.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/core/loop_detector_options.h"
 #include "landmark_loop_closure/core/map_session.h"
@@ -31,15 +32,6 @@
 #include "landmark_loop_closure/geometry/metric_pose.h"
 
 namespace landmark_loop_closure {
-
-/// Outcome of the cheap first step for every frame.
-struct FrameAdmission {
-  std::optional<InputError> error;  ///< Set: refused, nothing changed.
-  Selection selection{SelectionVerdict::kRedundant};
-  uint64_t keyframe_id = 0;  ///< Id reserved for this frame when it is a keyframe.
-
-  bool isKeyframe() const { return !error && selection.verdict == SelectionVerdict::kKeyframe; }
-};
 
 enum class CandidateVerdict {
   kAccepted,
@@ -151,10 +143,10 @@ struct FrameResult {
 /// Keyframe selection, description, database search and loop acceptance. The map searched, and
 /// its file, are map()'s (MapSession): open, save and reset it there.
 ///
-/// Threading: admit() is cheap and meant for the thread that receives frames; addKeyframe() does
-/// the heavy work and is meant for one worker thread. They touch disjoint state, so one thread
-/// may call admit() while another runs addKeyframe(). process() does both, for offline use.
-/// map() is the worker thread's.
+/// Threading: admission() (admit(), restartAdmission(), lastKeyframeStamp()) is cheap and meant
+/// for the thread that receives frames; addKeyframe() does the heavy work and is meant for one
+/// worker thread. They touch disjoint state (KeyframeAdmission), so one thread may admit while
+/// another runs addKeyframe(). process() does both, for offline use. map() is the worker's.
 class LoopDetector : private MapUser {
  public:
   /// Throws std::invalid_argument when options.validate() reports problems or `extractor` is null.
@@ -165,10 +157,13 @@ class LoopDetector : private MapUser {
   LoopDetector(const LoopDetector&) = delete;
   LoopDetector& operator=(const LoopDetector&) = delete;
 
-  /// Validates stamp, pose and image shape, then applies the keyframe rule (`odometry`, when
-  /// given, tells a camera gap from an odometry jump: KeyframeSelector::select).
+  /// KeyframeAdmission::admit.
   FrameAdmission admit(double stamp, const Pose& pose, int image_width, int image_height,
-                       int image_cv_type, const OdometrySince& odometry = nullptr);
+                       int image_cv_type, const OdometrySince& odometry = nullptr) {
+    return admission_.admit(stamp, pose, image_width, image_height, image_cv_type, odometry);
+  }
+  /// The receiving thread's part, reachable without the worker's lock.
+  KeyframeAdmission& admission() { return admission_; }
 
   /// Describes an admitted keyframe, searches the database, decides on a loop and stores it.
   /// `image` may be grey, BGR or BGRA, 8 or 16 bit; `intrinsics` are those of `image` (invalid
@@ -199,11 +194,10 @@ class LoopDetector : private MapUser {
   /// The keyframes searched: map().database().
   const KeyframeDatabase& database() const { return map_.database(); }
 
-  /// Receiving thread: forgets the last keyframe and image size, so that the next frame starts the
-  /// keyframe rule afresh whatever its stamp (time jumped back). Pair it with map().reset().
-  void restartAdmission();
+  /// Receiving thread: KeyframeAdmission::restart. Pair it with map().reset().
+  void restartAdmission() { admission_.restart(); }
   /// Receiving thread: stamp of the last admitted keyframe, if any.
-  std::optional<double> lastKeyframeStamp() const;
+  std::optional<double> lastKeyframeStamp() const { return admission_.lastKeyframeStamp(); }
   /// Worker thread, before addKeyframe(keyframe_id): the odometry was re-initialised before this
   /// keyframe (its admission's selection.reanchored), so its pose is in another odometry frame
   /// than the keyframes before it: it starts a new session, or the next keyframe does if this one
@@ -327,10 +321,7 @@ class LoopDetector : private MapUser {
   std::string descriptor_identity_;
   GeometricVerifier verifier_;
 
-  // Admission state (receiving thread).
-  KeyframeSelector selector_;
-  std::optional<cv::Size> image_size_;
-  std::atomic<uint64_t> next_keyframe_id_{0};
+  KeyframeAdmission admission_;  ///< The receiving thread's.
 
   // Search state (worker thread).
   MapSession map_;

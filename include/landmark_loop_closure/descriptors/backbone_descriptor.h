@@ -1,13 +1,13 @@
 #pragma once
 
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include <opencv2/dnn.hpp>
 #include <opencv2/objdetect.hpp>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
 #include "landmark_loop_closure/descriptors/onednn_mobilenet.h"
@@ -120,10 +120,11 @@ class BackboneDescriptor : public DescriptorExtractor {
   int channels_ = 0;
   int global_dimension_ = 0;
   cv::HOGDescriptor hog_;
-  mutable std::mutex net_mutex_;  // Neither engine's forward is safe to call concurrently.
-  mutable cv::dnn::Net net_;
-  std::unique_ptr<OneDnnMobileNet> fast_net_;  ///< Null: OpenCV's dnn runs the network.
-  std::string engine_note_;                    ///< Which engine runs it, and why.
+  mutable Mutex net_mutex_;  // Neither engine's forward is safe to call concurrently.
+  mutable cv::dnn::Net net_ GUARDED_BY(net_mutex_);
+  /// Null: OpenCV's dnn runs the network.
+  std::unique_ptr<OneDnnMobileNet> fast_net_ PT_GUARDED_BY(net_mutex_);
+  std::string engine_note_;  ///< Which engine runs it, and why.
   std::string feature_identity_;
 };
 

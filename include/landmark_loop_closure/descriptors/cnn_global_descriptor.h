@@ -1,11 +1,11 @@
 #pragma once
 
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include <opencv2/dnn.hpp>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/pca_whitening.h"
 
@@ -66,8 +66,8 @@ class CnnGlobalDescriptor : public DescriptorExtractor {
   int raw_dimension_ = 0;
   int global_dimension_ = 0;
   std::string feature_identity_;
-  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
-  mutable cv::dnn::Net net_;
+  mutable Mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable cv::dnn::Net net_ GUARDED_BY(net_mutex_);
 };
 
 /// An 8-bit grey, BGR or BGRA image as a network's 1xCxHxW float input: converted to `colour`

@@ -1,10 +1,10 @@
 #pragma once
 
-#include <mutex>
 #include <string>
 
 #include <opencv2/dnn.hpp>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
 
@@ -71,8 +71,8 @@ class ConvNetDescriptor : public DescriptorExtractor {
 
   ConvNetOptions options_;
   int global_dimension_ = 0;
-  mutable std::mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
-  mutable cv::dnn::Net net_;
+  mutable Mutex net_mutex_;  // cv::dnn::Net::forward is not safe to call concurrently.
+  mutable cv::dnn::Net net_ GUARDED_BY(net_mutex_);
 };
 
 }  // namespace landmark_loop_closure

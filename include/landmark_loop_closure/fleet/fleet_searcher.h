@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/fleet/fleet_matcher.h"
 
 namespace landmark_loop_closure {
@@ -33,8 +33,8 @@ class FleetSearcher {
   using Failed = std::function<void(const Search&, const std::string& what)>;
 
   /// `matcher` is shared with whoever adds rows to it, all of them under `matcher_mutex`.
-  FleetSearcher(FleetMatcher& matcher, std::mutex& matcher_mutex, size_t max_waiting,
-                Searched searched, Failed failed = nullptr);
+  FleetSearcher(FleetMatcher& matcher, Mutex& matcher_mutex, size_t max_waiting, Searched searched,
+                Failed failed = nullptr);
   ~FleetSearcher();
   FleetSearcher(const FleetSearcher&) = delete;
   FleetSearcher& operator=(const FleetSearcher&) = delete;
@@ -54,18 +54,18 @@ class FleetSearcher {
  private:
   void run();
 
-  FleetMatcher& matcher_;
-  std::mutex& matcher_mutex_;
+  Mutex& matcher_mutex_;
+  FleetMatcher& matcher_ GUARDED_BY(matcher_mutex_);
   const size_t max_waiting_;
   Searched on_searched_;
   Failed on_failed_;
 
-  std::mutex mutex_;
+  Mutex mutex_;
   std::condition_variable ready_;
   std::condition_variable idle_;
-  std::deque<Search> waiting_;
-  bool searching_ = false;
-  bool stopping_ = false;
+  std::deque<Search> waiting_ GUARDED_BY(mutex_);
+  bool searching_ GUARDED_BY(mutex_) = false;
+  bool stopping_ GUARDED_BY(mutex_) = false;
   std::thread thread_;
 
   std::atomic<uint64_t> dropped_{0};

@@ -3,8 +3,9 @@
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
-#include <mutex>
 #include <optional>
+
+#include "landmark_loop_closure/common/thread_annotations.h"
 
 namespace landmark_loop_closure {
 
@@ -20,7 +21,7 @@ class BoundedQueue {
   bool push(T item) {
     bool dropped = false;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(mutex_);
       if (items_.size() >= capacity_) {
         items_.pop_front();
         dropped = true;
@@ -33,8 +34,8 @@ class BoundedQueue {
 
   /// Blocks until an item arrives or close() is called; nullopt once closed.
   std::optional<T> pop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ready_.wait(lock, [this] { return closed_ || !items_.empty(); });
+    MutexLock lock(mutex_);
+    while (!closed_ && items_.empty()) lock.wait(ready_);
     if (closed_) return std::nullopt;
     T item = std::move(items_.front());
     items_.pop_front();
@@ -44,24 +45,24 @@ class BoundedQueue {
   /// Wakes the consumer; pop() returns nullopt from now on.
   void close() {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(mutex_);
       closed_ = true;
     }
     ready_.notify_all();
   }
 
   size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     return items_.size();
   }
   size_t capacity() const { return capacity_; }
 
  private:
   const size_t capacity_;
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
   std::condition_variable ready_;
-  std::deque<T> items_;
-  bool closed_ = false;
+  std::deque<T> items_ GUARDED_BY(mutex_);
+  bool closed_ GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace landmark_loop_closure

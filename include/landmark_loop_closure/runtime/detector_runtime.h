@@ -10,7 +10,6 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -18,6 +17,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/core/loop_detector.h"
 #include "landmark_loop_closure/runtime/bounded_queue.h"
 
@@ -135,10 +135,10 @@ class DetectorRuntime {
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
   /// true when it replaced or forgot the map: the keyframes queued before it are dropped (their ids
   /// and stamps were given against the previous map); returns how many were queued then.
-  size_t withDetector(const std::function<bool(LoopDetector&)>& action);
+  size_t withDetector(const std::function<bool(LoopDetector&)>& action) EXCLUDES(detector_mutex_);
   /// The same when the detector is free now; false (nothing run) while a keyframe or service
   /// holds it, so a timer never waits on the worker.
-  bool tryWithDetector(const std::function<bool(LoopDetector&)>& action);
+  bool tryWithDetector(const std::function<bool(LoopDetector&)>& action) EXCLUDES(detector_mutex_);
 
   /// What saveMap() did.
   struct SaveOutcome {
@@ -152,7 +152,7 @@ class DetectorRuntime {
   /// `path` "" meaning the open map. A copy goes step by step (MapSession::beginSave: 2048
   /// SQLite pages, ~4 MB, per hold of the detector), the rows file and the rename with the
   /// detector free, so the worker keeps describing keyframes meanwhile.
-  SaveOutcome saveMap(const std::string& path, bool overwrite);
+  SaveOutcome saveMap(const std::string& path, bool overwrite) EXCLUDES(detector_mutex_);
 
   /// Stops the worker after the keyframe in hand; queued keyframes are dropped. Idempotent.
   void stop();
@@ -171,21 +171,26 @@ class DetectorRuntime {
   double maxProcessingMs() const { return max_ms_; }
 
  private:
-  void work();
-  void process(KeyframeJob& job);
-  /// withDetector()'s work, detector_mutex_ held.
-  size_t runOnDetector(const std::function<bool(LoopDetector&)>& action);
+  void work() EXCLUDES(detector_mutex_);
+  void process(KeyframeJob& job) EXCLUDES(detector_mutex_);
+  /// withDetector()'s work.
+  size_t runOnDetector(const std::function<bool(LoopDetector&)>& action) REQUIRES(detector_mutex_);
 
-  LoopDetector* detector_;
+  /// Held by the worker for a keyframe's description, search and storing, and by each map
+  /// service; never by admit().
+  Mutex detector_mutex_;
+  LoopDetector* const detector_ PT_GUARDED_BY(detector_mutex_);
+  /// The detector's receiving-thread part: admit() uses it without the lock.
+  KeyframeAdmission* const admission_;
+  const bool wants_colour_;  ///< The extractor's, fixed for the detector's life.
   const RuntimeOptions options_;
   const RuntimeListener listener_;
   BoundedQueue<KeyframeJob> queue_;
-  std::mutex detector_mutex_;
   std::atomic<uint64_t> generation_{0};  ///< Bumped on each time jump back (kReset).
   std::atomic<bool> restart_timeline_{false};
   size_t not_increasing_in_a_row_ = 0;  ///< Caller's thread (admit).
   std::atomic<uint64_t> time_jumps_{0};
-  uint64_t worker_generation_ = 0;  ///< Worker: the timeline it is in.
+  uint64_t worker_generation_ GUARDED_BY(detector_mutex_) = 0;  ///< The timeline the worker is in.
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> stale_{0};
   std::atomic<uint64_t> map_epoch_{0};  ///< Bumped when a map service replaced the map.

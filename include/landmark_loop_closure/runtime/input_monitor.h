@@ -2,9 +2,9 @@
 
 #include <cstdint>
 #include <map>
-#include <mutex>
 #include <string>
 
+#include "landmark_loop_closure/common/thread_annotations.h"
 #include "landmark_loop_closure/core/input_error.h"
 
 namespace landmark_loop_closure {
@@ -50,19 +50,20 @@ class InputMonitor {
 
  private:
   const InputMonitorOptions options_;
-  mutable std::mutex mutex_;
-  uint64_t images_ = 0;
-  uint64_t poses_ = 0;
-  double last_image_ = 0.0;
-  double last_pose_ = 0.0;
-  double last_paired_;  ///< Starts at construction: inputs get timeout_s to pair.
-  double newest_image_stamp_ = 0.0;
-  double newest_pose_stamp_ = 0.0;
-  double rate_since_;
-  uint64_t images_at_rate_ = 0;
-  uint64_t poses_at_rate_ = 0;
-  std::map<InputErrorCode, uint64_t> rejected_;
-  std::map<InputErrorCode, double> last_rejection_log_;
+  mutable Mutex mutex_;
+  uint64_t images_ GUARDED_BY(mutex_) = 0;
+  uint64_t poses_ GUARDED_BY(mutex_) = 0;
+  double last_image_ GUARDED_BY(mutex_) = 0.0;
+  double last_pose_ GUARDED_BY(mutex_) = 0.0;
+  /// Starts at construction: inputs get timeout_s to pair.
+  double last_paired_ GUARDED_BY(mutex_);
+  double newest_image_stamp_ GUARDED_BY(mutex_) = 0.0;
+  double newest_pose_stamp_ GUARDED_BY(mutex_) = 0.0;
+  double rate_since_ GUARDED_BY(mutex_);
+  uint64_t images_at_rate_ GUARDED_BY(mutex_) = 0;
+  uint64_t poses_at_rate_ GUARDED_BY(mutex_) = 0;
+  std::map<InputErrorCode, uint64_t> rejected_ GUARDED_BY(mutex_);
+  std::map<InputErrorCode, double> last_rejection_log_ GUARDED_BY(mutex_);
 };
 
 }  // namespace landmark_loop_closure

@@ -7,9 +7,10 @@
 #include <cstddef>
 #include <deque>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <utility>
+
+#include "landmark_loop_closure/common/thread_annotations.h"
 
 namespace landmark_loop_closure {
 
@@ -37,7 +38,7 @@ class StampedBuffer {
 
   void push(double stamp, T item) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(mutex_);
       for (auto& [wanted_stamp, held] : wanted_) hold(wanted_stamp, stamp, item, &held);
       items_.emplace_back(stamp, std::move(item));
       if (items_.size() > capacity_) items_.pop_front();
@@ -50,7 +51,7 @@ class StampedBuffer {
   /// Holds the item nearest `stamp` within `slop_s`, now and as items come, until nearest() is
   /// asked for that stamp.
   void want(double stamp, double slop_s) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     if (max_wanted_ == 0) return;
     Held& held = wanted_[stamp];
     held.slop_s = slop_s;
@@ -59,13 +60,13 @@ class StampedBuffer {
   }
 
   void setMaxWanted(size_t max_wanted) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     max_wanted_ = max_wanted;
     while (wanted_.size() > max_wanted_) wanted_.erase(wanted_.begin());
   }
 
   size_t wantedCount() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     return wanted_.size();
   }
 
@@ -77,7 +78,7 @@ class StampedBuffer {
   std::optional<T> nearest(double stamp, const StampedWait& wait, bool producers_present) {
     const auto give_up = std::chrono::steady_clock::now() +
                          std::chrono::duration<double>(std::max(0.0, wait.max_wait_s));
-    std::unique_lock<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     const uint64_t pushes_before = pushes_;
     bool timed_out = false;
     while (true) {
@@ -112,18 +113,18 @@ class StampedBuffer {
         return std::nullopt;
       }
       // After a timeout the loop looks once more: an item may have come with it.
-      timed_out = arrived_.wait_until(lock, give_up) == std::cv_status::timeout;
+      timed_out = !lock.waitUntil(arrived_, give_up);
     }
   }
 
   /// Whether a wait ran out with nothing arriving and no item came since.
   bool silent() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     return silent_;
   }
 
   size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(mutex_);
     return items_.size();
   }
 
@@ -144,13 +145,13 @@ class StampedBuffer {
   }
 
   const size_t capacity_;
-  size_t max_wanted_;
-  std::map<double, Held> wanted_;
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
   std::condition_variable arrived_;
-  std::deque<std::pair<double, T>> items_;
-  uint64_t pushes_ = 0;
-  bool silent_ = false;
+  size_t max_wanted_ GUARDED_BY(mutex_);
+  std::map<double, Held> wanted_ GUARDED_BY(mutex_);
+  std::deque<std::pair<double, T>> items_ GUARDED_BY(mutex_);
+  uint64_t pushes_ GUARDED_BY(mutex_) = 0;
+  bool silent_ GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace landmark_loop_closure
