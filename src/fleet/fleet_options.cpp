@@ -83,7 +83,6 @@ const ParameterTable<FleetOptions>& FleetOptions::parameters() {
                   "restarted) is sent the map's rows so far, at most this many a second (500: "
                   "2.2 MB/s with the default backbone), beside the new ones; rows it holds "
                   "already are not kept twice. A map loaded from database_path is shared so too.")
-          .evaluationOnly()
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a chained candidate's score over the best score of another place of its map "
                   "must reach this (0 = off): where a keyframe looks about as much like several "
