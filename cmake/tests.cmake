@@ -10,6 +10,8 @@ set(CORE_TESTS
   test_condition_standardiser
   test_place_distinctiveness
   test_false_alarms
+  test_calibrated_decision
+  test_session_counter
   test_score_normalisation
   test_appearance_check
   test_loop_detector

@@ -265,6 +265,7 @@ LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                        ? static_cast<double>(options.acceptance.index_window)
                        : options.acceptance.match_window_m),
       sequence_(options.acceptance.sequence),
+      decision_(options),
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
@@ -298,14 +299,11 @@ void LoopDetector::storeHeldKeyframes() {
 }
 
 void LoopDetector::mapReplaced(uint32_t first_session, std::optional<uint64_t> next_id) {
-  session_ = first_session;
+  sessions_.restartAt(first_session);
   if (next_id) admission_.raiseNextId(*next_id);
   consistency_.reset();
   sequence_.reset();
-  backgrounds_.clear();
-  last_loop_.reset();
-  passed_places_.clear();
-  last_keyframe_.reset();
+  decision_.reset();
 }
 
 bool LoopDetector::store(KeyframeRecord keyframe, KeyframeResult* result) {
@@ -333,9 +331,7 @@ void LoopDetector::setMode(DetectorMode mode) {
     // Chains and sequences of one mode say nothing in the other.
     consistency_.reset();
     sequence_.reset();
-    backgrounds_.clear();
-    last_loop_.reset();
-    passed_places_.clear();
+    decision_.reset();
   }
   mode_ = mode;
 }
@@ -346,13 +342,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   KeyframeResult result;
   result.keyframe_id = keyframe_id;
   if ((result.error = checkKeyframe(keyframe_id, image))) return result;
-  // Keyframes come in id order, so the session changes where the odometry did; a marked keyframe
-  // that never came (refused, dropped) passes its mark to the next. After a load or a reset (no
-  // keyframe yet) the session is new already.
-  const auto marks_end = odometry_restarts_.upper_bound(keyframe_id);
-  const bool odometry_restarted = odometry_restarts_.begin() != marks_end;
-  odometry_restarts_.erase(odometry_restarts_.begin(), marks_end);
-  if (odometry_restarted && last_keyframe_) ++session_;
+  sessions_.enter(keyframe_id);
 
   std::vector<float> raw_global;
   ImageDescriptor descriptor = describe(image, &result.times, &raw_global);
@@ -365,7 +355,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (result.loop) {
     result.loop->map_id = map_.mapId();
     result.loop->query_id = keyframe_id;
-    result.loop->query_session = session_;
+    result.loop->query_session = sessions_.current();
     result.loop->query_stamp = stamp;
     result.loop->query_pose = keyframe.pose;
   }
@@ -373,7 +363,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
   if (mode_ == DetectorMode::kLocalization) {
     // Published under the map's id but never stored: a later run must reuse neither its id nor
     // its session. Announced once the map holds that; never when it cannot be written.
-    result.store_error = map_.reserveUnstored(keyframe.id, session_);
+    result.store_error = map_.reserveUnstored(keyframe.id, sessions_.current());
     kept = result.store_error.empty();
     if (kept) map_.announceUnstored(keyframe);
   } else {
@@ -416,7 +406,9 @@ ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times,
   ImageDescriptor descriptor = extractor_->describe(image);
   *raw_global = descriptor.global;
   descriptor.global = standardiser_.apply(descriptor.global);
-  if (options_.acceptance.sequence.enabled() || calibrates()) sequence_.push(descriptor);
+  if (options_.acceptance.sequence.enabled() || decision_.appliesTo(*extractor_)) {
+    sequence_.push(descriptor);
+  }
   times->describe_ms = millisecondsSince(start);
   return descriptor;
 }
@@ -438,7 +430,7 @@ QueryResult LoopDetector::search(uint64_t keyframe_id, double stamp,
   }
   if (std::string damage = map_.takeNewDamage(); !damage.empty()) result->map_damage = damage;
   if (!replayed || !map_.damage().empty()) {
-    query = map_.query(descriptor.global, stamp, search, session_);
+    query = map_.query(descriptor.global, stamp, search, sessions_.current());
     if (query_cache_ && !replayed && map_.damage().empty()) {
       query_cache_->emplace(keyframe_id, query);
     }
@@ -454,7 +446,7 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
   const auto features_start = Clock::now();
   KeyframeRecord keyframe;
   keyframe.id = keyframe_id;
-  keyframe.session = session_;
+  keyframe.session = sessions_.current();
   keyframe.stamp = stamp;
   keyframe.pose = normalisedPose(pose);
   if (options_.verification.enabled) {
@@ -465,13 +457,7 @@ KeyframeRecord LoopDetector::makeKeyframe(uint64_t keyframe_id, double stamp, co
     }
   }
   times->features_ms = millisecondsSince(features_start);
-  if (last_keyframe_) {
-    // The odometry's jump to its new frame is no distance travelled.
-    keyframe.path = last_keyframe_->session != session_
-                        ? last_keyframe_->path
-                        : extendPath(last_keyframe_->path, last_keyframe_->pose, keyframe.pose);
-  }
-  last_keyframe_ = PathEnd{keyframe.pose, keyframe.path, session_};
+  keyframe.path = sessions_.advance(keyframe.pose);
   // Kept for ~match_image and compared by the appearance check.
   if (options_.keep_thumbnails) {
     keyframe.thumbnail = makeThumbnail(image);
@@ -495,7 +481,9 @@ void LoopDetector::addDepths(const Pose& pose, const cv::Mat& depth,
     const std::shared_ptr<const KeyframeRecord> neighbour = database().record(stored - back);
     // Another session's pose is in another odometry frame (a loaded map, the odometry before it
     // was re-initialised): no baseline to triangulate over.
-    if (!neighbour || neighbour->local_features.empty() || neighbour->session != session_) continue;
+    if (!neighbour || neighbour->local_features.empty() ||
+        neighbour->session != sessions_.current())
+      continue;
     const Eigen::Isometry3d neighbour_camera = neighbour->pose.toIsometry() * mount;
     triangulateKeypoints(neighbour->local_features, camera.inverse() * neighbour_camera, intrinsics,
                          options_.verification, options_.metric_pose, features);
@@ -508,9 +496,8 @@ FrameResult LoopDetector::process(double stamp, const Pose& pose, const cv::Mat&
   FrameResult result;
   result.admission = admit(stamp, pose, image.cols, image.rows, image.type(), odometry);
   if (result.admission.isKeyframe() &&
-      (result.admission.selection.reanchored || odometry_restart_pending_)) {
+      (sessions_.takePending() || result.admission.selection.reanchored)) {
     markOdometryRestart(result.admission.keyframe_id);
-    odometry_restart_pending_ = false;
   }
   if (result.admission.isKeyframe()) {
     result.keyframe =

@@ -1,11 +1,8 @@
 #pragma once
 
-#include <atomic>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -14,8 +11,9 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/core/appearance_check.h"
+#include "landmark_loop_closure/core/calibrated_decision.h"
+#include "landmark_loop_closure/core/candidate_report.h"
 #include "landmark_loop_closure/core/condition_standardiser.h"
-#include "landmark_loop_closure/core/false_alarms.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/keyframe_admission.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
@@ -24,6 +22,7 @@
 #include "landmark_loop_closure/core/odometry_gate.h"
 #include "landmark_loop_closure/core/score_normalisation.h"
 #include "landmark_loop_closure/core/sequence_matching.h"
+#include "landmark_loop_closure/core/session_counter.h"
 #include "landmark_loop_closure/core/temporal_consistency.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/database/keyframe_store.h"
@@ -32,41 +31,6 @@
 #include "landmark_loop_closure/geometry/metric_pose.h"
 
 namespace landmark_loop_closure {
-
-enum class CandidateVerdict {
-  kAccepted,
-  kBelowThreshold,       ///< score < min_score.
-  kAwaitingConsistency,  ///< Above the threshold, fewer than k consistent keyframes so far.
-  kOutscored,            ///< Consistent, but another candidate of this query scored higher.
-  kOdometryRejected,     ///< Above the threshold, but the odometry cannot have drifted that far.
-  kGeometryRejected,     ///< Consistent, but the geometric check refused it (see detail).
-  kUnreadable,           ///< Its record could not be read from the map file (damaged).
-  kAmbiguous,  ///< Above the threshold, but another place scored nearly as high (min_place_ratio).
-};
-
-const char* toString(CandidateVerdict verdict);
-
-struct CandidateReport {
-  uint64_t match_id = 0;
-  double match_stamp = 0.0;
-  double global_score = 0.0;  ///< Shortlist stage: cosine of the global descriptors.
-  double score = 0.0;         ///< Final stage: the extractor's similarity, or the sequence's mean.
-  double image_score = 0.0;   ///< This keyframe's own similarity (equals score without sequences).
-  double place_ratio = 0.0;   ///< score over the best other place's (placeRatios).
-  /// Non-loop places expected to score as high, over the map
-  /// (advanced/acceptance/max_false_alarms); -1 when not tested.
-  double false_alarms = -1.0;
-  /// The places those were counted over: the map's that the odometry does not rule out, or the
-  /// few that would continue the last keyframe's loop (0 when not tested).
-  size_t false_alarm_places = 0;
-  /// It continues the loop the keyframe before published (within acceptance/index_window) and
-  /// keeps up with it: not behind its match, nor a second keyframe in a row on one match.
-  bool continues_loop = false;
-  int consistent_keyframes = 0;
-  CandidateVerdict verdict = CandidateVerdict::kBelowThreshold;
-  std::string detail;  ///< Why, when the verdict alone does not say (gate numbers, geometry).
-  int inliers = 0;     ///< Geometric inliers, when the check ran.
-};
 
 struct AcceptedLoop {
   uint64_t map_id = 0;  ///< The map both keyframes belong to (MapSession::mapId()).
@@ -202,17 +166,17 @@ class LoopDetector : private MapUser {
   /// keyframe (its admission's selection.reanchored), so its pose is in another odometry frame
   /// than the keyframes before it: it starts a new session, or the next keyframe does if this one
   /// never comes (process() marks them itself).
-  void markOdometryRestart(uint64_t keyframe_id) { odometry_restarts_.insert(keyframe_id); }
+  void markOdometryRestart(uint64_t keyframe_id) { sessions_.markRestart(keyframe_id); }
   /// process() callers (offline replays): the odometry was re-initialised before the next frame
   /// (another run in its own odometry frame): the keyframe rule starts afresh and the next
   /// keyframe starts a new session.
   void restartOdometry() {
     restartAdmission();
-    odometry_restart_pending_ = true;
+    sessions_.markPending();
   }
   /// The session new keyframes get: 0 for the first run, +1 after each map loaded and each time
   /// the odometry was re-initialised. Poses of one session share one odometry frame.
-  uint32_t session() const { return session_; }
+  uint32_t session() const { return sessions_.current(); }
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
   const std::string& descriptorIdentity() const { return descriptor_identity_; }
 
@@ -249,34 +213,12 @@ class LoopDetector : private MapUser {
   /// `query_keyframe`: the keyframe being added (pose and path set, not yet stored).
   void decide(KeyframeResult* result, const ImageDescriptor& descriptor, const QueryResult& query,
               const KeyframeRecord& query_keyframe, const CameraIntrinsics& intrinsics);
-  /// Sequence matching: replaces the reports by the sequence matcher's candidates and scores.
-  /// False while the history is shorter than a sequence (every report then waits).
   /// Sets each report's place_ratio (placeRatios over the shortlist).
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
-  /// Whether advanced/acceptance/max_false_alarms applies: on, and the descriptor's final score is
-  /// the global similarity the background is made of (no re-ranking).
-  bool calibrates() const;
-  /// advanced/acceptance/max_false_alarms: whether so few wrong places are expected to score as
-  /// high as the report over the map (ScoreTail of the pooled backgrounds_) that it may be
-  /// believed; sets its false_alarms, and its detail when not. A candidate among the places the
-  /// query has just passed must also stand out of what those score (passed_places_), and one of the
-  /// query's own run must have been left (leftThePlace) at the tail's threshold.
-  bool passesFalseAlarms(CandidateReport* report, const KeyframeRecord& query_keyframe);
-  /// Whether, between `match` and the query in the query's own run, some keyframe outside the
-  /// match's place_window scores at most `level` as a candidate would (the query looked like an
-  /// ordinary other place there): a revisit leaves the place and comes back, a slow stretch of
-  /// look-alike frames never does. Says, in `detail`, the lowest score found when not.
-  bool leftThePlace(const KeyframeSummary& match, double level, std::string* detail);
-  /// Adds this keyframe's background to backgrounds_ and its passed places' scores to
-  /// passed_places_ (when calibrates()).
-  void recordBackground(const KeyframeRecord& query_keyframe);
-  /// Whether `match` continues the loop the keyframe before `query_id` published (last_loop_).
-  bool continuesLastLoop(const KeyframeSummary& match, uint64_t query_id) const;
-  /// advanced/acceptance/max_false_alarms, or max_false_alarms_within_reach where the odometry puts
-  /// the match within its reach.
-  double falseAlarmBound(const KeyframeSummary* match, const KeyframeRecord& query_keyframe) const;
-  /// Whether `match` is among the places the query has just passed (passed_places_).
-  bool justPassed(const KeyframeSummary& match, uint64_t query_id) const;
+  /// What the calibrated decision is lent for this keyframe.
+  DecisionContext decisionContext() {
+    return DecisionContext{database(), *extractor_, sequence_, mode_, sessions_.current()};
+  }
   /// The first of `leaders` (best-scoring candidates of their places, in score order) whose place
   /// (place_window ids, same session) the report's match is in; null when it leads its own.
   const CandidateReport* placeLeader(const CandidateReport& report,
@@ -289,6 +231,8 @@ class LoopDetector : private MapUser {
   /// instead.
   void normaliseScores(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                        const std::vector<size_t>& indices, double stamp);
+  /// Sequence matching: replaces the reports by the sequence matcher's candidates and scores.
+  /// False while the history is shorter than a sequence (every report then waits).
   bool scoreSequences(std::vector<CandidateReport>* reports, const ImageDescriptor& descriptor,
                       const std::vector<size_t>& indices, double stamp);
   /// Whether a chain is long enough to believe; when not, says how far it got (metres).
@@ -340,47 +284,11 @@ class LoopDetector : private MapUser {
   std::vector<float> previous_global_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
-  /// advanced/acceptance/max_false_alarms: what the last kPooledBackgrounds searched keyframes'
-  /// wrong places scored (ids, sessions and scores), pooled for the tail: one keyframe's sample of
-  /// a small map is too thin to fit, and the map's look-alikes change slowly along a path.
-  struct PlaceScore {
-    uint64_t id = 0;
-    uint32_t session = 0;
-    double score = 0.0;
-  };
-  static constexpr size_t kPooledBackgrounds = 5;
-  std::deque<std::vector<PlaceScore>> backgrounds_;
-  /// advanced/acceptance/max_false_alarms: places of the query's run from E + 1 to 2E keyframes
-  /// back (E = exclude_recent_keyframes: as far beyond the exclusion as it reaches) are "just
-  /// passed": their scores, pooled over queries, are the tail a candidate among them must stand
-  /// out of.
-  PassedPlaceScores passed_places_;
-  /// advanced/acceptance/max_false_alarms: the loop the last keyframe published. A candidate of the
-  /// next keyframe that continues it (within index_window of its match) is one of the few places
-  /// that would continue it, not one of the whole map's.
-  struct PublishedLoop {
-    uint64_t query_id = 0;
-    uint32_t query_session = 0;
-    uint64_t match_id = 0;
-    uint32_t match_session = 0;
-    /// It continued a loop on the same match or one behind it: the stretch stood while the
-    /// query moved on.
-    bool stood = false;
-  };
-  std::optional<PublishedLoop> last_loop_;
-  size_t background_places_ = 0;  ///< Eligible places of the newest background.
+  CalibratedDecision decision_;
   std::shared_ptr<QueryCache> query_cache_;
   DetectorMode mode_ = DetectorMode::kMapping;
-  uint32_t session_ = 0;
-  std::set<uint64_t> odometry_restarts_;   ///< Keyframe ids that start a new session.
-  bool odometry_restart_pending_ = false;  ///< restartOdometry(), for process().
+  SessionCounter sessions_;
   std::optional<Pose> camera_mount_;
-  struct PathEnd {
-    Pose pose;
-    PathLength path;
-    uint32_t session = 0;
-  };
-  std::optional<PathEnd> last_keyframe_;  ///< The last keyframe processed (stored or not).
 };
 
 }  // namespace landmark_loop_closure
