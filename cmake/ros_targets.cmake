@@ -21,12 +21,14 @@ target_link_libraries(${PROJECT_NAME}_ros_parameters ${PROJECT_NAME}_core ${catk
 add_library(${PROJECT_NAME}_nodelet
   src/ros/loop_markers.cpp
   src/ros/loop_closure_node.cpp
-  src/ros/loop_closure_node_inputs.cpp
-  src/ros/loop_closure_node_outputs.cpp
-  src/ros/loop_closure_node_database.cpp
+  src/ros/camera_info_state.cpp
+  src/ros/keyframe_preparation.cpp
+  src/ros/node_inputs.cpp
+  src/ros/node_outputs.cpp
+  src/ros/map_services.cpp
+  src/ros/node_diagnostics.cpp
   src/ros/fleet_link.cpp
   src/ros/evidence_channel.cpp
-  src/ros/loop_closure_node_diagnostics.cpp
   src/ros/loop_closure_nodelet.cpp)
 target_include_directories(${PROJECT_NAME}_nodelet SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_nodelet ${PROJECT_NAME}_messages ${PROJECT_NAME}_config

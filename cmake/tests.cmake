@@ -12,6 +12,8 @@ set(CORE_TESTS
   test_false_alarms
   test_calibrated_decision
   test_session_counter
+  test_keyframe_describer
+  test_thread_annotations
   test_score_normalisation
   test_appearance_check
   test_loop_detector
@@ -148,6 +150,9 @@ add_test(NAME tool_backbone_reference
 add_test(NAME include_layers
   COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${CMAKE_CURRENT_SOURCE_DIR}
     -P ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/check_include_layers.cmake)
+
+# No class with behaviour past 25 data members, LoopDetector past 12 (issue 82; docs/design.md).
+add_test(NAME class_sizes COMMAND python3 ${CMAKE_CURRENT_SOURCE_DIR}/scripts/class_sizes.py)
 
 # The package installed into a temporary prefix launches from there and finds its models.
 add_test(NAME tool_install_and_launch

@@ -7,7 +7,7 @@
 #   scripts/thread_safety.sh --build-only  the same, quiet (scripts/test.sh starts it early)
 # scripts/test.sh runs it after the other tests (ctest entry thread_safety_build, tier slow);
 # test/thread_safety/ holds the check that the analysis does refuse a violation (ctest entry
-# thread_safety_refuses_unguarded_access, tier unit).
+# thread_safety_refuses_violations, tier unit).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_only=false

@@ -27,9 +27,9 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
     report.match_id = stored.id;
     report.match_stamp = stored.stamp;
     report.global_score = candidate.global_score;
-    report.score = extractor_->globalScore(candidate.global_score);
+    report.score = describer_.extractor().globalScore(candidate.global_score);
     report.image_score = report.score;
-    if (extractor_->reranks()) {
+    if (describer_.extractor().reranks()) {
       const std::shared_ptr<const KeyframeRecord> record = database().record(candidate.index);
       if (!record) {
         report.verdict = CandidateVerdict::kUnreadable;
@@ -38,7 +38,7 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
         indices.push_back(candidate.index);
         continue;
       }
-      report.score = extractor_->similarity(descriptor, record->descriptor);
+      report.score = describer_.extractor().similarity(descriptor, record->descriptor);
     }
     report.image_score = report.score;
     reports.push_back(report);
@@ -136,7 +136,8 @@ void LoopDetector::decide(KeyframeResult* result, const ImageDescriptor& descrip
       loop.match_stamp = match->stamp;
       loop.match_pose = match->pose;
       loop.global_score = report.global_score;
-      loop.rerank_score = extractor_->reranks() ? report.image_score : report.global_score;
+      loop.rerank_score =
+          describer_.extractor().reranks() ? report.image_score : report.global_score;
       loop.score = report.score;
       loop.consistent_keyframes = report.consistent_keyframes;
       result->loop = loop;
@@ -194,8 +195,8 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   const ScoreNormalisation normalisation = options_.acceptance.score_normalisation;
   if (normalisation == ScoreNormalisation::kNone) return;
   if (normalisation == ScoreNormalisation::kPreviousKeyframe) {
-    const double previous =
-        extractor_->globalScore(cosineSimilarity(descriptor.global, previous_global_));
+    const double previous = describer_.extractor().globalScore(
+        cosineSimilarity(descriptor.global, describer_.previousGlobal()));
     for (CandidateReport& report : *reports) {
       report.score = previousKeyframeScore(report.score, previous);
     }
@@ -205,7 +206,7 @@ void LoopDetector::normaliseScores(std::vector<CandidateReport>* reports,
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
   const auto scores_of = [&](const std::vector<size_t>& population) {
     std::vector<double> scores = database().similarities(descriptor.global, population);
-    for (double& score : scores) score = extractor_->globalScore(score);
+    for (double& score : scores) score = describer_.extractor().globalScore(score);
     return scores;
   };
   std::vector<size_t> population;
@@ -251,7 +252,7 @@ bool LoopDetector::scoreSequences(std::vector<CandidateReport>* reports,
   DatabaseOptions search = options_.database;
   if (mode_ == DetectorMode::kLocalization) search.exclude_recent_keyframes = 0;
   sequence_.score(
-      database(), *extractor_,
+      database(), describer_.extractor(),
       [&](size_t index) { return database().eligible(index, stamp, search, sessions_.current()); },
       &candidates);
   std::vector<CandidateReport> scored;

@@ -251,25 +251,20 @@ MapSession::Settings mapSettings(const LoopDetectorOptions& options,
 LoopDetector::LoopDetector(const LoopDetectorOptions& options,
                            std::shared_ptr<const DescriptorExtractor> extractor)
     : options_(options),
-      extractor_(std::move(extractor)),
-      descriptor_identity_(extractor_
-                               ? "extractor=" + extractor_->name() + " " +
-                                     landmark_loop_closure::descriptorIdentity(options.descriptor)
-                               : std::string()),
-      verifier_(options.verification),
       admission_(options.input, options.keyframe),
-      map_(mapSettings(options, extractor_.get(), descriptor_identity_), this),
-      standardiser_(options.descriptor.condition_window),
+      describer_(std::move(extractor), options.descriptor),
+      map_(mapSettings(options, describer_.extractorPointer(), describer_.identity()), this),
       consistency_(options.acceptance.consistency_unit,
                    options.acceptance.consistency_unit == ConsistencyUnit::kKeyframes
                        ? static_cast<double>(options.acceptance.index_window)
                        : options.acceptance.match_window_m),
       sequence_(options.acceptance.sequence),
       decision_(options),
+      verifier_(options.verification),
       camera_mount_(options.camera_mount.toPose()) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw std::invalid_argument(problems);
-  if (!extractor_) throw std::invalid_argument("a descriptor extractor is required");
+  if (!describer_.hasExtractor()) throw std::invalid_argument("a descriptor extractor is required");
   mode_ = options.mode;
 }
 
@@ -283,14 +278,7 @@ LoopDetector::~LoopDetector() {
 }
 
 void LoopDetector::storeWarmedUp(KeyframeResult* result) {
-  std::vector<WarmingKeyframe> warming = std::move(warming_);
-  warming_.clear();
-  for (WarmingKeyframe& waiting : warming) {
-    if (!standardiser_.warmingUp()) {
-      waiting.keyframe.descriptor.global = standardiser_.standardise(waiting.raw_global);
-    }
-    store(std::move(waiting.keyframe), result);
-  }
+  for (KeyframeRecord& keyframe : describer_.takeHeld()) store(std::move(keyframe), result);
 }
 
 void LoopDetector::storeHeldKeyframes() {
@@ -351,7 +339,7 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
       makeKeyframe(keyframe_id, stamp, pose, image, intrinsics, depth, &result.times);
   keyframe.stamp_ns = stamp_ns != 0 ? stamp_ns : std::llround(stamp * 1e9);
   decide(&result, descriptor, query, keyframe, intrinsics);
-  previous_global_ = descriptor.global;
+  describer_.setPreviousGlobal(descriptor.global);
   if (result.loop) {
     result.loop->map_id = map_.mapId();
     result.loop->query_id = keyframe_id;
@@ -368,9 +356,9 @@ KeyframeResult LoopDetector::addKeyframe(uint64_t keyframe_id, double stamp, con
     if (kept) map_.announceUnstored(keyframe);
   } else {
     keyframe.descriptor = std::move(descriptor);
-    if (standardiser_.warmingUp()) {
+    if (describer_.warmingUp()) {
       reserveId(keyframe.id, &result);
-      warming_.push_back({std::move(keyframe), std::move(raw_global)});
+      describer_.hold(std::move(keyframe), std::move(raw_global));
       result.stored = true;  // Kept, and stored once the window is full.
     } else {
       KeyframeResult warmed;
@@ -403,10 +391,8 @@ std::optional<InputError> LoopDetector::checkKeyframe(uint64_t keyframe_id,
 ImageDescriptor LoopDetector::describe(const cv::Mat& image, StageTimes* times,
                                        std::vector<float>* raw_global) {
   const auto start = Clock::now();
-  ImageDescriptor descriptor = extractor_->describe(image);
-  *raw_global = descriptor.global;
-  descriptor.global = standardiser_.apply(descriptor.global);
-  if (options_.acceptance.sequence.enabled() || decision_.appliesTo(*extractor_)) {
+  ImageDescriptor descriptor = describer_.describe(image, raw_global);
+  if (options_.acceptance.sequence.enabled() || decision_.appliesTo(describer_.extractor())) {
     sequence_.push(descriptor);
   }
   times->describe_ms = millisecondsSince(start);

@@ -7,7 +7,7 @@ namespace landmark_loop_closure {
 CellFeatures LoopDetector::thumbnailCells(const KeyframeRecord& keyframe) const {
   const cv::Mat thumbnail = decodeThumbnail(keyframe.thumbnail);
   if (thumbnail.empty()) return {};
-  return cellFeatures(extractor_->appearanceMaps(thumbnail));
+  return cellFeatures(describer_.extractor().appearanceMaps(thumbnail));
 }
 
 bool LoopDetector::verify(const KeyframeRecord& query, const KeyframeRecord& match,

@@ -148,7 +148,7 @@ void FleetLink::sendBacklog(const ros::SingleSubscriberPublisher& subscriber) {
     });
     for (const FleetKeyframe& row : rows) subscriber.publish(row);
     sent += rows.size();
-    backlog_rows_sent_ += rows.size();
+    counters_.backlog_rows_sent += rows.size();
     if (more) ros::WallDuration(chunk_period_s).sleep();
   }
   if (sent > 0) {
@@ -166,7 +166,7 @@ bool FleetLink::onEvidence(
   // (one out at a time per peer) is answered with a refusal, and holds the detector no longer.
   const std::string caller = event.getCallerName().substr(0, 256);
   if (!evidence_rate_.allow(caller, ros::WallTime::now().toSec())) {
-    ++evidence_refused_;
+    ++counters_.evidence_refused;
     response.found = false;
     response.problem =
         "too many requests: at most advanced/fleet/evidence_requests_per_s a "
@@ -197,7 +197,7 @@ bool FleetLink::onEvidence(
     answer.camera_frame = hooks_.camera_frame();
     toEvidenceResponse(answer, &response);
   });
-  ++evidence_answered_;
+  ++counters_.evidence_answered;
   return true;  // `found` says whether it was.
 }
 
@@ -213,7 +213,7 @@ void FleetLink::onAnnounced(LoopDetector& detector, uint64_t id,
       last_odometry_frame_ = odometry_frame;
     }
     row_publisher_.publish(toFleetKeyframeMsg(*own));
-    ++rows_shared_;
+    ++counters_.rows_shared;
   }
   if (searcher_) searcher_->hand({*own, detector.map().mapId(), odometry_frame});
 }
@@ -232,27 +232,27 @@ void FleetLink::fetch(const FleetSearcher::Search& own, const FleetCandidate& ca
         try {
           usable = checkFetched(candidate, frame, link->service(), answer);
         } catch (const std::exception& error) {
-          ++fetches_failed_;
+          ++counters_.fetches_failed;
           ROS_ERROR_THROTTLE(kWarningPeriod, "fleet: checking a candidate of robot %s threw (%s)",
                              candidate.peer.c_str(), error.what());
         }
         link->noteAnswer(usable);
       });
   // Not asked: the next keyframe may ask again.
-  if (offer == EvidenceChannel::Offer::kBusy) ++fetches_skipped_;
-  if (offer == EvidenceChannel::Offer::kBackingOff) ++fetches_backed_off_;
+  if (offer == EvidenceChannel::Offer::kBusy) ++counters_.fetches_skipped;
+  if (offer == EvidenceChannel::Offer::kBackingOff) ++counters_.fetches_backed_off;
 }
 
 bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string& odometry_frame,
                              const std::string& service, const EvidenceChannel::Answer& answer) {
-  ++fetches_made_;
+  ++counters_.fetches_made;
   std::string problem = answer.problem;
   if (answer.response && !answer.response->found) {
     // Its words, cut to a log line's length.
     problem = answer.response->problem.substr(0, 200);
   }
   if (!answer.response || !answer.response->found) {
-    ++fetches_failed_;
+    ++counters_.fetches_failed;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "fleet: the evidence of keyframe %lu of robot %s could not be fetched from "
                       "%s: %s",
@@ -279,13 +279,13 @@ bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string&
       static_cast<size_t>(std::max(settings->verification.max_features, 0));
   std::string refused = evidenceResponseProblem(response, max_keypoints);
   std::optional<KeyframeEvidence> evidence;
-  evidence_bytes_ += answer.bytes;
+  counters_.evidence_bytes += answer.bytes;
   if (refused.empty()) {
     evidence = evidenceFromResponse(request, response);
     refused = evidence->problem(max_keypoints);
   }
   if (!refused.empty()) {
-    ++fetches_failed_;
+    ++counters_.fetches_failed;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "fleet: the evidence of keyframe %lu of robot %s from %s was refused: %s",
                       static_cast<unsigned long>(candidate.match.id), candidate.match.robot.c_str(),
@@ -336,7 +336,7 @@ bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string&
     message = toLoopMsg(loop, query_stamp, match_stamp, odometry_frame, pose_frame);
   });
   if (!message) {
-    ++loops_refused_;
+    ++counters_.loops_refused;
     ROS_INFO_THROTTLE(kWarningPeriod,
                       "fleet: keyframe %lu and keyframe %lu of robot %s refused: %s",
                       static_cast<unsigned long>(candidate.query_id),
@@ -345,7 +345,7 @@ bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string&
     return true;
   }
   hooks_.publish_loop(*message);
-  ++loops_published_;
+  ++counters_.loops_published;
   ROS_INFO(
       "Loop between robots: keyframe %lu matches keyframe %lu of robot %s (map %lu, score "
       "%.3f, %d consistent keyframes, %u inliers%s)",
@@ -358,8 +358,8 @@ bool FleetLink::checkFetched(const FleetCandidate& candidate, const std::string&
 }
 
 void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
-  status.add("fleet rows shared", rows_shared_.load());
-  status.add("fleet rows sent to late peers", backlog_rows_sent_.load());
+  status.add("fleet rows shared", counters_.rows_shared.load());
+  status.add("fleet rows sent to late peers", counters_.backlog_rows_sent.load());
   size_t rows = 0, bytes = 0, refused = 0;
   std::string robots;
   {
@@ -379,22 +379,22 @@ void FleetLink::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("fleet rows kept", rows);
   status.add("fleet rows bytes", bytes);
   status.add("fleet rows refused", refused);
-  status.add("fleet evidence fetched", fetches_made_.load());
-  status.add("fleet evidence fetch failures", fetches_failed_.load());
-  status.add("fleet evidence bytes fetched", evidence_bytes_.load());
+  status.add("fleet evidence fetched", counters_.fetches_made.load());
+  status.add("fleet evidence fetch failures", counters_.fetches_failed.load());
+  status.add("fleet evidence bytes fetched", counters_.evidence_bytes.load());
   status.add("fleet searches dropped (the link behind)", searcher_ ? searcher_->dropped() : 0);
-  status.add("fleet fetches skipped (one out)", fetches_skipped_.load());
-  status.add("fleet fetches skipped (backing off a peer)", fetches_backed_off_.load());
+  status.add("fleet fetches skipped (one out)", counters_.fetches_skipped.load());
+  status.add("fleet fetches skipped (backing off a peer)", counters_.fetches_backed_off.load());
   uint64_t timeouts = 0;
   for (const auto& [peer, channel] : channels_) timeouts += channel->timeouts();
   status.add("fleet fetches timed out", timeouts);
   status.addf("fleet search ms (last, max)", "%.2f, %.2f",
               searcher_ ? searcher_->lastMilliseconds() : 0.0,
               searcher_ ? searcher_->maxMilliseconds() : 0.0);
-  status.add("fleet loops refused", loops_refused_.load());
-  status.add("fleet loops published", loops_published_.load());
-  status.add("fleet evidence answered", evidence_answered_.load());
-  status.add("fleet evidence requests refused (rate)", evidence_refused_.load());
+  status.add("fleet loops refused", counters_.loops_refused.load());
+  status.add("fleet loops published", counters_.loops_published.load());
+  status.add("fleet evidence answered", counters_.evidence_answered.load());
+  status.add("fleet evidence requests refused (rate)", counters_.evidence_refused.load());
 }
 
 }  // namespace landmark_loop_closure

@@ -34,6 +34,21 @@
 
 namespace landmark_loop_closure {
 
+/// What the link counts, for its diagnostics: any thread adds.
+struct FleetCounters {
+  std::atomic<uint64_t> rows_shared{0};
+  std::atomic<uint64_t> backlog_rows_sent{0};
+  std::atomic<uint64_t> fetches_skipped{0};     ///< Its robot's channel had one out.
+  std::atomic<uint64_t> fetches_backed_off{0};  ///< Its robot's answers were of no use.
+  std::atomic<uint64_t> fetches_made{0};
+  std::atomic<uint64_t> fetches_failed{0};
+  std::atomic<uint64_t> evidence_bytes{0};
+  std::atomic<uint64_t> loops_refused{0};
+  std::atomic<uint64_t> loops_published{0};
+  std::atomic<uint64_t> evidence_answered{0};
+  std::atomic<uint64_t> evidence_refused{0};  ///< Past a caller's rate.
+};
+
 class FleetLink {
  public:
   /// What the link asks of the node.
@@ -109,17 +124,7 @@ class FleetLink {
 
   std::unique_ptr<FleetSearcher> searcher_;  ///< With peers: their rows searched off the worker.
 
-  std::atomic<uint64_t> rows_shared_{0};
-  std::atomic<uint64_t> backlog_rows_sent_{0};
-  std::atomic<uint64_t> fetches_skipped_{0};     ///< Its robot's channel had one out.
-  std::atomic<uint64_t> fetches_backed_off_{0};  ///< Its robot's answers were of no use.
-  std::atomic<uint64_t> fetches_made_{0};
-  std::atomic<uint64_t> fetches_failed_{0};
-  std::atomic<uint64_t> evidence_bytes_{0};
-  std::atomic<uint64_t> loops_refused_{0};
-  std::atomic<uint64_t> loops_published_{0};
-  std::atomic<uint64_t> evidence_answered_{0};
-  std::atomic<uint64_t> evidence_refused_{0};  ///< Past a caller's rate.
+  FleetCounters counters_;
 };
 
 }  // namespace landmark_loop_closure

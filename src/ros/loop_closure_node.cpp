@@ -1,21 +1,14 @@
-// The node's wiring: options, the detector and its runtime, subscriptions, publishers, services
-// and diagnostics. Inputs are handled in loop_closure_node_inputs.cpp, results published in
-// loop_closure_node_outputs.cpp.
+// The node's wiring: options, the detector and its runtime, and the parts around them (inputs,
+// outputs, map services, diagnostics, the fleet link); what it says at start and at stop.
 #include "loop_closure_node.h"
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
-#include <image_transport/camera_common.h>
-#include <visualization_msgs/MarkerArray.h>
-
-#include "landmark_loop_closure/Keyframe.h"
-#include "landmark_loop_closure/LoopCandidateArray.h"
-#include "landmark_loop_closure/LoopClosure.h"
+#include "frame_source.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 
@@ -23,14 +16,7 @@ namespace landmark_loop_closure {
 
 namespace {
 
-constexpr double kTfRetryPeriod = 0.02;
 constexpr double kDiagnosticsPeriod = 1.0;
-
-}  // namespace
-
-double LoopClosureNode::wallNow() { return ros::WallTime::now().toSec(); }
-
-namespace {
 
 // The node's last lines: ROS shut its console down before a node stopped by SIGINT is destroyed,
 // so they are written to the terminal directly, in the console's format, when ROS is gone.
@@ -48,13 +34,6 @@ void logAtStop(ros::console::levels::Level level, const std::string& text) {
   std::fprintf(out, "[%s] [%.9f]: %s\n", warn ? " WARN" : " INFO", ros::WallTime::now().toSec(),
                text.c_str());
   std::fflush(out);
-}
-
-InputMonitorOptions inputMonitorOptions(const NodeOptions& options) {
-  InputMonitorOptions monitor;
-  monitor.timeout_s = options.input_timeout;
-  monitor.max_interval_s = options.odometry_max_interval;
-  return monitor;
 }
 
 }  // namespace
@@ -78,42 +57,8 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
       private_node_(private_node),
       options_(options),
       detector_(options.detector, makeDescriptorExtractor(options.detector.descriptor)),
-      image_transport_(node),
-      odometry_history_(2000, options.time_jump_back_s),
-      inputs_(inputMonitorOptions(options), wallNow()),
-      markers_(options.odom_frame, options.detector.acceptance.min_score,
-               options.publish_rejected_markers),
-      diagnostics_(node, private_node, ros::this_node::getName()) {
-  loop_publisher_ = node_.advertise<LoopClosure>("loop_closures", 100);
-  keyframe_publisher_ =
-      node_.advertise<Keyframe>("keyframes", 1000);  // Bursts when the map's check passes.
-  candidates_publisher_ = private_node_.advertise<LoopCandidateArray>("candidates", 10);
-  // Each keyframe sends only the markers it changed (queued, so none is lost); a viewer that
-  // connects later is sent everything once.
-  markers_publisher_ = private_node_.advertise<visualization_msgs::MarkerArray>(
-      "markers", 100, [this](const ros::SingleSubscriberPublisher& subscriber) {
-        subscriber.publish(markers_.snapshot(ros::Time::now()));
-      });
-  image_transport::ImageTransport private_transport(private_node_);
-  // Latched: the latest loop stays on view, also for a viewer that starts later.
-  match_image_publisher_ = private_transport.advertise("match_image", 1, true);
-
-  diagnostics_.setHardwareID("none");
-  diagnostics_.add("loop closure", this, &LoopClosureNode::produceDiagnostics);
-  diagnostics_timer_ = node_.createWallTimer(
-      ros::WallDuration(kDiagnosticsPeriod), [this](const ros::WallTimerEvent&) {
-        // The map's check ends on its own thread: said without a keyframe.
-        runtime_->tryWithDetector([this](LoopDetector& detector) {
-          reportMapDamage(detector.map().takeNewDamage());
-          // Keyframes the map's check held are committed, and published, without waiting for
-          // the next keyframe.
-          publishAnnouncedKeyframes();
-          noteMapSize(detector);
-          return false;
-        });
-        diagnostics_.force_update();
-      });
-
+      diagnostics_(node, private_node, options_, &counters_),
+      inputs_(node, options_, &counters_) {
   // A keyframe is published once the map file holds it (after the warm-up and the map's check).
   detector_.map().announceKeyframes(true);
   // Until tf gives the mount, the configured one is not trusted for triangulation.
@@ -124,58 +69,87 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
         "it, the default values until then",
         options_.base_frame.c_str());
   }
-  if (!options_.database_path.empty()) {
-    // Refusing to start leaves a map that cannot be opened as it is.
-    const auto load_start = std::chrono::steady_clock::now();
-    const std::string error = detector_.map().open(options_.database_path);
-    const double load_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
-    if (!error.empty()) throw std::runtime_error(error);
-    database_status_ = options_.database_path;
-    session_ = detector_.session();
-    for (const std::string& leftover : detector_.map().leftoversRemoved()) {
-      ROS_INFO("Removed %s, left by a save that was interrupted", leftover.c_str());
-    }
-    for (const std::string& repair : detector_.map().repairs()) {
-      ROS_WARN("Map %s: %s", options_.database_path.c_str(), repair.c_str());
-    }
-    noteMapSize(detector_);
-    {
-      const char* graph = detector_.map().graphBuilding()
-                              ? "being built in the background, exact search meanwhile"
-                          : detector_.database().graph() == nullptr ? "off"
-                          : detector_.map().graphReused()           ? "read"
-                                                                    : "built";
-      ROS_INFO(
-          "Map %s: %zu keyframes loaded in %.2f s (search graph %s, integrity %s); this run "
-          "is session %u, every keyframe committed as it is stored",
-          options_.database_path.c_str(), detector_.database().size(), load_s, graph,
-          detector_.map().check().c_str(), detector_.session());
-      if (detector_.map().keyframesNotSearched() > 0 || detector_.map().overMemoryBudget()) {
-        ROS_WARN(
-            "Map %s: its first %zu keyframes fill advanced/database/memory_budget_mb (%.0f MB; or "
-            "its saved "
-            "search graph covers them: delete %s-graph to build one within the budget) and are "
-            "searched; %zu later ones stay in the map unsearched, and new keyframes are written "
-            "to it unsearched (raise the budget to search them)",
-            options_.database_path.c_str(), detector_.database().size(),
-            options_.detector.database.memory_budget_mb, options_.database_path.c_str(),
-            detector_.map().keyframesNotSearched());
-      }
-    }
-  }
+  if (!options_.database_path.empty()) openMap();
   RuntimeOptions runtime_options;
   runtime_options.queue_size = static_cast<size_t>(options_.worker_queue_size);
   runtime_options.time_jump_back = options_.time_jump_back;
   runtime_options.time_jump_back_s = options_.time_jump_back_s;
   runtime_options.time_jump_frames = static_cast<size_t>(options_.time_jump_frames);
   runtime_options.max_stamp_ahead_s = options_.max_stamp_ahead_s;
+  runtime_ = std::make_unique<DetectorRuntime>(&detector_, runtime_options, runtimeListener());
+  outputs_ = std::make_unique<NodeOutputs>(node_, private_node_, options_, &counters_,
+                                           runtime_->detectorMutex());
+  if (options_.fleet.share || !options_.fleet.peerList().empty()) startFleet();
+  outputs_->setFleet(fleet_.get());
+  services_ =
+      std::make_unique<MapServices>(private_node_, runtime_.get(), outputs_.get(), &diagnostics_);
+  diagnostics_.start(&inputs_, runtime_.get(), fleet_.get());
+  diagnostics_timer_ =
+      node_.createWallTimer(ros::WallDuration(kDiagnosticsPeriod),
+                            [this](const ros::WallTimerEvent&) { onDiagnosticsTimer(); });
+  inputs_.start(runtime_.get());
+  const std::string descriptor = detector_.extractor()->name();
+  ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s (camera_info %s)",
+           toString(detector_.mode()), descriptor.c_str(),
+           nameOf(poseSourceNames(), options_.pose_source).c_str(), inputs_.imageTopic().c_str(),
+           inputs_.odometryTopic().empty() ? "" : " and ", inputs_.odometryTopic().c_str(),
+           inputs_.cameraInfoTopic().c_str());
+  if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
+  if (!options_.ignored_warning.empty()) ROS_WARN("%s", options_.ignored_warning.c_str());
+  if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
+    ROS_WARN(
+        "mode is localization but the keyframe database is empty: nothing will be found "
+        "and nothing is added");
+  }
+}
+
+void LoopClosureNode::openMap() {
+  // Refusing to start leaves a map that cannot be opened as it is.
+  const auto load_start = std::chrono::steady_clock::now();
+  const std::string error = detector_.map().open(options_.database_path);
+  const double load_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+  if (!error.empty()) throw std::runtime_error(error);
+  diagnostics_.setMapStatus(options_.database_path);
+  for (const std::string& leftover : detector_.map().leftoversRemoved()) {
+    ROS_INFO("Removed %s, left by a save that was interrupted", leftover.c_str());
+  }
+  for (const std::string& repair : detector_.map().repairs()) {
+    ROS_WARN("Map %s: %s", options_.database_path.c_str(), repair.c_str());
+  }
+  diagnostics_.noteMap(detector_);
+  {
+    const char* graph = detector_.map().graphBuilding()
+                            ? "being built in the background, exact search meanwhile"
+                        : detector_.database().graph() == nullptr ? "off"
+                        : detector_.map().graphReused()           ? "read"
+                                                                  : "built";
+    ROS_INFO(
+        "Map %s: %zu keyframes loaded in %.2f s (search graph %s, integrity %s); this run "
+        "is session %u, every keyframe committed as it is stored",
+        options_.database_path.c_str(), detector_.database().size(), load_s, graph,
+        detector_.map().check().c_str(), detector_.session());
+    if (detector_.map().keyframesNotSearched() > 0 || detector_.map().overMemoryBudget()) {
+      ROS_WARN(
+          "Map %s: its first %zu keyframes fill advanced/database/memory_budget_mb (%.0f MB; or "
+          "its saved "
+          "search graph covers them: delete %s-graph to build one within the budget) and are "
+          "searched; %zu later ones stay in the map unsearched, and new keyframes are written "
+          "to it unsearched (raise the budget to search them)",
+          options_.database_path.c_str(), detector_.database().size(),
+          options_.detector.database.memory_budget_mb, options_.database_path.c_str(),
+          detector_.map().keyframesNotSearched());
+    }
+  }
+}
+
+RuntimeListener LoopClosureNode::runtimeListener() {
   RuntimeListener listener;
   listener.prepare = [this](const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
                             InputError* error) {
-    return prepareKeyframe(job, colour, prepared, error);
+    return inputs_.prepare(job, colour, prepared, error);
   };
-  listener.rejected = [this](const InputError& error) { reportRejected(error); };
+  listener.rejected = [this](const InputError& error) { inputs_.reportRejected(error); };
   listener.timeline_reset = [this] { onTimelineReset(); };
   listener.keyframe = [this](const KeyframeJob& job, const KeyframeResult& result,
                              const PreparedKeyframe& prepared) {
@@ -188,57 +162,101 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
                        static_cast<unsigned long>(job.id), job.stamp, what.c_str(),
                        static_cast<unsigned long>(runtime_ ? runtime_->keyframesFailed() : 0));
   };
-  runtime_ = std::make_unique<DetectorRuntime>(&detector_, runtime_options, std::move(listener));
-  if (options_.fleet.share || !options_.fleet.peerList().empty()) {
-    FleetLink::Hooks hooks;
-    hooks.with_detector = [this](const std::function<void(LoopDetector&)>& action) {
-      runtime_->withDetector([&action](LoopDetector& detector) {
-        action(detector);
-        return false;
-      });
-    };
-    hooks.intrinsics = [this] {
-      MutexLock lock(stats_mutex_);
-      return camera_intrinsics_;
-    };
-    hooks.base_frame = options_.base_frame;
-    hooks.camera_frame = [this] { return keyframes_camera_frame_; };
-    hooks.express_relative_pose = [this](AcceptedLoop* loop) {
-      return expressRelativePose(loop, keyframes_camera_frame_);
-    };
-    hooks.publish_loop = [this](const LoopClosure& loop) {
-      loop_publisher_.publish(loop);
-      ++loops_published_;
-    };
-    fleet_ = std::make_unique<FleetLink>(node_, private_node_, options_.fleet, detector_,
-                                         std::move(hooks));
+  return listener;
+}
+
+void LoopClosureNode::startFleet() {
+  FleetLink::Hooks hooks;
+  hooks.with_detector = [this](const std::function<void(LoopDetector&)>& action) {
+    runtime_->withDetector([&action](LoopDetector& detector) {
+      action(detector);
+      return false;
+    });
+  };
+  hooks.intrinsics = [this] { return inputs_.cameraInfo().latest(); };
+  hooks.base_frame = options_.base_frame;
+  // Both called within hooks.with_detector.
+  hooks.camera_frame = [this] {
+    outputs_->assertDetectorHeld();
+    return outputs_->cameraFrame();
+  };
+  hooks.express_relative_pose = [this](AcceptedLoop* loop) {
+    outputs_->assertDetectorHeld();
+    return outputs_->expressRelativePose(detector_, loop, outputs_->cameraFrame());
+  };
+  hooks.publish_loop = [this](const LoopClosure& loop) { outputs_->publishLoop(loop); };
+  fleet_ = std::make_unique<FleetLink>(node_, private_node_, options_.fleet, detector_,
+                                       std::move(hooks));
+}
+
+void LoopClosureNode::onDiagnosticsTimer() {
+  runtime_->tryWithDetector([this](LoopDetector& detector) {
+    outputs_->assertDetectorHeld();  // tryWithDetector runs this with it held.
+    reportMapDamage(detector.map().takeNewDamage());
+    outputs_->publishAnnounced(detector);
+    diagnostics_.noteMap(detector);
+    return false;
+  });
+  diagnostics_.update();
+}
+
+void LoopClosureNode::reportMapDamage(const std::string& damage) {
+  if (damage.empty()) return;
+  ROS_ERROR(
+      "%s: no loops are searched from now on and nothing more is written to the map (new "
+      "keyframes are kept in memory only); ~reset keeps it aside and starts a new map, "
+      "~load_database switches to a sound one",
+      damage.c_str());
+}
+
+void LoopClosureNode::onTimelineReset() {
+  outputs_->assertDetectorHeld();  // The runtime's listener runs with it held.
+  diagnostics_.noteMap(detector_);
+  outputs_->forgetMap();
+}
+
+void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
+                                     const PreparedKeyframe& prepared) {
+  outputs_->assertDetectorHeld();  // The runtime's listener runs with it held.
+  const bool mapping = detector_.mode() == DetectorMode::kMapping;
+  // Not stored and no store error: past the budget without a map file.
+  const bool over_budget =
+      result.written_not_searched || (!result.stored && result.store_error.empty());
+  if (mapping && over_budget) {
+    ++counters_.keyframes_over_budget;
+    ROS_WARN_THROTTLE(kWarningPeriod,
+                      "Database memory budget of %.0f MB reached (%zu keyframes searched): new "
+                      "keyframes are searched for loops and %s",
+                      options_.detector.database.memory_budget_mb, detector_.database().size(),
+                      result.written_not_searched
+                          ? "written to the map, not searched (raise the budget to search them)"
+                          : "no longer stored (without a map file, database_path, all is in RAM)");
   }
-  advertiseServices();
-  subscribe();
-  const std::string descriptor = detector_.extractor()->name();
-  ROS_INFO("Loop closure (%s): descriptor %s, pose from %s, listening on %s%s%s (camera_info %s)",
-           toString(detector_.mode()), descriptor.c_str(),
-           nameOf(poseSourceNames(), options_.pose_source).c_str(), image_topic_.c_str(),
-           odom_topic_.empty() ? "" : " and ", odom_topic_.c_str(),
-           camera_info_subscriber_.getTopic().c_str());
-  if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
-  if (!options_.ignored_warning.empty()) ROS_WARN("%s", options_.ignored_warning.c_str());
-  if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
-    ROS_WARN(
-        "mode is localization but the keyframe database is empty: nothing will be found "
-        "and nothing is added");
+  reportMapDamage(result.map_damage);
+  // The keyframes carry the session (a camera gap keeps it, an odometry restart starts one).
+  counters_.session = detector_.session();
+  outputs_->publishKeyframe(detector_, NodeKeyframe::of(job), result, prepared.grey);
+  if (!result.store_error.empty()) {
+    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu %s: %s (%zu keyframes not stored so far)",
+                       static_cast<unsigned long>(job.id),
+                       result.stored         ? "is held back, but its id could not be reserved"
+                       : result.loop_dropped ? "is neither stored nor published, nor its loop"
+                                             : "is neither stored nor published",
+                       result.store_error.c_str(), detector_.map().keyframesNotWritten());
   }
+  diagnostics_.noteMap(detector_);
 }
 
 LoopClosureNode::~LoopClosureNode() {
   if (fleet_) fleet_->stop();
-  if (service_spinner_) service_spinner_->stop();
+  services_->stop();
   const size_t unprocessed = runtime_->queued();
   runtime_->stop();
   // Between ROS shutting down and this point the worker may have stored keyframes it could no
   // longer publish: the last line says so, so the map's count and the topic's can be reconciled.
   std::string shutdown_note;
-  if (const uint64_t unpublished = keyframes_unpublished_at_shutdown_.load(); unpublished > 0) {
+  if (const uint64_t unpublished = counters_.keyframes_unpublished_at_shutdown.load();
+      unpublished > 0) {
     shutdown_note +=
         "; " + std::to_string(unpublished) +
         " of them stored while ROS shut down, which may not have reached keyframes' subscribers";
@@ -270,45 +288,6 @@ LoopClosureNode::~LoopClosureNode() {
     logAtStop(ros::console::levels::Info, line.str());
     return false;
   });
-}
-
-void LoopClosureNode::subscribe() {
-  // Never lazy: a detector that stops listening loses keyframes for good.
-  image_topic_ = node_.resolveName("image");
-  // camera_info remapped (the launch file's camera_info argument): that topic; else the one
-  // beside the image, as image_transport's camera subscribers take it.
-  const std::string remapped_info = node_.resolveName("camera_info");
-  const std::string info_topic = remapped_info != node_.resolveName("camera_info", false)
-                                     ? remapped_info
-                                     : image_transport::getCameraInfoTopic(image_topic_);
-  camera_info_subscriber_ = node_.subscribe(info_topic, 1, &LoopClosureNode::onCameraInfo, this);
-  if (options_.use_depth) {
-    // Every queued keyframe (and the one in the worker) keeps its depth image however far behind
-    // the worker is.
-    depth_buffer_.setMaxWanted(static_cast<size_t>(options_.worker_queue_size) + 2);
-    // As deep as the buffer: with callbacks late on a busy machine, a queue of 5 dropped the
-    // depth of an image the image queue kept.
-    depth_subscriber_ =
-        image_transport_.subscribe("depth", kDepthQueue, &LoopClosureNode::onDepth, this);
-  }
-  if (options_.pose_source == PoseSource::kTf || options_.camera_mount_from_tf ||
-      options_.mountFromTfWhereKnown()) {
-    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_);
-  }
-  if (options_.pose_source == PoseSource::kTf) {
-    image_subscriber_ =
-        image_transport_.subscribe("image", 5, &LoopClosureNode::onImageForTf, this);
-    tf_timer_ = node_.createWallTimer(ros::WallDuration(kTfRetryPeriod),
-                                      [this](const ros::WallTimerEvent&) { retryPendingTf(); });
-    return;
-  }
-  odom_topic_ = node_.resolveName("odom");
-  const uint32_t queue = static_cast<uint32_t>(options_.sync_queue_size);
-  image_subscriber_ =
-      image_transport_.subscribe("image", queue, &LoopClosureNode::onImageForOdometry, this);
-  // Odometry usually comes faster than images: enough for the images' wait.
-  odom_subscriber_ = node_.subscribe("odom", 200, &LoopClosureNode::onOdometry, this);
 }
 
 }  // namespace landmark_loop_closure

@@ -1,5 +1,6 @@
 // Compiled by refuses_violations.sh with clang's -Wthread-safety: as written it must compile;
 // with each VIOLATION_* defined it must not (the analysis sees what thread_annotations.h says).
+#include <atomic>
 #include <condition_variable>
 
 #include "landmark_loop_closure/common/thread_annotations.h"
@@ -13,7 +14,8 @@ class GuardedCounter {
     ++count_;
     changed_.notify_all();
   }
-  int waitForAtLeast(int wanted) EXCLUDES(mutex_) {
+  /// Waits behind the writers: a read-only handler must not.
+  int waitForAtLeast(int wanted) EXCLUDES(mutex_, read_only_handler) {
     MutexLock lock(mutex_);
     while (count_ < wanted) lock.wait(changed_);
     return count_;
@@ -39,6 +41,22 @@ class GuardedCounter {
     return count_;
 #endif
   }
+  /// A read-only handler: what it reads, it reads without waiting.
+  int readOnly() EXCLUDES(mutex_) {
+    RoleScope reading(read_only_handler);
+#if defined(VIOLATION_READ_ONLY_WAITS)
+    return waitForAtLeast(1);
+#else
+    return published_.load();
+#endif
+  }
+  /// A callback the holder runs (through std::function, where the analysis cannot follow).
+  void addFromCallback() {
+#if !defined(VIOLATION_UNASSERTED_CALLBACK)
+    mutex_.assertHeld();
+#endif
+    ++count_;
+  }
 
  private:
   void addLocked() REQUIRES(mutex_) { ++count_; }
@@ -46,6 +64,7 @@ class GuardedCounter {
   Mutex mutex_;
   std::condition_variable changed_;
   int count_ GUARDED_BY(mutex_) = 0;
+  std::atomic<int> published_{0};
 };
 
 }  // namespace landmark_loop_closure
@@ -53,5 +72,8 @@ class GuardedCounter {
 int main() {
   landmark_loop_closure::GuardedCounter counter;
   counter.add();
-  return counter.read() == 1 && counter.tryAdd() && counter.waitForAtLeast(2) == 2 ? 0 : 1;
+  return counter.read() == 1 && counter.tryAdd() && counter.waitForAtLeast(2) == 2 &&
+                 counter.readOnly() == 0
+             ? 0
+             : 1;
 }

@@ -15,7 +15,8 @@ if ! output="$(compile)"; then
 fi
 echo "ok: compiles as written"
 failed=0
-for violation in VIOLATION_UNLOCKED_READ VIOLATION_REQUIRES_NOT_HELD VIOLATION_READ_AFTER_UNLOCK; do
+for violation in VIOLATION_UNLOCKED_READ VIOLATION_REQUIRES_NOT_HELD VIOLATION_READ_AFTER_UNLOCK \
+  VIOLATION_READ_ONLY_WAITS VIOLATION_UNASSERTED_CALLBACK; do
   if output="$(compile -D"$violation")"; then
     echo "FAIL: $violation compiles"; failed=1
   elif ! grep -q "Werror,-Wthread-safety" <<< "$output"; then

@@ -13,9 +13,9 @@
 #include "landmark_loop_closure/core/appearance_check.h"
 #include "landmark_loop_closure/core/calibrated_decision.h"
 #include "landmark_loop_closure/core/candidate_report.h"
-#include "landmark_loop_closure/core/condition_standardiser.h"
 #include "landmark_loop_closure/core/input_error.h"
 #include "landmark_loop_closure/core/keyframe_admission.h"
+#include "landmark_loop_closure/core/keyframe_describer.h"
 #include "landmark_loop_closure/core/keyframe_selector.h"
 #include "landmark_loop_closure/core/loop_detector_options.h"
 #include "landmark_loop_closure/core/map_session.h"
@@ -178,7 +178,7 @@ class LoopDetector : private MapUser {
   /// the odometry was re-initialised. Poses of one session share one odometry frame.
   uint32_t session() const { return sessions_.current(); }
   /// What a saved database must have been made with (extractor name and descriptorIdentity()).
-  const std::string& descriptorIdentity() const { return descriptor_identity_; }
+  const std::string& descriptorIdentity() const { return describer_.identity(); }
 
   /// Worker thread: switches between building the map and only searching it.
   void setMode(DetectorMode mode);
@@ -191,7 +191,7 @@ class LoopDetector : private MapUser {
   using QueryCache = std::unordered_map<uint64_t, QueryResult>;
   void setQueryCache(std::shared_ptr<QueryCache> cache) { query_cache_ = std::move(cache); }
 
-  const DescriptorExtractor* extractor() const { return extractor_.get(); }
+  const DescriptorExtractor* extractor() const { return describer_.extractorPointer(); }
 
  private:
   // addKeyframe's steps, in order.
@@ -217,7 +217,8 @@ class LoopDetector : private MapUser {
   void rateDistinctiveness(std::vector<CandidateReport>* reports) const;
   /// What the calibrated decision is lent for this keyframe.
   DecisionContext decisionContext() {
-    return DecisionContext{database(), *extractor_, sequence_, mode_, sessions_.current()};
+    return DecisionContext{database(), describer_.extractor(), sequence_, mode_,
+                           sessions_.current()};
   }
   /// The first of `leaders` (best-scoring candidates of their places, in score order) whose place
   /// (place_window ids, same session) the report's match is in; null when it leads its own.
@@ -259,36 +260,22 @@ class LoopDetector : private MapUser {
   // when another map is searched (chains, sessions and ids start again).
   void storeHeldKeyframes() override;
   void mapReplaced(uint32_t first_session, std::optional<uint64_t> next_id) override;
-
-  LoopDetectorOptions options_;
-  std::shared_ptr<const DescriptorExtractor> extractor_;
-  std::string descriptor_identity_;
-  GeometricVerifier verifier_;
-
-  KeyframeAdmission admission_;  ///< The receiving thread's.
-
-  // Search state (worker thread).
-  MapSession map_;
-  ConditionStandardiser standardiser_;
-  /// A session's first keyframes, standardised against a window of fewer than condition_window
-  /// keyframes: kept out of the database until the window is full (they are never candidates
-  /// before: exclude_recent_keyframes), then described by its mean and stored.
-  struct WarmingKeyframe {
-    KeyframeRecord keyframe;
-    std::vector<float> raw_global;
-  };
-  std::vector<WarmingKeyframe> warming_;
   /// map_.reserveId(), a failure told in `result`.
   void reserveId(uint64_t id, KeyframeResult* result);
-  /// The last keyframe's global vector (score_normalisation previous_keyframe).
-  std::vector<float> previous_global_;
+
+  LoopDetectorOptions options_;
+  KeyframeAdmission admission_;  ///< The receiving thread's.
+  // The worker's stages, in the order addKeyframe() runs them.
+  KeyframeDescriber describer_;  ///< Before map_: the map is opened for its identity.
+  MapSession map_;
+  std::shared_ptr<QueryCache> query_cache_;
   TemporalConsistency consistency_;
   SequenceMatcher sequence_;
   CalibratedDecision decision_;
-  std::shared_ptr<QueryCache> query_cache_;
+  GeometricVerifier verifier_;
+  std::optional<Pose> camera_mount_;  ///< For keypoint depths triangulated from the odometry.
   DetectorMode mode_ = DetectorMode::kMapping;
   SessionCounter sessions_;
-  std::optional<Pose> camera_mount_;
 };
 
 }  // namespace landmark_loop_closure

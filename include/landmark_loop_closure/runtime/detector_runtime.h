@@ -135,10 +135,16 @@ class DetectorRuntime {
   /// Runs `action` on the detector with the worker held off (map services). `action` returns
   /// true when it replaced or forgot the map: the keyframes queued before it are dropped (their ids
   /// and stamps were given against the previous map); returns how many were queued then.
-  size_t withDetector(const std::function<bool(LoopDetector&)>& action) EXCLUDES(detector_mutex_);
+  size_t withDetector(const std::function<bool(LoopDetector&)>& action)
+      EXCLUDES(detector_mutex_, read_only_handler);
   /// The same when the detector is free now; false (nothing run) while a keyframe or service
   /// holds it, so a timer never waits on the worker.
-  bool tryWithDetector(const std::function<bool(LoopDetector&)>& action) EXCLUDES(detector_mutex_);
+  bool tryWithDetector(const std::function<bool(LoopDetector&)>& action)
+      EXCLUDES(detector_mutex_, read_only_handler);
+
+  /// The lock withDetector() and the listener's callbacks run under: what the caller keeps for
+  /// the detector (state read and written only with it) is guarded by it.
+  const Mutex& detectorMutex() const RETURN_CAPABILITY(detector_mutex_) { return detector_mutex_; }
 
   /// What saveMap() did.
   struct SaveOutcome {
@@ -152,7 +158,8 @@ class DetectorRuntime {
   /// `path` "" meaning the open map. A copy goes step by step (MapSession::beginSave: 2048
   /// SQLite pages, ~4 MB, per hold of the detector), the rows file and the rename with the
   /// detector free, so the worker keeps describing keyframes meanwhile.
-  SaveOutcome saveMap(const std::string& path, bool overwrite) EXCLUDES(detector_mutex_);
+  SaveOutcome saveMap(const std::string& path, bool overwrite)
+      EXCLUDES(detector_mutex_, read_only_handler);
 
   /// Stops the worker after the keyframe in hand; queued keyframes are dropped. Idempotent.
   void stop();

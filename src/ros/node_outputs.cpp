@@ -1,6 +1,4 @@
-// The node's outputs, on the runtime's worker thread: keyframes, loops, candidates, markers and
-// the match image.
-#include "loop_closure_node.h"
+#include "node_outputs.h"
 
 #include <algorithm>
 #include <sstream>
@@ -8,9 +6,9 @@
 #include <cv_bridge/cv_bridge.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "fleet_link.h"
 #include "landmark_loop_closure/Keyframe.h"
 #include "landmark_loop_closure/LoopCandidateArray.h"
-#include "landmark_loop_closure/LoopClosure.h"
 #include "landmark_loop_closure/core/match_image.h"
 #include "landmark_loop_closure/descriptors/landmarks.h"
 #include "landmark_loop_closure/geometry/metric_pose.h"
@@ -18,77 +16,46 @@
 
 namespace landmark_loop_closure {
 
-LoopClosureNode::NodeKeyframe LoopClosureNode::nodeKeyframe(const KeyframeJob& job) {
-  const auto& source = std::any_cast<const FrameSource&>(job.source);
-  return {source.image, job.id, source.image->header.stamp, job.pose, source.frame_id};
+NodeOutputs::NodeOutputs(ros::NodeHandle node, ros::NodeHandle private_node,
+                         const NodeOptions& options, NodeCounters* counters,
+                         const Mutex& detector_mutex)
+    : options_(options),
+      counters_(*counters),
+      detector_mutex_(detector_mutex),
+      markers_(options.odom_frame, options.detector.acceptance.min_score,
+               options.publish_rejected_markers) {
+  loop_publisher_ = node.advertise<LoopClosure>("loop_closures", 100);
+  keyframe_publisher_ =
+      node.advertise<Keyframe>("keyframes", 1000);  // Bursts when the map's check passes.
+  candidates_publisher_ = private_node.advertise<LoopCandidateArray>("candidates", 10);
+  // Each keyframe sends only the markers it changed (queued, so none is lost); a viewer that
+  // connects later is sent everything once.
+  markers_publisher_ = private_node.advertise<visualization_msgs::MarkerArray>(
+      "markers", 100, [this](const ros::SingleSubscriberPublisher& subscriber) {
+        subscriber.publish(markers_.snapshot(ros::Time::now()));
+      });
+  image_transport::ImageTransport private_transport(private_node);
+  // Latched: the latest loop stays on view, also for a viewer that starts later.
+  match_image_publisher_ = private_transport.advertise("match_image", 1, true);
 }
 
-void LoopClosureNode::noteMapSize(const LoopDetector& detector) {
-  map_keyframes_ = detector.database().size();
-  MutexLock lock(stats_mutex_);
-  database_bytes_ = detector.database().bytes();
-  map_check_ = detector.map().check();
-  map_damage_ = detector.map().damage();
-  map_write_problem_ = detector.map().writeProblem();
-  keyframes_not_written_ = detector.map().keyframesNotWritten();
-}
-
-void LoopClosureNode::reportMapDamage(const std::string& damage) {
-  if (damage.empty()) return;
-  ROS_ERROR(
-      "%s: no loops are searched from now on and nothing more is written to the map (new "
-      "keyframes are kept in memory only); ~reset keeps it aside and starts a new map, "
-      "~load_database switches to a sound one",
-      damage.c_str());
-}
-
-void LoopClosureNode::onTimelineReset() {
-  noteMapSize(detector_);
-  session_ = detector_.session();
+void NodeOutputs::forgetMap() {
   keyframe_stamps_.clear();
   markers_.clear();
 }
 
-void LoopClosureNode::onKeyframeDone(const KeyframeJob& job, const KeyframeResult& result,
-                                     const PreparedKeyframe& prepared) {
-  const NodeKeyframe keyframe = nodeKeyframe(job);
-  const bool mapping = detector_.mode() == DetectorMode::kMapping;
-  // Not stored and no store error: past the budget without a map file.
-  const bool over_budget =
-      result.written_not_searched || (!result.stored && result.store_error.empty());
-  if (mapping && over_budget) {
-    ++keyframes_over_budget_;
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "Database memory budget of %.0f MB reached (%zu keyframes searched): new "
-                      "keyframes are searched for loops and %s",
-                      options_.detector.database.memory_budget_mb, detector_.database().size(),
-                      result.written_not_searched
-                          ? "written to the map, not searched (raise the budget to search them)"
-                          : "no longer stored (without a map file, database_path, all is in RAM)");
-  }
-  reportMapDamage(result.map_damage);
-  keyframe_stamps_[job.id] = keyframe.stamp;
-  // The keyframes carry the session (a camera gap keeps it, an odometry restart starts one).
-  session_ = detector_.session();
-  publishResults(keyframe, result, prepared.grey);
-  if (!result.store_error.empty()) {
-    ROS_ERROR_THROTTLE(kWarningPeriod, "Keyframe %lu %s: %s (%zu keyframes not stored so far)",
-                       static_cast<unsigned long>(job.id),
-                       result.stored         ? "is held back, but its id could not be reserved"
-                       : result.loop_dropped ? "is neither stored nor published, nor its loop"
-                                             : "is neither stored nor published",
-                       result.store_error.c_str(), detector_.map().keyframesNotWritten());
-  }
-  noteMapSize(detector_);
+void NodeOutputs::publishLoop(const LoopClosure& loop) {
+  loop_publisher_.publish(loop);
+  ++counters_.loops_published;
 }
 
-std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
-                                                 const std::string& camera_frame) const {
+std::string NodeOutputs::expressRelativePose(const LoopDetector& detector, AcceptedLoop* loop,
+                                             const std::string& camera_frame) const {
   if (options_.relative_pose_frame != RelativePoseFrame::kBase || !loop->relative_pose ||
       !loop->relative_pose->metric) {
     return camera_frame;
   }
-  const std::optional<Pose>& mount = detector_.cameraMount();
+  const std::optional<Pose>& mount = detector.cameraMount();
   if (!mount) {
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Relative pose left in the camera frame %s: the camera mount is not known "
@@ -110,17 +77,18 @@ std::string LoopClosureNode::expressRelativePose(AcceptedLoop* loop,
   return options_.base_frame;
 }
 
-void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResult& result,
-                                     const cv::Mat& grey) {
+void NodeOutputs::publishKeyframe(LoopDetector& detector, const NodeKeyframe& job,
+                                  const KeyframeResult& result, const cv::Mat& grey) {
+  keyframe_stamps_[job.id] = job.stamp;
   keyframes_frame_id_ = job.frame_id;
   keyframes_camera_frame_ = job.image->header.frame_id;
-  publishAnnouncedKeyframes();
+  publishAnnounced(detector);
   if (result.loop) {
     AcceptedLoop loop = *result.loop;
-    const std::string pose_frame = expressRelativePose(&loop, job.image->header.frame_id);
+    const std::string pose_frame = expressRelativePose(detector, &loop, job.image->header.frame_id);
     loop_publisher_.publish(
-        toLoopMsg(loop, job.stamp, stampOf(loop.match_id), job.frame_id, pose_frame));
-    ++loops_published_;
+        toLoopMsg(loop, job.stamp, stampOf(detector, loop.match_id), job.frame_id, pose_frame));
+    ++counters_.loops_published;
     const bool checked = result.loop->verification.has_value();
     const std::string how =
         checked ? "verified"
@@ -134,9 +102,11 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
              result.loop->consistent_keyframes, how.c_str());
   }
   if (candidates_publisher_.getNumSubscribers() > 0) {
-    candidates_publisher_.publish(toCandidatesMsg(result, detector_.map().mapId(), job.stamp,
-                                                  job.frame_id,
-                                                  [this](uint64_t id) { return stampOf(id); }));
+    candidates_publisher_.publish(
+        toCandidatesMsg(result, detector.map().mapId(), job.stamp, job.frame_id, [&](uint64_t id) {
+          detector_mutex_.assertHeld();  // Called back within this function.
+          return stampOf(detector, id);
+        }));
   }
 
   markers_.setFrameId(job.frame_id);
@@ -151,8 +121,8 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
         candidate.verdict != CandidateVerdict::kOdometryRejected) {
       continue;
     }
-    const KeyframeSummary* match = detector_.database().findSummary(candidate.match_id);
-    if (match && match->session == detector_.session()) {
+    const KeyframeSummary* match = detector.database().findSummary(candidate.match_id);
+    if (match && match->session == detector.session()) {
       markers_.addRejected(job.pose, match->pose);
     }
   }
@@ -161,11 +131,11 @@ void LoopClosureNode::publishResults(const NodeKeyframe& job, const KeyframeResu
   if (!changed.markers.empty() && markers_publisher_.getNumSubscribers() > 0) {
     markers_publisher_.publish(changed);
   }
-  publishMatchImage(job, result, grey);
+  publishMatchImage(detector, job, result, grey);
 }
 
-void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeResult& result,
-                                        const cv::Mat& grey) {
+void NodeOutputs::publishMatchImage(const LoopDetector& detector, const NodeKeyframe& job,
+                                    const KeyframeResult& result, const cv::Mat& grey) {
   // Once a loop has been shown it is held (the topic is latched) until the next one: candidates
   // only fill the view before the first loop.
   if (!result.loop && (loop_shown_ || match_image_publisher_.getNumSubscribers() == 0)) return;
@@ -203,8 +173,8 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
   view.details = details.str();
   // The stored keyframes: their thumbnails share the landmark boxes' 160x120 frame.
   const std::shared_ptr<const KeyframeRecord> query =
-      detector_.database().findRecord(result.keyframe_id);
-  const std::shared_ptr<const KeyframeRecord> match = detector_.database().findRecord(match_id);
+      detector.database().findRecord(result.keyframe_id);
+  const std::shared_ptr<const KeyframeRecord> match = detector.database().findRecord(match_id);
   view.query = query ? decodeThumbnail(query->thumbnail) : cv::Mat();
   view.match = match ? decodeThumbnail(match->thumbnail) : cv::Mat();
   if (query && match && !view.query.empty()) {
@@ -230,6 +200,34 @@ void LoopClosureNode::publishMatchImage(const NodeKeyframe& job, const KeyframeR
   match_image_publisher_.publish(
       cv_bridge::CvImage(header, "bgr8", renderMatchImage(view)).toImageMsg());
   loop_shown_ = loop_shown_ || result.loop.has_value();
+}
+
+ros::Time NodeOutputs::stampOf(const LoopDetector& detector, uint64_t id) const {
+  const auto known = keyframe_stamps_.find(id);
+  if (known != keyframe_stamps_.end()) return known->second;
+  // A loaded keyframe's from its record: the map keeps stamps to the nanosecond.
+  if (const std::optional<int64_t> stamp_ns = detector.map().keyframeStampNs(id);
+      stamp_ns && *stamp_ns >= 0) {
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<uint64_t>(*stamp_ns));
+    return stamp;
+  }
+  const KeyframeSummary* summary = detector.database().findSummary(id);
+  return summary ? ros::Time(summary->stamp) : ros::Time();
+}
+
+void NodeOutputs::publishAnnounced(LoopDetector& detector) {
+  for (const AnnouncedKeyframe& keyframe : detector.map().takeAnnounced()) {
+    // Stored while ROS shuts down: roscpp drops what its connections have not sent yet, so it may
+    // never reach a subscriber (ros::ok() stays true until the connections are gone). Counted,
+    // and said at shutdown.
+    if (!ros::ok() || ros::isShuttingDown()) ++counters_.keyframes_unpublished_at_shutdown;
+    const KeyframeSummary& summary = keyframe.summary;
+    keyframe_publisher_.publish(toKeyframeMsg(summary.id, summary.session, keyframe.map_id,
+                                              stampOf(detector, summary.id), summary.pose,
+                                              keyframes_frame_id_));
+    if (fleet_) fleet_->onAnnounced(detector, summary.id, keyframes_frame_id_);
+  }
 }
 
 }  // namespace landmark_loop_closure

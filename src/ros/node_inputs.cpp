@@ -1,11 +1,9 @@
-// The node's inputs: image/odometry pairs or tf lookups, camera_info and depth, admitted into the
-// runtime; on the worker, a keyframe's images and depth prepared for the detector.
-#include "loop_closure_node.h"
+#include "node_inputs.h"
 
-#include <cv_bridge/cv_bridge.h>
+#include <image_transport/camera_common.h>
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "landmark_loop_closure/geometry/metric_pose.h"
+#include "frame_source.h"
 #include "messages/ros_conversions.h"
 
 namespace landmark_loop_closure {
@@ -13,13 +11,68 @@ namespace landmark_loop_closure {
 namespace {
 
 constexpr size_t kMaxPendingTf = 100;
-constexpr double kDepthWait = 0.2;     // Seconds the worker waits for a keyframe's depth image.
-constexpr double kDepthSilence = 1.0;  // Seconds of stamps without depth: the stream stopped.
+constexpr double kTfRetryPeriod = 0.02;
+
+InputMonitorOptions inputMonitorOptions(const NodeOptions& options) {
+  InputMonitorOptions monitor;
+  monitor.timeout_s = options.input_timeout;
+  monitor.max_interval_s = options.odometry_max_interval;
+  return monitor;
+}
+
+bool needsTf(const NodeOptions& options) {
+  return options.pose_source == PoseSource::kTf || options.camera_mount_from_tf ||
+         options.mountFromTfWhereKnown();
+}
 
 }  // namespace
 
-void LoopClosureNode::onImageForOdometry(const sensor_msgs::ImageConstPtr& image) {
-  inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
+NodeInputs::NodeInputs(ros::NodeHandle node, const NodeOptions& options, NodeCounters* counters)
+    : node_(node),
+      options_(options),
+      counters_(*counters),
+      tf_buffer_(needsTf(options) ? std::make_unique<tf2_ros::Buffer>() : nullptr),
+      tf_listener_(tf_buffer_ ? std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, node_)
+                              : nullptr),
+      image_transport_(node),
+      odometry_history_(2000, options.time_jump_back_s),
+      monitor_(inputMonitorOptions(options), ros::WallTime::now().toSec()),
+      camera_info_(options.images_rectified, kWarningPeriod),
+      preparation_(options, counters, tf_buffer_.get()) {}
+
+void NodeInputs::start(DetectorRuntime* runtime) {
+  runtime_ = runtime;
+  image_topic_ = node_.resolveName("image");
+  // camera_info remapped (the launch file's camera_info argument): that topic; else the one
+  // beside the image, as image_transport's camera subscribers take it.
+  const std::string remapped_info = node_.resolveName("camera_info");
+  const std::string info_topic = remapped_info != node_.resolveName("camera_info", false)
+                                     ? remapped_info
+                                     : image_transport::getCameraInfoTopic(image_topic_);
+  camera_info_subscriber_ = node_.subscribe(info_topic, 1, &NodeInputs::onCameraInfo, this);
+  preparation_.subscribeDepth(&image_transport_);
+  if (options_.pose_source == PoseSource::kTf) {
+    image_subscriber_ = image_transport_.subscribe("image", 5, &NodeInputs::onImageForTf, this);
+    tf_timer_ = node_.createWallTimer(ros::WallDuration(kTfRetryPeriod),
+                                      [this](const ros::WallTimerEvent&) { retryPendingTf(); });
+    return;
+  }
+  odom_topic_ = node_.resolveName("odom");
+  const uint32_t queue = static_cast<uint32_t>(options_.sync_queue_size);
+  image_subscriber_ =
+      image_transport_.subscribe("image", queue, &NodeInputs::onImageForOdometry, this);
+  // Odometry usually comes faster than images: enough for the images' wait.
+  odom_subscriber_ = node_.subscribe("odom", 200, &NodeInputs::onOdometry, this);
+}
+
+bool NodeInputs::prepare(const KeyframeJob& job, bool colour, PreparedKeyframe* prepared,
+                         InputError* error) {
+  const auto& source = std::any_cast<const FrameSource&>(job.source);
+  return preparation_.prepare(*source.image, colour, prepared, error);
+}
+
+void NodeInputs::onImageForOdometry(const sensor_msgs::ImageConstPtr& image) {
+  monitor_.imageArrived(ros::WallTime::now().toSec(), image->header.stamp.toSec());
   pending_odometry_.push_back(image);
   if (pending_odometry_.size() > static_cast<size_t>(options_.sync_queue_size)) {
     ROS_WARN_THROTTLE(kWarningPeriod,
@@ -32,7 +85,7 @@ void LoopClosureNode::onImageForOdometry(const sensor_msgs::ImageConstPtr& image
   pairPendingWithOdometry();
 }
 
-std::optional<Pose> LoopClosureNode::bodyPose(const nav_msgs::Odometry& odometry) {
+std::optional<Pose> NodeInputs::bodyPose(const nav_msgs::Odometry& odometry) {
   const Pose pose = fromRos(odometry.pose.pose);
   const std::string& child = odometry.child_frame_id;
   if (child.empty() || child == options_.base_frame || options_.base_frame.empty()) return pose;
@@ -56,9 +109,9 @@ std::optional<Pose> LoopClosureNode::bodyPose(const nav_msgs::Odometry& odometry
   return Pose::fromIsometry(pose.toIsometry() * child_from_base);
 }
 
-void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
+void NodeInputs::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
   const double stamp = odometry->header.stamp.toSec();
-  inputs_.poseArrived(wallNow(), stamp);
+  monitor_.poseArrived(ros::WallTime::now().toSec(), stamp);
   const std::optional<Pose> pose = bodyPose(*odometry);
   if (!pose) return;
   odometry_frame_ =
@@ -78,7 +131,7 @@ void LoopClosureNode::onOdometry(const nav_msgs::OdometryConstPtr& odometry) {
   pairPendingWithOdometry();
 }
 
-void LoopClosureNode::pairPendingWithOdometry() {
+void NodeInputs::pairPendingWithOdometry() {
   while (!pending_odometry_.empty()) {
     const sensor_msgs::ImageConstPtr image = pending_odometry_.front();
     const double stamp = image->header.stamp.toSec();
@@ -86,7 +139,7 @@ void LoopClosureNode::pairPendingWithOdometry() {
     if (lookup.status == OdometryAt::kNotYet || lookup.status == OdometryAt::kNoOdometry) return;
     pending_odometry_.pop_front();
     if (lookup.status == OdometryAt::kFound) {
-      inputs_.paired(wallNow());
+      monitor_.paired(ros::WallTime::now().toSec());
       // The odometry between the last keyframe and this image, so that a camera gap while the
       // robot drives on is not taken for a reset.
       admitFrame(image, lookup.pose, odometry_frame_, [this, stamp](double since) {
@@ -108,17 +161,17 @@ void LoopClosureNode::pairPendingWithOdometry() {
   }
 }
 
-void LoopClosureNode::onImageForTf(const sensor_msgs::ImageConstPtr& image) {
-  inputs_.imageArrived(wallNow(), image->header.stamp.toSec());
+void NodeInputs::onImageForTf(const sensor_msgs::ImageConstPtr& image) {
+  monitor_.imageArrived(ros::WallTime::now().toSec(), image->header.stamp.toSec());
   pending_tf_.push_back({image, ros::WallTime::now()});
   if (pending_tf_.size() > kMaxPendingTf) {
     pending_tf_.pop_front();
-    ++tf_timeouts_;
+    ++counters_.tf_timeouts;
   }
   retryPendingTf();
 }
 
-void LoopClosureNode::retryPendingTf() {
+void NodeInputs::retryPendingTf() {
   while (!pending_tf_.empty()) {
     const PendingImage& pending = pending_tf_.front();
     const ros::Time stamp = pending.image->header.stamp;
@@ -126,7 +179,7 @@ void LoopClosureNode::retryPendingTf() {
     if (tf_buffer_->canTransform(options_.odom_frame, options_.base_frame, stamp, &error)) {
       const geometry_msgs::TransformStamped transform =
           tf_buffer_->lookupTransform(options_.odom_frame, options_.base_frame, stamp);
-      inputs_.poseArrived(wallNow(), stamp.toSec());
+      monitor_.poseArrived(ros::WallTime::now().toSec(), stamp.toSec());
       const Pose pose = Pose::fromIsometry(tf2::transformToEigen(transform));
       const sensor_msgs::ImageConstPtr image = pending.image;
       pending_tf_.pop_front();
@@ -134,7 +187,7 @@ void LoopClosureNode::retryPendingTf() {
       continue;
     }
     if ((ros::WallTime::now() - pending.received).toSec() < options_.tf_timeout) return;
-    ++tf_timeouts_;
+    ++counters_.tf_timeouts;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Dropped image at %.3f: no transform %s -> %s after %.2f s (%s)",
                       stamp.toSec(), options_.odom_frame.c_str(), options_.base_frame.c_str(),
@@ -143,22 +196,8 @@ void LoopClosureNode::retryPendingTf() {
   }
 }
 
-void LoopClosureNode::onCameraInfo(const sensor_msgs::CameraInfoConstPtr& info) {
-  MutexLock lock(stats_mutex_);
-  // Converted once, not on every image.
-  camera_intrinsics_ = fromCameraInfo(*info, options_.images_rectified);
-  camera_info_seen_ = true;
-}
-
-void LoopClosureNode::onDepth(const sensor_msgs::ImageConstPtr& depth) {
-  depth_buffer_.push(depth->header.stamp.toSec(), depth);
-  if (depth_silence_reported_.exchange(false)) {
-    ROS_INFO("Depth images arrive on %s again", depth_subscriber_.getTopic().c_str());
-  }
-}
-
-void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
-                                 const std::string& frame_id, OdometrySince odometry_since) {
+void NodeInputs::admitFrame(const sensor_msgs::ImageConstPtr& image, const Pose& pose,
+                            const std::string& frame_id, OdometrySince odometry_since) {
   if (auto error = checkImageMessage(*image)) {
     reportRejected(*error);
     return;
@@ -171,15 +210,9 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   frame.height = static_cast<int>(image->height);
   frame.cv_type = *cvTypeOfEncoding(image->encoding);
   frame.clock = ros::Time::now().toSec();
-  std::optional<CalibrationProblem> calibration_problem;
-  {
-    MutexLock lock(stats_mutex_);
-    frame.intrinsics = camera_intrinsics_;
-    if (camera_info_seen_) {
-      calibration_problem = frame.intrinsics.checkFor(cv::Size(frame.width, frame.height));
-      if (calibration_problem) frame.intrinsics = CameraIntrinsics();
-    }
-  }
+  const CameraInfoState::ForImage calibration =
+      camera_info_.forImage(cv::Size(frame.width, frame.height));
+  frame.intrinsics = calibration.intrinsics;
   frame.source = FrameSource{image, frame_id};
   frame.odometry_since = std::move(odometry_since);
   const double frame_stamp = frame.stamp;
@@ -191,7 +224,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
         *admitted.timeline_restarted_after_s);
   }
   if (admitted.time_jump_after_frames_s) {
-    last_time_jump_wall_ = wallNow();
+    counters_.last_time_jump_wall = ros::WallTime::now().toSec();
     ROS_WARN(
         "Time jump: %d frames in a row were stamped before the last keyframe (%.2f s after this "
         "frame's %.3f s); %s",
@@ -206,16 +239,13 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
     reportRejected(*admission.error);
     return;
   }
-  ++frames_admitted_;
-  // The worker may reach this keyframe after its depth image left the buffer's window.
-  if (options_.use_depth && admission.isKeyframe()) {
-    depth_buffer_.want(frame_stamp, options_.sync_slop);
-  }
+  ++counters_.frames_admitted;
+  if (admission.isKeyframe()) preparation_.wantDepth(frame_stamp);
   if (!descriptor_path_said_) sayDescriptorPath(cv::Size(image->width, image->height));
-  noteCalibration(calibration_problem);
+  camera_info_.noteAccepted(calibration.problem);
   const Selection& selection = admission.selection;
   if (selection.verdict == SelectionVerdict::kOdometryJump) {
-    ++odometry_jumps_;
+    ++counters_.odometry_jumps;
     ROS_WARN_THROTTLE(kWarningPeriod,
                       "Odometry jumped: motion %.2f since the last keyframe exceeds "
                       "advanced/keyframe/max_motion %.2f; frame refused (tracking lost?)",
@@ -244,7 +274,7 @@ void LoopClosureNode::admitFrame(const sensor_msgs::ImageConstPtr& image, const 
   }
 }
 
-void LoopClosureNode::sayDescriptorPath(cv::Size image_size) {
+void NodeInputs::sayDescriptorPath(cv::Size image_size) {
   // Only when the detector is free (never waits on the worker): a later image says it otherwise.
   std::string text;
   if (!runtime_->tryWithDetector([&](LoopDetector& detector) {
@@ -258,142 +288,11 @@ void LoopClosureNode::sayDescriptorPath(cv::Size image_size) {
   ROS_INFO("Descriptor %s", text.c_str());
 }
 
-void LoopClosureNode::noteCalibration(const std::optional<CalibrationProblem>& problem) {
-  // Only frames the runtime accepted judge camera_info: a dropped 1x1 image says nothing about it.
-  // Unusable calibration turns the geometric check off: said once per period and cause, and in
-  // the diagnostics and every loop's log line, instead of silently.
-  MutexLock lock(stats_mutex_);
-  if (!camera_info_seen_) return;
-  camera_info_problem_ = problem ? problem->text : "";
-  if (problem && camera_info_warnings_.allow(problem->cause, ros::WallTime::now().toSec())) {
-    ROS_WARN("camera_info not used, the geometric check is off (%s): %s", problem->cause.c_str(),
-             problem->text.c_str());
-  }
-}
-
-void LoopClosureNode::reportRejected(const InputError& error) {
+void NodeInputs::reportRejected(const InputError& error) {
   uint64_t count = 0;
-  if (!inputs_.rejected(error.code, wallNow(), &count)) return;
+  if (!monitor_.rejected(error.code, ros::WallTime::now().toSec(), &count)) return;
   ROS_ERROR("Dropped frame (%s, %lu so far): %s", toString(error.code),
             static_cast<unsigned long>(count), error.message.c_str());
-}
-
-bool LoopClosureNode::prepareKeyframe(const KeyframeJob& job, bool colour,
-                                      PreparedKeyframe* prepared, InputError* error) {
-  const auto& source = std::any_cast<const FrameSource&>(job.source);
-  try {
-    prepared->grey = toGrey(*source.image);
-    prepared->image = colour ? toBgr(*source.image) : prepared->grey;
-  } catch (const cv::Exception& exception) {
-    *error = {InputErrorCode::kUnsupportedImageType, exception.what()};
-    return false;
-  }
-  const std::string& camera_frame = source.image->header.frame_id;
-  if (options_.camera_mount_from_tf || options_.mountFromTfWhereKnown()) {
-    updateCameraMount(camera_frame, prepared);
-  }
-  if (options_.use_depth) {
-    prepared->depth = depthFor(source.image->header.stamp, camera_frame);
-    ++(prepared->depth.empty() ? keyframes_without_depth_ : keyframes_with_depth_);
-  }
-  return true;
-}
-
-cv::Mat LoopClosureNode::depthFor(const ros::Time& stamp, const std::string& camera_frame) {
-  StampedWait wait;
-  wait.slop_s = options_.sync_slop;
-  wait.max_wait_s = kDepthWait;
-  wait.silence_s = kDepthSilence;
-  const std::optional<sensor_msgs::ImageConstPtr> nearest =
-      depth_buffer_.nearest(stamp.toSec(), wait, depth_subscriber_.getNumPublishers() > 0);
-  if (!nearest && depth_buffer_.silent()) {
-    // A publisher that never publishes: one bounded wait, then keyframes go on without depth at
-    // their normal speed until a depth image comes.
-    if (!depth_silence_reported_.exchange(true)) {
-      ROS_WARN(
-          "No depth image came on %s within %.1f s although %u publisher(s) advertise it: "
-          "keyframes go on without depth, not waiting for it again until one comes (use_depth)",
-          depth_subscriber_.getTopic().c_str(), kDepthWait, depth_subscriber_.getNumPublishers());
-    }
-    return {};
-  }
-  if (!nearest) {
-    ROS_WARN_THROTTLE(
-        kWarningPeriod,
-        "No depth image within advanced/sync_slop %.3f s of the keyframe at %.3f: its "
-        "keypoint depths are triangulated instead (if enabled)",
-        options_.sync_slop, stamp.toSec());
-    return {};
-  }
-  std::string error;
-  std::string kind;
-  const sensor_msgs::Image& depth_image = **nearest;
-  cv::Mat depth = toDepth(depth_image, &error, &kind);
-  if (!error.empty()) {
-    if (depth_warnings_.allow(kind, ros::WallTime::now().toSec())) {
-      ROS_WARN("Depth image at %.3f not used: %s", depth_image.header.stamp.toSec(), error.c_str());
-    }
-    return {};
-  }
-  if (!hasUsableDepth(depth)) {
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "Depth image at %.3f not used: no finite positive reading in it (all zero, "
-                      "NaN, Inf or negative)",
-                      depth_image.header.stamp.toSec());
-    return {};
-  }
-  // Depth from another camera's frame would put every point in the wrong place.
-  if (depth_image.header.frame_id != camera_frame) {
-    ROS_WARN_THROTTLE(kWarningPeriod,
-                      "Depth image not used: its frame '%s' is not the image's '%s' (subscribe to "
-                      "a depth topic registered to the image)",
-                      depth_image.header.frame_id.c_str(), camera_frame.c_str());
-    return {};
-  }
-  return depth;
-}
-
-void LoopClosureNode::updateCameraMount(const std::string& camera_frame,
-                                        PreparedKeyframe* prepared) {
-  if (!camera_mount_frame_.empty() && camera_frame == camera_mount_frame_ &&
-      detector_.cameraMount()) {
-    return;
-  }
-  if (!options_.camera_mount_from_tf) {
-    // No value set: tf's mount where tf has it, else the default values, said once.
-    std::string error;
-    if (camera_frame.empty() ||
-        !tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
-      const std::string warning = options_.defaultMountWarning();
-      if (!warning.empty() && !default_mount_warned_) {
-        ROS_WARN("%s", warning.c_str());
-        default_mount_warned_ = true;
-      }
-      return;
-    }
-  } else if (camera_frame.empty()) {
-    ROS_WARN_THROTTLE(
-        kWarningPeriod,
-        "Images carry no frame_id, so advanced/camera_mount/from_tf cannot look the camera "
-        "up in tf: keypoint depths are not triangulated");
-    return;
-  }
-  std::string error;
-  if (!tf_buffer_->canTransform(options_.base_frame, camera_frame, ros::Time(0), &error)) {
-    prepared->camera_mount = std::optional<Pose>();
-    ROS_WARN_THROTTLE(
-        kWarningPeriod,
-        "No tf %s -> %s yet for advanced/camera_mount/from_tf (%s): keypoint depths are not "
-        "triangulated until it comes",
-        options_.base_frame.c_str(), camera_frame.c_str(), error.c_str());
-    return;
-  }
-  const Pose mount = Pose::fromIsometry(tf2::transformToEigen(
-      tf_buffer_->lookupTransform(options_.base_frame, camera_frame, ros::Time(0))));
-  prepared->camera_mount = mount;
-  camera_mount_frame_ = camera_frame;
-  ROS_INFO("Camera mount from tf: %s in %s at (%.3f, %.3f, %.3f) m", camera_frame.c_str(),
-           options_.base_frame.c_str(), mount.position.x(), mount.position.y(), mount.position.z());
 }
 
 }  // namespace landmark_loop_closure
