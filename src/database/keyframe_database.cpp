@@ -111,6 +111,11 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
                                 " vectors, the database " + std::to_string(size()) + " keyframes");
   }
   index_options_ = index;
+  if (!sketches_ && index.type == "auto" && index.coarse_from > 0 &&
+      size() < static_cast<size_t>(index.approximate_from)) {
+    sketches_ = std::make_unique<RowSketches>(globalDimension());
+    while (sketches_->size() < size()) sketches_->append(vectors_->row(sketches_->size()));
+  }
   if (!index.buildsGraph()) {
     graph_.reset();
     return;
@@ -124,6 +129,11 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
 }
 
 void KeyframeDatabase::addEntry(const KeyframeSummary& summary) {
+  // Past approximate_from the graph searches; a map that grows there stops being sketched.
+  if (sketches_ && sketches_->size() == size() &&
+      size() < static_cast<size_t>(index_options_.approximate_from)) {
+    sketches_->append(vectors_->row(size()));
+  }
   summaries_.push_back(summary);
   stamps_.push_back(summary.stamp);
   if (graph_) graph_->add();
@@ -319,18 +329,44 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
         scored.push_back({index, summaries_[index].id, static_cast<double>(score)});
       }
     }
+  } else if (index.type == "auto" && index.coarse_from > 0 &&
+             end >= static_cast<size_t>(index.coarse_from) && sketches_ &&
+             sketches_->size() >= end &&
+             result.searched > static_cast<size_t>(index.coarse_candidates)) {
+    // The sketches rank every row, the best coarse_candidates are scored exactly.
+    result.approximate = true;
+    const std::vector<uint8_t> query_sketch = sketches_->sketch(row.data());
+    scored.reserve(result.searched);
+    for (size_t index = 0; index < end; ++index) {
+      if (!outside_time_window(index)) continue;
+      scored.push_back({index, 0, sketches_->dot(query_sketch.data(), index)});
+    }
+    const auto coarse_end = scored.begin() + index.coarse_candidates;
+    std::nth_element(
+        scored.begin(), coarse_end, scored.end(),
+        [](const Candidate& a, const Candidate& b) { return a.global_score > b.global_score; });
+    scored.erase(coarse_end, scored.end());
+    for (Candidate& candidate : scored) {
+      candidate.global_score = vectors_->dot(row.data(), candidate.index);
+    }
   } else {
     scored.reserve(result.searched);
     for (size_t index = 0; index < end; ++index) {
       if (!outside_time_window(index)) continue;
-      scored.push_back({index, summaries_[index].id, vectors_->dot(row.data(), index)});
+      scored.push_back({index, 0, vectors_->dot(row.data(), index)});
     }
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(options.top_k));
-  std::partial_sort(
-      scored.begin(), scored.begin() + static_cast<std::ptrdiff_t>(keep), scored.end(),
-      [](const Candidate& a, const Candidate& b) { return a.global_score > b.global_score; });
+  // Equal scores (a vehicle standing still stores the same image again) rank the older keyframe
+  // first, however the candidates were found.
+  std::partial_sort(scored.begin(), scored.begin() + static_cast<std::ptrdiff_t>(keep),
+                    scored.end(), [](const Candidate& a, const Candidate& b) {
+                      return a.global_score > b.global_score ||
+                             (a.global_score == b.global_score && a.index < b.index);
+                    });
   scored.resize(keep);
+  // Ids looked up for the kept candidates only: a summary is a cache line of its own.
+  for (Candidate& candidate : scored) candidate.id = summaries_[candidate.index].id;
   result.candidates = std::move(scored);
   result.status = QueryStatus::kSearched;
   return result;
@@ -357,6 +393,7 @@ std::shared_ptr<const KeyframeRecord> KeyframeDatabase::findRecord(uint64_t id) 
 size_t KeyframeDatabase::bytesPerKeyframe(size_t row_stride) const {
   return sizeof(KeyframeSummary) + sizeof(double) +
          (row_stride > 0 ? row_stride : vectors_->rowBytes()) +
+         (sketches_ ? sizeof(float) + RowSketches::kDimension : 0) +
          (index_options_.buildsGraph() ? ApproximateIndex::bytesPerRow(index_options_.neighbors)
                                        : 0);
 }
@@ -364,7 +401,7 @@ size_t KeyframeDatabase::bytesPerKeyframe(size_t row_stride) const {
 size_t KeyframeDatabase::bytes() const {
   return summaries_.size() * sizeof(KeyframeSummary) + stamps_.capacity() * sizeof(double) +
          records_.size() * sizeof(records_.front()) + vectors_->bytes() + record_bytes_ +
-         (graph_ ? graph_->bytes() : 0);
+         (sketches_ ? sketches_->bytes() : 0) + (graph_ ? graph_->bytes() : 0);
 }
 
 }  // namespace landmark_loop_closure

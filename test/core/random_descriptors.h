@@ -1,10 +1,12 @@
 #pragma once
 
 // Unit global descriptors drawn at random (places unrelated to each other), and a database of
-// them, for the tests of the calibrated decision's background.
+// them, for the tests of the calibrated decision's background; routes of related ones for the
+// search's tests.
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <vector>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
@@ -44,6 +46,25 @@ class RandomDescriptors {
   std::mt19937 random_;
   std::normal_distribution<float> normal_;
 };
+
+/// A route through descriptor space: each keyframe a small random step from the last, as
+/// neighbouring keyframes of a real sequence are.
+inline std::vector<std::vector<float>> routeVectors(int keyframes, int dimension,
+                                                    std::mt19937* random) {
+  std::normal_distribution<float> normal;
+  std::vector<float> current(static_cast<size_t>(dimension));
+  for (float& v : current) v = normal(*random);
+  std::vector<std::vector<float>> vectors;
+  for (int i = 0; i < keyframes; ++i) {
+    for (float& v : current) v = 0.9f * v + 0.45f * normal(*random);
+    std::vector<float> unit = current;
+    double norm = 0.0;
+    for (float v : unit) norm += static_cast<double>(v) * v;
+    for (float& v : unit) v = static_cast<float>(v / std::sqrt(norm));
+    vectors.push_back(unit);
+  }
+  return vectors;
+}
 
 }  // namespace test_support
 }  // namespace landmark_loop_closure

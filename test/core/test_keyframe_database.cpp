@@ -8,6 +8,7 @@
 #include "landmark_loop_closure/database/approximate_index.h"
 #include "landmark_loop_closure/database/keyframe_database.h"
 #include "landmark_loop_closure/database/quantized_vectors.h"
+#include "random_descriptors.h"
 
 using namespace landmark_loop_closure;
 
@@ -200,24 +201,6 @@ TEST(DatabaseOptions, ValidateNamesTheKey) {
 
 namespace {
 
-// A route through descriptor space: each keyframe a small random step from the last, as
-// neighbouring keyframes of a real sequence are.
-std::vector<std::vector<float>> route(int keyframes, int dimension, std::mt19937* random) {
-  std::normal_distribution<float> normal;
-  std::vector<float> current(static_cast<size_t>(dimension));
-  for (float& v : current) v = normal(*random);
-  std::vector<std::vector<float>> vectors;
-  for (int i = 0; i < keyframes; ++i) {
-    for (float& v : current) v = 0.9f * v + 0.45f * normal(*random);
-    std::vector<float> unit = current;
-    double norm = 0.0;
-    for (float v : unit) norm += static_cast<double>(v) * v;
-    for (float& v : unit) v = static_cast<float>(v / std::sqrt(norm));
-    vectors.push_back(unit);
-  }
-  return vectors;
-}
-
 KeyframeDatabase routeDatabase(const std::vector<std::vector<float>>& vectors,
                                const IndexOptions& index) {
   KeyframeDatabase database(static_cast<int>(vectors.front().size()), index);
@@ -235,7 +218,7 @@ KeyframeDatabase routeDatabase(const std::vector<std::vector<float>>& vectors,
 
 TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
   std::mt19937 random(3);
-  const auto vectors = route(3000, 64, &random);
+  const auto vectors = test_support::routeVectors(3000, 64, &random);
   IndexOptions approximate;
   approximate.type = "approximate";
   IndexOptions exact;
@@ -280,7 +263,7 @@ TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
 
 TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
   std::mt19937 random(5);
-  const auto vectors = route(500, 32, &random);
+  const auto vectors = test_support::routeVectors(500, 32, &random);
   IndexOptions approximate;
   approximate.type = "approximate";
   const KeyframeDatabase database = routeDatabase(vectors, approximate);
@@ -303,7 +286,7 @@ TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
 
 TEST(KeyframeDatabase, AutoSearchesExactlyUntilTheDatabaseIsLarge) {
   std::mt19937 random(9);
-  const auto vectors = route(120, 16, &random);
+  const auto vectors = test_support::routeVectors(120, 16, &random);
   IndexOptions automatic;
   automatic.approximate_from = 100;
   const std::vector<std::vector<float>> first(vectors.begin(), vectors.begin() + 99);
@@ -319,7 +302,7 @@ TEST(KeyframeDatabase, AutoSearchesExactlyUntilTheDatabaseIsLarge) {
 
 TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
   std::mt19937 random(11);
-  const auto vectors = route(50, 8, &random);
+  const auto vectors = test_support::routeVectors(50, 8, &random);
   IndexOptions exact;
   exact.type = "exact";
   KeyframeDatabase database = routeDatabase(vectors, exact);
@@ -332,7 +315,8 @@ TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
   EXPECT_THROW(
       database.setIndex(IndexOptions{}, std::make_unique<ApproximateIndex>(&other, 16, 64)),
       std::invalid_argument);
-  KeyframeDatabase larger = routeDatabase(route(60, 8, &random), IndexOptions{});
+  KeyframeDatabase larger =
+      routeDatabase(test_support::routeVectors(60, 8, &random), IndexOptions{});
   EXPECT_THROW(database.setIndex(IndexOptions{},
                                  std::make_unique<ApproximateIndex>(larger.vectors(), 16, 64)),
                std::invalid_argument);

@@ -22,6 +22,11 @@ struct IndexOptions {
   int neighbors = 16;         ///< HNSW links per node (M): memory and recall grow with it.
   int ef_construction = 128;  ///< HNSW candidate list while inserting: graph quality.
   int ef_search = 256;        ///< HNSW candidate list while searching: recall against time.
+  /// auto: below approximate_from, a map of at least this many keyframes is searched through
+  /// its rows' count sketches (RowSketches), only the coarse_candidates best scored exactly;
+  /// 0: every keyframe scored exactly there.
+  int coarse_from = 0;
+  int coarse_candidates = 200;
 
   bool buildsGraph() const { return type != "exact"; }
   /// Settings a saved graph must match to be reused (ef_search may differ).

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/database/approximate_index.h"
+#include "landmark_loop_closure/database/row_sketches.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/geometry/pose.h"
@@ -89,7 +90,8 @@ struct QueryResult {
   QueryStatus status = QueryStatus::kDatabaseTooSmall;
   std::vector<Candidate> candidates;  ///< Best first, at most top_k.
   size_t searched = 0;                ///< Keyframes outside the exclusion window.
-  bool approximate = false;           ///< The HNSW graph found the candidates.
+  /// The HNSW graph, or the rows' sketches (IndexOptions::coarse_from), found the candidates.
+  bool approximate = false;
 };
 
 /// Reads a stored keyframe whole (the map file's record); nullopt when it cannot be read.
@@ -196,6 +198,9 @@ class KeyframeDatabase {
   std::vector<double> stamps_;  ///< summaries_[i].stamp, contiguous for the exclusion scan.
   std::unique_ptr<QuantizedVectors> vectors_;  ///< Held by pointer: the graph refers to it.
   std::unique_ptr<ApproximateIndex> graph_;
+  /// Sketches of the rows while the map is below approximate_from with type auto (exact search
+  /// may read them through coarse_from); a map opened past it is not sketched.
+  std::unique_ptr<RowSketches> sketches_;
 
   /// Without a reader: every record, by position.
   std::deque<std::shared_ptr<const KeyframeRecord>> records_;
