@@ -66,5 +66,19 @@ inline std::vector<std::vector<float>> routeVectors(int keyframes, int dimension
   return vectors;
 }
 
+/// A database of `vectors` as keyframes, ids and stamps 0, 1, ...
+inline KeyframeDatabase routeDatabase(const std::vector<std::vector<float>>& vectors,
+                                      const IndexOptions& index) {
+  KeyframeDatabase database(static_cast<int>(vectors.front().size()), index);
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    KeyframeRecord keyframe;
+    keyframe.id = i;
+    keyframe.stamp = static_cast<double>(i);
+    keyframe.descriptor.global = vectors[i];
+    database.add(std::move(keyframe));
+  }
+  return database;
+}
+
 }  // namespace test_support
 }  // namespace landmark_loop_closure

@@ -199,23 +199,6 @@ TEST(DatabaseOptions, ValidateNamesTheKey) {
   EXPECT_NE(options.validate().find("advanced/database/top_k"), std::string::npos);
 }
 
-namespace {
-
-KeyframeDatabase routeDatabase(const std::vector<std::vector<float>>& vectors,
-                               const IndexOptions& index) {
-  KeyframeDatabase database(static_cast<int>(vectors.front().size()), index);
-  for (size_t i = 0; i < vectors.size(); ++i) {
-    KeyframeRecord k;
-    k.id = i;
-    k.stamp = static_cast<double>(i);
-    k.descriptor.global = vectors[i];
-    database.add(std::move(k));
-  }
-  return database;
-}
-
-}  // namespace
-
 TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
   std::mt19937 random(3);
   const auto vectors = test_support::routeVectors(3000, 64, &random);
@@ -223,8 +206,8 @@ TEST(KeyframeDatabase, TheGraphFindsWhatExactSearchFinds) {
   approximate.type = "approximate";
   IndexOptions exact;
   exact.type = "exact";
-  const KeyframeDatabase graph = routeDatabase(vectors, approximate);
-  const KeyframeDatabase plain = routeDatabase(vectors, exact);
+  const KeyframeDatabase graph = test_support::routeDatabase(vectors, approximate);
+  const KeyframeDatabase plain = test_support::routeDatabase(vectors, exact);
   ASSERT_NE(graph.graph(), nullptr);
   EXPECT_EQ(plain.graph(), nullptr);
   EXPECT_GT(graph.bytes(), plain.bytes());
@@ -266,7 +249,7 @@ TEST(KeyframeDatabase, TheGraphHonoursBothExclusionWindows) {
   const auto vectors = test_support::routeVectors(500, 32, &random);
   IndexOptions approximate;
   approximate.type = "approximate";
-  const KeyframeDatabase database = routeDatabase(vectors, approximate);
+  const KeyframeDatabase database = test_support::routeDatabase(vectors, approximate);
   DatabaseOptions options = noExclusion();
   options.index = approximate;
   options.top_k = 5;
@@ -292,10 +275,10 @@ TEST(KeyframeDatabase, AutoSearchesExactlyUntilTheDatabaseIsLarge) {
   const std::vector<std::vector<float>> first(vectors.begin(), vectors.begin() + 99);
   DatabaseOptions options = noExclusion();
   options.index = automatic;
-  const KeyframeDatabase small = routeDatabase(first, automatic);
+  const KeyframeDatabase small = test_support::routeDatabase(first, automatic);
   ASSERT_NE(small.graph(), nullptr);  // Kept up to date all along, so switching costs nothing.
   EXPECT_FALSE(small.query(vectors[5], 1e9, options).approximate);
-  const KeyframeDatabase large = routeDatabase(vectors, automatic);
+  const KeyframeDatabase large = test_support::routeDatabase(vectors, automatic);
   EXPECT_TRUE(large.query(vectors[5], 1e9, options).approximate);
   EXPECT_EQ(large.query(vectors[5], 1e9, options).candidates.front().id, 5u);
 }
@@ -305,7 +288,7 @@ TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
   const auto vectors = test_support::routeVectors(50, 8, &random);
   IndexOptions exact;
   exact.type = "exact";
-  KeyframeDatabase database = routeDatabase(vectors, exact);
+  KeyframeDatabase database = test_support::routeDatabase(vectors, exact);
   EXPECT_EQ(database.graph(), nullptr);
   database.setIndex(IndexOptions{});
   ASSERT_NE(database.graph(), nullptr);
@@ -316,7 +299,7 @@ TEST(KeyframeDatabase, SetIndexBuildsOrDropsTheGraphAndRefusesAWrongOne) {
       database.setIndex(IndexOptions{}, std::make_unique<ApproximateIndex>(&other, 16, 64)),
       std::invalid_argument);
   KeyframeDatabase larger =
-      routeDatabase(test_support::routeVectors(60, 8, &random), IndexOptions{});
+      test_support::routeDatabase(test_support::routeVectors(60, 8, &random), IndexOptions{});
   EXPECT_THROW(database.setIndex(IndexOptions{},
                                  std::make_unique<ApproximateIndex>(larger.vectors(), 16, 64)),
                std::invalid_argument);

@@ -19,19 +19,6 @@ std::vector<float> unit(std::vector<float> vector) {
   return vector;
 }
 
-KeyframeDatabase databaseOf(const std::vector<std::vector<float>>& vectors,
-                            const IndexOptions& index) {
-  KeyframeDatabase database(static_cast<int>(vectors.front().size()), index);
-  for (size_t i = 0; i < vectors.size(); ++i) {
-    KeyframeRecord keyframe;
-    keyframe.id = i;
-    keyframe.stamp = static_cast<double>(i);
-    keyframe.descriptor.global = vectors[i];
-    database.add(std::move(keyframe));
-  }
-  return database;
-}
-
 DatabaseOptions searchWith(const IndexOptions& index) {
   DatabaseOptions options;
   options.min_size = 1;
@@ -89,8 +76,8 @@ TEST(RowSketches, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
   automatic.coarse_from = 5000;  // The sketches search this map.
   IndexOptions exact;
   exact.type = "exact";
-  const KeyframeDatabase sketched = databaseOf(vectors, automatic);
-  const KeyframeDatabase plain = databaseOf(vectors, exact);
+  const KeyframeDatabase sketched = test_support::routeDatabase(vectors, automatic);
+  const KeyframeDatabase plain = test_support::routeDatabase(vectors, exact);
   EXPECT_GT(sketched.bytes(), plain.bytes());
   std::normal_distribution<float> noise(0.0f, 0.03f);
   size_t shared = 0;
@@ -125,7 +112,7 @@ TEST(RowSketches, TheSketchesHonourTheExclusionWindowsAndStopWhereTheGraphTakesO
   automatic.coarse_candidates = 50;
   automatic.approximate_from = 650;
   std::vector<std::vector<float>> first(vectors.begin(), vectors.begin() + 600);
-  const KeyframeDatabase database = databaseOf(first, automatic);
+  const KeyframeDatabase database = test_support::routeDatabase(first, automatic);
   DatabaseOptions options = searchWith(automatic);
   options.exclude_recent_keyframes = 50;   // ids 550..599
   options.exclude_recent_seconds = 100.0;  // stamps within 100 s of 620: ids 521..599
@@ -141,16 +128,18 @@ TEST(RowSketches, TheSketchesHonourTheExclusionWindowsAndStopWhereTheGraphTakesO
 
   // Below coarse_from every keyframe is scored exactly; past approximate_from the graph searches.
   const std::vector<std::vector<float>> small(vectors.begin(), vectors.begin() + 400);
-  EXPECT_FALSE(
-      databaseOf(small, automatic).query(vectors[5], 1e9, searchWith(automatic)).approximate);
-  const KeyframeDatabase large = databaseOf(vectors, automatic);
+  EXPECT_FALSE(test_support::routeDatabase(small, automatic)
+                   .query(vectors[5], 1e9, searchWith(automatic))
+                   .approximate);
+  const KeyframeDatabase large = test_support::routeDatabase(vectors, automatic);
   const QueryResult through_graph = large.query(vectors[5], 1e9, searchWith(automatic));
   EXPECT_TRUE(through_graph.approximate);
   EXPECT_EQ(through_graph.candidates.front().id, 5u);
   // With coarse_from 0 (the default) a map of any size is scored exactly below approximate_from.
   IndexOptions off = automatic;
   off.coarse_from = IndexOptions{}.coarse_from;
-  EXPECT_FALSE(databaseOf(first, off).query(vectors[5], 1e9, searchWith(off)).approximate);
+  EXPECT_FALSE(
+      test_support::routeDatabase(first, off).query(vectors[5], 1e9, searchWith(off)).approximate);
 }
 
 TEST(RowSketches, ASavedMapIsSketchedAsItIsOpened) {
@@ -159,7 +148,7 @@ TEST(RowSketches, ASavedMapIsSketchedAsItIsOpened) {
   IndexOptions automatic;
   automatic.coarse_from = 100;
   automatic.coarse_candidates = 40;
-  const KeyframeDatabase written = databaseOf(vectors, automatic);
+  const KeyframeDatabase written = test_support::routeDatabase(vectors, automatic);
   // The rows as a map file holds them, adopted without a copy.
   auto rows = std::make_shared<std::vector<uint8_t>>();
   for (const auto& vector : vectors) {
