@@ -152,6 +152,10 @@ add_test(NAME include_layers
   COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${CMAKE_CURRENT_SOURCE_DIR}
     -P ${CMAKE_CURRENT_SOURCE_DIR}/test/tools/check_include_layers.cmake)
 
+# Every dependency package.xml names has its Debian packages, which scripts/install_deps.sh installs.
+add_test(NAME package_dependencies
+  COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/scripts/debian_packages.sh --check)
+
 # No class with behaviour past 25 data members, LoopDetector past 12 (issue 82; docs/design.md).
 add_test(NAME class_sizes COMMAND python3 ${CMAKE_CURRENT_SOURCE_DIR}/scripts/class_sizes.py)
 
