@@ -68,7 +68,7 @@ install(TARGETS ${PROJECT_NAME}_core ${PROJECT_NAME}_config ${PROJECT_NAME}_node
   ${PROJECT_NAME}_backend
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION})
-install(TARGETS loop_closure_node pose_graph_node lcd_bench_markers lcd_bench_scaling lcd_bench_pipeline lcd_bench_verification
+install(TARGETS loop_closure_node pose_graph_node lcd_bench_markers
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(DIRECTORY include/${PROJECT_NAME}/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
 install(DIRECTORY launch config msg srv DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
@@ -104,6 +104,4 @@ target_link_libraries(lcd_evaluate ${PROJECT_NAME}_bag ${PROJECT_NAME}_config ${
 add_executable(lcd_train src/tools/lcd_train.cpp)
 target_include_directories(lcd_train SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(lcd_train ${PROJECT_NAME}_bag ${PROJECT_NAME}_config ${catkin_LIBRARIES})
-target_compile_definitions(lcd_train PRIVATE
-  LANDMARK_LOOP_CLOSURE_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 install(TARGETS lcd_evaluate lcd_train RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

@@ -6,6 +6,7 @@ set(CORE_TESTS
   test_descriptor_registry
   test_keyframe_database
   test_row_sketches
+  test_package_files
   test_old_map_file
   test_temporal_consistency
   test_condition_standardiser

@@ -22,8 +22,9 @@ ChosenDirectory& chosenDirectory() {
   return chosen;
 }
 
-// <prefix>/share/landmark_loop_closure/model when this library lies in <prefix>/lib (installed).
-std::string installedDirectory() {
+// <prefix>/share/landmark_loop_closure/<folder> when this library lies in <prefix>/lib
+// (installed) and it exists there.
+std::string installedDirectory(const char* folder) {
   Dl_info info;
   if (dladdr(reinterpret_cast<void*>(&modelDirectory), &info) == 0 || info.dli_fname == nullptr) {
     return "";
@@ -31,9 +32,9 @@ std::string installedDirectory() {
   std::error_code error;
   const std::filesystem::path library = std::filesystem::canonical(info.dli_fname, error);
   if (error) return "";
-  const std::filesystem::path model =
-      library.parent_path().parent_path() / "share" / "landmark_loop_closure" / "model";
-  return std::filesystem::is_directory(model, error) ? model.string() : "";
+  const std::filesystem::path directory =
+      library.parent_path().parent_path() / "share" / "landmark_loop_closure" / folder;
+  return std::filesystem::is_directory(directory, error) ? directory.string() : "";
 }
 
 }  // namespace
@@ -49,8 +50,14 @@ std::string modelDirectory() {
     MutexLock lock(chosen.mutex);
     if (!chosen.path.empty()) return chosen.path;
   }
-  static const std::string installed = installedDirectory();
+  static const std::string installed = installedDirectory("model");
   return installed.empty() ? LANDMARK_LOOP_CLOSURE_MODEL_DIR : installed;
+}
+
+std::string defaultConfigFile() {
+  static const std::string installed = installedDirectory("config");
+  return installed.empty() ? LANDMARK_LOOP_CLOSURE_CONFIG_DIR "/default.yaml"
+                           : installed + "/default.yaml";
 }
 
 bool setModelDirectory(const std::string& directory) {

@@ -36,6 +36,7 @@
 
 #include "command_line.h"
 #include "landmark_loop_closure/common/durable_file.h"
+#include "landmark_loop_closure/common/model_directory.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/core/loop_detector.h"
@@ -299,8 +300,7 @@ int main(int argc, char** argv) try {
   cv::setNumThreads(1);
 
   NodeOptions node_options;
-  for (const std::string& path :
-       {std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR "/config/default.yaml"), config}) {
+  for (const std::string& path : {defaultConfigFile(), config}) {
     if (path.empty()) continue;
     const YamlParameterSource source = YamlParameterSource::fromFile(path);
     OptionReader reader(source);

@@ -11,6 +11,7 @@
 
 #include "bag/bag_source.h"
 #include "command_line.h"
+#include "landmark_loop_closure/common/model_directory.h"
 #include "landmark_loop_closure/config/node_options.h"
 #include "landmark_loop_closure/config/yaml_parameter_source.h"
 #include "landmark_loop_closure/descriptors/registry.h"
@@ -104,9 +105,7 @@ Images images(const std::map<std::string, std::string>& values, bool colour) {
 }
 
 NodeOptions nodeOptions(const std::map<std::string, std::string>& values) {
-  const std::string config = values.count("--config") ? values.at("--config")
-                                                      : std::string(LANDMARK_LOOP_CLOSURE_SOURCE_DIR
-                                                                    "/config/default.yaml");
+  const std::string config = values.count("--config") ? values.at("--config") : defaultConfigFile();
   const YamlParameterSource source = YamlParameterSource::fromFile(config);
   OptionReader reader(source);
   NodeOptions node;

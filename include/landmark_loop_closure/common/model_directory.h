@@ -1,4 +1,5 @@
-// Where the package's own model files (model/calc_encoder.onnx, model/mobilenet_v2.onnx) are.
+// Where the package's own files are: its models (model/calc_encoder.onnx, model/mobilenet_v2.onnx)
+// and its documented defaults (config/default.yaml), in the source tree or an install space.
 #pragma once
 
 #include <string>
@@ -10,6 +11,10 @@ namespace landmark_loop_closure {
 /// <prefix>/share/landmark_loop_closure/model beside the <prefix>/lib it was loaded from; the
 /// source tree's model/ this library was built from.
 std::string modelDirectory();
+
+/// The package's documented defaults, config/default.yaml: for an installed library the copy in
+/// <prefix>/share/landmark_loop_closure/config, else the source tree's it was built from.
+std::string defaultConfigFile();
 
 /// Makes `directory` the package's model directory when it exists; false (and no change) when it
 /// does not.
