@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "frame_source.h"
+#include "landmark_loop_closure/common/model_directory.h"
+#include "landmark_loop_closure/descriptors/descriptor.h"
 #include "messages/ros_conversions.h"
 #include "ros_parameter_source.h"
 
@@ -43,6 +45,19 @@ NodeOptions loadNodeOptions(const ros::NodeHandle& private_node) {
   OptionReader reader(source);
   NodeOptions options;
   readNodeOptions(&reader, &options);
+  // The first line: which network describes keyframes, and why when it is not the default one.
+  const DescriptorOptions& descriptor = options.detector.descriptor;
+  const std::string models = " (package models from " + modelDirectory() + ")";
+  if (!options.fallback_warning.empty()) {
+    ROS_WARN("Descriptor: %s%s", options.fallback_warning.c_str(), models.c_str());
+  } else if (descriptor.type == "backbone") {
+    ROS_INFO("Descriptor backbone: the pretrained network %s%s",
+             (descriptor.backbone.model.empty() ? defaultBackbonePath() : descriptor.backbone.model)
+                 .c_str(),
+             models.c_str());
+  } else {
+    ROS_INFO("Descriptor %s (advanced/descriptor/type)%s", descriptor.type.c_str(), models.c_str());
+  }
   for (const std::string& note : condensedParameterNotes(parameterNotes(source.keys(), reader))) {
     ROS_WARN("Parameter %s/%s", private_node.getNamespace().c_str(), note.c_str());
   }
@@ -94,7 +109,6 @@ LoopClosureNode::LoopClosureNode(ros::NodeHandle node, ros::NodeHandle private_n
            nameOf(poseSourceNames(), options_.pose_source).c_str(), inputs_.imageTopic().c_str(),
            inputs_.odometryTopic().empty() ? "" : " and ", inputs_.odometryTopic().c_str(),
            inputs_.cameraInfoTopic().c_str());
-  if (!options_.fallback_warning.empty()) ROS_WARN("%s", options_.fallback_warning.c_str());
   if (!options_.ignored_warning.empty()) ROS_WARN("%s", options_.ignored_warning.c_str());
   if (detector_.mode() == DetectorMode::kLocalization && detector_.database().empty()) {
     ROS_WARN(

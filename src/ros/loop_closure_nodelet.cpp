@@ -17,7 +17,6 @@ class LoopClosureNodelet : public nodelet::Nodelet {
     // The package's models through the ROS package path: the source tree or the install space.
     const std::string package = ros::package::getPath("landmark_loop_closure");
     if (!package.empty()) setModelDirectory(package + "/model");
-    NODELET_INFO("Package models from %s", modelDirectory().c_str());
     NodeOptions options;
     try {
       options = loadNodeOptions(getPrivateNodeHandle());

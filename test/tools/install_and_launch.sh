@@ -50,8 +50,17 @@ done
 grep -q "Loop closure (" "$log" || fail "the installed node did not report ready within 60 s"
 pgrep -f "^$prefix/lib/landmark_loop_closure/loop_closure_node" > /dev/null ||
   fail "the running node is not the installed one"
-grep -q "Package models from $share/model" "$log" || fail "the node does not read the installed models"
+grep -q "package models from $share/model" "$log" || fail "the node does not read the installed models"
 if [ -f "$(dirname "$0")/../../model/mobilenet_v2.onnx" ]; then
   grep -q "was never fetched" "$log" && fail "the installed node did not find the backbone"
+  grep -q "Descriptor backbone: the pretrained network $share/model/mobilenet_v2.onnx" "$log" ||
+    fail "the node's first line does not name the installed backbone"
 fi
+# The tools from the install space alone: their defaults are the installed ones.
+(
+  export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
+  "$prefix/lib/landmark_loop_closure/lcd_train" --help > /dev/null
+  "$prefix/lib/landmark_loop_closure/lcd_config" defaults > "$prefix/defaults.yaml"
+  cmp -s "$prefix/defaults.yaml" "$share/config/default.yaml"
+) || fail "an installed tool did not run from the install space, or its defaults differ"
 echo "install_and_launch: installed into $prefix and launched: $(grep -o 'Loop closure (.*' "$log" | head -1)"
