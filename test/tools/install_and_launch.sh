@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the package into a temporary prefix and launches the installed node from it, on a
-# master of its own: the node must run from the install space and find its models there. (A
+# Installs the package into a temporary prefix, builds a package that uses it against the
+# installed exports alone, and launches the installed node from it, on a master of its own: the
+# node must run from the install space and find its models there. (A
 # package built on its own installs no setup.bash; the environment it would set is set here.)
 #   install_and_launch.sh BUILD_DIR
 set -euo pipefail
@@ -10,7 +11,7 @@ log=$prefix.launch.log
 launch=""
 cleanup() {
   [ -n "$launch" ] && kill -INT "$launch" 2> /dev/null && wait "$launch" 2> /dev/null || true
-  rm -rf "$prefix" "$prefix.install.log" "$log"
+  rm -rf "$prefix" "$prefix.install.log" "$log" "$prefix.downstream" "$prefix.downstream.log"
 }
 trap cleanup EXIT
 fail() {
@@ -28,6 +29,20 @@ for file in lib/landmark_loop_closure/loop_closure_node lib/landmark_loop_closur
   share/landmark_loop_closure/model/calc_encoder.onnx share/landmark_loop_closure/msg/LoopClosure.msg; do
   [ -e "$prefix/$file" ] || fail "not installed: $file"
 done
+
+# A package using the installed headers and libraries through the installed catkin exports alone
+# (test/downstream_package: no find_package of OpenCV, Eigen or yaml-cpp of its own).
+downstream=$prefix.downstream
+(
+  export CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib ROS_PACKAGE_PATH=$prefix/share
+  export PATH="/usr/bin:$PATH"  # catkin's CMake runs the system's Python, not a pyenv one
+  cmake -S "$(dirname "$0")/../downstream_package" -B "$downstream" -DCMAKE_BUILD_TYPE=Release &&
+    cmake --build "$downstream" -- -j"$(nproc)" &&
+    "$downstream/devel/lib/landmark_loop_closure_downstream/uses_landmark_loop_closure"
+) > "$prefix.downstream.log" 2>&1 ||
+  { tail -30 "$prefix.downstream.log" >&2; fail "the downstream package did not build or run against the installed exports"; }
+grep -q "^downstream: found the stored keyframe" "$prefix.downstream.log" ||
+  fail "the downstream package did not run"
 
 port=$((20000 + RANDOM % 20000))
 (
