@@ -74,8 +74,12 @@ fi
 # The tools from the install space alone: their defaults are the installed ones.
 (
   export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
+  cd "$prefix"
   "$prefix/lib/landmark_loop_closure/lcd_train" --help > /dev/null
   "$prefix/lib/landmark_loop_closure/lcd_config" defaults > "$prefix/defaults.yaml"
   cmp -s "$prefix/defaults.yaml" "$share/config/default.yaml"
+  "$prefix/lib/landmark_loop_closure/lcd_evaluate" --detector --corridor 1 --sweep-steps 0 \
+    > "$prefix/evaluate.log" 2>&1
+  grep -q "headline: recall" "$prefix/evaluate.log"
 ) || fail "an installed tool did not run from the install space, or its defaults differ"
 echo "install_and_launch: installed into $prefix and launched: $(grep -o 'Loop closure (.*' "$log" | head -1)"
