@@ -76,6 +76,10 @@ install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION
 install(DIRECTORY model/ DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/model
   FILES_MATCHING PATTERN "*.onnx" PATTERN "*.onnx.json" PATTERN "*.onnx.source" PATTERN "*.whitening")
 install(PROGRAMS scripts/plot_results.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+# The backbone's fetch beside the models it writes: share/landmark_loop_closure/scripts/
+# fetch_backbone.sh fills share/landmark_loop_closure/model/ (an install made offline).
+install(PROGRAMS scripts/fetch_backbone.sh scripts/convert_backbone.py
+  DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/scripts)
 
 # Demo tools: the generated corridor bag and a report of loops against ground truth.
 add_executable(make_demo_bag src/tools/make_demo_bag.cpp)

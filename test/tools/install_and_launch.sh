@@ -26,7 +26,8 @@ share=$prefix/share/landmark_loop_closure
 for file in lib/landmark_loop_closure/loop_closure_node lib/landmark_loop_closure/lcd_evaluate \
   lib/liblandmark_loop_closure_nodelet.so share/landmark_loop_closure/launch/loop_closure.launch \
   share/landmark_loop_closure/config/default.yaml share/landmark_loop_closure/nodelet_plugins.xml \
-  share/landmark_loop_closure/model/calc_encoder.onnx share/landmark_loop_closure/msg/LoopClosure.msg; do
+  share/landmark_loop_closure/model/calc_encoder.onnx share/landmark_loop_closure/msg/LoopClosure.msg \
+  share/landmark_loop_closure/scripts/fetch_backbone.sh share/landmark_loop_closure/scripts/convert_backbone.py; do
   [ -e "$prefix/$file" ] || fail "not installed: $file"
 done
 
