@@ -111,8 +111,11 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
                                 " vectors, the database " + std::to_string(size()) + " keyframes");
   }
   index_options_ = index;
-  if (!sketches_ && index.type == "auto" && index.coarse_from > 0 &&
-      size() < static_cast<size_t>(index.approximate_from)) {
+  // Sketches only where a search may read them: kept while the options want them, else dropped.
+  if (index.type != "auto" || index.coarse_from == 0 ||
+      size() >= static_cast<size_t>(index.approximate_from)) {
+    sketches_.reset();
+  } else if (!sketches_) {
     sketches_ = std::make_unique<RowSketches>(globalDimension());
     while (sketches_->size() < size()) sketches_->append(vectors_->row(sketches_->size()));
   }
@@ -319,14 +322,21 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
   const bool use_graph =
       graph_ && index.type != "exact" &&
       (index.type == "approximate" || size() >= static_cast<size_t>(index.approximate_from));
+  // Ids are looked up once the candidates are kept (below): a summary is a cache line of its own.
   std::vector<Candidate> scored;
+  const auto score_every_row = [&](const auto& score) {
+    scored.reserve(result.searched);
+    for (size_t index = 0; index < end; ++index) {
+      if (outside_time_window(index)) scored.push_back({index, 0, score(index)});
+    }
+  };
   const size_t excluded = size() - result.searched;
   if (use_graph && excluded <= kMaxExcludedForGraph) {
     result.approximate = true;
     const size_t wanted = static_cast<size_t>(options.top_k) + excluded;
     for (const auto& [index, score] : graph_->search(row.data(), wanted, index.ef_search)) {
       if (index < end && outside_time_window(index)) {
-        scored.push_back({index, summaries_[index].id, static_cast<double>(score)});
+        scored.push_back({index, 0, static_cast<double>(score)});
       }
     }
   } else if (index.type == "auto" && index.coarse_from > 0 &&
@@ -336,11 +346,7 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
     // The sketches rank every row, the best coarse_candidates are scored exactly.
     result.approximate = true;
     const std::vector<uint8_t> query_sketch = sketches_->sketch(row.data());
-    scored.reserve(result.searched);
-    for (size_t index = 0; index < end; ++index) {
-      if (!outside_time_window(index)) continue;
-      scored.push_back({index, 0, sketches_->dot(query_sketch.data(), index)});
-    }
+    score_every_row([&](size_t index) { return sketches_->dot(query_sketch.data(), index); });
     const auto coarse_end = scored.begin() + index.coarse_candidates;
     std::nth_element(
         scored.begin(), coarse_end, scored.end(),
@@ -350,11 +356,7 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
       candidate.global_score = vectors_->dot(row.data(), candidate.index);
     }
   } else {
-    scored.reserve(result.searched);
-    for (size_t index = 0; index < end; ++index) {
-      if (!outside_time_window(index)) continue;
-      scored.push_back({index, 0, vectors_->dot(row.data(), index)});
-    }
+    score_every_row([&](size_t index) { return vectors_->dot(row.data(), index); });
   }
   const size_t keep = std::min(scored.size(), static_cast<size_t>(options.top_k));
   // Equal scores (a vehicle standing still stores the same image again) rank the older keyframe
@@ -365,7 +367,6 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
                              (a.global_score == b.global_score && a.index < b.index);
                     });
   scored.resize(keep);
-  // Ids looked up for the kept candidates only: a summary is a cache line of its own.
   for (Candidate& candidate : scored) candidate.id = summaries_[candidate.index].id;
   result.candidates = std::move(scored);
   result.status = QueryStatus::kSearched;

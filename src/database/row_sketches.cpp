@@ -18,7 +18,7 @@ uint64_t mixed(uint64_t value) {
 
 }  // namespace
 
-RowSketches::RowSketches(int row_dimension) : row_dimension_(row_dimension), sketches_(kDimension) {
+RowSketches::RowSketches(int row_dimension) : sketches_(kDimension) {
   if (row_dimension <= 0) throw std::invalid_argument("row dimension must be > 0");
   bucket_of_.resize(static_cast<size_t>(row_dimension));
   for (int i = 0; i < row_dimension; ++i) {
@@ -33,8 +33,8 @@ std::vector<uint8_t> RowSketches::sketch(const uint8_t* row) const {
   std::memcpy(&scale, row, sizeof(float));
   const auto* values = reinterpret_cast<const int8_t*>(row + sizeof(float));
   std::array<int32_t, kDimension> sums{};
-  for (int i = 0; i < row_dimension_; ++i) {
-    const uint16_t bucket = bucket_of_[static_cast<size_t>(i)];
+  for (size_t i = 0; i < bucket_of_.size(); ++i) {
+    const uint16_t bucket = bucket_of_[i];
     const int32_t value = values[i];
     sums[bucket >> 1] += (bucket & 1) ? -value : value;
   }

@@ -32,8 +32,8 @@ class RowSketches {
   size_t bytes() const { return sketches_.bytes() + bucket_of_.capacity() * sizeof(uint16_t); }
 
  private:
-  int row_dimension_;
-  /// Position i of a row adds into sum bucket_of_[i] >> 1, negated when its lowest bit is set.
+  /// One entry per position of a row. Position i of a row adds into sum bucket_of_[i] >> 1, negated
+  /// when its lowest bit is set.
   std::vector<uint16_t> bucket_of_;
   QuantizedVectors sketches_;
 };
