@@ -20,6 +20,13 @@ fail() {
   exit 1
 }
 
+# The environment an install space's setup.bash gives, with this build's devel space left out.
+use_install_space() {
+  export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
+  export PYTHONPATH=$prefix/lib/python3/dist-packages
+  export PATH="/usr/bin:$PATH"  # catkin's CMake and roslaunch run the system's Python
+}
+
 cmake --install "$build" --prefix "$prefix" > "$prefix.install.log" 2>&1 ||
   { cat "$prefix.install.log" >&2; fail "cmake --install failed"; }
 share=$prefix/share/landmark_loop_closure
@@ -35,8 +42,7 @@ done
 # (test/downstream_package: no find_package of OpenCV, Eigen or yaml-cpp of its own).
 downstream=$prefix.downstream
 (
-  export CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib ROS_PACKAGE_PATH=$prefix/share
-  export PATH="/usr/bin:$PATH"  # catkin's CMake runs the system's Python, not a pyenv one
+  use_install_space
   cmake -S "$(dirname "$0")/../downstream_package" -B "$downstream" -DCMAKE_BUILD_TYPE=Release &&
     cmake --build "$downstream" -- -j"$(nproc)" &&
     "$downstream/devel/lib/landmark_loop_closure_downstream/uses_landmark_loop_closure"
@@ -47,9 +53,7 @@ grep -q "^downstream: found the stored keyframe" "$prefix.downstream.log" ||
 
 port=$((20000 + RANDOM % 20000))
 (
-  # The environment an install space's setup.bash gives, with this build's devel space left out.
-  export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
-  export PYTHONPATH=$prefix/lib/python3/dist-packages
+  use_install_space
   export ROSCONSOLE_STDOUT_LINE_BUFFERED=1 PYTHONUNBUFFERED=1  # the log is read while it runs
   export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
   found=$(rospack find landmark_loop_closure)
@@ -74,7 +78,7 @@ if [ -f "$(dirname "$0")/../../model/mobilenet_v2.onnx" ]; then
 fi
 # The tools from the install space alone: their defaults are the installed ones.
 (
-  export ROS_PACKAGE_PATH=$prefix/share CMAKE_PREFIX_PATH=$prefix LD_LIBRARY_PATH=$prefix/lib
+  use_install_space
   cd "$prefix"
   "$prefix/lib/landmark_loop_closure/lcd_train" --help > /dev/null
   "$prefix/lib/landmark_loop_closure/lcd_config" defaults > "$prefix/defaults.yaml"
