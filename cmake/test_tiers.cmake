@@ -113,9 +113,9 @@ endforeach()
 # check every loop: each has both cores (ctest -j2), as a user's laptop gives them; beside another
 # test the detector drops keyframes (measured: 385 of 473) and a loop lands 3.6 m off.
 set_tests_properties(tool_demo_script tool_demo_two_robots tool_rviz_screenshot
-  tool_readme_commands tool_kill_soak PROPERTIES RESOURCE_LOCK demo_folder)
-set_tests_properties(tool_demo_script tool_demo_two_robots tool_rviz_screenshot PROPERTIES
-  PROCESSORS 2)
+  tool_readme_commands tool_kill_soak tool_workspace_install PROPERTIES RESOURCE_LOCK demo_folder)
+set_tests_properties(tool_demo_script tool_demo_two_robots tool_rviz_screenshot
+  tool_workspace_install PROPERTIES PROCESSORS 2)
 
 # Without the timings of an earlier run (a clean clone), ctest starts entries by COST: the longest
 # first (seconds measured on 2 cores), so that short ones fill the cores at the end.

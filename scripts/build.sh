@@ -1,22 +1,41 @@
 #!/usr/bin/env bash
-# Configures and builds the package in _build/ with the system's ROS 1. The compiler's output goes
-# to _build.log; the console gets the phase, progress every 10 % and any warning or error.
-#   scripts/build.sh            the libraries, nodes and tools
+# Builds the package as a user's catkin workspace does (catkin_make_isolated --install) with the
+# system's ROS 1, in the workspace _ws/: _ws/src/landmark_loop_closure is this directory, _build
+# its build directory (the devel space in _build/devel), _ws/install the install space a
+# deployment ships. The compiler's output goes to _build.log; the console gets the phase,
+# progress every 10 % and any warning or error.
+#   scripts/build.sh            the libraries, nodes and tools, installed into _ws/install
 #   scripts/build.sh tests      ...and every test
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$(pwd)
 LOG=_build.log
-echo "build: configuring (output in $LOG)"
-cmake -S . -B _build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCATKIN_ENABLE_TESTING=ON > "$LOG" 2>&1 \
-  || { tail -n 40 "$LOG"; echo "build: configuring failed; see $LOG" >&2; exit 1; }
-targets=(all)
-if [ "${1:-}" = tests ]; then targets+=(tests); fi
-echo "build: compiling ${targets[*]} on $(nproc) cores"
-if ! cmake --build _build --target "${targets[@]}" -- -j"$(nproc)" 2>&1 | tee -a "$LOG" |
+workspace=$root/_ws
+build_dir=$workspace/build/landmark_loop_closure
+mkdir -p "$workspace/src" "$workspace/build"
+ln -sfn ../.. "$workspace/src/landmark_loop_closure"
+# A build made before the workspace (a directory of its own) is not the workspace's: start over.
+if [ -d _build ] && [ ! -L _build ]; then
+  echo "build: _build/ is a build from before the catkin workspace; removing it"
+  rm -rf _build
+fi
+ln -sfn _ws/build/landmark_loop_closure _build
+make_targets=(all)
+if [ "${1:-}" = tests ]; then make_targets+=(tests); fi
+# ROS's Python tools (catkin_make_isolated) need the system interpreter.
+export PATH="/usr/bin:$PATH"
+echo "build: catkin_make_isolated --install in _ws/, ${make_targets[*]} on $(nproc) cores" \
+  "(output in $LOG)"
+if ! catkin_make_isolated -C "$workspace" --merge --no-color --install \
+  --build-space "$workspace/build" --devel-space "$build_dir/devel" \
+  --install-space "$workspace/install" \
+  --cmake-args -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCATKIN_ENABLE_TESTING=ON \
+  --make-args "${make_targets[@]}" -j"$(nproc)" 2>&1 | tee "$LOG" |
   awk '/^\[ *[0-9]+%\]/ { match($0, /[0-9]+/); p = substr($0, RSTART, RLENGTH) - 0;
          if (p >= next_step) { printf "build: %d%%\n", p; fflush(); next_step = p - p % 10 + 10 } }
-       /warning:|error:/ { print; fflush() }'; then
-  echo "build: failed; the compiler's whole output is in $LOG" >&2
+       /warning:|error:|^CMake Error|^CMake Warning/ { print; fflush() }'; then
+  echo "build: failed; the whole output is in $LOG" >&2
   exit 1
 fi
-echo "build: done ($(grep -c 'warning:' "$LOG" || true) compiler warnings)"
+echo "build: done, installed into _ws/install ($(grep -c 'warning:' "$LOG" || true) compiler" \
+  "warnings)"

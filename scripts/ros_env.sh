@@ -1,8 +1,9 @@
-# Sourced by scripts that run the built node: a local ROS master and the build's environment.
+# Sourced by scripts that run the built node: a local ROS master and the build's environment
+# (LCD_ROS_SETUP: another setup.bash, such as an install space's).
 export ROS_HOSTNAME=${ROS_HOSTNAME:-localhost}
 export ROS_MASTER_URI=${ROS_MASTER_URI:-http://localhost:11311}
 set +u
-source _build/devel/setup.bash
+source "${LCD_ROS_SETUP:-_build/devel/setup.bash}"
 set -u
 
 # Waits until node PUBLISHER is connected to each SUBSCRIBER named for its TOPIC (30 s at most);
