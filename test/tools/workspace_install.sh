@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The package as a user's catkin workspace ships it. scripts/build.sh built it with
-# catkin_make_isolated --install in the workspace _ws/ (the suite's own build); here the source
+# catkin_make_isolated --install in the workspace build/ (the suite's own build); here the source
 # tree and the build are out of reach (a private mount namespace lays an empty folder over the
 # repository and puts back only the install space), and from the install space alone:
 #  - a package using the installed headers and libraries builds through the installed catkin
@@ -12,7 +12,7 @@
 #   workspace_install.sh SOURCE_DIR
 set -euo pipefail
 root=$(cd "$1" && pwd -P)
-install=$root/_ws/install
+install=$root/build/.install
 export PATH="/usr/bin:$PATH"  # catkin's CMake and roslaunch run the system's Python
 
 if [ "${LCD_SOURCE_HIDDEN:-}" != yes ]; then
