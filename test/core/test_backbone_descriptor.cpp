@@ -81,6 +81,34 @@ TEST(NetworkInputBlob, ResizingBeforeTheColourOrderGivesTheSameBlobAsAfter) {
       << "grey from colour is taken before resizing, as before";
 }
 
+TEST(NetworkInputBlob, PixelsTakenAsTheyAreMakeTheBlobOfOpenCVsPasses) {
+  // Mean 0 and deviation 1 (the shipped network): the blob is written in one pass, and must hold
+  // the very floats OpenCV's conversion, channel swap and blob layout give.
+  cv::Mat bgr(540, 960, CV_8UC3);
+  cv::randu(bgr, 0, 256);
+  const cv::Size size(256, 144);
+  for (const std::string colour : {"rgb", "bgr"}) {
+    cv::Mat resized;
+    cv::resize(bgr, resized, size, 0, 0, cv::INTER_AREA);
+    cv::Mat ordered;
+    if (colour == "rgb") {
+      cv::cvtColor(resized, ordered, cv::COLOR_BGR2RGB);
+    } else {
+      ordered = resized;
+    }
+    cv::Mat scaled;
+    ordered.convertTo(scaled, CV_32F, 1.0 / 255.0);
+    const cv::Mat expected = cv::dnn::blobFromImage(scaled);
+    const cv::Mat blob = networkInputBlob(bgr, size, colour, {0.0, 0.0, 0.0}, {1.0, 1.0, 1.0});
+    ASSERT_EQ(blob.size, expected.size) << colour;
+    EXPECT_EQ(cv::norm(blob, expected, cv::NORM_INF), 0.0) << colour;
+    const int first_plane_pixel[] = {0, 0, 7, 9};
+    EXPECT_EQ(blob.at<float>(first_plane_pixel),
+              ordered.at<cv::Vec3b>(7, 9)[0] * static_cast<float>(1.0 / 255.0))
+        << colour << ": the first plane is the first channel of the network's order";
+  }
+}
+
 TEST(GridPool, AveragesEachCellOfEveryChannel) {
   FeatureMaps maps;
   maps.channels = 2;
