@@ -87,21 +87,6 @@ finish() {
 }
 trap finish EXIT INT TERM
 
-# Waits for SERVICE of the launch just started, or shows its log and exits if it died.
-wait_for_service() {  # SERVICE
-  for _ in $(seq 1 120); do
-    if rosservice list 2> /dev/null | grep -qx "$1"; then return 0; fi
-    if ! kill -0 "$launch_pid" 2> /dev/null; then
-      tail -n 20 "$LOG" >&2
-      echo "demo: the detector did not start; its log is $LOG" >&2
-      exit 1
-    fi
-    sleep 0.5
-  done
-  echo "demo: $1 did not appear within 60 s; see $LOG" >&2
-  exit 1
-}
-
 if [ "$TWO_ROBOTS" = true ]; then
   TRUE_LOOP_DISTANCE=2.5
   if [ "$GARDENS_POINT" = true ]; then
@@ -123,8 +108,8 @@ if [ "$TWO_ROBOTS" = true ]; then
   fi
   roslaunch landmark_loop_closure two_robots.launch > "$LOG" 2>&1 &
   launch_pid=$!
-  wait_for_service /robot_a/loop_closure/reset
-  wait_for_service /robot_b/loop_closure/reset
+  wait_for_service /robot_a/loop_closure/reset "$launch_pid" "$LOG"
+  wait_for_service /robot_b/loop_closure/reset "$launch_pid" "$LOG"
   rosrun landmark_loop_closure demo_report _robots:="/robot_a /robot_b" \
     _true_loop_distance:="$TRUE_LOOP_DISTANCE" &
   report_pid=$!
@@ -163,7 +148,7 @@ phase "4/4 Playing the bag into the detector"
 # so the console shows the loops and the summary only.
 roslaunch landmark_loop_closure demo.launch rviz:="$RVIZ" wrong_loops:="$WRONG_LOOPS" > "$LOG" 2>&1 &
 launch_pid=$!
-wait_for_service /loop_closure/reset
+wait_for_service /loop_closure/reset "$launch_pid" "$LOG"
 rosrun landmark_loop_closure demo_report &
 report_pid=$!
 # Every node is connected before the bag plays: a keyframe sent before the pose graph listens is

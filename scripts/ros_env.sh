@@ -6,6 +6,23 @@ set +u
 source "${LCD_ROS_SETUP:-_build/devel/setup.bash}"
 set -u
 
+# Waits for SERVICE of the launch PID just started (60 s at most), or shows the end of its LOG and
+# exits if the launch died or the service never came.
+wait_for_service() {  # SERVICE PID LOG
+  local service=$1 pid=$2 log=$3
+  for _ in $(seq 1 120); do
+    if rosservice list 2> /dev/null | grep -qx "$service"; then return 0; fi
+    if ! kill -0 "$pid" 2> /dev/null; then
+      tail -n 20 "$log" >&2
+      echo "$(basename "$0" .sh): the detector did not start; its log is $log" >&2
+      exit 1
+    fi
+    sleep 0.5
+  done
+  echo "$(basename "$0" .sh): $service did not appear within 60 s; see $log" >&2
+  exit 1
+}
+
 # Waits until node PUBLISHER is connected to each SUBSCRIBER named for its TOPIC (30 s at most);
 # else names LOG and exits. The master lists a subscriber before the connection is up, and ROS 1
 # drops what a publisher sends before then: a bag played at once lost its first messages (and a

@@ -102,13 +102,7 @@ grep -q "^downstream: found the stored keyframe" "$stage/downstream.log" ||
 # The demo through the installed node.
 roslaunch -p "$port" landmark_loop_closure demo.launch > "$log" 2>&1 &
 launch=$!
-for _ in $(seq 1 120); do
-  rosservice list 2> /dev/null | grep -qx /loop_closure/reset && break
-  kill -0 "$launch" 2> /dev/null || fail "roslaunch ended before the node was ready"
-  sleep 0.5
-done
-rosservice list 2> /dev/null | grep -qx /loop_closure/reset ||
-  fail "the installed node did not start within 60 s"
+wait_for_service /loop_closure/reset "$launch" "$log"
 pgrep -f "^$install/lib/landmark_loop_closure/loop_closure_node" > /dev/null ||
   fail "the running node is not the installed one"
 first_line=$(grep -m1 "Descriptor backbone:" "$log" || true)
