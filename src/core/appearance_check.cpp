@@ -36,12 +36,12 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                   "1e-5 to 1e-3; any candidate at 20 or 24 cells: 3-5 wrong loops on Nordland); "
                   "reported on the second halves (bench/README.md).")
           .integer("continuing_min_inliers", &O::continuing_min_inliers, between(0, 10000),
-                   "cells a candidate needs when it continues the loop the keyframe before "
-                   "published and keeps up with it (its match at most "
-                   "advanced/acceptance/index_window ahead of that loop's, not behind it, nor on "
-                   "it a second keyframe in a row: a stretch falling behind names the place's "
-                   "neighbour): the place was confirmed a keyframe ago, and a change of "
-                   "viewpoint moves cells out of one affine map keyframe after keyframe. 0 = as "
+                   "cells a candidate needs when it continues the last published loop "
+                   "(advanced/acceptance/continue_across) and keeps up with it (its match not "
+                   "behind that loop's, nor on it a second keyframe in a row: a stretch falling "
+                   "behind names the place's neighbour): the place was confirmed a few keyframes "
+                   "ago, and a change of viewpoint moves cells out of one affine map keyframe "
+                   "after keyframe. 0 = as "
                    "any other. 16 was chosen on the first halves of Gardens Point and Nordland: "
                    "6-18 published no wrong loop there, 16 is the largest that kept 12's loops "
                    "(bench/history.md).")

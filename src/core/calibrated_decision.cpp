@@ -6,6 +6,7 @@
 
 #include "landmark_loop_closure/core/odometry_gate.h"
 #include "landmark_loop_closure/core/place_distinctiveness.h"
+#include "landmark_loop_closure/core/temporal_consistency.h"
 
 namespace landmark_loop_closure {
 
@@ -116,11 +117,12 @@ bool CalibratedDecision::passes(CandidateReport* report, const KeyframeRecord& q
                                                     static_cast<double>(sampled))));
   const bool continues = match && continuesLastLoop(*match, query.id, context.session);
   // Only a stretch that keeps up with the query continues on fewer cells: a match behind the
-  // last one, or on it for a second keyframe, is falling behind its place (the neighbour a
-  // loop must not name) and is checked as any other candidate.
-  report->continues_loop = continues && match->id >= last_loop_->match_id &&
-                           !(last_loop_->stood && last_loop_->match_id == match->id);
-  // Continuing the last keyframe's loop, it is one of the few places that would continue it.
+  // last one, or on it for a second keyframe (or after a gap), is falling behind its place (the
+  // neighbour a loop must not name) and is checked as any other candidate.
+  const bool stands = continues && match->id == last_loop_->match_id &&
+                      (last_loop_->stood || query.id > last_loop_->query_id + 1);
+  report->continues_loop = continues && match->id >= last_loop_->match_id && !stands;
+  // Continuing the last loop, it is one of the few places that would continue it.
   const size_t tested =
       continues ? std::min(places, 2 * static_cast<size_t>(acceptance_.index_window) + 1) : places;
   report->false_alarms = tail.expectedFalseAlarms(report->score, tested);
@@ -171,8 +173,9 @@ void CalibratedDecision::published(const KeyframeRecord& query, const KeyframeSu
 bool CalibratedDecision::continuesLastLoop(const KeyframeSummary& match, uint64_t query_id,
                                            uint32_t session) const {
   return last_loop_ && last_loop_->query_session == session &&
-         last_loop_->query_id + 1 == query_id && last_loop_->match_session == match.session &&
-         idGap(match.id, last_loop_->match_id) <= static_cast<uint64_t>(acceptance_.index_window);
+         last_loop_->match_session == match.session &&
+         continuesStretch(last_loop_->query_id, last_loop_->match_id, query_id, match.id,
+                          acceptance_.index_window, acceptance_.continue_across);
 }
 
 double CalibratedDecision::bound(const KeyframeSummary* match, const KeyframeRecord& query,

@@ -35,8 +35,8 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                   "score as high, from an exponential tail fitted to what the map's other places "
                   "(outside the candidate's place_window and the odometry's reach) scored against "
                   "the last 5 keyframes; the places counted are those the odometry does not rule "
-                  "out, or, for a candidate within index_window of the match of the loop the "
-                  "keyframe before published, the 2 * index_window + 1 places that would continue "
+                  "out, or, for a candidate that continues the last published loop (see "
+                  "continue_across), the 2 * index_window + 1 places that would continue "
                   "it. A candidate of the query's own run must also stand out of what the places "
                   "just passed (exclude_recent_keyframes to twice that back) scored against the "
                   "last 200 keyframes, and the run must have left it (some keyframe between "
@@ -58,6 +58,17 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                    "k: consecutive keyframes that must match the same stretch of the map.")
           .integer("index_window", &O::index_window, between(0, 1000),
                    "their matches may differ by at most this many keyframe ids.")
+          .integer("continue_across", &O::continue_across, between(1, 1000),
+                   "keyframes after a published loop within which a candidate still continues "
+                   "it: the next keyframe's with its match within index_window ids of that "
+                   "loop's, a later one's (the keyframes between refused by a check: night, a "
+                   "passing car) with its match not behind it and within index_window of where "
+                   "the same pace puts it (one id a keyframe). The calibrated decision then "
+                   "counts only the 2 * index_window + 1 places that would continue it, and the "
+                   "appearance check asks continuing_min_inliers cells. 1 = the next keyframe "
+                   "only (before 2026-12-07). 10: 1 to 50 published no wrong loop on the first "
+                   "halves of Gardens Point (every pair and protocol), Nordland and the aliasing "
+                   "corridor; day left -> night right gains most up to 5-10 (bench/history.md).")
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a candidate's score over the best score of another place in the shortlist "
                   "must reach this (a place-level ratio test; 0 = off): where the query looks "

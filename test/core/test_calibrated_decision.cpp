@@ -135,3 +135,45 @@ TEST(CalibratedDecision, ACandidateContinuingTheLastLoopIsTestedAmongTheFewThatW
   EXPECT_FALSE(after_reset.continues_loop);
   EXPECT_GT(after_reset.false_alarm_places, 400u);
 }
+
+// Keyframes after a published loop that were refused by a later check (night, a passing car): a
+// candidate where the same pace puts the stretch is still one of the few places that would
+// continue it, up to continue_across keyframes; one standing on the old match, or past that
+// many keyframes, is one of the map's.
+TEST(CalibratedDecision, ALoopIsContinuedAcrossKeyframesRefusedInBetween) {
+  LoopDetectorOptions options = singleImageOptions();
+  options.acceptance.continue_across = 4;
+  const size_t continuing_places = 2 * static_cast<size_t>(options.acceptance.index_window) + 1;
+  CalibratedDecision decision(options);
+  Scene scene(500);
+  decision.record(scene.query, scene.context());
+  CandidateReport first = scene.candidate(250);
+  ASSERT_TRUE(decision.passes(&first, scene.query, scene.context()));
+  decision.published(scene.query, *scene.database.findSummary(250), 1);
+
+  const auto later = [&](uint64_t keyframes) {
+    KeyframeRecord query = scene.query;
+    query.id = scene.query.id + keyframes;
+    query.stamp = scene.query.stamp + static_cast<double>(keyframes);
+    decision.record(query, scene.context());
+    return query;
+  };
+  const KeyframeRecord third = later(3);  // Two keyframes between, no loop published.
+  CandidateReport on_pace = scene.candidate(253);
+  decision.passes(&on_pace, third, scene.context());
+  EXPECT_TRUE(on_pace.continues_loop);
+  EXPECT_EQ(on_pace.false_alarm_places, continuing_places);
+  CandidateReport standing = scene.candidate(250);
+  decision.passes(&standing, third, scene.context());
+  EXPECT_FALSE(standing.continues_loop);  // The stretch fell behind the query.
+  EXPECT_EQ(standing.false_alarm_places, continuing_places);
+  CandidateReport behind = scene.candidate(249);
+  decision.passes(&behind, third, scene.context());
+  EXPECT_GT(behind.false_alarm_places, 400u);
+
+  const KeyframeRecord fifth = later(5);  // Past continue_across.
+  CandidateReport too_late = scene.candidate(255);
+  decision.passes(&too_late, fifth, scene.context());
+  EXPECT_FALSE(too_late.continues_loop);
+  EXPECT_GT(too_late.false_alarm_places, 400u);
+}

@@ -41,6 +41,9 @@ struct AcceptanceOptions {
   ConsistencyUnit consistency_unit = ConsistencyUnit::kKeyframes;
   int consistent_keyframes = 3;  ///< k: consecutive keyframes that must agree on the place.
   int index_window = 3;          ///< Matches of consecutive keyframes agree within this many ids.
+  /// Keyframes after a published loop within which a candidate may still continue it
+  /// (continuesStretch): the calibrated decision counts only the places that would.
+  int continue_across = 10;
   double consistent_distance_m = 0.6;  ///< Query travel the place must stay matched over.
   double match_window_m = 1.0;         ///< Matches agree within this (plus the query's step).
   /// A candidate's score over the best score of another place in the shortlist (placeRatios)
