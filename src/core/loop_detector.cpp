@@ -62,13 +62,15 @@ const ParameterTable<AcceptanceOptions>& AcceptanceOptions::parameters() {
                    "keyframes after a published loop within which a candidate still continues "
                    "it: the next keyframe's with its match within index_window ids of that "
                    "loop's, a later one's (the keyframes between refused by a check: night, a "
-                   "passing car) with its match not behind it and within index_window of where "
-                   "the same pace puts it (one id a keyframe). The calibrated decision then "
-                   "counts only the 2 * index_window + 1 places that would continue it, and the "
-                   "appearance check asks continuing_min_inliers cells. 1 = the next keyframe "
-                   "only (before 2026-12-07). 10: 1 to 50 published no wrong loop on the first "
-                   "halves of Gardens Point (every pair and protocol), Nordland and the aliasing "
-                   "corridor; day left -> night right gains most up to 5-10 (bench/history.md).")
+                   "passing car) with its match not behind it and within index_window - 1 of "
+                   "where the same pace puts it (one id a keyframe; as wide as index_window, "
+                   "loops landed 3 frames off on Gardens Point's first halves). The calibrated "
+                   "decision then counts only the 2 * index_window + 1 places that would "
+                   "continue it, and the appearance check asks continuing_min_inliers cells. 1 = "
+                   "the next keyframe only (before 2026-12-07). 10: 1 to 10 published no wrong "
+                   "loop on the first halves of Gardens Point (every pair and protocol), 1 to 50 "
+                   "none on Nordland's and the aliasing corridor; the gains level off by 10 "
+                   "(bench/history.md).")
           .number("min_place_ratio", &O::min_place_ratio, between(0, 100),
                   "a candidate's score over the best score of another place in the shortlist "
                   "must reach this (a place-level ratio test; 0 = off): where the query looks "

@@ -158,18 +158,24 @@ TEST(CalibratedDecision, ALoopIsContinuedAcrossKeyframesRefusedInBetween) {
     decision.record(query, scene.context());
     return query;
   };
-  const KeyframeRecord third = later(3);  // Two keyframes between, no loop published.
-  CandidateReport on_pace = scene.candidate(253);
-  decision.passes(&on_pace, third, scene.context());
+  const KeyframeRecord second = later(2);  // One keyframe between, no loop published.
+  CandidateReport on_pace = scene.candidate(252);
+  decision.passes(&on_pace, second, scene.context());
   EXPECT_TRUE(on_pace.continues_loop);
   EXPECT_EQ(on_pace.false_alarm_places, continuing_places);
   CandidateReport standing = scene.candidate(250);
-  decision.passes(&standing, third, scene.context());
+  decision.passes(&standing, second, scene.context());
   EXPECT_FALSE(standing.continues_loop);  // The stretch fell behind the query.
   EXPECT_EQ(standing.false_alarm_places, continuing_places);
   CandidateReport behind = scene.candidate(249);
-  decision.passes(&behind, third, scene.context());
+  decision.passes(&behind, second, scene.context());
   EXPECT_GT(behind.false_alarm_places, 400u);
+
+  const KeyframeRecord fourth = later(4);  // Three keyframes between.
+  CandidateReport ahead = scene.candidate(255);
+  decision.passes(&ahead, fourth, scene.context());
+  EXPECT_TRUE(ahead.continues_loop);
+  EXPECT_EQ(ahead.false_alarm_places, continuing_places);
 
   const KeyframeRecord fifth = later(5);  // Past continue_across.
   CandidateReport too_late = scene.candidate(255);
