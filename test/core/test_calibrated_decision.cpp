@@ -42,11 +42,28 @@ struct Scene {
     return report;
   }
 
+  /// The decision's verdict on `match_id` as `query`'s candidate (its false_alarms and places).
+  CandidateReport judge(CalibratedDecision* decision, uint64_t match_id,
+                        const KeyframeRecord& as_query) {
+    CandidateReport report = candidate(match_id);
+    decision->passes(&report, as_query, context());
+    return report;
+  }
+
   KeyframeDatabase database;
   test_support::PlaceExtractor extractor;
   SequenceMatcher sequences;
   KeyframeRecord query;
 };
+
+// The scene's query is judged and publishes its loop to the revisited place, 250.
+bool publishRevisit(CalibratedDecision* decision, Scene* scene) {
+  decision->record(scene->query, scene->context());
+  CandidateReport first = scene->candidate(250);
+  if (!decision->passes(&first, scene->query, scene->context())) return false;
+  decision->published(scene->query, *scene->database.findSummary(250), 1);
+  return true;
+}
 
 }  // namespace
 
@@ -106,32 +123,25 @@ TEST(CalibratedDecision, ACandidateContinuingTheLastLoopIsTestedAmongTheFewThatW
   const size_t continuing_places = 2 * static_cast<size_t>(options.acceptance.index_window) + 1;
   CalibratedDecision decision(options);
   Scene scene(500);
-  decision.record(scene.query, scene.context());
-  CandidateReport first = scene.candidate(250);
-  ASSERT_TRUE(decision.passes(&first, scene.query, scene.context()));
-  decision.published(scene.query, *scene.database.findSummary(250), 1);
+  ASSERT_TRUE(publishRevisit(&decision, &scene));
 
   KeyframeRecord next = scene.query;
   next.id = scene.query.id + 1;
   next.stamp = scene.query.stamp + 1.0;
   decision.record(next, scene.context());
-  CandidateReport ahead = scene.candidate(251);
-  decision.passes(&ahead, next, scene.context());
+  const CandidateReport ahead = scene.judge(&decision, 251, next);
   EXPECT_TRUE(ahead.continues_loop);
   EXPECT_EQ(ahead.false_alarm_places, continuing_places);
-  CandidateReport behind = scene.candidate(249);
-  decision.passes(&behind, next, scene.context());
+  const CandidateReport behind = scene.judge(&decision, 249, next);
   EXPECT_FALSE(behind.continues_loop);  // Within reach, but falling behind its place.
   EXPECT_EQ(behind.false_alarm_places, continuing_places);
-  CandidateReport elsewhere = scene.candidate(100);
-  decision.passes(&elsewhere, next, scene.context());
+  const CandidateReport elsewhere = scene.judge(&decision, 100, next);
   EXPECT_FALSE(elsewhere.continues_loop);
   EXPECT_GT(elsewhere.false_alarm_places, 400u);
 
   decision.reset();
   decision.record(next, scene.context());
-  CandidateReport after_reset = scene.candidate(251);
-  decision.passes(&after_reset, next, scene.context());
+  const CandidateReport after_reset = scene.judge(&decision, 251, next);
   EXPECT_FALSE(after_reset.continues_loop);
   EXPECT_GT(after_reset.false_alarm_places, 400u);
 }
@@ -146,10 +156,7 @@ TEST(CalibratedDecision, ALoopIsContinuedAcrossKeyframesRefusedInBetween) {
   const size_t continuing_places = 2 * static_cast<size_t>(options.acceptance.index_window) + 1;
   CalibratedDecision decision(options);
   Scene scene(500);
-  decision.record(scene.query, scene.context());
-  CandidateReport first = scene.candidate(250);
-  ASSERT_TRUE(decision.passes(&first, scene.query, scene.context()));
-  decision.published(scene.query, *scene.database.findSummary(250), 1);
+  ASSERT_TRUE(publishRevisit(&decision, &scene));
 
   const auto later = [&](uint64_t keyframes) {
     KeyframeRecord query = scene.query;
@@ -159,27 +166,22 @@ TEST(CalibratedDecision, ALoopIsContinuedAcrossKeyframesRefusedInBetween) {
     return query;
   };
   const KeyframeRecord second = later(2);  // One keyframe between, no loop published.
-  CandidateReport on_pace = scene.candidate(252);
-  decision.passes(&on_pace, second, scene.context());
+  const CandidateReport on_pace = scene.judge(&decision, 252, second);
   EXPECT_TRUE(on_pace.continues_loop);
   EXPECT_EQ(on_pace.false_alarm_places, continuing_places);
-  CandidateReport standing = scene.candidate(250);
-  decision.passes(&standing, second, scene.context());
+  const CandidateReport standing = scene.judge(&decision, 250, second);
   EXPECT_FALSE(standing.continues_loop);  // The stretch fell behind the query.
   EXPECT_EQ(standing.false_alarm_places, continuing_places);
-  CandidateReport behind = scene.candidate(249);
-  decision.passes(&behind, second, scene.context());
+  const CandidateReport behind = scene.judge(&decision, 249, second);
   EXPECT_GT(behind.false_alarm_places, 400u);
 
   const KeyframeRecord fourth = later(4);  // Three keyframes between.
-  CandidateReport ahead = scene.candidate(255);
-  decision.passes(&ahead, fourth, scene.context());
+  const CandidateReport ahead = scene.judge(&decision, 255, fourth);
   EXPECT_TRUE(ahead.continues_loop);
   EXPECT_EQ(ahead.false_alarm_places, continuing_places);
 
   const KeyframeRecord fifth = later(5);  // Past continue_across.
-  CandidateReport too_late = scene.candidate(255);
-  decision.passes(&too_late, fifth, scene.context());
+  const CandidateReport too_late = scene.judge(&decision, 255, fifth);
   EXPECT_FALSE(too_late.continues_loop);
   EXPECT_GT(too_late.false_alarm_places, 400u);
 }
