@@ -41,8 +41,8 @@ const ParameterTable<AppearanceCheckOptions>& AppearanceCheckOptions::parameters
                    "behind that loop's, nor on it a second keyframe in a row: a stretch falling "
                    "behind names the place's neighbour): the place was confirmed a few keyframes "
                    "ago, and a change of viewpoint moves cells out of one affine map keyframe "
-                   "after keyframe. 0 = as "
-                   "any other. 16 was chosen on the first halves of Gardens Point and Nordland: "
+                   "after keyframe. 0 = as any other. 16 was chosen on the first halves of Gardens "
+                   "Point and Nordland: "
                    "6-18 published no wrong loop there, 16 is the largest that kept 12's loops "
                    "(bench/history.md).")
           .number("ransac_threshold_cells", &O::ransac_threshold_cells,

@@ -6,7 +6,6 @@
 
 #include "landmark_loop_closure/core/odometry_gate.h"
 #include "landmark_loop_closure/core/place_distinctiveness.h"
-#include "landmark_loop_closure/core/temporal_consistency.h"
 
 namespace landmark_loop_closure {
 

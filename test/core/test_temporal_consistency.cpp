@@ -103,21 +103,3 @@ TEST(TemporalConsistency, UnitNames) {
   EXPECT_EQ(unit, ConsistencyUnit::kKeyframes);
   EXPECT_FALSE(parseConsistencyUnit("meters", &unit));
 }
-
-// A loop from keyframe 100 to match 50, index_window 3, continued across at most 5 keyframes.
-TEST(ContinuesStretch, TheNextKeyframeWithinTheWindowOrALaterOneAtTheSamePace) {
-  EXPECT_TRUE(continuesStretch(100, 50, 101, 47, 3, 5));  // The next keyframe: either side.
-  EXPECT_TRUE(continuesStretch(100, 50, 101, 53, 3, 5));
-  EXPECT_FALSE(continuesStretch(100, 50, 101, 54, 3, 5));
-  EXPECT_TRUE(continuesStretch(100, 50, 104, 54, 3, 5));  // Four on: the pace puts it at 54,
-  EXPECT_TRUE(continuesStretch(100, 50, 104, 52, 3, 5));  // within one less than the window.
-  EXPECT_TRUE(continuesStretch(100, 50, 104, 56, 3, 5));
-  EXPECT_FALSE(continuesStretch(100, 50, 104, 57, 3, 5));  // Too far ahead.
-  EXPECT_FALSE(continuesStretch(100, 50, 104, 51, 3, 5));  // Too slow.
-  EXPECT_FALSE(continuesStretch(100, 50, 102, 49, 3, 5));  // Behind the loop's match.
-  EXPECT_TRUE(continuesStretch(100, 50, 105, 55, 3, 5));
-  EXPECT_FALSE(continuesStretch(100, 50, 106, 56, 3, 5));  // Past `across`.
-  EXPECT_FALSE(continuesStretch(100, 50, 100, 50, 3, 5));  // Not after the loop.
-  EXPECT_FALSE(continuesStretch(100, 50, 99, 49, 3, 5));
-  EXPECT_FALSE(continuesStretch(100, 50, 102, 52, 3, 1));  // 1: the next keyframe only.
-}

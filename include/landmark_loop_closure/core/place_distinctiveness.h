@@ -17,6 +17,24 @@ inline bool sameIdPlace(uint64_t id_a, uint32_t session_a, uint64_t id_b, uint32
   return session_a == session_b && idGap(id_a, id_b) <= window;
 }
 
+/// Whether a candidate naming `match` for the keyframe `query` continues a loop that named
+/// `last_match` for the keyframe `last_query` (ids of one run each): the next keyframe's match
+/// within `index_window` of it, or, up to `across` keyframes later (refusals between), a match
+/// not behind it and within index_window - 1 of where the same pace puts it (one id a keyframe):
+/// the last loop may itself lie a frame off its place, and a pace window as wide as the chain's
+/// let loops land 3 frames off on Gardens Point where a narrower one did not (bench/history.md).
+/// A revisit keeps moving along the stretch it was confirmed on while a keyframe or two in a row
+/// fail a check (night, a passing car).
+inline bool continuesStretch(uint64_t last_query, uint64_t last_match, uint64_t query,
+                             uint64_t match, int index_window, int across) {
+  if (query <= last_query || query - last_query > static_cast<uint64_t>(across)) return false;
+  const uint64_t steps = query - last_query;
+  const uint64_t window = static_cast<uint64_t>(index_window);
+  if (steps == 1) return idGap(match, last_match) <= window;
+  const uint64_t pace_window = window > 0 ? window - 1 : 0;
+  return match >= last_match && idGap(match, last_match + steps) <= pace_window;
+}
+
 /// A shortlisted candidate as the distinctiveness test sees it.
 struct ShortlistEntry {
   uint64_t id = 0;

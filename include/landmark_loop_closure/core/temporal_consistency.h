@@ -18,25 +18,6 @@ const std::vector<std::pair<std::string, ConsistencyUnit>>& consistencyUnitNames
 /// Parses "keyframes" or "metres"; false for anything else.
 bool parseConsistencyUnit(const std::string& text, ConsistencyUnit* unit);
 
-/// Whether a candidate naming `match` for the keyframe `query` continues a loop that named
-/// `last_match` for the keyframe `last_query` (ids of one run each): the next keyframe's match
-/// within `index_window` of it, or, up to `across` keyframes later (refusals between), a match
-/// not behind it and within index_window - 1 of where the same pace puts it (one id a keyframe):
-/// the last loop may itself lie a frame off its place, and a pace window as wide as the chain's
-/// let loops land 3 frames off on Gardens Point where a narrower one did not (bench/history.md).
-/// A revisit keeps moving along the stretch it was confirmed on while a keyframe or two in a row
-/// fail a check (night, a passing car).
-inline bool continuesStretch(uint64_t last_query, uint64_t last_match, uint64_t query,
-                             uint64_t match, int index_window, int across) {
-  if (query <= last_query || query - last_query > static_cast<uint64_t>(across)) return false;
-  const uint64_t steps = query - last_query;
-  const uint64_t window = static_cast<uint64_t>(index_window);
-  const auto gap = [](uint64_t a, uint64_t b) { return a > b ? a - b : b - a; };
-  if (steps == 1) return gap(match, last_match) <= window;
-  const uint64_t pace_window = window > 0 ? window - 1 : 0;
-  return match >= last_match && gap(match, last_match + steps) <= pace_window;
-}
-
 /// A keyframe's place along the robot's path: its id and the odometry path travelled up to it.
 struct PathPoint {
   uint64_t id = 0;
