@@ -142,17 +142,20 @@ double SequenceMatcher::pathScore(size_t index, const KeyframeDatabase& database
   return bestPath(index, database, extractor, nullptr);
 }
 
-double SequenceMatcher::blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,
-                                        const KeyframeDatabase& database,
-                                        const DescriptorExtractor& extractor) const {
+std::vector<float>& SequenceMatcher::blockRow(Slot* slot, size_t block_start, size_t margin) {
   std::vector<float>& row = slot->blocks[block_start];
   if (row.size() != kBackgroundBlock + margin) row.assign(kBackgroundBlock + margin, std::nanf(""));
-  float& value = row[index + margin - block_start];
-  if (std::isnan(value)) {
+  return row;
+}
+
+double SequenceMatcher::blockSimilarity(Slot* slot, float* value, size_t index,
+                                        const KeyframeDatabase& database,
+                                        const DescriptorExtractor& extractor) const {
+  if (std::isnan(*value)) {
     if (slot->encoded.row.empty()) slot->encoded = database.encode(slot->descriptor.global);
-    value = static_cast<float>(extractor.globalScore(database.similarity(slot->encoded, index)));
+    *value = static_cast<float>(extractor.globalScore(database.similarity(slot->encoded, index)));
   }
-  return slot->standardisation.apply(value);
+  return slot->standardisation.apply(*value);
 }
 
 ScoreBackground SequenceMatcher::background(const KeyframeDatabase& database,
@@ -176,24 +179,38 @@ ScoreBackground SequenceMatcher::background(const KeyframeDatabase& database,
     // Blocks of a smaller stride are not read again once the map has grown past it.
     if (slot.blocks.size() > 2 * kBackgroundBlocks) slot.blocks.clear();
   }
+  // Each path's step back per slot, by speed, and each slot's row of the block, are looked up
+  // once per call and once per block rather than once per position (the lookups were most of
+  // the background's time).
+  std::vector<std::vector<long>> steps(speeds.size(), std::vector<long>(slots));
+  for (size_t k = 0; k < speeds.size(); ++k) {
+    for (size_t slot = 0; slot < slots; ++slot) {
+      steps[k][slot] = std::lround(static_cast<double>(slot) * speeds[k]);
+    }
+  }
+  std::vector<float*> rows(slots);
   size_t sampled = 0;
   for (size_t start = 0; start < size; start += stride) {
     const size_t end = std::min(size, start + kBackgroundBlock);
+    for (size_t slot = 0; slot < slots; ++slot) {
+      rows[slot] = blockRow(&history_[slot], start, margin).data();
+    }
     for (size_t index = start; index < end; ++index) {
       ++sampled;
       if (!eligible(index)) continue;
       double best = -HUGE_VAL;
-      for (const double speed : speeds) {
+      for (size_t k = 0; k < speeds.size(); ++k) {
         double sum = 0.0;
         bool complete = true;
         for (size_t slot = 0; slot < slots; ++slot) {
-          const long step = std::lround(static_cast<double>(slot) * speed);
+          const long step = steps[k][slot];
           if (static_cast<long>(index) < step) {
             complete = false;
             break;
           }
-          sum += blockSimilarity(&history_[slot], start, index - static_cast<size_t>(step), margin,
-                                 database, extractor);
+          const size_t position = index - static_cast<size_t>(step);
+          sum += blockSimilarity(&history_[slot], rows[slot] + (position + margin - start),
+                                 position, database, extractor);
         }
         if (complete) best = std::max(best, sum / static_cast<double>(slots));
         if (slots == 1) break;  // One keyframe: every speed reads the same similarity.

@@ -104,9 +104,11 @@ class SequenceMatcher {
   /// its speed in `best_speed` when given.
   double bestPath(size_t index, const KeyframeDatabase& database,
                   const DescriptorExtractor& extractor, double* best_speed);
-  /// Slot's similarity to `index`, read from (or computed into) its row for `block_start`.
-  double blockSimilarity(Slot* slot, size_t block_start, size_t index, size_t margin,
-                         const KeyframeDatabase& database,
+  /// Slot's row for the block at `block_start` (positions block_start - margin on), made when
+  /// missing.
+  static std::vector<float>& blockRow(Slot* slot, size_t block_start, size_t margin);
+  /// Slot's similarity to `index`, read from (or computed into) `value`, its place in a blockRow.
+  double blockSimilarity(Slot* slot, float* value, size_t index, const KeyframeDatabase& database,
                          const DescriptorExtractor& extractor) const;
   /// The slot's similarity to a database keyframe, not standardised.
   double similarity(Slot* slot, size_t index, const KeyframeDatabase& database,
