@@ -12,6 +12,8 @@
 // each query is then inserted as the detector inserts its keyframe, and that time counted.
 // --coarse-from N, --coarse-candidates K: advanced/database/index/ (the rows' sketches); an
 // approximate shortlist is compared with exact search's, outside the clock (its recall@top-K).
+// --distinct: each stored keyframe a view of its own (the images cropped and brightened at
+// random) rather than the images repeated, for that recall on rows that all differ.
 // Without folders, views of the generated corridor are used.
 // --fleet-rows N: four other robots' N rows kept in a fleet matcher, each robot driving a
 // synthetic route from its own start (lcd_bench_fleet's: vectors spread like the backbone's of
@@ -26,6 +28,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -96,6 +99,7 @@ int main(int argc, char** argv) {
   size_t keyframes = 10000;
   int top_k = 10, repeat = 2;
   size_t fleet_rows = 0;
+  bool distinct = false;
   int fleet_approximate_from = FleetOptions{}.approximate_from;
   IndexOptions index_options;
   CLI::App app{"Time per keyframe of each stage of the node's pipeline, on one thread."};
@@ -116,6 +120,9 @@ int main(int argc, char** argv) {
   app.add_option("--coarse-from", index_options.coarse_from,
                  "advanced/database/index/coarse_from (0: every keyframe scored exactly)")
       ->capture_default_str();
+  app.add_flag("--distinct", distinct,
+               "each keyframe a view of its own (a random crop and brightness of a --database "
+               "image) instead of the images repeated");
   app.add_option("--descriptor", variant, "the descriptor")
       ->check(CLI::IsMember({"backbone", "landmarks", "landmarks_conv"}))
       ->capture_default_str();
@@ -150,6 +157,28 @@ int main(int argc, char** argv) {
   for (const cv::Mat& image : database_images) {
     described.push_back(extractor->describe(image));
     thumbnails.push_back(encodeThumbnail(toWorkingImage(image, 160, 120)));
+  }
+  if (distinct) {
+    // Every keyframe its own view: the image cropped to 80-100 % at a random place and its
+    // brightness scaled by 0.8-1.2, so that no two rows are equal (repeated rows span only the
+    // images' few directions, which a projection learned from the map would capture whole).
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> share(0.8, 1.0), gain(0.8, 1.2), place(0.0, 1.0);
+    const size_t images = described.size();
+    described.clear();
+    for (size_t id = 0; id < keyframes; ++id) {
+      const cv::Mat& image = database_images[id % images];
+      const double s = share(random);
+      const cv::Size crop(std::max(8, static_cast<int>(image.cols * s)),
+                          std::max(8, static_cast<int>(image.rows * s)));
+      const cv::Rect area(static_cast<int>(place(random) * (image.cols - crop.width)),
+                          static_cast<int>(place(random) * (image.rows - crop.height)), crop.width,
+                          crop.height);
+      cv::Mat view;
+      cv::resize(image(area), view, image.size(), 0, 0, cv::INTER_LINEAR);
+      view.convertTo(view, -1, gain(random), 0.0);
+      described.push_back(extractor->describe(view));
+    }
   }
   const cv::Size input = database_images.front().size();
   database_images.clear();  // Decoded images are not part of the database's memory.
