@@ -5,7 +5,7 @@ set(CORE_TESTS
   test_hog_descriptor
   test_descriptor_registry
   test_keyframe_database
-  test_row_sketches
+  test_row_projection
   test_package_files
   test_old_map_file
   test_temporal_consistency

@@ -111,13 +111,12 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
                                 " vectors, the database " + std::to_string(size()) + " keyframes");
   }
   index_options_ = index;
-  // Sketches only where a search may read them: kept while the options want them, else dropped.
-  if (index.type != "auto" || index.coarse_from == 0 ||
-      size() >= static_cast<size_t>(index.approximate_from)) {
-    sketches_.reset();
-  } else if (!sketches_) {
-    sketches_ = std::make_unique<RowSketches>(globalDimension());
-    while (sketches_->size() < size()) sketches_->append(vectors_->row(sketches_->size()));
+  // The projection only where a search may read it: kept while the options want it, else
+  // dropped; a map opened past coarse_from learns it now.
+  if (!wantsProjection()) {
+    projection_.reset();
+  } else if (!projection_ && size() >= static_cast<size_t>(index.coarse_from)) {
+    projection_ = std::make_unique<RowProjection>(*vectors_, index.coarse_from);
   }
   if (!index.buildsGraph()) {
     graph_.reset();
@@ -132,10 +131,14 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
 }
 
 void KeyframeDatabase::addEntry(const KeyframeSummary& summary) {
-  // Past approximate_from the graph searches; a map that grows there stops being sketched.
-  if (sketches_ && sketches_->size() == size() &&
+  // Past approximate_from the graph searches; a map that grows there stops being projected. The
+  // map that reaches coarse_from learns the projection from its rows, this one's included.
+  if (projection_ && projection_->size() == size() &&
       size() < static_cast<size_t>(index_options_.approximate_from)) {
-    sketches_->append(vectors_->row(size()));
+    projection_->append(vectors_->row(size()));
+  } else if (!projection_ && wantsProjection() &&
+             size() + 1 >= static_cast<size_t>(index_options_.coarse_from)) {
+    projection_ = std::make_unique<RowProjection>(*vectors_, index_options_.coarse_from);
   }
   summaries_.push_back(summary);
   stamps_.push_back(summary.stamp);
@@ -297,6 +300,16 @@ std::vector<double> KeyframeDatabase::similarities(const std::vector<float>& glo
   return result;
 }
 
+std::optional<RowProjection::Projected> KeyframeDatabase::coarseProjection(
+    const IndexOptions& index, const std::vector<uint8_t>& row, size_t end, size_t searched) const {
+  if (index.type != "auto" || index.coarse_from <= 0 ||
+      end < static_cast<size_t>(index.coarse_from) || !projection_ || projection_->size() < end ||
+      searched <= static_cast<size_t>(index.coarse_candidates)) {
+    return std::nullopt;
+  }
+  return projection_->project(row.data());
+}
+
 QueryResult KeyframeDatabase::query(const std::vector<float>& global, double stamp,
                                     const DatabaseOptions& options, uint32_t session) const {
   QueryResult result;
@@ -339,15 +352,17 @@ QueryResult KeyframeDatabase::query(const std::vector<float>& global, double sta
         scored.push_back({index, 0, static_cast<double>(score)});
       }
     }
-  } else if (index.type == "auto" && index.coarse_from > 0 &&
-             end >= static_cast<size_t>(index.coarse_from) && sketches_ &&
-             sketches_->size() >= end &&
-             result.searched > static_cast<size_t>(index.coarse_candidates)) {
-    // The sketches rank every row, the best coarse_candidates are scored exactly.
+  } else if (const std::optional<RowProjection::Projected> projected =
+                 coarseProjection(index, row, end, result.searched)) {
+    // The projections rank every row, the best coarse_candidates are scored exactly, and with
+    // them every row the directions do not describe (ranked first here).
     result.approximate = true;
-    const std::vector<uint8_t> query_sketch = sketches_->sketch(row.data());
-    score_every_row([&](size_t index) { return sketches_->dot(query_sketch.data(), index); });
-    const auto coarse_end = scored.begin() + index.coarse_candidates;
+    score_every_row([&](size_t index) {
+      return projection_->describes(index) ? projection_->dot(*projected, index) : HUGE_VALF;
+    });
+    const size_t pool = std::min(
+        scored.size(), static_cast<size_t>(index.coarse_candidates) + projection_->undescribed());
+    const auto coarse_end = scored.begin() + static_cast<std::ptrdiff_t>(pool);
     std::nth_element(
         scored.begin(), coarse_end, scored.end(),
         [](const Candidate& a, const Candidate& b) { return a.global_score > b.global_score; });
@@ -394,7 +409,7 @@ std::shared_ptr<const KeyframeRecord> KeyframeDatabase::findRecord(uint64_t id) 
 size_t KeyframeDatabase::bytesPerKeyframe(size_t row_stride) const {
   return sizeof(KeyframeSummary) + sizeof(double) +
          (row_stride > 0 ? row_stride : vectors_->rowBytes()) +
-         (sketches_ ? sizeof(float) + RowSketches::kDimension : 0) +
+         (projection_ ? 2 * sizeof(float) + RowProjection::kDimension : 0) +
          (index_options_.buildsGraph() ? ApproximateIndex::bytesPerRow(index_options_.neighbors)
                                        : 0);
 }
@@ -402,7 +417,7 @@ size_t KeyframeDatabase::bytesPerKeyframe(size_t row_stride) const {
 size_t KeyframeDatabase::bytes() const {
   return summaries_.size() * sizeof(KeyframeSummary) + stamps_.capacity() * sizeof(double) +
          records_.size() * sizeof(records_.front()) + vectors_->bytes() + record_bytes_ +
-         (sketches_ ? sketches_->bytes() : 0) + (graph_ ? graph_->bytes() : 0);
+         (projection_ ? projection_->bytes() : 0) + (graph_ ? graph_->bytes() : 0);
 }
 
 }  // namespace landmark_loop_closure

@@ -10,7 +10,7 @@
 // The database holds the descriptors of the images of --database, repeated until it has N
 // keyframes (search time does not depend on the content; re-ranking sees real landmark sets);
 // each query is then inserted as the detector inserts its keyframe, and that time counted.
-// --coarse-from N, --coarse-candidates K: advanced/database/index/ (the rows' sketches); an
+// --coarse-from N, --coarse-candidates K: advanced/database/index/ (the rows' projections); an
 // approximate shortlist is compared with exact search's, outside the clock (its recall@top-K).
 // --distinct: each stored keyframe a view of its own (the images cropped and brightened at
 // random) rather than the images repeated, for that recall on rows that all differ.

@@ -23,10 +23,10 @@ struct IndexOptions {
   int ef_construction = 128;  ///< HNSW candidate list while inserting: graph quality.
   int ef_search = 256;        ///< HNSW candidate list while searching: recall against time.
   /// auto: below approximate_from, a map of at least this many keyframes is searched through
-  /// its rows' count sketches (RowSketches), only the coarse_candidates best scored exactly;
-  /// 0: every keyframe scored exactly there.
-  int coarse_from = 0;
-  int coarse_candidates = 200;
+  /// its rows' projections (RowProjection, learned when the map reaches it), only the
+  /// coarse_candidates best scored exactly; 0: every keyframe scored exactly there.
+  int coarse_from = 5000;
+  int coarse_candidates = 400;
 
   bool buildsGraph() const { return type != "exact"; }
   /// Settings a saved graph must match to be reused (ef_search may differ).

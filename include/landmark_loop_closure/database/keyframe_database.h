@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "landmark_loop_closure/database/approximate_index.h"
-#include "landmark_loop_closure/database/row_sketches.h"
+#include "landmark_loop_closure/database/row_projection.h"
 #include "landmark_loop_closure/descriptors/descriptor.h"
 #include "landmark_loop_closure/geometry/geometric_verification.h"
 #include "landmark_loop_closure/geometry/pose.h"
@@ -90,7 +90,7 @@ struct QueryResult {
   QueryStatus status = QueryStatus::kDatabaseTooSmall;
   std::vector<Candidate> candidates;  ///< Best first, at most top_k.
   size_t searched = 0;                ///< Keyframes outside the exclusion window.
-  /// The HNSW graph, or the rows' sketches (IndexOptions::coarse_from), found the candidates.
+  /// The HNSW graph, or the rows' projections (IndexOptions::coarse_from), found the candidates.
   bool approximate = false;
 };
 
@@ -186,6 +186,17 @@ class KeyframeDatabase {
 
  private:
   void addEntry(const KeyframeSummary& summary);
+  /// The query's projection when the rows' projections rank this search (IndexOptions::
+  /// coarse_from, the first `end` rows projected, more than coarse_candidates of them searched);
+  /// nullopt: score every row exactly.
+  std::optional<RowProjection::Projected> coarseProjection(const IndexOptions& index,
+                                                           const std::vector<uint8_t>& row,
+                                                           size_t end, size_t searched) const;
+  /// Exact search may read row projections: type auto, coarse_from set, below approximate_from.
+  bool wantsProjection() const {
+    return index_options_.type == "auto" && index_options_.coarse_from > 0 &&
+           vectors_->size() < static_cast<size_t>(index_options_.approximate_from);
+  }
   void cache(std::shared_ptr<const KeyframeRecord> record) const;
   /// Keyframes at or past this position are the querying session's newest: never candidates.
   size_t searchEnd(const DatabaseOptions& options, uint32_t session) const;
@@ -198,9 +209,10 @@ class KeyframeDatabase {
   std::vector<double> stamps_;  ///< summaries_[i].stamp, contiguous for the exclusion scan.
   std::unique_ptr<QuantizedVectors> vectors_;  ///< Held by pointer: the graph refers to it.
   std::unique_ptr<ApproximateIndex> graph_;
-  /// Sketches of the rows while the map is below approximate_from with type auto (exact search
-  /// may read them through coarse_from); a map opened past it is not sketched.
-  std::unique_ptr<RowSketches> sketches_;
+  /// The rows projected onto their leading directions while the map is below approximate_from
+  /// with type auto (exact search reads them past coarse_from), learned when the map reaches
+  /// coarse_from; a map opened past approximate_from is not projected.
+  std::unique_ptr<RowProjection> projection_;
 
   /// Without a reader: every record, by position.
   std::deque<std::shared_ptr<const KeyframeRecord>> records_;

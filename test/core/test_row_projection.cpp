@@ -1,4 +1,5 @@
-// Count sketches of the database's rows, and the search of a large map through them.
+// The database's rows projected onto their leading directions, and the search of a large map
+// through them.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -6,7 +7,7 @@
 #include <set>
 
 #include "landmark_loop_closure/database/keyframe_database.h"
-#include "landmark_loop_closure/database/row_sketches.h"
+#include "landmark_loop_closure/database/row_projection.h"
 #include "random_descriptors.h"
 
 namespace landmark_loop_closure {
@@ -31,54 +32,75 @@ DatabaseOptions searchWith(const IndexOptions& index) {
 
 }  // namespace
 
-TEST(RowSketches, TheirProductEstimatesTheRowsProduct) {
+TEST(RowProjection, ItsProductIsTheRowsProductWhereTheRowsSpanFewDirections) {
+  // Rows mixed from 40 directions of 4 320 values: the learned directions span them, and the
+  // product of two projections is the rows' own, to the 8-bit rounding of both.
   const int dimension = 4320;
   std::mt19937 random(11);
   std::normal_distribution<float> normal;
-  RowSketches sketches(dimension);
-  // Pairs of unit vectors whose cosine is about 0, 0.5 and 0.9.
-  for (const float shared : {0.0f, 0.5f, 0.9f}) {
-    double error_sum = 0.0;
-    double squared_error_sum = 0.0;
-    const int pairs = 200;
-    for (int p = 0; p < pairs; ++p) {
-      std::vector<float> common(dimension);
-      std::vector<float> a(dimension);
-      std::vector<float> b(dimension);
-      for (int i = 0; i < dimension; ++i) {
-        common[i] = normal(random);
-        a[i] = std::sqrt(shared) * common[i] + std::sqrt(1.0f - shared) * normal(random);
-        b[i] = std::sqrt(shared) * common[i] + std::sqrt(1.0f - shared) * normal(random);
-      }
-      const std::vector<uint8_t> row_a = QuantizedVectors::encode(unit(a));
-      const std::vector<uint8_t> row_b = QuantizedVectors::encode(unit(b));
-      const float exact = QuantizedVectors::dot(row_a.data(), row_b.data(), dimension);
-      const std::vector<uint8_t> sketch_a = sketches.sketch(row_a.data());
-      const std::vector<uint8_t> sketch_b = sketches.sketch(row_b.data());
-      const float estimate =
-          QuantizedVectors::dot(sketch_a.data(), sketch_b.data(), RowSketches::kDimension);
-      error_sum += estimate - exact;
-      squared_error_sum += (estimate - exact) * (estimate - exact);
+  std::vector<std::vector<float>> bases(40, std::vector<float>(dimension));
+  for (auto& base : bases) {
+    for (float& v : base) v = normal(random);
+  }
+  const auto mixed = [&]() {
+    std::vector<float> row(dimension, 0.0f);
+    for (const auto& base : bases) {
+      const float weight = normal(random);
+      for (int i = 0; i < dimension; ++i) row[i] += weight * base[i];
     }
-    // Unbiased, with an error of about sqrt((1 + cosine^2) / 256).
-    const double bias = error_sum / pairs;
-    const double spread = std::sqrt(squared_error_sum / pairs);
-    EXPECT_LT(std::abs(bias), 0.02) << "cosine " << shared;
-    EXPECT_LT(spread, 1.5 * std::sqrt((1.0 + shared * shared) / RowSketches::kDimension))
-        << "cosine " << shared;
+    return unit(row);
+  };
+  QuantizedVectors rows(dimension);
+  for (int r = 0; r < 300; ++r) rows.append(mixed().data());
+  const RowProjection projection(rows);
+  EXPECT_EQ(projection.size(), 300u);
+  for (int p = 0; p < 50; ++p) {
+    const std::vector<uint8_t> query = QuantizedVectors::encode(mixed());
+    const size_t index = static_cast<size_t>(p * 5);
+    const RowProjection::Projected projected = projection.project(query.data());
+    EXPECT_NEAR(projection.dot(projected, index), rows.dot(query.data(), index), 0.02);
+    EXPECT_NEAR(projected.residual, 0.0, 0.05);
   }
 }
 
-TEST(RowSketches, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
+TEST(RowProjection, TheLeadingDirectionsCarryTheLargestShareOfTheRows) {
+  // Rows of 512 values whose first 8 carry most of their energy: the 8 leading directions are
+  // kept among the 256, and the projections' products are the rows' within a few hundredths.
+  std::mt19937 random(23);
+  std::normal_distribution<float> normal;
+  QuantizedVectors rows(512);
+  std::vector<std::vector<float>> kept;
+  for (int r = 0; r < 2000; ++r) {
+    std::vector<float> row(512);
+    for (int i = 0; i < 512; ++i) row[i] = normal(random) * (i < 8 ? 10.0f : 0.3f);
+    kept.push_back(unit(row));
+    rows.append(kept.back().data());
+  }
+  const RowProjection projection(rows);
+  EXPECT_EQ(projection.dimension(), RowProjection::kDimension);
+  double squared_error = 0.0;
+  for (int p = 0; p < 100; ++p) {
+    const std::vector<uint8_t> query = QuantizedVectors::encode(kept[static_cast<size_t>(p)]);
+    const RowProjection::Projected projected = projection.project(query.data());
+    const size_t index = static_cast<size_t>(1000 + p);
+    const double exact = rows.dot(query.data(), index);
+    const double error = projection.dot(projected, index) - exact;
+    squared_error += error * error;
+  }
+  EXPECT_LT(std::sqrt(squared_error / 100), 0.03);
+  EXPECT_THROW(RowProjection(QuantizedVectors(16)), std::invalid_argument);
+}
+
+TEST(RowProjection, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
   std::mt19937 random(13);
   const auto vectors = test_support::routeVectors(6000, 512, &random);
   IndexOptions automatic;
-  automatic.coarse_from = 5000;  // The sketches search this map.
+  automatic.coarse_from = 5000;  // The projections search this map.
   IndexOptions exact;
   exact.type = "exact";
-  const KeyframeDatabase sketched = test_support::routeDatabase(vectors, automatic);
+  const KeyframeDatabase projected_map = test_support::routeDatabase(vectors, automatic);
   const KeyframeDatabase plain = test_support::routeDatabase(vectors, exact);
-  EXPECT_GT(sketched.bytes(), plain.bytes());
+  EXPECT_GT(projected_map.bytes(), plain.bytes());
   std::normal_distribution<float> noise(0.0f, 0.03f);
   size_t shared = 0;
   size_t wanted = 0;
@@ -86,7 +108,7 @@ TEST(RowSketches, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
     std::vector<float> query = vectors[static_cast<size_t>(q * 59)];
     for (float& v : query) v += noise(random);
     query = unit(query);
-    const QueryResult coarse = sketched.query(query, 1e9, searchWith(automatic));
+    const QueryResult coarse = projected_map.query(query, 1e9, searchWith(automatic));
     const QueryResult every = plain.query(query, 1e9, searchWith(exact));
     EXPECT_TRUE(coarse.approximate);
     EXPECT_FALSE(every.approximate);
@@ -96,7 +118,7 @@ TEST(RowSketches, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
     for (const Candidate& c : coarse.candidates) {
       shared += exact_ids.count(c.id);
       // A candidate's score is its exact one, and its id the keyframe's.
-      EXPECT_FLOAT_EQ(c.global_score, sketched.similarity(query, c.index));
+      EXPECT_FLOAT_EQ(c.global_score, projected_map.similarity(query, c.index));
       EXPECT_EQ(c.id, c.index);
     }
     wanted += exact_ids.size();
@@ -104,7 +126,34 @@ TEST(RowSketches, ALargeMapSearchedThroughThemFindsWhatExactSearchFinds) {
   EXPECT_GE(shared, wanted * 99 / 100);
 }
 
-TEST(RowSketches, TheSketchesHonourTheExclusionWindowsAndStopWhereTheGraphTakesOver) {
+TEST(RowProjection, RowsUnlikeTheLearnedOnesAreScoredExactly) {
+  // The directions are learned from the first 600 rows (a route in 64 of 512 values); the 200
+  // rows after them lie in the other 448 values, which the directions barely describe. Searched
+  // again, each of those rows is still found first: it is scored exactly, however low its
+  // projection ranks it.
+  std::mt19937 random(29);
+  std::normal_distribution<float> normal;
+  std::vector<std::vector<float>> vectors;
+  for (int r = 0; r < 800; ++r) {
+    std::vector<float> row(512, 0.0f);
+    const int first = r < 600 ? 0 : 64;
+    const int count = r < 600 ? 64 : 448;
+    for (int i = first; i < first + count; ++i) row[i] = normal(random);
+    vectors.push_back(unit(row));
+  }
+  IndexOptions automatic;
+  automatic.coarse_from = 600;
+  automatic.coarse_candidates = 20;
+  const KeyframeDatabase database = test_support::routeDatabase(vectors, automatic);
+  for (const size_t q : {600u, 650u, 799u}) {
+    const QueryResult result = database.query(vectors[q], 1e9, searchWith(automatic));
+    EXPECT_TRUE(result.approximate);
+    ASSERT_FALSE(result.candidates.empty());
+    EXPECT_EQ(result.candidates.front().id, q);
+  }
+}
+
+TEST(RowProjection, TheProjectionsHonourTheExclusionWindowsAndStopWhereTheGraphTakesOver) {
   std::mt19937 random(17);
   const auto vectors = test_support::routeVectors(700, 64, &random);
   IndexOptions automatic;
@@ -135,14 +184,14 @@ TEST(RowSketches, TheSketchesHonourTheExclusionWindowsAndStopWhereTheGraphTakesO
   const QueryResult through_graph = large.query(vectors[5], 1e9, searchWith(automatic));
   EXPECT_TRUE(through_graph.approximate);
   EXPECT_EQ(through_graph.candidates.front().id, 5u);
-  // With coarse_from 0 (the default) a map of any size is scored exactly below approximate_from.
+  // With the default coarse_from (5 000) this map of 600 is scored exactly.
   IndexOptions off = automatic;
   off.coarse_from = IndexOptions{}.coarse_from;
   EXPECT_FALSE(
       test_support::routeDatabase(first, off).query(vectors[5], 1e9, searchWith(off)).approximate);
 }
 
-TEST(RowSketches, ASavedMapIsSketchedAsItIsOpened) {
+TEST(RowProjection, ASavedMapIsProjectedAsItIsOpened) {
   std::mt19937 random(19);
   const auto vectors = test_support::routeVectors(300, 32, &random);
   IndexOptions automatic;
