@@ -8,11 +8,14 @@
 set -euo pipefail
 cd "$1"
 mode=()
-[ "${2:-}" = --two-robots ] && mode=(--two-robots)
+rate=4
+# Two robots at twice real time: at 4x the fleet's search thread, beside CI's other tests on two
+# cores, fell behind and dropped rows (131 and 137 loops between robots where 200 are usual).
+[ "${2:-}" = --two-robots ] && mode=(--two-robots) && rate=2
 export PATH="/usr/bin:$PATH"
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
-if ! timeout 600 scripts/demo.sh "${mode[@]}" --no-setup --rate 4 > "$out" 2>&1; then
+if ! timeout 600 scripts/demo.sh "${mode[@]}" --no-setup --rate "$rate" > "$out" 2>&1; then
   cat "$out"
   echo "FAIL: scripts/demo.sh exited with an error" >&2
   exit 1
