@@ -115,8 +115,8 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
   // dropped; a map opened past coarse_from learns it now.
   if (!wantsProjection()) {
     projection_.reset();
-  } else if (!projection_ && size() >= static_cast<size_t>(index.coarse_from)) {
-    projection_ = std::make_unique<RowProjection>(*vectors_, index.coarse_from);
+  } else {
+    learnProjectionOnceDue(size());
   }
   if (!index.buildsGraph()) {
     graph_.reset();
@@ -130,15 +130,20 @@ void KeyframeDatabase::setIndex(const IndexOptions& index,
   graph_ = std::move(graph);
 }
 
+void KeyframeDatabase::learnProjectionOnceDue(size_t rows) {
+  if (!projection_ && rows >= static_cast<size_t>(index_options_.coarse_from)) {
+    projection_ = std::make_unique<RowProjection>(*vectors_, index_options_.coarse_from);
+  }
+}
+
 void KeyframeDatabase::addEntry(const KeyframeSummary& summary) {
   // Past approximate_from the graph searches; a map that grows there stops being projected. The
   // map that reaches coarse_from learns the projection from its rows, this one's included.
   if (projection_ && projection_->size() == size() &&
       size() < static_cast<size_t>(index_options_.approximate_from)) {
     projection_->append(vectors_->row(size()));
-  } else if (!projection_ && wantsProjection() &&
-             size() + 1 >= static_cast<size_t>(index_options_.coarse_from)) {
-    projection_ = std::make_unique<RowProjection>(*vectors_, index_options_.coarse_from);
+  } else if (wantsProjection()) {
+    learnProjectionOnceDue(size() + 1);
   }
   summaries_.push_back(summary);
   stamps_.push_back(summary.stamp);

@@ -14,6 +14,14 @@ int dimensionOf(const QuantizedVectors& vectors) {
   return static_cast<int>(vectors.rowBytes() - sizeof(float));
 }
 
+// Row `index` of `vectors` as floats, into `target`.
+template <typename Row>
+void decodeInto(const QuantizedVectors& vectors, size_t index, Row&& target) {
+  const int dimension = dimensionOf(vectors);
+  const std::vector<float> values = QuantizedVectors::decode(vectors.row(index), dimension);
+  target = Eigen::Map<const Eigen::RowVectorXf>(values.data(), dimension);
+}
+
 // The learned directions: the sample's Gram matrix (rows x rows, cheaper than the covariance of
 // 4 320 values) gives them through its eigenvectors: v = X^T u / sqrt(lambda).
 Eigen::MatrixXf principalDirections(const QuantizedVectors& vectors, size_t learn_from,
@@ -24,9 +32,7 @@ Eigen::MatrixXf principalDirections(const QuantizedVectors& vectors, size_t lear
   for (size_t k = 0; k < sample; ++k) {
     // Spread evenly over the map, the first and the last row included.
     const size_t index = sample == 1 ? 0 : k * (learn_from - 1) / (sample - 1);
-    const std::vector<float> values = QuantizedVectors::decode(vectors.row(index), dimension);
-    rows.row(static_cast<Eigen::Index>(k)) =
-        Eigen::Map<const Eigen::RowVectorXf>(values.data(), dimension);
+    decodeInto(vectors, index, rows.row(static_cast<Eigen::Index>(k)));
   }
   const Eigen::MatrixXf gram = rows * rows.transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXf> solver(gram);
@@ -77,10 +83,7 @@ RowProjection::RowProjection(const QuantizedVectors& vectors, size_t learn_from)
     const size_t count = std::min(kBlock, vectors.size() - first);
     block.resize(static_cast<Eigen::Index>(count), row_dimension_);
     for (size_t k = 0; k < count; ++k) {
-      const std::vector<float> values =
-          QuantizedVectors::decode(vectors.row(first + k), row_dimension_);
-      block.row(static_cast<Eigen::Index>(k)) =
-          Eigen::Map<const Eigen::RowVectorXf>(values.data(), row_dimension_);
+      decodeInto(vectors, first + k, block.row(static_cast<Eigen::Index>(k)));
     }
     projected.noalias() = block * directions_.transpose();
     for (size_t k = 0; k < count; ++k) {

@@ -192,6 +192,9 @@ class KeyframeDatabase {
   std::optional<RowProjection::Projected> coarseProjection(const IndexOptions& index,
                                                            const std::vector<uint8_t>& row,
                                                            size_t end, size_t searched) const;
+  /// Learns the projection from the map's first coarse_from rows (and projects every row) when
+  /// there is none yet and the map holds `rows` >= coarse_from.
+  void learnProjectionOnceDue(size_t rows);
   /// Exact search may read row projections: type auto, coarse_from set, below approximate_from.
   bool wantsProjection() const {
     return index_options_.type == "auto" && index_options_.coarse_from > 0 &&

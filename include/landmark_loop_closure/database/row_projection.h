@@ -43,13 +43,12 @@ class RowProjection {
   float dot(const Projected& query, size_t index) const {
     return projected_.dot(query.row.data(), index);
   }
-  /// The directions describe a row whose residual is at most residualLimit(): the 99th percentile
-  /// of the learned-from rows'. A row beyond it (a place unlike the map's first rows, whose
+  /// The directions describe a row whose residual is at most the 99th percentile of the
+  /// learned-from rows'. A row beyond it (a place unlike the map's first rows, whose
   /// projection would rank it by what the directions miss) is scored exactly whatever its
   /// projection says.
   bool describes(float residual) const { return residual <= residual_limit_; }
   bool describes(size_t index) const { return describes(residuals_[index]); }
-  float residualLimit() const { return residual_limit_; }
   /// Stored rows the directions do not describe.
   size_t undescribed() const { return undescribed_; }
   size_t bytes() const {
